@@ -1,0 +1,151 @@
+"""The one columnar type for boxes: detections in, tracks out.
+
+Modelled on supervision's ``Detections``: parallel numpy arrays, validated in
+``__post_init__``, indexable with an int, slice, index array or boolean mask.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+__all__ = ["Detections"]
+
+
+def _column(value: Any, n: int, dtype: type, default: float | int, name: str) -> np.ndarray:
+    if value is None:
+        return np.full(n, default, dtype=dtype)
+    arr = np.asarray(value, dtype=dtype)
+    if arr.ndim == 0:
+        arr = np.full(n, arr.item(), dtype=dtype)
+    if arr.shape != (n,):
+        raise ValueError(f"Detections.{name} must have shape ({n},), got {arr.shape}")
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class Detections:
+    """N boxes with their attributes, all arrays of length N.
+
+    Attributes:
+        xyxy: (N, 4) float64, corners ``x1, y1, x2, y2`` in pixels (x2 > x1, y2 > y1).
+        confidence: (N,) float64 detector score (any real; higher is surer). Default 1.
+        class_id: (N,) int64, ids of :mod:`sensemaking.classes`. Default 0 (unknown).
+        tracker_id: (N,) int64 track id, -1 where no track is assigned.
+        frame: (N,) int64 frame number as in the source (MOT 1-based, KITTI 0-based).
+        source_row: (N,) int64, 1-based line in the input file the box came from, -1 if none.
+        data: extra per-box columns, each an array whose first axis has length N.
+    """
+
+    xyxy: np.ndarray
+    confidence: np.ndarray | None = None
+    class_id: np.ndarray | None = None
+    tracker_id: np.ndarray | None = None
+    frame: np.ndarray | None = None
+    source_row: np.ndarray | None = None
+    data: Mapping[str, np.ndarray] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        xyxy = np.asarray(self.xyxy, dtype=np.float64)
+        if xyxy.size == 0:
+            xyxy = xyxy.reshape(0, 4)
+        if xyxy.ndim != 2 or xyxy.shape[1] != 4:
+            raise ValueError(f"Detections.xyxy must have shape (N, 4), got {xyxy.shape}")
+        n = xyxy.shape[0]
+        set_ = object.__setattr__
+        set_(self, "xyxy", xyxy)
+        set_(self, "confidence", _column(self.confidence, n, np.float64, 1.0, "confidence"))
+        set_(self, "class_id", _column(self.class_id, n, np.int64, 0, "class_id"))
+        set_(self, "tracker_id", _column(self.tracker_id, n, np.int64, -1, "tracker_id"))
+        set_(self, "frame", _column(self.frame, n, np.int64, 0, "frame"))
+        set_(self, "source_row", _column(self.source_row, n, np.int64, -1, "source_row"))
+        data = {}
+        for key, value in dict(self.data).items():
+            arr = np.asarray(value)
+            if arr.ndim == 0 or arr.shape[0] != n:
+                raise ValueError(f"Detections.data[{key!r}] must have length {n}, got shape {arr.shape}")
+            data[key] = arr
+        set_(self, "data", data)
+
+    # construction -------------------------------------------------------------------------
+    @classmethod
+    def empty(cls) -> Detections:
+        """No boxes."""
+        return cls(xyxy=np.zeros((0, 4)))
+
+    @classmethod
+    def from_xywh(cls, xywh: np.ndarray, **kwargs: Any) -> Detections:
+        """From (N, 4) ``x, y, w, h`` (top-left corner plus size, pixels)."""
+        xywh = np.asarray(xywh, dtype=np.float64).reshape(-1, 4)
+        xyxy = xywh.copy()
+        xyxy[:, 2:] += xyxy[:, :2]
+        return cls(xyxy=xyxy, **kwargs)
+
+    @classmethod
+    def concatenate(cls, parts: list[Detections]) -> Detections:
+        """Stack several Detections; ``data`` keys must agree."""
+        parts = [p for p in parts if len(p)] or parts[:1]
+        if not parts:
+            return cls.empty()
+        keys = set(parts[0].data)
+        for p in parts[1:]:
+            if set(p.data) != keys:
+                raise ValueError("cannot concatenate Detections whose data keys differ")
+        return cls(
+            xyxy=np.concatenate([p.xyxy for p in parts]),
+            confidence=np.concatenate([p.confidence for p in parts]),
+            class_id=np.concatenate([p.class_id for p in parts]),
+            tracker_id=np.concatenate([p.tracker_id for p in parts]),
+            frame=np.concatenate([p.frame for p in parts]),
+            source_row=np.concatenate([p.source_row for p in parts]),
+            data={k: np.concatenate([p.data[k] for p in parts]) for k in keys},
+        )
+
+    # access -------------------------------------------------------------------------------
+    def __len__(self) -> int:
+        return int(self.xyxy.shape[0])
+
+    def __getitem__(self, index: int | slice | np.ndarray | list[int]) -> Detections:
+        if isinstance(index, (int, np.integer)):
+            index = [int(index)]
+        return Detections(
+            xyxy=self.xyxy[index],
+            confidence=self.confidence[index],
+            class_id=self.class_id[index],
+            tracker_id=self.tracker_id[index],
+            frame=self.frame[index],
+            source_row=self.source_row[index],
+            data={k: v[index] for k, v in self.data.items()},
+        )
+
+    def with_(self, **changes: Any) -> Detections:
+        """A copy with some fields replaced (validated again)."""
+        return replace(self, **changes)
+
+    @property
+    def xywh(self) -> np.ndarray:
+        """(N, 4) ``x, y, w, h``: top-left corner and size in pixels."""
+        out = self.xyxy.copy()
+        out[:, 2:] -= out[:, :2]
+        return out
+
+    @property
+    def area(self) -> np.ndarray:
+        """(N,) box areas in square pixels."""
+        return (self.xyxy[:, 2] - self.xyxy[:, 0]) * (self.xyxy[:, 3] - self.xyxy[:, 1])
+
+    def frames(self) -> Iterator[tuple[int, Detections]]:
+        """Yield ``(frame, detections of that frame)`` in increasing frame order."""
+        if len(self) == 0:
+            return
+        order = np.argsort(self.frame, kind="stable")
+        frames = self.frame[order]
+        cuts = np.flatnonzero(np.diff(frames)) + 1
+        for chunk in np.split(order, cuts):
+            yield int(self.frame[chunk[0]]), self[chunk]
+
+    def __repr__(self) -> str:
+        return f"Detections(n={len(self)}, data={sorted(self.data)})"

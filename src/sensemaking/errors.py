@@ -1,0 +1,45 @@
+"""Errors raised for bad user input; the CLI turns them into one clear line and exit status 2."""
+
+from __future__ import annotations
+
+from os import PathLike
+
+
+class SensemakingError(Exception):
+    """Base class of every error this package raises on purpose."""
+
+
+class InputError(SensemakingError, ValueError):
+    """Bad input data: names the file, the 1-based line (when known) and the problem."""
+
+    def __init__(self, problem: str, path: str | PathLike[str] | None = None, line: int | None = None):
+        self.problem = problem
+        self.path = None if path is None else str(path)
+        self.line = line
+        where = ""
+        if self.path is not None:
+            where = self.path if line is None else f"{self.path}:{line}"
+            where += ": "
+        elif line is not None:
+            where = f"line {line}: "
+        super().__init__(f"{where}{problem}")
+
+
+class MissingExtraError(SensemakingError, ImportError):
+    """An optional dependency is missing; names the extra that provides it."""
+
+    def __init__(self, module: str, extra: str):
+        super().__init__(
+            f"this feature needs the '{module}' package: install it with "
+            f"pip install 'sensemaking[{extra}]'"
+        )
+
+
+def require(module: str, extra: str):
+    """Import an optional module, or raise :class:`MissingExtraError` naming the extra."""
+    import importlib
+
+    try:
+        return importlib.import_module(module)
+    except ImportError as exc:  # pragma: no cover - depends on the environment
+        raise MissingExtraError(module, extra) from exc

@@ -1,0 +1,79 @@
+"""Batched box geometry on (N, 4) ``x1, y1, x2, y2`` arrays in pixels."""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["iou", "intersection", "coverage", "xywh_to_xyxy", "xyxy_to_xywh", "xyxy_to_cxcywh",
+           "cxcywh_to_xyxy", "clip_to_image"]
+
+
+def intersection(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(N, M) intersection areas between boxes ``a`` (N, 4) and ``b`` (M, 4)."""
+    a = np.asarray(a, dtype=np.float64).reshape(-1, 4)
+    b = np.asarray(b, dtype=np.float64).reshape(-1, 4)
+    w = np.minimum(a[:, None, 2], b[None, :, 2]) - np.maximum(a[:, None, 0], b[None, :, 0])
+    h = np.minimum(a[:, None, 3], b[None, :, 3]) - np.maximum(a[:, None, 1], b[None, :, 1])
+    return np.clip(w, 0.0, None) * np.clip(h, 0.0, None)
+
+
+def _area(x: np.ndarray) -> np.ndarray:
+    return np.clip(x[:, 2] - x[:, 0], 0.0, None) * np.clip(x[:, 3] - x[:, 1], 0.0, None)
+
+
+def iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(N, M) intersection over union in [0, 1]; 0 where the union is empty."""
+    a = np.asarray(a, dtype=np.float64).reshape(-1, 4)
+    b = np.asarray(b, dtype=np.float64).reshape(-1, 4)
+    inter = intersection(a, b)
+    union = _area(a)[:, None] + _area(b)[None, :] - inter
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = np.where(union > 0, inter / np.where(union > 0, union, 1.0), 0.0)
+    return out
+
+
+def coverage(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(N, M) fraction of each box of ``a`` covered by each box of ``b`` (intersection / area of a)."""
+    a = np.asarray(a, dtype=np.float64).reshape(-1, 4)
+    b = np.asarray(b, dtype=np.float64).reshape(-1, 4)
+    inter = intersection(a, b)
+    area = _area(a)[:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(area > 0, inter / np.where(area > 0, area, 1.0), 0.0)
+
+
+def xywh_to_xyxy(xywh: np.ndarray) -> np.ndarray:
+    """(N, 4) top-left + size -> corners."""
+    out = np.array(xywh, dtype=np.float64).reshape(-1, 4)
+    out[:, 2:] += out[:, :2]
+    return out
+
+
+def xyxy_to_xywh(xyxy: np.ndarray) -> np.ndarray:
+    """(N, 4) corners -> top-left + size."""
+    out = np.array(xyxy, dtype=np.float64).reshape(-1, 4)
+    out[:, 2:] -= out[:, :2]
+    return out
+
+
+def xyxy_to_cxcywh(xyxy: np.ndarray) -> np.ndarray:
+    """(N, 4) corners -> centre x, centre y, width, height."""
+    x = np.asarray(xyxy, dtype=np.float64).reshape(-1, 4)
+    w = x[:, 2] - x[:, 0]
+    h = x[:, 3] - x[:, 1]
+    return np.stack([x[:, 0] + w / 2, x[:, 1] + h / 2, w, h], axis=1)
+
+
+def cxcywh_to_xyxy(c: np.ndarray) -> np.ndarray:
+    """(N, 4) centre x, centre y, width, height -> corners."""
+    c = np.asarray(c, dtype=np.float64).reshape(-1, 4)
+    hw, hh = c[:, 2] / 2, c[:, 3] / 2
+    return np.stack([c[:, 0] - hw, c[:, 1] - hh, c[:, 0] + hw, c[:, 1] + hh], axis=1)
+
+
+def clip_to_image(xyxy: np.ndarray, width: float, height: float) -> np.ndarray:
+    """(N, 4) boxes clipped to the image ``[0, width] x [0, height]``."""
+    out = np.array(xyxy, dtype=np.float64).reshape(-1, 4)
+    out[:, [0, 2]] = np.clip(out[:, [0, 2]], 0.0, width)
+    out[:, [1, 3]] = np.clip(out[:, [1, 3]], 0.0, height)
+    return out

@@ -1,0 +1,104 @@
+"""What the tracker returns each frame: tracks with their states, and the abduced events."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from enum import IntEnum
+from typing import Any
+
+import numpy as np
+
+from sensemaking.detections import Detections
+
+__all__ = ["TrackState", "Visibility", "Event", "FrameResult", "EVENT_NAMES"]
+
+
+class TrackState(IntEnum):
+    """Per-frame state of a live track (``FrameResult.tracks.data["state"]``)."""
+
+    VISIBLE = 0  #: matched to a detection this frame
+    HIDDEN = 1  #: abduced to be hidden behind another track (``data["occluder"]`` names it)
+    MISSING = 2  #: not detected, explained as missing detections (or otherwise unobserved)
+
+
+class Visibility(IntEnum):
+    """Values of the ``visibility(T)`` fluent (``FrameResult.tracks.data["visibility"]``)."""
+
+    FULLY_VISIBLE = 0
+    PARTIALLY_OCCLUDED = 1
+    FULLY_OCCLUDED = 2
+
+    @property
+    def asp(self) -> str:
+        return self.name.lower()
+
+
+#: the abducible events, with their arity
+EVENT_NAMES: dict[str, int] = {
+    "enters_fov": 1,
+    "leaves_fov": 1,
+    "hides_behind": 2,
+    "unhides_from_behind": 2,
+    "missing_detections": 1,
+    "reappears": 1,  # detections resume after missing detections
+    "starts": 1,  # a track starts without entering the field of view (e.g. first frame)
+    "ends": 1,  # a track ends without leaving the field of view (lost)
+}
+
+
+@dataclass(frozen=True, order=True)
+class Event:
+    """One abduced event: ``name(args...)`` occurring at ``frame``; args are track ids."""
+
+    frame: int
+    name: str
+    args: tuple[int, ...]
+
+    def to_json(self) -> dict[str, Any]:
+        """The JSON-lines record ``{"frame": ..., "event": ..., "args": [...]}``."""
+        return {"frame": int(self.frame), "event": self.name, "args": [int(a) for a in self.args]}
+
+    @classmethod
+    def from_json(cls, record: dict[str, Any]) -> Event:
+        return cls(int(record["frame"]), str(record["event"]), tuple(int(a) for a in record["args"]))
+
+    def __str__(self) -> str:
+        return f"{self.name}({', '.join(map(str, self.args))})@{self.frame}"
+
+
+@dataclass(frozen=True, eq=False)
+class FrameResult:
+    """The tracker's answer for one frame.
+
+    Attributes:
+        frame: the frame number of the input detections.
+        tracks: every live track (visible, hidden and missing), ``tracker_id`` set. For a
+            visible track ``xyxy``/``confidence``/``source_row`` are those of its detection;
+            for a hidden or missing one ``xyxy`` is the Kalman prediction and ``source_row`` -1.
+            ``data`` columns: ``state`` (:class:`TrackState`), ``occluder`` (track id or -1),
+            ``visibility`` (:class:`Visibility`), ``hidden_frames`` (frames since last seen).
+        events: the events abduced for this frame, sorted.
+        solve_ms: wall time of the abduction step (grounding + solving), milliseconds.
+        timed_out: True when the solve budget ran out and the best answer so far was used.
+    """
+
+    frame: int
+    tracks: Detections
+    events: list[Event] = field(default_factory=list)
+    solve_ms: float = 0.0
+    timed_out: bool = False
+
+    @property
+    def visible(self) -> Detections:
+        """Only the tracks matched to a detection this frame."""
+        return self.tracks[self.tracks.data["state"] == TrackState.VISIBLE]
+
+    @property
+    def hidden(self) -> Detections:
+        """Only the tracks abduced to be hidden behind another track."""
+        return self.tracks[self.tracks.data["state"] == TrackState.HIDDEN]
+
+    def state_of(self, track_id: int) -> TrackState | None:
+        """The state of one track this frame, or None when it is not live."""
+        idx = np.flatnonzero(self.tracks.tracker_id == track_id)
+        return TrackState(int(self.tracks.data["state"][idx[0]])) if idx.size else None
