@@ -52,14 +52,12 @@ CASES: list[tuple[Callable, str, str, int | None, str]] = [
     (results, "res.txt", "1,1,1e308,2,1.7e308,4,1\n", 1, OVERFLOW),
     (results, "res.txt", "1,1,1,1e20,3,1e-20,1\n", 1, OVERFLOW),
     (gt, "gt.txt", "1,1,1,2,3,4,1,1,nan\n", 1, "visibility must be a finite number, got nan"),
-    # --- MOTChallenge: order (online input only)
+    # --- MOTChallenge: order (online input only; results may be sorted by id, as gt files are)
     (det, "det.txt", "1,-1,1,2,3,4,0.5\n\n2,-1,1,2,3,4,0.5\n1,-1,1,2,3,4,0.5\n", 4,
      "frame 1 comes after frame 2: lines must be sorted by frame"),
-    (results, "res.txt", "5,1,1,2,3,4,1\n4,1,1,2,3,4,1\n", 2,
-     "frame 4 comes after frame 5: lines must be sorted by frame"),
     # --- KITTI labels / results
     (read_kitti_labels, "0000.txt", LABEL + LABEL.replace("Car", "Bus") + LABEL.replace("Car", "Ape"), 2,
-     "unknown object type 'Bus' (KITTI types: Car, Van, Truck, Pedestrian, Person_sitting, Cyclist, Tram, Misc, "
+     "unknown object type 'Bus' (KITTI types: Car, Van, Truck, Pedestrian, Person, Cyclist, Tram, Misc, "
      "DontCare)"),
     (read_kitti_labels, "0000.txt", LABEL + "0 2 Car 0 0 -1.5 10 20 40 60 1.5 1.6 3.9 1 2 20\n", 2,
      "expected 17 space-separated fields, got 16"),

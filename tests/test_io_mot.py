@@ -339,3 +339,11 @@ def test_every_sequence_fits_its_seqinfo(data: Path, parsed: tuple[dict[str, Det
         for kind in ("det", "gt"):
             boxes = parsed[0][str((seq / kind / f"{kind}.txt").relative_to(data))]
             assert boxes.frame.min() >= 1 and boxes.frame.max() <= info.length, seq
+
+
+def test_results_sorted_by_id_are_accepted_in_file_order(tmp_path):
+    path = tmp_path / "res.txt"
+    path.write_text("1,1,10,20,30,40,1,-1,-1,-1\n2,1,11,20,30,40,1,-1,-1,-1\n1,2,50,20,30,40,1,-1,-1,-1\n")
+    res = read_mot(path, kind="results")
+    assert res.frame.tolist() == [1, 2, 1]
+    assert res.tracker_id.tolist() == [1, 1, 2]

@@ -40,7 +40,7 @@ KITTI_NAMES: Final[dict[int, str]] = {
     CLASS_IDS["van"]: "Van",
     CLASS_IDS["truck"]: "Truck",
     CLASS_IDS["pedestrian"]: "Pedestrian",
-    CLASS_IDS["person_sitting"]: "Person_sitting",
+    CLASS_IDS["person_sitting"]: "Person",  # KITTI tracking spells a sitting person "Person"
     CLASS_IDS["cyclist"]: "Cyclist",
     CLASS_IDS["tram"]: "Tram",
     CLASS_IDS["misc"]: "Misc",
@@ -57,9 +57,14 @@ PEOPLE: Final[frozenset[int]] = frozenset(
 )
 
 
+#: other spellings people use for our classes
+ALIASES: Final[dict[str, str]] = {"person": "person_sitting"}  # KITTI tracking labels
+
+
 def class_id(name: str) -> int:
     """Id of a class name (case-insensitive; KITTI and MOT spellings). Raises KeyError."""
-    return CLASS_IDS[name.strip().lower().replace(" ", "_").replace("-", "_")]
+    key = name.strip().lower().replace(" ", "_").replace("-", "_")
+    return CLASS_IDS[ALIASES.get(key, key)]
 
 
 def class_name(cid: int) -> str:

@@ -108,7 +108,8 @@ def read_mot(path: PathLike, kind: MotKind = "det", default_class: int = 1) -> D
     ``default_class``, visibility -1 (unknown). Any line order; returned sorted by (frame, id).
 
     ``kind="results"``: ``frame,id,x,y,w,h,score[,...]``; id -> ``tracker_id``, class
-    ``default_class``. Lines must be sorted by frame; an empty file gives empty Detections.
+    ``default_class``. Any line order (trackers write by frame or by id), kept as in the file;
+    an empty file gives empty Detections.
     """
     if kind not in _LAYOUTS:
         raise ValueError(f"unknown MOT file kind {kind!r}; expected 'det', 'gt' or 'results'")
@@ -125,8 +126,8 @@ def read_mot(path: PathLike, kind: MotKind = "det", default_class: int = 1) -> D
     v = table.values
     table.finite([2, 3, 4, 5] if kind == "gt" else [2, 3, 4, 5, 6])
     keep = table.positive_size(v[:, 4], v[:, 5], drop_zero=kind == "det", logger=log)
-    if kind != "gt":
-        table.sorted_frames(frames)
+    if kind == "det":
+        table.sorted_frames(frames)  # the online tracker consumes detections in order
 
     classes = np.full(n, default_class, dtype=np.int64)
     confidence = np.ones(n) if kind == "gt" else v[:, 6]
