@@ -1,0 +1,1 @@
+"""Per-frame abduction: numpy gating into facts (:mod:`.problem`), clingo solving (:mod:`.solver`)."""

@@ -1,0 +1,108 @@
+"""One frame's abduction problem: gated numpy arrays, written as ASP facts.
+
+The vocabulary of the facts is documented in ``encodings/tracking.lp``. Gating happens here (in
+numpy) so that the solver only grounds admissible pairs; the encoding's integrity constraints
+state the same thresholds, so the gate is an optimisation, never a change of the answer.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["FrameProblem", "VISIBILITY_VALUES"]
+
+VISIBILITY_VALUES = ("fully_visible", "partially_occluded", "fully_occluded")
+
+
+def _ids(mask: np.ndarray, ids: np.ndarray) -> list[int]:
+    return [int(i) for i in ids[mask]]
+
+
+@dataclass
+class FrameProblem:
+    """Arrays over T tracks and D detections (indices, not ids, unless named ``*_id``).
+
+    Attributes:
+        track_id: (T,) int track ids.
+        active: (T,) bool, matched in the previous frame.
+        tentative: (T,) bool, not yet confirmed.
+        expired: (T,) bool, unobserved too long: must end.
+        outside: (T,) bool, predicted box outside the field of view: must end.
+        at_border: (T,) bool, predicted box touches the border.
+        overlapped: (T,) bool, predicted box partly covered by a box in front.
+        track_class: (T,) int class ids.
+        det_conf: (D,) int confidences scaled to 0..1000.
+        det_class: (D,) int class ids.
+        det_border: (D,) bool, detection touches the border.
+        det_overlapped: (D,) bool, detection partly covered by a detection in front.
+        cand: (K, 3) int rows ``track index, detection index, likelihood 0..1000``.
+        covers: (P, 2) int rows ``detection index, track index``: the detection is in front of
+            the track's predicted box and covers at least the hiding fraction of it.
+        keeps_covering: (Q, 2) int rows, as ``covers`` with the lower "stay hidden" fraction.
+        hidden_by: (H, 2) int rows ``track id, occluder track id`` true in the previous frame.
+        visibility: (T,) int index into :data:`VISIBILITY_VALUES`, previous frame.
+        first_frame: no reason is needed for objects present at the start.
+    """
+
+    track_id: np.ndarray
+    active: np.ndarray
+    tentative: np.ndarray
+    expired: np.ndarray
+    outside: np.ndarray
+    at_border: np.ndarray
+    overlapped: np.ndarray
+    track_class: np.ndarray
+    det_conf: np.ndarray
+    det_class: np.ndarray
+    det_border: np.ndarray
+    det_overlapped: np.ndarray
+    cand: np.ndarray
+    covers: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=np.int64))
+    keeps_covering: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=np.int64))
+    hidden_by: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=np.int64))
+    visibility: np.ndarray | None = None
+    first_frame: bool = False
+
+    @property
+    def n_tracks(self) -> int:
+        return int(self.track_id.shape[0])
+
+    @property
+    def n_dets(self) -> int:
+        return int(self.det_conf.shape[0])
+
+    def to_facts(self) -> str:
+        """The problem as ASP facts (one string; deterministic order)."""
+        tid = self.track_id.astype(np.int64)
+        out: list[str] = []
+        add = out.append
+        for t, k, a in zip(tid.tolist(), self.track_class.tolist(), self.active.tolist()):
+            add(f"track({t}).ttype({t},{k}).{'active' if a else 'halted'}({t}).")
+        for name, mask in (("tentative", self.tentative), ("expired", self.expired), ("outside", self.outside),
+                           ("at_border", self.at_border), ("overlapped", self.overlapped)):
+            for t in _ids(mask, tid):
+                add(f"{name}({t}).")
+        for j, (c, k) in enumerate(zip(self.det_conf.tolist(), self.det_class.tolist())):
+            add(f"det(d({j}),{c}).dtype(d({j}),{k}).")
+        for j in np.flatnonzero(self.det_border).tolist():
+            add(f"det_border(d({j})).")
+        for j in np.flatnonzero(self.det_overlapped).tolist():
+            add(f"det_overlapped(d({j})).")
+        for ti, dj, lik in self.cand.tolist():
+            add(f"cand({tid[ti]},d({dj}),{lik}).")
+        for dj, ti in self.covers.tolist():
+            add(f"covers(d({dj}),{tid[ti]}).")
+        for dj, ti in self.keeps_covering.tolist():
+            add(f"keeps_covering(d({dj}),{tid[ti]}).")
+        for t in tid.tolist():
+            add(f"holds(in_fov({t}),true,0).")
+        for t, o in self.hidden_by.tolist():
+            add(f"holds(hidden_by({t},{o}),true,0).")
+        if self.visibility is not None:
+            for t, v in zip(tid.tolist(), self.visibility.tolist()):
+                add(f"holds(visibility({t}),{VISIBILITY_VALUES[v]},0).")
+        if self.first_frame:
+            add("first_frame.")
+        return "\n".join(out)

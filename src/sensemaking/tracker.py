@@ -1,0 +1,494 @@
+"""The online tracker: ``Tracker.update(detections) -> FrameResult`` (Algorithm 1 of the paper).
+
+Per frame: Kalman prediction of every track, IoU of predictions and detections as the matching
+likelihood, gating in numpy, then clingo abduces the assignment together with the events that
+explain it (``abduction=True``), or plain Hungarian IoU matching does the assignment
+(``abduction=False``: the paper's "without abduction", for ablations).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import asdict, dataclass, field, replace
+from typing import Any
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from sensemaking.abduction.problem import VISIBILITY_VALUES, FrameProblem
+from sensemaking.abduction.solver import AbductionSolver, Answer
+from sensemaking.detections import Detections
+from sensemaking.geometry import coverage, iou
+from sensemaking.motion import KalmanBank, KalmanConfig
+from sensemaking.results import Event, FrameResult, TrackState, Visibility
+
+__all__ = ["TrackerConfig", "Tracker", "FrameResult", "Event", "TrackState"]
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class AbductionCosts:
+    """Costs of actions and events, in likelihood units (a perfect IoU match is worth 1000).
+
+    Raising a cost makes the explanation rarer; each is a trade-off between two mistakes.
+    """
+
+    enters: int = 100  #: enters_fov at the border. Higher: fewer new tracks at the border.
+    appears: int = 400  #: a track starting away from the border. Higher: fewer false tracks, later starts.
+    leaves: int = 100  #: leaves_fov at the border. Higher: tracks linger at the border as missing.
+    lost: int = 600  #: a track ending without explanation. Higher: tracks are kept as missing longer.
+    hides: int = 50  #: hides_behind. Higher: fewer occlusion explanations, more missing detections.
+    missing: int = 250  #: missing_detections. Higher: tracks end instead of waiting.
+    unseen: int = 20  #: per frame a track stays missing. Higher: missing tracks end sooner.
+    ignore: int = 600  #: ignoring a detection, times its confidence. Higher: more tracks from weak detections.
+
+
+@dataclass(frozen=True)
+class TrackerConfig:
+    """Parameters of :class:`Tracker`. Times are in seconds and turned into frames with ``fps``.
+
+    Attributes:
+        abduction: abduce assignments and events with clingo (True) or match by Hungarian IoU
+            only (False, the paper's "without abduction"; events are then only starts/ends).
+        fps: frame rate of the input (frames per second); converts the time limits below.
+        image_size: ``(width, height)`` of the field of view in pixels. Needed to explain
+            entering/leaving at the border; without it, tracks only start and end.
+        iou_assign: minimum IoU of prediction and detection to continue a visible track.
+            Lower: follows fast or erratic motion, but risks id swaps between neighbours.
+        iou_resume: minimum IoU to resume a hidden or missing track (its prediction is widened
+            by ``resume_growth`` per unseen frame, up to 2x). Lower: more re-identification
+            after long gaps, with more wrong re-identifications.
+        resume_growth: widening of an unseen track's predicted box per frame, fraction of size.
+        min_confidence: minimum detection score to continue or resume a track (score units of
+            the detector). Low-score detections can then keep tracks alive without starting any.
+        start_confidence: minimum detection score to start a track. Higher: fewer false tracks.
+        max_hidden_s: how long a track hidden behind a known occluder is kept (seconds).
+        max_missing_s: how long a track with missing detections (no occluder) is kept (seconds).
+        min_hits: detections needed before a new track is reported (1 = at once). During the
+            first ``min_hits`` frames of a run tracks are reported at once.
+        hide_cover: fraction of a track's predicted box that a track in front must cover for it to
+            hide behind it. Lower: occlusion is abduced more readily.
+        keep_cover: fraction of coverage needed to stay hidden (hysteresis; <= hide_cover).
+        partial_cover: fraction of coverage from which a visible track is partially occluded.
+        border_margin: distance to the image border (pixels) counted as "at the border".
+        class_aware: only match detections of the track's class.
+        confidence_sigmoid: map detector scores through a sigmoid for the costs (for detectors
+            that give logits, e.g. PointRCNN). Thresholds stay in the detector's own units.
+        likelihood_levels: resolution of likelihoods and confidences in the solver's objective
+            (IoU and score are rounded to multiples of 1/levels). Core-guided optimisation slows
+            with the number of distinct weights: with full resolution a crowded frame of 100
+            tracks took 25 s, with 40 levels 30 ms. Higher: finer preferences, slower worst case.
+        max_solve_ms: per-frame budget for grounding + solving (milliseconds). Past it the best
+            answer found so far is used (or Hungarian matching if none) and counted. None: no limit.
+        costs: :class:`AbductionCosts`.
+        kalman: :class:`~sensemaking.motion.KalmanConfig`.
+    """
+
+    abduction: bool = True
+    fps: float = 10.0
+    image_size: tuple[int, int] | None = None
+    iou_assign: float = 0.3
+    iou_resume: float = 0.1
+    resume_growth: float = 0.05
+    min_confidence: float = 0.0
+    start_confidence: float = 0.5
+    max_hidden_s: float = 3.0
+    max_missing_s: float = 1.0
+    min_hits: int = 1
+    hide_cover: float = 0.5
+    keep_cover: float = 0.2
+    partial_cover: float = 0.1
+    border_margin: float = 10.0
+    class_aware: bool = True
+    confidence_sigmoid: bool = False
+    likelihood_levels: int = 40
+    max_solve_ms: float | None = None
+    costs: AbductionCosts = field(default_factory=AbductionCosts)
+    kalman: KalmanConfig = field(default_factory=KalmanConfig)
+
+    def __post_init__(self) -> None:
+        if self.fps <= 0:
+            raise ValueError(f"fps must be positive, got {self.fps}")
+        if not 0 <= self.iou_resume <= 1 or not 0 <= self.iou_assign <= 1:
+            raise ValueError("iou_assign and iou_resume must lie in [0, 1]")
+        if self.keep_cover > self.hide_cover:
+            raise ValueError("keep_cover must not exceed hide_cover")
+        if not 1 <= self.likelihood_levels <= 1000:
+            raise ValueError("likelihood_levels must lie in [1, 1000]")
+        if self.min_hits < 1:
+            raise ValueError("min_hits must be at least 1")
+        if self.image_size is not None and (self.image_size[0] <= 0 or self.image_size[1] <= 0):
+            raise ValueError(f"image_size must be positive, got {self.image_size}")
+
+    @property
+    def max_hidden_frames(self) -> int:
+        return max(1, int(round(self.max_hidden_s * self.fps)))
+
+    @property
+    def max_missing_frames(self) -> int:
+        return max(1, int(round(self.max_missing_s * self.fps)))
+
+    def replace(self, **changes: Any) -> TrackerConfig:
+        """A copy with some parameters changed."""
+        return replace(self, **changes)
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    @classmethod
+    def for_dataset(cls, family: str, **changes: Any) -> TrackerConfig:
+        """The one parameter set per dataset family (``"kitti"`` or ``"mot"``); see docs/PARAMETERS.md."""
+        family = family.lower()
+        if family == "kitti":
+            base = cls(fps=10.0, image_size=(1242, 375))
+        elif family in ("mot", "mot17", "mot15", "motchallenge"):
+            base = cls(fps=30.0)
+        else:
+            raise ValueError(f"unknown dataset family {family!r} (kitti or mot)")
+        return replace(base, **changes)
+
+
+class Tracker:
+    """Online multi-object tracker with abductive explanations.
+
+    ``update(detections)`` once per frame, in order; ``reset()`` before a new sequence.
+    """
+
+    def __init__(self, config: TrackerConfig | None = None, **overrides: Any):
+        self.config = replace(config or TrackerConfig(), **overrides) if overrides else (config or TrackerConfig())
+        c = self.config
+        self._solver = AbductionSolver(constants={
+            # thresholds on the likelihood grid, rounded down so that every pair the numpy gate
+            # admits also passes the encoding's constraint
+            "iou_assign": self._quantize(np.array([c.iou_assign]), np.floor)[0],
+            "iou_resume": self._quantize(np.array([c.iou_resume]), np.floor)[0],
+            # confidence gates are applied in numpy in the detector's own units: detections too
+            # weak to start a track get confidence 0 in the facts, all others at least 1
+            "conf_assign": 0,
+            "conf_start": 1,
+            "cost_enters": c.costs.enters, "cost_appears": c.costs.appears,
+            "cost_leaves": c.costs.leaves, "cost_lost": c.costs.lost,
+            "cost_hides": c.costs.hides, "cost_missing": c.costs.missing,
+            "cost_unseen": c.costs.unseen, "cost_ignore": c.costs.ignore,
+        })
+        self.reset()
+
+    def _quantize(self, x: np.ndarray, rounding=np.round) -> np.ndarray:
+        """Values in [0, 1] -> integers 0..1000 on a grid of ``likelihood_levels`` steps."""
+        levels = self.config.likelihood_levels
+        return (rounding(np.clip(x, 0.0, 1.0) * levels + 1e-9) * 1000 // levels).astype(np.int64)
+
+    # -- state ------------------------------------------------------------------------------
+    def reset(self) -> None:
+        """Forget every track; the next update is a first frame. Ids start again at 1."""
+        self._kf = KalmanBank(self.config.kalman)
+        self._id = np.zeros(0, dtype=np.int64)
+        self._cls = np.zeros(0, dtype=np.int64)
+        self._state = np.zeros(0, dtype=np.int64)
+        self._occluder = np.zeros(0, dtype=np.int64)
+        self._vis = np.zeros(0, dtype=np.int64)
+        self._unseen = np.zeros(0, dtype=np.int64)  # frames since last matched
+        self._hits = np.zeros(0, dtype=np.int64)
+        self._conf = np.zeros(0, dtype=np.float64)
+        self._confirmed = np.zeros(0, dtype=bool)
+        self._pending: dict[int, Event] = {}  # start events of tentative tracks
+        self._next_id = 1
+        self._frames_seen = 0
+        self._last_frame: int | None = None
+        self.stats = {"frames": 0, "timed_out": 0, "fallback": 0, "solve_ms": 0.0}
+
+    @property
+    def n_tracks(self) -> int:
+        """Live tracks (visible, hidden and missing, confirmed or not)."""
+        return int(self._id.shape[0])
+
+    # -- the loop ---------------------------------------------------------------------------
+    def update(self, detections: Any, frame: int | None = None) -> FrameResult:
+        """Process one frame of detections; return every live confirmed track and the events.
+
+        Args:
+            detections: :class:`Detections` of one frame (or anything ``adapters.as_detections``
+                takes: supervision Detections, ultralytics results, (N, 4|5|6) arrays).
+            frame: the frame number; default: the detections' frame column, else last + 1.
+        """
+        dets = _coerce(detections)
+        if frame is None:
+            if len(dets):
+                frame = int(dets.frame[0])
+            else:
+                frame = 0 if self._last_frame is None else self._last_frame + 1
+        if len(dets) and np.any(dets.frame != frame):
+            dets = dets.with_(frame=np.full(len(dets), frame))
+        if self._last_frame is not None and frame <= self._last_frame:
+            raise ValueError(f"frames must increase: got frame {frame} after {self._last_frame}")
+        self._last_frame = frame
+        self._frames_seen += 1
+        self.stats["frames"] += 1
+
+        pred = self._kf.predict(1) if len(self._kf) else np.zeros((0, 4))
+        t0 = time.perf_counter()
+        if self.config.abduction:
+            answer, timed_out = self._abduce(pred, dets)
+        else:
+            answer, timed_out = self._hungarian(pred, dets), False
+        solve_ms = (time.perf_counter() - t0) * 1000.0
+        self.stats["solve_ms"] += solve_ms
+        events = self._apply(answer, pred, dets, frame)
+        return FrameResult(frame=frame, tracks=self._output(pred, dets, answer, frame), events=events,
+                           solve_ms=solve_ms, timed_out=timed_out)
+
+    # -- association --------------------------------------------------------------------------
+    def _likelihood(self, pred: np.ndarray, dets: Detections) -> np.ndarray:
+        """(T, D) IoU of (widened, for unseen tracks) predictions and detections, 0 where gated."""
+        c = self.config
+        if len(pred) == 0 or len(dets) == 0:
+            return np.zeros((len(pred), len(dets)))
+        boxes = pred
+        unseen = self._unseen > 0
+        if unseen.any():
+            boxes = pred.copy()
+            grow = np.minimum(1.0 + c.resume_growth * self._unseen[unseen], 2.0)
+            cx = (boxes[unseen, 0] + boxes[unseen, 2]) / 2
+            cy = (boxes[unseen, 1] + boxes[unseen, 3]) / 2
+            hw = (boxes[unseen, 2] - boxes[unseen, 0]) / 2 * grow
+            hh = (boxes[unseen, 3] - boxes[unseen, 1]) / 2 * grow
+            boxes[unseen] = np.stack([cx - hw, cy - hh, cx + hw, cy + hh], axis=1)
+        lik = iou(boxes, dets.xyxy)
+        ok = dets.confidence[None, :] >= c.min_confidence
+        if c.class_aware:
+            ok = ok & (self._cls[:, None] == dets.class_id[None, :])
+        thr = np.where(unseen, c.iou_resume, c.iou_assign)[:, None]
+        ok &= lik >= thr
+        return np.where(ok, lik, 0.0)
+
+    def _scaled_confidence(self, conf: np.ndarray) -> np.ndarray:
+        if self.config.confidence_sigmoid:
+            conf = 1.0 / (1.0 + np.exp(-conf))
+        return self._quantize(conf)
+
+    def _borders(self, boxes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(at the border, mostly outside) for (N, 4) boxes; all False without an image size."""
+        n = len(boxes)
+        if self.config.image_size is None or n == 0:
+            return np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
+        w, h = self.config.image_size
+        m = self.config.border_margin
+        at = (boxes[:, 0] <= m) | (boxes[:, 1] <= m) | (boxes[:, 2] >= w - m) | (boxes[:, 3] >= h - m)
+        inside = coverage(boxes, np.array([[0.0, 0.0, w, h]]))[:, 0]
+        return at, inside < 0.3
+
+    def _problem(self, pred: np.ndarray, dets: Detections) -> FrameProblem:
+        c = self.config
+        lik = self._likelihood(pred, dets)
+        ti, dj = np.nonzero(lik > 0)
+        cand = np.stack([ti, dj, self._quantize(lik[ti, dj])], axis=1) if ti.size else np.zeros((0, 3), np.int64)
+        at_border, outside = self._borders(pred)
+        det_border, _ = self._borders(dets.xyxy)
+        start_ok = dets.confidence >= c.start_confidence
+        n = len(pred)
+        covers = keeps = np.zeros((0, 2), dtype=np.int64)
+        overlapped = np.zeros(n, dtype=bool)
+        if n > 1:
+            cov = coverage(pred, pred)  # cov[i, j]: fraction of i covered by j
+            np.fill_diagonal(cov, 0.0)
+            front = pred[None, :, 3] > pred[:, None, 3]  # front[i, j]: j is nearer than i
+            overlapped = np.where(front, cov, 0.0).max(axis=1) >= c.partial_cover
+        if n and len(dets):
+            # an occluder is visible: measure coverage with its detection, not its prediction
+            dcov = coverage(pred, dets.xyxy)  # dcov[i, j]: fraction of track i covered by detection j
+            dcov = np.where(dets.xyxy[None, :, 3] > pred[:, None, 3], dcov, 0.0)
+            back, dj = np.nonzero(dcov >= c.hide_cover)
+            covers = np.stack([dj, back], axis=1)
+            if (self._occluder >= 0).any():
+                back, dj = np.nonzero((dcov >= c.keep_cover) & (self._occluder >= 0)[:, None])
+                keeps = np.stack([dj, back], axis=1)
+        det_overlapped = np.zeros(len(dets), dtype=bool)
+        if len(dets) > 1:
+            dcov = coverage(dets.xyxy, dets.xyxy)
+            np.fill_diagonal(dcov, 0.0)
+            dfront = dets.xyxy[None, :, 3] > dets.xyxy[:, None, 3]
+            det_overlapped = np.where(dfront, dcov, 0.0).max(axis=1) >= c.partial_cover
+        hidden = self._state == TrackState.HIDDEN
+        limit = np.where(hidden, c.max_hidden_frames, c.max_missing_frames)
+        expired = (self._unseen > 0) & (self._unseen + 1 > limit)
+        hid = np.flatnonzero(hidden & (self._occluder >= 0))
+        det_conf = self._scaled_confidence(dets.confidence)
+        # detections too weak to start a track: still usable to continue one (conf gate in numpy)
+        det_conf_fact = np.where(start_ok, np.maximum(det_conf, 1), 0)
+        return FrameProblem(
+            track_id=self._id, active=self._unseen == 0, tentative=~self._confirmed, expired=expired,
+            outside=outside, at_border=at_border, overlapped=overlapped, track_class=self._cls,
+            det_conf=det_conf_fact, det_class=dets.class_id, det_border=det_border & start_ok,
+            det_overlapped=det_overlapped, cand=cand, covers=covers, keeps_covering=keeps,
+            hidden_by=np.stack([self._id[hid], self._occluder[hid]], axis=1) if hid.size else np.zeros((0, 2), np.int64),
+            visibility=self._vis, first_frame=self._frames_seen == 1,
+        )
+
+    def _abduce(self, pred: np.ndarray, dets: Detections) -> tuple[Answer, bool]:
+        problem = self._problem(pred, dets)
+        answer = self._solver_solve(problem)
+        if answer is None:
+            self.stats["timed_out"] += 1
+            self.stats["fallback"] += 1
+            return self._hungarian(pred, dets), True
+        if answer.timed_out:
+            self.stats["timed_out"] += 1
+        return answer, answer.timed_out
+
+    def _solver_solve(self, problem: FrameProblem) -> Answer | None:
+        return self._solver.solve(problem, budget_ms=self.config.max_solve_ms)
+
+    def _hungarian(self, pred: np.ndarray, dets: Detections) -> Answer:
+        """Plain Hungarian IoU matching with the same gates; events only start/end/missing."""
+        c = self.config
+        lik = self._likelihood(pred, dets)
+        ans = Answer()
+        matched_t: set[int] = set()
+        matched_d: set[int] = set()
+        if lik.size:
+            rows, cols = linear_sum_assignment(-lik)
+            for r, k in zip(rows.tolist(), cols.tolist()):
+                if lik[r, k] > 0:
+                    tid = int(self._id[r])
+                    (ans.assign if self._unseen[r] == 0 else ans.resume)[tid] = k
+                    matched_t.add(r)
+                    matched_d.add(k)
+        hidden = self._state == TrackState.HIDDEN
+        limit = np.where(hidden, c.max_hidden_frames, c.max_missing_frames)
+        for r in range(len(self._id)):
+            if r in matched_t:
+                if self._unseen[r] > 0:
+                    ans.events.append(("reappears", (int(self._id[r]),)))
+                continue
+            tid = int(self._id[r])
+            if not self._confirmed[r] or self._unseen[r] + 1 > limit[r]:
+                ans.end.append(tid)
+                ans.events.append(("ends", (tid,)))
+            elif self._unseen[r] == 0:
+                ans.halt.append(tid)
+                ans.events.append(("missing_detections", (tid,)))
+            else:
+                ans.ignore_trk.append(tid)
+        for k in range(len(dets)):
+            if k in matched_d:
+                continue
+            if dets.confidence[k] >= c.start_confidence:
+                ans.start.append(k)
+                ans.events.append(("starts", (f"d{k}",)))
+            else:
+                ans.ignore_det.append(k)
+        return ans
+
+    # -- applying the answer ----------------------------------------------------------------------
+    def _apply(self, ans: Answer, pred: np.ndarray, dets: Detections, frame: int) -> list[Event]:
+        c = self.config
+        index = {int(t): i for i, t in enumerate(self._id.tolist())}
+        # matched tracks
+        matched = {**ans.assign, **ans.resume}
+        if matched:
+            rows = np.array([index[t] for t in matched], dtype=np.int64)
+            cols = np.array(list(matched.values()), dtype=np.int64)
+            self._kf.update(rows, dets.xyxy[cols])
+            self._unseen[rows] = 0
+            self._state[rows] = TrackState.VISIBLE
+            self._hits[rows] += 1
+            self._conf[rows] = dets.confidence[cols]
+        self._matched_det = dict(matched)  # track id -> detection row, this frame
+        # new tracks (first, so that fluents and events can name them)
+        new_vis = {a[0]: v for n, a, v in ans.fluents if n == "visibility" and isinstance(a[0], str)}
+        new_ids: dict[str, int] = {}
+        if ans.start:
+            cols = np.array(ans.start, dtype=np.int64)
+            ids = np.arange(self._next_id, self._next_id + len(cols), dtype=np.int64)
+            self._next_id += len(cols)
+            new_ids = {f"d{k}": int(t) for k, t in zip(cols.tolist(), ids.tolist())}
+            self._kf.add(dets.xyxy[cols])
+            confirmed = np.full(len(cols), c.min_hits <= 1 or self._frames_seen <= c.min_hits)
+            self._id = np.concatenate([self._id, ids])
+            self._cls = np.concatenate([self._cls, dets.class_id[cols]])
+            self._state = np.concatenate([self._state, np.zeros(len(cols), np.int64)])
+            self._occluder = np.concatenate([self._occluder, np.full(len(cols), -1, np.int64)])
+            self._vis = np.concatenate([self._vis, np.array(
+                [VISIBILITY_VALUES.index(new_vis.get(f"d{k}", "fully_visible")) for k in cols.tolist()], np.int64)])
+            self._unseen = np.concatenate([self._unseen, np.zeros(len(cols), np.int64)])
+            self._hits = np.concatenate([self._hits, np.ones(len(cols), np.int64)])
+            self._conf = np.concatenate([self._conf, dets.confidence[cols]])
+            self._confirmed = np.concatenate([self._confirmed, confirmed])
+            self._matched_det.update({new_ids[f"d{k}"]: k for k in cols.tolist()})
+        # fluents: the answer holds the values that changed; the others carry on (inertia)
+        for fname, fargs, value in ans.fluents:
+            i = index.get(fargs[0])  # None for ended tracks and new ones (done above)
+            if i is None:
+                continue
+            if fname == "hidden_by":
+                occluder = new_ids[fargs[1]] if isinstance(fargs[1], str) else fargs[1]
+                if value == "true":
+                    self._occluder[i] = occluder
+                elif self._occluder[i] == occluder:
+                    self._occluder[i] = -1
+            elif fname == "visibility":
+                self._vis[i] = VISIBILITY_VALUES.index(value)
+        # unobserved tracks: hidden behind their occluder, or missing
+        for t in ans.halt + ans.ignore_trk:
+            i = index[t]
+            self._unseen[i] += 1
+            self._state[i] = TrackState.HIDDEN if self._occluder[i] >= 0 else TrackState.MISSING
+        # confirmation
+        newly_confirmed = (~self._confirmed) & ((self._hits >= c.min_hits) | (self._frames_seen <= c.min_hits))
+        self._confirmed |= newly_confirmed
+        # events, with detections renamed to their new track ids. A tentative track's start
+        # event waits until the track is confirmed; its other events are not reported.
+        events: list[Event] = []
+        for i in np.flatnonzero(newly_confirmed).tolist():
+            pending = self._pending.pop(int(self._id[i]), None)
+            if pending is not None:
+                events.append(pending)
+        confirmed = set(self._id[self._confirmed].tolist())
+        ended = set(ans.end)
+        for name, args in ans.events:
+            ids_ = tuple(new_ids[a] if isinstance(a, str) else int(a) for a in args)
+            ev = Event(frame, name, ids_)
+            if ids_[0] in confirmed:
+                events.append(ev)
+            elif name in ("enters_fov", "starts"):
+                self._pending[ids_[0]] = ev
+        # drop ended tracks
+        if ended:
+            keep = ~np.isin(self._id, np.fromiter(ended, dtype=np.int64))
+            self._kf.remove(np.flatnonzero(~keep))
+            for name in ("_id", "_cls", "_state", "_occluder", "_vis", "_unseen", "_hits", "_conf", "_confirmed"):
+                setattr(self, name, getattr(self, name)[keep])
+            for t in ended:
+                self._pending.pop(t, None)
+        events.sort()
+        return events
+
+    def _output(self, pred: np.ndarray, dets: Detections, ans: Answer, frame: int) -> Detections:
+        """Every live confirmed track: detection box if matched, else the prediction."""
+        n = len(self._id)
+        boxes = self._kf.xyxy() if n else np.zeros((0, 4))
+        rows = np.full(n, -1, dtype=np.int64)
+        conf = self._conf.copy()
+        if self._matched_det:
+            pos = {int(t): i for i, t in enumerate(self._id.tolist())}
+            idx = np.array([pos[t] for t in self._matched_det], dtype=np.int64)
+            cols = np.array(list(self._matched_det.values()), dtype=np.int64)
+            boxes[idx] = dets.xyxy[cols]
+            rows[idx] = dets.source_row[cols]
+        keep = self._confirmed
+        return Detections(
+            xyxy=boxes[keep], confidence=conf[keep], class_id=self._cls[keep], tracker_id=self._id[keep],
+            frame=np.full(int(keep.sum()), frame), source_row=rows[keep],
+            data={"state": self._state[keep].copy(), "occluder": self._occluder[keep].copy(),
+                  "visibility": self._vis[keep].copy(), "hidden_frames": self._unseen[keep].copy()},
+        )
+
+
+def _coerce(obj: Any) -> Detections:
+    if isinstance(obj, Detections):
+        return obj
+    from sensemaking.adapters import as_detections  # duck-typed adapters (supervision, ultralytics, arrays)
+
+    return as_detections(obj)
