@@ -29,7 +29,7 @@ from sensemaking.classes import CLASS_IDS
 from sensemaking.detections import Detections
 from sensemaking.geometry import iou
 
-__all__ = ["SyntheticScene", "make_scene", "crossing_scene", "occlusion_suite", "overlap_fraction"]
+__all__ = ["SyntheticScene", "make_scene", "crossing_scene", "occlusion_suite", "overlap_fraction", "figure1_scene"]
 
 #: fraction of a box that must be inside the image for the object to be in the scene
 MIN_INSIDE = 0.3
@@ -491,6 +491,12 @@ def _turning_car_hides_cyclist(rng: np.random.Generator) -> SyntheticScene:
     oncoming = [[5, 420 + 5 * j[3], 200, 50, 30], [n - 1, 300 + 5 * j[3], 225, 80, 48]]
     return _scene_from_keys([(cyc, cyc_keys), (car, car_keys), (car, oncoming)], n,
                             "car_turns_right_hiding_cyclist", rng, **_SUITE_RENDER)
+
+
+def figure1_scene(seed: int = 0) -> SyntheticScene:
+    """The paper's Figure 1 (used by ``sensemaking demo``): a car ahead turns right across a
+    cyclist, who is hidden while the car sweeps past and then reappears; an oncoming car too."""
+    return _turning_car_hides_cyclist(np.random.default_rng(seed))
 
 
 def _turning_car_hides_car(rng: np.random.Generator) -> SyntheticScene:

@@ -44,6 +44,11 @@ class AbductionCosts:
     unseen: int = 20  #: per frame a track stays missing. Higher: missing tracks end sooner.
     ignore: int = 600  #: ignoring a detection, times its confidence. Higher: more tracks from weak detections.
 
+    def __post_init__(self) -> None:
+        for name, value in asdict(self).items():
+            if not isinstance(value, int) or value < 0:
+                raise ValueError(f"cost {name} must be a non-negative integer, got {value!r}")
+
 
 @dataclass(frozen=True)
 class TrackerConfig:
@@ -80,6 +85,9 @@ class TrackerConfig:
             (IoU and score are rounded to multiples of 1/levels). Core-guided optimisation slows
             with the number of distinct weights: with full resolution a crowded frame of 100
             tracks took 25 s, with 40 levels 30 ms. Higher: finer preferences, slower worst case.
+        decompose: settle isolated track/detection pairs (one candidate each, no occlusion
+            relation) in Python, where the optimum is forced, and give only the rest to the
+            solver. Exact (same answers); off only to check that.
         max_solve_ms: per-frame budget for grounding + solving (milliseconds). Past it the best
             answer found so far is used (or Hungarian matching if none) and counted. None: no limit.
         costs: :class:`AbductionCosts`.
@@ -104,6 +112,7 @@ class TrackerConfig:
     class_aware: bool = True
     confidence_sigmoid: bool = False
     likelihood_levels: int = 40
+    decompose: bool = True
     max_solve_ms: float | None = None
     costs: AbductionCosts = field(default_factory=AbductionCosts)
     kalman: KalmanConfig = field(default_factory=KalmanConfig)
@@ -328,11 +337,29 @@ class Tracker:
 
     def _abduce(self, pred: np.ndarray, dets: Detections) -> tuple[Answer, bool]:
         problem = self._problem(pred, dets)
-        answer = self._solver_solve(problem)
+        # Exact decomposition: isolated pairs have a forced optimum (see isolated_pairs), so
+        # only the rest goes to the solver -- on most frames of real sequences, nothing.
+        pairs = problem.isolated_pairs() if self.config.decompose else np.zeros((0, 2), np.int64)
+        t_rest = np.ones(problem.n_tracks, dtype=bool)
+        d_rest = np.ones(problem.n_dets, dtype=bool)
+        t_rest[pairs[:, 0]] = False
+        d_rest[pairs[:, 1]] = False
+        answer: Answer | None = Answer()
+        if t_rest.any() or d_rest.any():
+            rest = problem.subset(t_rest, d_rest) if len(pairs) else problem
+            answer = self._solver_solve(rest)
+            if answer is not None and len(pairs):
+                answer = _renumber_detections(answer, np.flatnonzero(d_rest))
         if answer is None:
             self.stats["timed_out"] += 1
             self.stats["fallback"] += 1
             return self._hungarian(pred, dets), True
+        for ti, dj in pairs.tolist():
+            tid = int(problem.track_id[ti])
+            answer.assign[tid] = dj
+            value = "partially_occluded" if problem.overlapped[ti] else "fully_visible"
+            if VISIBILITY_VALUES[int(problem.visibility[ti])] != value:
+                answer.fluents.append(("visibility", (tid,), value))
         if answer.timed_out:
             self.stats["timed_out"] += 1
         return answer, answer.timed_out
@@ -400,7 +427,7 @@ class Tracker:
         new_vis = {a[0]: v for n, a, v in ans.fluents if n == "visibility" and isinstance(a[0], str)}
         new_ids: dict[str, int] = {}
         if ans.start:
-            cols = np.array(ans.start, dtype=np.int64)
+            cols = np.array(sorted(ans.start), dtype=np.int64)  # new ids in detection order
             ids = np.arange(self._next_id, self._next_id + len(cols), dtype=np.int64)
             self._next_id += len(cols)
             new_ids = {f"d{k}": int(t) for k, t in zip(cols.tolist(), ids.tolist())}
@@ -484,6 +511,20 @@ class Tracker:
             data={"state": self._state[keep].copy(), "occluder": self._occluder[keep].copy(),
                   "visibility": self._vis[keep].copy(), "hidden_frames": self._unseen[keep].copy()},
         )
+
+
+def _renumber_detections(answer: Answer, index: np.ndarray) -> Answer:
+    """Map detection rows of a sub-problem (0..k-1) back to the frame's rows ``index[k]``."""
+    def det(x: int | str) -> int | str:
+        return f"d{index[int(x[1:])]}" if isinstance(x, str) else x
+
+    answer.assign = {t: int(index[d]) for t, d in answer.assign.items()}
+    answer.resume = {t: int(index[d]) for t, d in answer.resume.items()}
+    answer.start = [int(index[d]) for d in answer.start]
+    answer.ignore_det = [int(index[d]) for d in answer.ignore_det]
+    answer.events = [(n, tuple(det(a) for a in args)) for n, args in answer.events]
+    answer.fluents = [(n, tuple(det(a) for a in args), v) for n, args, v in answer.fluents]
+    return answer
 
 
 def _coerce(obj: Any) -> Detections:

@@ -73,6 +73,62 @@ class FrameProblem:
     def n_dets(self) -> int:
         return int(self.det_conf.shape[0])
 
+    def isolated_pairs(self) -> np.ndarray:
+        """(K, 2) rows ``track index, detection index`` whose optimum is forced: an active,
+        unexpired, inside track with exactly one candidate detection that has no other
+        candidate, likelihood > 0, and neither takes part in a covers/keeps_covering fact.
+
+        With non-negative costs, assigning such a pair costs ``1000 - L < 1000``, while any
+        alternative costs at least 1000 (the unmatched track) plus non-negative event costs,
+        and the pair constrains nothing else: the joint optimum assigns it, whatever the rest.
+        """
+        if self.cand.size == 0:
+            return np.zeros((0, 2), dtype=np.int64)
+        ti, dj, lik = self.cand[:, 0], self.cand[:, 1], self.cand[:, 2]
+        t_deg = np.bincount(ti, minlength=self.n_tracks)
+        d_deg = np.bincount(dj, minlength=self.n_dets)
+        ok = (t_deg[ti] == 1) & (d_deg[dj] == 1) & (lik > 0)
+        ok &= self.active[ti] & ~self.expired[ti] & ~self.outside[ti]
+        involved_d = np.zeros(self.n_dets, dtype=bool)
+        involved_t = np.zeros(self.n_tracks, dtype=bool)
+        for rel in (self.covers, self.keeps_covering):
+            involved_d[rel[:, 0]] = True
+            involved_t[rel[:, 1]] = True
+        ok &= ~involved_d[dj] & ~involved_t[ti]
+        return np.stack([ti[ok], dj[ok]], axis=1)
+
+    def subset(self, tracks: np.ndarray, dets: np.ndarray) -> FrameProblem:
+        """The problem restricted to the tracks and detections whose masks are True
+        (indices renumbered; relations touching a removed object are dropped)."""
+        t_new = np.cumsum(tracks) - 1
+        d_new = np.cumsum(dets) - 1
+
+        def rel(rows: np.ndarray, t_col: int | None, d_col: int | None) -> np.ndarray:
+            keep = np.ones(len(rows), dtype=bool)
+            if t_col is not None:
+                keep &= tracks[rows[:, t_col]]
+            if d_col is not None:
+                keep &= dets[rows[:, d_col]]
+            out = rows[keep].copy()
+            if t_col is not None:
+                out[:, t_col] = t_new[out[:, t_col]]
+            if d_col is not None:
+                out[:, d_col] = d_new[out[:, d_col]]
+            return out
+
+        kept_ids = self.track_id[tracks]
+        hidden = self.hidden_by[np.isin(self.hidden_by[:, 0], kept_ids)] if len(self.hidden_by) else self.hidden_by
+        return FrameProblem(
+            track_id=self.track_id[tracks], active=self.active[tracks], tentative=self.tentative[tracks],
+            expired=self.expired[tracks], outside=self.outside[tracks], at_border=self.at_border[tracks],
+            overlapped=self.overlapped[tracks], track_class=self.track_class[tracks],
+            det_conf=self.det_conf[dets], det_class=self.det_class[dets], det_border=self.det_border[dets],
+            det_overlapped=self.det_overlapped[dets], cand=rel(self.cand, 0, 1),
+            covers=rel(self.covers, 1, 0), keeps_covering=rel(self.keeps_covering, 1, 0),
+            hidden_by=hidden, visibility=None if self.visibility is None else self.visibility[tracks],
+            first_frame=self.first_frame,
+        )
+
     def to_facts(self) -> str:
         """The problem as ASP facts (one string; deterministic order)."""
         tid = self.track_id.astype(np.int64)

@@ -178,6 +178,8 @@ def _decode(symbols: list[clingo.Symbol]) -> Answer:
             getattr(ans, name).append(int(rest[1:]))
         elif name in ("end", "halt", "ignore_trk"):
             getattr(ans, name).append(int(rest))
-    for lst in (ans.start, ans.end, ans.halt, ans.ignore_trk, ans.ignore_det, ans.events, ans.fluents):
-        lst.sort(key=str)
+    for ints in (ans.start, ans.end, ans.halt, ans.ignore_trk, ans.ignore_det):
+        ints.sort()
+    ans.events.sort(key=str)
+    ans.fluents.sort(key=str)
     return ans
