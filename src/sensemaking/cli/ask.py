@@ -1,0 +1,69 @@
+"""``sensemaking ask SCENE QUERY``: question answering over a recorded scene (ASP)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from sensemaking.errors import InputError
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    from sensemaking.reasoning.questions import NAMED_QUESTIONS
+
+    named = "\n".join(f"  {usage}" for usage in NAMED_QUESTIONS.values())
+    p = sub.add_parser(
+        "ask",
+        help="ask a question about a scene: a named question or ASP rules with #show",
+        description="Answer a question about a scene written by `sensemaking track --scene PATH`.\n\n"
+        "QUERY is a named question:\n" + named + "\n\n"
+        "or ASP rules over the scene's predicates (track/2, box/6, state/3, occurs_at/2, holds_at/3, "
+        "holds_during/4, in_corridor/2, ra/5, motion/3, ...; see reasoning/encodings/scene.lp), e.g.\n"
+        "  sensemaking ask scene.json 'q(T) :- occurs_at(hides_behind(T,_),_). #show q/1.'\n"
+        "Without #show the predicates the rules define are shown; a query of constraints only answers "
+        "yes or no. A file name ending in .lp is read as the query.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("scene", type=Path, help="scene JSON (from `sensemaking track --scene`)")
+    p.add_argument("query", nargs="+", help="a named question (e.g. `reappeared 7`) or ASP text or a .lp file")
+    p.add_argument("--models", type=int, default=1, metavar="N", help="answer sets to show for ASP queries (0: all)")
+    p.add_argument("--lanes", type=Path, help="lanes JSON (for `warnings`; format in sensemaking.reasoning.context)")
+    p.add_argument("--segmentation", type=Path,
+                   help="label maps: a folder of <frame>.npy/.png or one file (for `warnings`)")
+    p.add_argument("--labels", type=Path, help='label names JSON {"0": "road", ...} (default: Cityscapes ids)')
+    p.add_argument("--corridor", help='ego corridor polygon, "x,y x,y x,y ..." (fractions of the image or pixels)')
+    p.add_argument("--json", action="store_true", help="print the answer as JSON")
+    p.set_defaults(func=run)
+
+
+def _query_text(parts: list[str]) -> str:
+    if len(parts) == 1 and parts[0].endswith(".lp"):
+        path = Path(parts[0])
+        try:
+            return path.read_text(encoding="utf-8")
+        except FileNotFoundError:
+            raise InputError("query file not found", path) from None
+    return " ".join(parts)
+
+
+def run(args: argparse.Namespace) -> int:
+    from sensemaking.reasoning.context import SceneContext
+    from sensemaking.reasoning.questions import ask
+    from sensemaking.scene import Scene
+
+    if args.models < 0:
+        raise InputError(f"--models must be >= 0, got {args.models}")
+    scene = Scene.load(args.scene)
+    context = SceneContext.load(lanes=args.lanes, segmentation=args.segmentation, labels=args.labels,
+                                corridor=args.corridor)
+    answer = ask(scene, _query_text(args.query), context=context, max_models=args.models)
+    if args.json:
+        print(json.dumps(answer.to_json(), indent=2))
+    else:
+        for line in answer.lines:
+            print(line)
+        for note in answer.notes:
+            print(f"note: {note}", file=sys.stderr)
+    return 0 if answer.satisfiable else 1

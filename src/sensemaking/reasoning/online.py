@@ -1,0 +1,556 @@
+"""Online detection of safety-critical situations: ``SituationMonitor.update(result) -> warnings``.
+
+Per frame the monitor condenses the tracker's :class:`~sensemaking.results.FrameResult` into a
+small snapshot, computed once in numpy and kept for the last ``window`` frames: states and
+occluders, which boxes stand in the ego corridor, qualitative motion of visible boxes,
+rectangle relations of near pairs involving a vehicle, events, lanes and ground labels, and the
+anticipated reappearance of hidden tracks. From the snapshots it finds the *candidates* of each
+situation -- the objects for which the trigger facts of its rules are present, a necessary
+condition of the rule bodies -- and, only when there are any, grounds ``situations.lp`` on a
+fresh clingo Control with the facts of those objects (on most frames nothing is grounded at
+all). History is never re-grounded. With ``SituationConfig(prefilter=False)`` every situation
+is grounded every frame with every fact of the window; the warnings are the same.
+
+A warning is returned when its situation starts to hold; :attr:`SituationMonitor.active`
+lists every situation holding at the current frame.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections import deque
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from sensemaking.classes import PEOPLE, VEHICLES, class_name
+from sensemaking.reasoning.anticipation import Anticipation, anticipate
+from sensemaking.reasoning.context import SceneContext, asp_name
+from sensemaking.reasoning.relations import (
+    IA_RELATIONS, MOTION_KINDS, classify_motion, inverse_codes, motion_features, order_pairs, pair_relations,
+)
+from sensemaking.reasoning.situations import (
+    SituationMatch, Situation, SituationConfig, Warning, situation_constants, solve_window,
+)
+from sensemaking.results import Event, FrameResult, TrackState
+
+__all__ = ["SituationMonitor", "BOTTOM_LOWER"]
+
+log = logging.getLogger(__name__)
+
+_STATE_NAMES = tuple(s.name.lower() for s in TrackState)
+#: y relations that put A's bottom lower than B's (``bottom_lower/1`` of relations.lp)
+BOTTOM_LOWER: frozenset[str] = frozenset({"after", "met_by", "overlapped_by", "contains", "started_by"})
+_BOTTOM_LOWER_CODES = frozenset(IA_RELATIONS.index(r) for r in BOTTOM_LOWER)
+_K = {k: i for i, k in enumerate(MOTION_KINDS)}
+
+
+def _lane_term(lane_id: int | str) -> str:
+    if isinstance(lane_id, int):
+        return str(lane_id)
+    return '"' + str(lane_id).replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+@dataclass
+class _Frame:
+    """One frame of the window: everything the situation rules may use, before rendering."""
+
+    frame: int
+    ids: list[int] = field(default_factory=list)
+    state: dict[int, int] = field(default_factory=dict)
+    hidden_by: dict[int, int] = field(default_factory=dict)  # hidden track -> occluder
+    in_corr: set[int] = field(default_factory=set)
+    area: dict[int, int] = field(default_factory=dict)  # in-corridor tracks: permille of the image
+    motion: dict[int, tuple[str, ...]] = field(default_factory=dict)
+    ra: dict[tuple[int, int], tuple[int, int]] = field(default_factory=dict)  # (a < b) -> (x, y) codes
+    closer: set[tuple[int, int]] = field(default_factory=set)  # (nearer, farther) vehicle pairs
+    events: list[Event] = field(default_factory=list)
+    person_starts: list[tuple[int, int]] = field(default_factory=list)  # (person, event frame)
+    lanes: list[str] = field(default_factory=list)  # lane terms in force
+    on_lane: dict[int, list[str]] = field(default_factory=dict)
+    surface: dict[int, str] = field(default_factory=dict)
+
+
+class SituationMonitor:
+    """Detects the situations of situations.lp online, one frame result at a time.
+
+    Args:
+        config: :class:`~sensemaking.reasoning.situations.SituationConfig` (default: all six).
+        context: :class:`~sensemaking.reasoning.context.SceneContext` (corridor, lanes,
+            segmentation); default: the default corridor, no lanes, no segmentation.
+        fps: frames per second of the sequence.
+        image_size: ``(width, height)`` of the images, pixels; None when unknown: then the
+            situations that need the ego corridor (HIDDEN_ENTITY, REDUCED_VISIBILITY,
+            SUDDEN_STOP) are skipped, with a note.
+
+    ``update(result)`` once per frame in order, ``reset()`` before another sequence.
+    ``stats`` counts frames, solver calls and the time spent in ``update`` (milliseconds).
+    """
+
+    def __init__(self, config: SituationConfig | None = None, context: SceneContext | None = None,
+                 fps: float = 10.0, image_size: tuple[int, int] | None = (1242, 375)):
+        if fps <= 0:
+            raise ValueError(f"fps must be positive, got {fps}")
+        if image_size is not None and (image_size[0] <= 0 or image_size[1] <= 0):
+            raise ValueError(f"image_size must be (width, height) > 0, got {image_size}")
+        self.config = config or SituationConfig()
+        self.context = context or SceneContext()
+        self.fps = float(fps)
+        self.image_size = None if image_size is None else (int(image_size[0]), int(image_size[1]))
+        self._consts = situation_constants(self.config.constants)
+        self._window = self.config.window_frames(self.fps)
+        self._lag = self.config.motion.lag_frames(self.fps)
+        self._frame_ms = max(1, int(round(1000.0 / self.fps)))
+        self._rearm = max(1, int(round(self.config.rearm_s * self.fps)))
+        self._enabled = [s for s in Situation if s.name in self.config.situations]
+        self._skipped: dict[Situation, str] = {}
+        if Situation.BLOCKED_LANE in self._enabled and not self.context.lanes:
+            self._skipped[Situation.BLOCKED_LANE] = "needs lanes (no lanes file given)"
+        if self.image_size is None:
+            for s in (Situation.HIDDEN_ENTITY, Situation.REDUCED_VISIBILITY, Situation.SUDDEN_STOP):
+                if s in self._enabled:
+                    self._skipped[s] = "needs the image size (for the ego corridor)"
+        self._checked = [s for s in self._enabled if s not in self._skipped]
+        ap = self.config.anticipation
+        self._hist_len = max(2 * self._lag + 1, ap.velocity_points) + 1
+        self.reset()
+
+    # -- state ----------------------------------------------------------------------------------
+    def reset(self) -> None:
+        """Forget all history; the next update starts a new sequence."""
+        self._frames: deque[_Frame] = deque(maxlen=self._window)
+        self._hist: dict[int, deque[tuple[int, np.ndarray]]] = {}
+        self._speed: dict[int, deque[tuple[int, float]]] = {}
+        self._class: dict[int, int] = {}
+        self._last_live: dict[int, int] = {}
+        self._last_held: dict[tuple[str, tuple[int, ...]], int] = {}
+        self._seq_start: int | None = None
+        self._last_frame: int | None = None
+        self._anticip: dict[int, Anticipation] = {}
+        self._features: dict[int, tuple[float, float, float]] = {}  # speed px/s, vx px/s, growth 1/s
+        self.active: list[Warning] = []
+        self.stats: dict[str, float] = {"frames": 0, "solver_calls": 0, "ms": 0.0}
+
+    @property
+    def skipped(self) -> dict[str, str]:
+        """Situations that cannot be checked with this context, and why."""
+        return {s.name: why for s, why in self._skipped.items()}
+
+    @property
+    def anticipations(self) -> list[Anticipation]:
+        """Anticipated reappearances of the tracks hidden at the current frame."""
+        return list(self._anticip.values())
+
+    # -- the loop -------------------------------------------------------------------------------
+    def update(self, result: FrameResult) -> list[Warning]:
+        """Process one frame; return the warnings whose situation starts to hold at this frame
+        (and, on the first frame, a note for each situation that cannot be checked)."""
+        t0 = time.perf_counter()
+        f = int(result.frame)
+        if self._last_frame is not None and f <= self._last_frame:
+            raise ValueError(f"frames must increase: got frame {f} after {self._last_frame}")
+        new: list[Warning] = []
+        if self._seq_start is None:
+            self._seq_start = f
+            for s, why in self._skipped.items():
+                log.info("%s not checked: it %s", s.name, why)
+                new.append(Warning(f, s.name, (), f"{s.name} not checked: it {why}", {"skipped": why}))
+        self._last_frame = f
+        self._observe(result)
+        if self.config.prefilter:
+            cands = {s: c for s, c in self._candidates().items() if c and s in self._checked}
+            parts = [s for s in self._checked if s in cands]
+            facts = self._render(cands) if parts else ""
+        else:
+            parts = list(self._checked)
+            facts = self._render(None)
+        detections: list[SituationMatch] = []
+        if parts:
+            detections = solve_window(facts, parts, self.config.constants)
+            self.stats["solver_calls"] += 1
+        held: list[Warning] = []
+        for d in detections:
+            w = self._warning(f, d)
+            held.append(w)
+            key = (w.situation, w.objects)
+            last = self._last_held.get(key)
+            if last is None or f - last > self._rearm:
+                new.append(w)
+            self._last_held[key] = f
+        self.active = held
+        self._forget(f)
+        self.stats["frames"] += 1
+        self.stats["ms"] += (time.perf_counter() - t0) * 1000.0
+        return new
+
+    def run(self, results: Iterable[FrameResult]) -> list[Warning]:
+        """Every warning over a sequence of frame results (after :meth:`reset`)."""
+        self.reset()
+        out: list[Warning] = []
+        for r in results:
+            out.extend(self.update(r))
+        return out
+
+    # -- per-frame snapshot ---------------------------------------------------------------------
+    def _observe(self, result: FrameResult) -> None:
+        f = int(result.frame)
+        fr = _Frame(f, events=list(result.events))
+        self._frames.append(fr)
+        self._anticip = {}
+        self._features = {}
+        tr = result.tracks
+        n = len(tr)
+        if n == 0:
+            return
+        ids = tr.tracker_id.tolist()
+        cls = tr.class_id.tolist()
+        state_arr = np.asarray(tr.data.get("state", np.zeros(n)), dtype=np.int64)
+        occl = np.asarray(tr.data.get("occluder", np.full(n, -1)), dtype=np.int64).tolist()
+        states = state_arr.tolist()
+        xyxy = tr.xyxy
+        fr.ids = ids
+        boxes = {}
+        for i, t in enumerate(ids):
+            self._class[t] = cls[i]
+            self._last_live[t] = f
+            fr.state[t] = states[i]
+            boxes[t] = xyxy[i]
+            if states[i] == TrackState.VISIBLE:
+                self._hist.setdefault(t, deque(maxlen=self._hist_len)).append((f, xyxy[i]))
+            elif states[i] == TrackState.HIDDEN and occl[i] >= 0:
+                fr.hidden_by[t] = occl[i]
+
+        # corridor and area
+        inside = (self.context.corridor.contains_boxes(xyxy, self.image_size) if self.image_size is not None
+                  else np.zeros(n, dtype=bool))
+        if inside.any():
+            W, H = self.image_size
+            idx = np.flatnonzero(inside)
+            b = xyxy[idx]
+            area = np.rint((b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1]) * (1000.0 / (W * H))).astype(np.int64)
+            for i, a in zip(idx.tolist(), area.tolist()):
+                fr.in_corr.add(ids[i])
+                fr.area[ids[i]] = a
+
+        self._motion(fr, ids, states, xyxy)
+        fr.person_starts = [(e.args[0], e.frame) for e in fr.events
+                            if e.name == "starts" and e.args and self._class.get(e.args[0]) in PEOPLE]
+
+        # anticipation of hidden tracks
+        for t, o in fr.hidden_by.items():
+            a = self._anticipate(t, o, f, boxes)
+            if a is not None:
+                self._anticip[t] = a
+
+        # relations of near pairs involving a vehicle (vehicle/vehicle and person/vehicle)
+        is_veh = [c in VEHICLES for c in cls]
+        rel = [i for i, c in enumerate(cls) if is_veh[i] or c in PEOPLE]
+        if len(rel) >= 2 and any(is_veh[i] for i in rel):
+            rel_a = np.asarray(rel)
+            pairs, codes = pair_relations(xyxy[rel_a], self.config.relations)
+            if pairs.shape[0]:
+                gi = rel_a[pairs]
+                keep = np.asarray([is_veh[a] or is_veh[b] for a, b in gi.tolist()])
+                if keep.any():
+                    ta, tb, codes = order_pairs(np.asarray(ids), gi[keep], codes[keep])
+                    inv_y = inverse_codes(codes[:, 1]).tolist()
+                    vehicles = {ids[i] for i in rel if is_veh[i]}
+                    for k, (x, y, c) in enumerate(zip(ta.tolist(), tb.tolist(), codes.tolist())):
+                        fr.ra[(x, y)] = (c[0], c[1])
+                        if x in vehicles and y in vehicles:
+                            if c[1] in _BOTTOM_LOWER_CODES:
+                                fr.closer.add((x, y))
+                            elif inv_y[k] in _BOTTOM_LOWER_CODES:
+                                fr.closer.add((y, x))
+
+        # lanes and segmentation
+        lanes = self.context.lanes.lanes_at(f) if self.context.lanes else ()
+        if lanes:
+            bottom = np.stack([(xyxy[:, 0] + xyxy[:, 2]) / 2, xyxy[:, 3]], axis=1)
+            for lane in lanes:
+                term = _lane_term(lane.id)
+                fr.lanes.append(term)
+                for i in np.flatnonzero(lane.contains_points(bottom)).tolist():
+                    fr.on_lane.setdefault(ids[i], []).append(term)
+        if self.context.segmentation is not None:
+            for i, s in enumerate(self.context.segmentation.surface_under(f, xyxy, self.image_size)):
+                if s is not None:
+                    fr.surface[ids[i]] = asp_name(s)
+
+    def _motion(self, fr: _Frame, ids: list[int], states: list[int], xyxy: np.ndarray) -> None:
+        """Qualitative motion of visible tracks with a box ``lag`` to ``2 lag`` frames before."""
+        f, lag = fr.frame, self._lag
+        rows, prev, dts, before = [], [], [], []
+        for i, t in enumerate(ids):
+            if states[i] != TrackState.VISIBLE:
+                continue
+            h = self._hist.get(t)
+            if h is None or len(h) < 2:
+                continue
+            cand = None
+            for fp, bp in reversed(h):
+                if fp <= f - lag:
+                    cand = (fp, bp)
+                    break
+            if cand is None or f - cand[0] > 2 * lag:
+                continue
+            rows.append(i)
+            prev.append(cand[1])
+            dts.append((f - cand[0]) / self.fps)
+            sp = self._speed.get(t)
+            before.append(next((s for fs, s in reversed(sp) if fs == cand[0]), np.nan) if sp else np.nan)
+        if not rows:
+            return
+        feats = motion_features(np.asarray(prev), xyxy[rows], np.asarray(dts))
+        kinds = classify_motion(feats, np.asarray(before), self.config.motion)
+        speed, vx, growth = feats.speed.tolist(), feats.vx.tolist(), feats.growth.tolist()
+        for k, (i, row) in enumerate(zip(rows, kinds.tolist())):
+            t = ids[i]
+            self._speed.setdefault(t, deque(maxlen=2 * lag + 2)).append((f, speed[k]))
+            names = tuple(name for name, on in zip(MOTION_KINDS, row) if on)
+            if names:
+                fr.motion[t] = names
+            self._features[t] = (speed[k], vx[k], growth[k])
+
+    def _anticipate(self, t: int, o: int, f: int, boxes: dict[int, np.ndarray]) -> Anticipation | None:
+        h = self._hist.get(t)
+        if not h:
+            return None
+        oh = list(self._hist.get(o, ()))
+        if o in boxes and (not oh or oh[-1][0] != f):
+            oh.append((f, boxes[o]))  # the occluder's box now (a prediction if not visible)
+        if not oh:
+            return None
+        return anticipate(
+            np.array([p[0] for p in h]), np.array([p[1] for p in h]),
+            np.array([p[0] for p in oh]), np.array([p[1] for p in oh]), f,
+            fps=self.fps, track=t, occluder=o, image_size=self.image_size,
+            corridor=self.context.corridor, config=self.config.anticipation,
+        )
+
+    def _within(self, ms_name: str) -> list[_Frame]:
+        """Window frames at most ``#const ms_name`` milliseconds before now (now included)."""
+        now, reach = self._last_frame, self._consts[ms_name]
+        return [fr for fr in self._frames if (now - fr.frame) * self._frame_ms <= reach]
+
+    # -- candidates (trigger facts present) -------------------------------------------------------
+    def _candidates(self) -> dict[Situation, Any]:
+        """Per situation, the objects whose trigger facts are present now: a necessary condition
+        of the situation's rules (see situations.lp), so grounding only these is exact."""
+        now = self._frames[-1]
+        c = self._consts
+        cls = self._class
+        out: dict[Situation, Any] = {}
+        # HIDDEN_ENTITY: hidden participant with an anticipated reappearance in the corridor
+        out[Situation.HIDDEN_ENTITY] = {
+            (t, a.occluder) for t, a in self._anticip.items()
+            if a.in_corridor and (cls.get(t) in VEHICLES or cls.get(t) in PEOPLE)}
+        # REDUCED_VISIBILITY: in the corridor and large and visible, or hiding someone
+        occluders = set(now.hidden_by.values())
+        out[Situation.REDUCED_VISIBILITY] = {
+            t for t in now.in_corr
+            if t in occluders or (now.state.get(t) == TrackState.VISIBLE and now.area[t] >= c["rv_area"])}
+        # SUDDEN_STOP: a vehicle in the corridor, large enough, stopping now, or looming now after
+        # keeping its distance within ss_ms
+        sudden = set()
+        for t in now.in_corr:
+            m = now.motion.get(t, ())
+            if cls.get(t) not in VEHICLES or now.area[t] < c["ss_area"]:
+                continue
+            if "stopping" in m or ("looming" in m and any(
+                    fr.frame < now.frame and "keeping_distance" in fr.motion.get(t, ()) for fr in self._within("ss_ms"))):
+                sudden.add(t)
+        out[Situation.SUDDEN_STOP] = sudden
+        # BLOCKED_LANE: on a lane and stopped now
+        out[Situation.BLOCKED_LANE] = {t for t in now.on_lane if "stopped" in now.motion.get(t, ())}
+        # OVERTAKING: a vehicle pair whose depth order flipped within ov_ms
+        if now.closer:
+            earlier: set[tuple[int, int]] = set()
+            for fr in self._within("ov_ms"):
+                if fr.frame < now.frame:
+                    earlier |= fr.closer
+            out[Situation.OVERTAKING] = {(a, b) for (b, a) in now.closer if (a, b) in earlier}
+        # EXITING_VEHICLE: a person started within ev_ms (after the first frame), and a vehicle
+        # stood still in the window
+        start = self._seq_start if self._seq_start is not None else now.frame
+        persons = {(p, f0) for fr in self._frames for p, f0 in fr.person_starts
+                   if f0 > start and (now.frame - f0) * self._frame_ms <= c["ev_ms"]}
+        if persons:
+            parked = {t for fr in self._frames for t, m in fr.motion.items() if "stopped" in m and cls.get(t) in VEHICLES}
+            if parked:
+                out[Situation.EXITING_VEHICLE] = (persons, parked)
+        return out
+
+    # -- rendering facts ------------------------------------------------------------------------
+    def _render(self, cands: dict[Situation, Any] | None) -> str:
+        """Facts for the candidates of each situation, or (``None``) every fact of the window."""
+        now = self._frames[-1]
+        n = now.frame
+        out: list[str] = [f"now({n}).", f"frame_ms({self._frame_ms}).", f"seq_start({self._seq_start})."]
+        tracks: set[int] = set()
+        facts: set[str] = set()
+        add = facts.add
+
+        def ra(fr: _Frame, a: int, b: int) -> None:
+            key = (a, b) if a < b else (b, a)
+            c = fr.ra.get(key)
+            if c is not None:
+                add(f"ra({key[0]},{key[1]},{fr.frame},{IA_RELATIONS[c[0]]},{IA_RELATIONS[c[1]]}).")
+
+        def motion(fr: _Frame, t: int, kinds: Iterable[str] | None = None) -> None:
+            for k in fr.motion.get(t, ()):
+                if kinds is None or k in kinds:
+                    add(f"motion({t},{fr.frame},{k}).")
+
+        if cands is None:  # everything, every situation
+            for fr in self._frames:
+                f = fr.frame
+                tracks.update(fr.ids)
+                for t, s in fr.state.items():
+                    add(f"state({t},{f},{_STATE_NAMES[s]}).")
+                for t, o in fr.hidden_by.items():
+                    add(f"hidden_by({t},{o},{f}).")
+                for t in fr.in_corr:
+                    add(f"in_corridor({t},{f}).")
+                for t in fr.motion:
+                    motion(fr, t)
+                for a, b in fr.ra:
+                    ra(fr, a, b)
+                for e in fr.events:
+                    add(f"occurs_at({e.name}({','.join(map(str, e.args))}),{e.frame}).")
+                for t, lanes in fr.on_lane.items():
+                    for term in lanes:
+                        add(f"on_lane({t},{term},{f}).")
+                for t, s in fr.surface.items():
+                    add(f"surface({t},{f},{s}).")
+            for t, a in now.area.items():
+                add(f"area({t},{n},{a}).")
+            for term in now.lanes:
+                add(f"lane({term}).")
+            for t, a in self._anticip.items():
+                self._anticipation_facts(a, add)
+        else:
+            for t, o in cands.get(Situation.HIDDEN_ENTITY, ()):
+                tracks.add(t)
+                add(f"hidden_by({t},{o},{n}).")
+                self._anticipation_facts(self._anticip[t], add)
+            for o in cands.get(Situation.REDUCED_VISIBILITY, ()):
+                tracks.add(o)
+                add(f"in_corridor({o},{n}).")
+                add(f"state({o},{n},{_STATE_NAMES[now.state[o]]}).")
+                add(f"area({o},{n},{now.area[o]}).")
+                for t, occ in now.hidden_by.items():
+                    if occ == o:
+                        add(f"hidden_by({t},{o},{n}).")
+            for v in cands.get(Situation.SUDDEN_STOP, ()):
+                tracks.add(v)
+                add(f"in_corridor({v},{n}).")
+                add(f"area({v},{n},{now.area[v]}).")
+                for fr in self._within("ss_ms"):
+                    motion(fr, v, ("stopping", "looming", "keeping_distance"))
+            for t in cands.get(Situation.BLOCKED_LANE, ()):
+                tracks.add(t)
+                for term in now.lanes:
+                    add(f"lane({term}).")
+                for term in now.on_lane.get(t, ()):
+                    add(f"on_lane({t},{term},{n}).")
+                if t in now.surface:
+                    add(f"surface({t},{n},{now.surface[t]}).")
+                for fr in self._within("bl_ms"):
+                    motion(fr, t, ("stopped",))
+            for a, b in cands.get(Situation.OVERTAKING, ()):
+                tracks.update((a, b))
+                for fr in self._within("ov_ms"):
+                    ra(fr, a, b)
+                motion(now, b, ("approaching",))
+            if Situation.EXITING_VEHICLE in cands:
+                persons, parked = cands[Situation.EXITING_VEHICLE]
+                for p, f0 in persons:
+                    tracks.add(p)
+                    add(f"occurs_at(starts({p}),{f0}).")
+                    for v in parked:
+                        for fr in self._frames:
+                            if fr.frame >= f0:
+                                ra(fr, p, v)
+                for v in parked:
+                    tracks.add(v)
+                    for fr in self._frames:
+                        motion(fr, v, ("stopped",))
+        for t in sorted(tracks):
+            c = self._class.get(t, 0)
+            out.append(f"track({t},{asp_name(class_name(c))}).")
+            if c in VEHICLES:
+                out.append(f"vehicle({t}).")
+            elif c in PEOPLE:
+                out.append(f"person({t}).")
+        out.extend(sorted(facts))
+        return "\n".join(out) + "\n"
+
+    @staticmethod
+    def _anticipation_facts(a: Anticipation, add: Any) -> None:
+        x, y = int(round(a.position[0])), int(round(a.position[1]))
+        add(f"anticipated({a.track},{a.occluder},{a.reappear_frame},{x},{y}).")
+        if a.in_corridor:
+            add(f"anticipated_in_corridor({a.track},{a.occluder},{a.reappear_frame}).")
+
+    def _forget(self, f: int) -> None:
+        if f % self._window:
+            return
+        for t in [t for t, last in self._last_live.items() if f - last > self._window]:
+            for d in (self._hist, self._speed, self._class, self._last_live):
+                d.pop(t, None)
+        for key in [k for k, last in self._last_held.items() if f - last > self._rearm]:
+            del self._last_held[key]
+
+    # -- warnings -------------------------------------------------------------------------------
+    def _describe(self, t: int) -> str:
+        c = self._class.get(t)
+        return f"track {t} ({class_name(c)})" if c is not None else f"track {t}"
+
+    def _warning(self, f: int, d: SituationMatch) -> Warning:
+        s, objs, info = d.situation, d.objects, d.info
+        desc = self._describe
+        details: dict[str, Any] = {"classes": [class_name(self._class.get(t, 0)) for t in objs]}
+        for k, v in info.items():
+            details[k] = v[0] if len(v) == 1 else v
+        if s is Situation.OVERTAKING:
+            a, b = objs
+            msg = f"{desc(a)} is overtaking {desc(b)}"
+        elif s is Situation.HIDDEN_ENTITY:
+            t, o = objs
+            a = self._anticip[t]
+            details["anticipation"] = a.to_json()
+            details["lead_frames"], details["lead_s"] = a.lead_frames, round(a.lead_s, 3)
+            msg = (f"{desc(t)} is hidden behind {desc(o)} and may reappear in front of the ego vehicle "
+                   f"at frame {a.reappear_frame} (in {a.lead_frames} frames, {a.lead_s:.1f} s) at "
+                   f"x={a.position[0]:.0f}, y={a.position[1]:.0f} px")
+        elif s is Situation.REDUCED_VISIBILITY:
+            (o,) = objs
+            parts = []
+            if "area_permille" in details:
+                parts.append(f"it takes {details['area_permille'] / 10:.0f}% of the image")
+            hides = info.get("hides", [])
+            if hides:
+                parts.append("it hides " + ", ".join(desc(h) for h in hides))
+            msg = f"{desc(o)} in front of the ego vehicle reduces visibility" + (f" ({'; '.join(parts)})" if parts else "")
+        elif s is Situation.SUDDEN_STOP:
+            (v,) = objs
+            sp, vx, g = self._features.get(v, (0.0, 0.0, 0.0))
+            details.update({"speed_px_s": round(sp, 1), "vx_px_s": round(vx, 1), "growth_per_s": round(g, 3)})
+            if "stopping" in info.get("cause", []):
+                msg = f"{desc(v)} in front of the ego vehicle stops suddenly"
+            else:
+                details["ttc_s"] = round(1.0 / g, 2) if g > 0 else None
+                ttc = f" (time to contact about {1.0 / g:.1f} s)" if g > 0 else ""
+                msg = f"{desc(v)} in front of the ego vehicle brakes: the ego vehicle closes in fast{ttc}"
+        elif s is Situation.BLOCKED_LANE:
+            (t,) = objs
+            lanes = info.get("lane", [])
+            msg = f"lane {', '.join(str(x) for x in lanes) or '?'} is blocked by {desc(t)}, standing still"
+        else:  # EXITING_VEHICLE
+            p, v = objs
+            msg = f"{desc(p)} appeared next to {desc(v)}, which stands still: a person may be getting out"
+        return Warning(f, s.name, tuple(int(o) for o in objs), msg, details)

@@ -1,0 +1,282 @@
+"""Safety-critical situations (Table 3 of the paper) as ASP rules, and the warnings they raise.
+
+The rules live in ``encodings/situations.lp`` (one ``#program`` part per situation, parameters as
+``#const``); :class:`~sensemaking.reasoning.online.SituationMonitor` builds a small fact set from
+the last few frames and calls :func:`solve_window` on a fresh clingo Control each frame.
+
+=================== ================ =====================================================
+situation           objects          holds when
+=================== ================ =====================================================
+OVERTAKING          vehicle, vehicle A was nearer than B a moment ago, is farther now, side by side
+HIDDEN_ENTITY       entity, occluder a hidden road user may reappear in the ego corridor soon
+REDUCED_VISIBILITY  object           an object in front takes much of the view, or hides others
+SUDDEN_STOP         vehicle          a vehicle in front stops suddenly or looms
+BLOCKED_LANE        object           an object stands still on a lane (needs lanes)
+EXITING_VEHICLE     person, vehicle  a person appears touching a vehicle that stands still
+=================== ================ =====================================================
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from enum import Enum
+from functools import lru_cache
+from importlib import resources
+from typing import Any
+
+import clingo
+from clingo import ast as clingo_ast
+
+from sensemaking.reasoning.anticipation import AnticipationConfig
+from sensemaking.reasoning.relations import MotionThresholds, RelationConfig
+
+__all__ = ["Situation", "Warning", "SituationWarning", "SituationConfig", "SituationMatch", "situation_constants",
+           "solve_window", "encoding_text", "ALL_SITUATIONS"]
+
+log = logging.getLogger(__name__)
+
+
+class Situation(str, Enum):
+    """The situations of Table 3; ``value`` is the ASP name and the program part."""
+
+    OVERTAKING = "overtaking"
+    HIDDEN_ENTITY = "hidden_entity"
+    REDUCED_VISIBILITY = "reduced_visibility"
+    SUDDEN_STOP = "sudden_stop"
+    BLOCKED_LANE = "blocked_lane"
+    EXITING_VEHICLE = "exiting_vehicle"
+
+    @classmethod
+    def parse(cls, name: str) -> Situation:
+        """From ``"HIDDEN_ENTITY"``, ``"hidden_entity"`` or ``"hidden-entity"``. Raises ValueError."""
+        key = str(name).strip().lower().replace("-", "_")
+        for s in cls:
+            if s.value == key:
+                return s
+        raise ValueError(f"unknown situation {name!r} (one of {', '.join(s.name for s in cls)})")
+
+
+#: every situation, by upper-case name
+ALL_SITUATIONS: frozenset[str] = frozenset(s.name for s in Situation)
+
+
+@dataclass(frozen=True)
+class Warning:  # noqa: A001 - the name the API promises; SituationWarning is an alias
+    """A safety-critical situation detected at ``frame``.
+
+    Attributes:
+        frame: the frame at which it was detected.
+        situation: upper-case name (``"HIDDEN_ENTITY"``, ...).
+        objects: the track ids involved, in the order of Table 3 (e.g. hidden entity, occluder);
+            empty for a note that the situation was skipped.
+        message: one readable sentence.
+        details: JSON-able extras (anticipated frame and position, lane, cause; ``"skipped"``
+            with the reason when the situation could not be checked).
+    """
+
+    frame: int
+    situation: str
+    objects: tuple[int, ...]
+    message: str
+    details: dict[str, Any] = field(default_factory=dict, hash=False, compare=False)
+
+    def to_json(self) -> dict[str, Any]:
+        """The JSON-lines record ``{"frame", "situation", "objects", "message", "details"}``."""
+        return {"frame": int(self.frame), "situation": self.situation, "objects": [int(o) for o in self.objects],
+                "message": self.message, "details": self.details}
+
+    @classmethod
+    def from_json(cls, record: Mapping[str, Any]) -> Warning:
+        return cls(int(record["frame"]), str(record["situation"]), tuple(int(o) for o in record["objects"]),
+                   str(record["message"]), dict(record.get("details") or {}))
+
+    def __str__(self) -> str:
+        return f"[{self.frame}] {self.situation}: {self.message}"
+
+
+SituationWarning = Warning
+
+
+@lru_cache(maxsize=None)
+def encoding_text(name: str) -> str:
+    """Text of an encoding shipped in ``sensemaking/reasoning/encodings`` (e.g. ``"situations.lp"``)."""
+    return resources.files("sensemaking.reasoning").joinpath("encodings", name).read_text(encoding="utf-8")
+
+
+#: situations whose rules use the rectangle relations of relations.lp
+_USES_RELATIONS = frozenset({"overtaking", "exiting_vehicle"})
+
+
+@lru_cache(maxsize=1)
+def _parts() -> tuple[dict[str, list[Any]], dict[str, int]]:
+    """Parsed statements by program part (``relations`` holds relations.lp) and the #const
+    defaults. Comments and ``#defined`` directives are dropped (the latter only silence
+    warnings, which are off)."""
+    parts: dict[str, list[Any]] = {}
+    consts: dict[str, int] = {}
+    for name, first in (("relations.lp", "relations"), ("situations.lp", "base")):
+        current = [first]
+
+        def collect(stmt: Any) -> None:
+            kind = stmt.ast_type
+            if kind in (clingo_ast.ASTType.Defined, clingo_ast.ASTType.Comment):
+                return
+            if kind == clingo_ast.ASTType.Program:
+                if first == "relations":
+                    return  # relations.lp is grounded as part of base
+                current[0] = stmt.name
+            elif kind == clingo_ast.ASTType.Definition:
+                consts[stmt.name] = int(stmt.value.symbol.number)
+            parts.setdefault(current[0], []).append(stmt)
+
+        clingo_ast.parse_string(encoding_text(name), collect)
+    return parts, consts
+
+
+class _Substitute(clingo_ast.Transformer):
+    """Replaces constants by their values (what ``#const`` does at parse time)."""
+
+    def __init__(self, values: Mapping[str, int]):
+        self.values = values
+
+    def visit_SymbolicTerm(self, node: Any) -> Any:  # noqa: N802 - clingo's visitor naming
+        sym = node.symbol
+        if sym.type == clingo.SymbolType.Function and not sym.arguments and sym.name in self.values:
+            return clingo_ast.SymbolicTerm(node.location, clingo.Number(self.values[sym.name]))
+        return node
+
+
+@lru_cache(maxsize=8)
+def _program(constants: tuple[tuple[str, int], ...]) -> dict[str, list[Any]]:
+    """The statements by part with the #const values substituted (and the definitions dropped):
+    fewer statements to add and ground on every Control."""
+    parts, _ = _parts()
+    sub = _Substitute(dict(constants))
+    return {name: [sub(s) for s in stmts if s.ast_type != clingo_ast.ASTType.Definition]
+            for name, stmts in parts.items()}
+
+
+@lru_cache(maxsize=1)
+def _BASE_PROGRAM() -> Any:  # noqa: N802 - a cached AST node
+    """A ``#program base.`` statement (relations.lp is added to base after the parts)."""
+    stmts: list[Any] = []
+    clingo_ast.parse_string("#program base.", stmts.append)
+    return stmts[-1]
+
+
+def situation_constants(overrides: Mapping[str, int] | None = None) -> dict[str, int]:
+    """The ``#const`` parameters of situations.lp with ``overrides`` applied. Raises ValueError
+    for unknown names or non-integer values."""
+    consts = dict(_parts()[1])
+    for k, v in (overrides or {}).items():
+        if k not in consts:
+            raise ValueError(f"unknown situation parameter {k!r} (one of {', '.join(sorted(consts))})")
+        if isinstance(v, bool) or int(v) != v:
+            raise ValueError(f"situation parameter {k} must be an integer, got {v!r}")
+        consts[k] = int(v)
+    return consts
+
+
+@dataclass(frozen=True)
+class SituationConfig:
+    """Parameters of online situation detection.
+
+    Attributes:
+        situations: upper-case names of the situations to detect (default: all six).
+        constants: overrides of the ``#const`` parameters of situations.lp (integers; see
+            :func:`situation_constants` for names and defaults).
+        window_s: seconds of recent frames given to the solver; extended as needed to cover
+            the duration parameters (``*_ms``).
+        rearm_s: a warning is issued when its situation starts; it is issued again only after
+            the situation has not held for this long (seconds).
+        prefilter: skip the solver for a situation whose trigger facts are absent (a necessary
+            condition of its rules; results are the same, only faster).
+        motion, relations, anticipation: see their classes.
+    """
+
+    situations: frozenset[str] = ALL_SITUATIONS
+    constants: Mapping[str, int] = field(default_factory=dict)
+    window_s: float = 1.0
+    rearm_s: float = 1.0
+    prefilter: bool = True
+    motion: MotionThresholds = field(default_factory=MotionThresholds)
+    relations: RelationConfig = field(default_factory=RelationConfig)
+    anticipation: AnticipationConfig = field(default_factory=AnticipationConfig)
+
+    def __post_init__(self) -> None:
+        names = frozenset(Situation.parse(s).name for s in self.situations)
+        object.__setattr__(self, "situations", names)
+        object.__setattr__(self, "constants", dict(self.constants))
+        situation_constants(self.constants)  # validates
+        if self.window_s <= 0 or self.rearm_s < 0:
+            raise ValueError("window_s must be positive and rearm_s >= 0")
+
+    def window_frames(self, fps: float) -> int:
+        """Frames in the window at ``fps``: ``window_s`` or the longest ``*_ms`` parameter, + 1."""
+        consts = situation_constants(self.constants)
+        longest = max([self.window_s * 1000.0] + [v for k, v in consts.items() if k.endswith("_ms") and k != "he_lead_ms"])
+        return int(-(-longest * fps // 1000)) + 1
+
+
+@dataclass(frozen=True)
+class SituationMatch:
+    """One ``warn/2`` answer of the solver with its ``info/4`` details."""
+
+    situation: Situation
+    objects: tuple[int, ...]
+    info: dict[str, list[Any]]
+
+
+def _value(sym: clingo.Symbol) -> Any:
+    if sym.type == clingo.SymbolType.Number:
+        return sym.number
+    if sym.type == clingo.SymbolType.String:
+        return sym.string
+    return str(sym)
+
+
+def solve_window(facts: str, situations: Iterable[Situation | str],
+                 constants: Mapping[str, int] | None = None) -> list[SituationMatch]:
+    """Ground base plus the parts of ``situations`` with ``facts`` on a fresh Control and return
+    the detections, sorted. ``constants`` override #const parameters (same effect as clingo's
+    ``-c name=value``; the values are substituted into the cached program)."""
+    parts_wanted = [Situation.parse(s.value if isinstance(s, Situation) else s) for s in situations]
+    if not parts_wanted:
+        return []
+    parts = _program(tuple(sorted(situation_constants(constants).items())))
+    ctl = clingo.Control(["--warn=none"])
+    names = [s.value for s in parts_wanted]
+    with clingo_ast.ProgramBuilder(ctl) as builder:
+        for name in ["base"] + names:
+            for stmt in parts.get(name, []):
+                builder.add(stmt)
+        if _USES_RELATIONS.intersection(names):
+            builder.add(_BASE_PROGRAM())
+            for stmt in parts["relations"]:
+                builder.add(stmt)
+    ctl.add("base", [], facts)
+    ctl.ground([("base", [])] + [(s.value, []) for s in parts_wanted])
+    warns: dict[tuple[Situation, tuple[int, ...]], dict[str, list[Any]]] = {}
+    infos: list[clingo.Symbol] = []
+
+    def on_model(model: clingo.Model) -> None:
+        warns.clear()
+        infos.clear()
+        for sym in model.symbols(shown=True):
+            if sym.name == "warn":
+                s = Situation(sym.arguments[0].name)
+                objs = tuple(a.number for a in sym.arguments[1].arguments)
+                warns[(s, objs)] = {}
+            elif sym.name == "info":
+                infos.append(sym)
+
+    ctl.solve(on_model=on_model)
+    for sym in infos:
+        key = (Situation(sym.arguments[0].name), tuple(a.number for a in sym.arguments[1].arguments))
+        if key in warns:
+            warns[key].setdefault(sym.arguments[2].name, []).append(_value(sym.arguments[3]))
+    out = [SituationMatch(s, objs, {k: sorted(v, key=str) for k, v in info.items()}) for (s, objs), info in warns.items()]
+    out.sort(key=lambda d: (list(Situation).index(d.situation), d.objects))
+    return out

@@ -1,0 +1,525 @@
+"""The scene model: what happened in a sequence, built online from the tracker's frame results.
+
+``SceneRecorder.add(result)`` once per frame (cheap: it only keeps the frame's arrays);
+``recorder.scene()`` gives a :class:`Scene`: every track's boxes and states per frame, the event
+log, and the fluents ``in_fov``, ``hidden_by`` and ``visibility`` as intervals. A scene is
+saved as JSON (``Scene.save`` / ``Scene.load``) and turned into ASP facts for question answering
+(``Scene.to_facts``; the predicates are documented in ``reasoning/encodings/scene.lp``).
+
+Scene JSON (``"format": "sensemaking.scene"``, ``"version": 1``)::
+
+    {"format": "sensemaking.scene", "version": 1,
+     "fps": 10.0, "image_size": [1242, 375],          # image_size may be null
+     "frames": [0, 153],                              # first and last frame recorded
+     "frame_numbers": [...],                          # only when frames are not contiguous
+     "metadata": {...},                               # free-form (source file, tracker config)
+     "tracks": [{"id": 3, "class": "car", "class_id": 3,
+                 "frames": [0, 1, ...],               # frames the track was live, increasing
+                 "boxes": [[x1, y1, x2, y2], ...],    # pixels; predictions while not visible
+                 "confidence": [...],
+                 "state": ["visible" | "hidden" | "missing", ...],
+                 "occluder": [-1 | track id, ...],
+                 "visibility": ["fully_visible" | "partially_occluded" | "fully_occluded", ...],
+                 "hidden_frames": [...]}],            # frames since last matched
+     "events": [{"frame": 12, "event": "hides_behind", "args": [7, 3]}, ...]}
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass
+from functools import cached_property
+from os import PathLike
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from sensemaking.classes import class_name
+from sensemaking.detections import Detections
+from sensemaking.errors import InputError
+from sensemaking.io.atomic import atomic_write
+from sensemaking.results import Event, FrameResult, TrackState, Visibility
+
+if TYPE_CHECKING:  # pragma: no cover
+    from sensemaking.reasoning.context import SceneContext
+    from sensemaking.reasoning.relations import MotionThresholds, RelationConfig
+
+__all__ = ["Track", "FluentInterval", "Scene", "SceneRecorder", "SCENE_FORMAT", "SCENE_VERSION"]
+
+SCENE_FORMAT = "sensemaking.scene"
+SCENE_VERSION = 1
+_STATES = tuple(s.name.lower() for s in TrackState)  # index = TrackState value
+_VISIBILITY = tuple(v.asp for v in Visibility)
+
+
+@dataclass(frozen=True, eq=False)
+class Track:
+    """One track over the scene: arrays of length K, one entry per frame it was live.
+
+    Attributes:
+        id: track id. class_id: :mod:`sensemaking.classes` id.
+        frames: (K,) int64 increasing frame numbers.
+        xyxy: (K, 4) float64 boxes in pixels (Kalman prediction while hidden or missing).
+        confidence: (K,) float64. state: (K,) int8 :class:`TrackState`.
+        occluder: (K,) int64 occluding track id or -1. visibility: (K,) int8 :class:`Visibility`.
+        hidden_frames: (K,) int64 frames since the track was last matched.
+    """
+
+    id: int
+    class_id: int
+    frames: np.ndarray
+    xyxy: np.ndarray
+    confidence: np.ndarray
+    state: np.ndarray
+    occluder: np.ndarray
+    visibility: np.ndarray
+    hidden_frames: np.ndarray
+
+    @property
+    def first(self) -> int:
+        return int(self.frames[0])
+
+    @property
+    def last(self) -> int:
+        return int(self.frames[-1])
+
+    @property
+    def class_name(self) -> str:
+        return class_name(self.class_id)
+
+    def index(self, frame: int) -> int | None:
+        """Position of ``frame`` in the arrays, or None when the track was not live then."""
+        i = int(np.searchsorted(self.frames, frame))
+        return i if i < self.frames.shape[0] and self.frames[i] == frame else None
+
+    def visible_mask(self) -> np.ndarray:
+        """(K,) bool: frames where the track was matched to a detection."""
+        return self.state == TrackState.VISIBLE
+
+    def __len__(self) -> int:
+        return int(self.frames.shape[0])
+
+
+@dataclass(frozen=True, order=True)
+class FluentInterval:
+    """A fluent holding a value over frames ``start..end`` (inclusive).
+
+    ``fluent`` is ``in_fov`` (args ``(T,)``, value ``true``), ``hidden_by`` (args ``(T, O)``,
+    value ``true``) or ``visibility`` (args ``(T,)``, value a :class:`Visibility` name).
+    Outside its ``in_fov`` intervals a track's ``in_fov`` is false; ``hidden_by`` is false
+    outside the listed intervals.
+    """
+
+    start: int
+    end: int
+    fluent: str
+    args: tuple[int, ...]
+    value: str
+
+    def asp(self) -> str:
+        """The fact ``holds_during(Fluent(Args), Value, Start, End).``"""
+        return f"holds_during({self.fluent}({','.join(map(str, self.args))}),{self.value},{self.start},{self.end})."
+
+    def to_json(self) -> dict[str, Any]:
+        return {"fluent": self.fluent, "args": list(self.args), "value": self.value,
+                "start": self.start, "end": self.end}
+
+
+def _runs(pos: np.ndarray, key: np.ndarray) -> list[tuple[int, int]]:
+    """(first, last) index ranges where ``pos`` (scene frame positions) is consecutive and ``key`` constant."""
+    if pos.shape[0] == 0:
+        return []
+    brk = (np.diff(pos) != 1) | (np.diff(key) != 0)
+    starts = np.concatenate([[0], np.flatnonzero(brk) + 1])
+    ends = np.concatenate([starts[1:] - 1, [pos.shape[0] - 1]])
+    return list(zip(starts.tolist(), ends.tolist()))
+
+
+class Scene:
+    """A recorded scene: tracks, events and fluents; see the module docstring.
+
+    Args:
+        tracks: track id -> :class:`Track`.
+        events: the event log (sorted on construction).
+        frames: (F,) the frame numbers recorded, increasing (frames without tracks included).
+        fps: frames per second. image_size: ``(width, height)`` pixels, or None if unknown.
+        metadata: free-form JSON-able information (source, tracker parameters).
+    """
+
+    def __init__(self, tracks: Mapping[int, Track], events: Sequence[Event], frames: Sequence[int] | np.ndarray,
+                 fps: float = 10.0, image_size: tuple[int, int] | None = None,
+                 metadata: Mapping[str, Any] | None = None):
+        if fps <= 0:
+            raise ValueError(f"fps must be positive, got {fps}")
+        self.tracks: dict[int, Track] = dict(sorted(tracks.items()))
+        self.events: list[Event] = sorted(events)
+        fr = np.unique(np.asarray(frames, dtype=np.int64))
+        if fr.size == 0 and self.tracks:
+            fr = np.unique(np.concatenate([t.frames for t in self.tracks.values()]))
+        self.frame_numbers: np.ndarray = fr
+        self.fps = float(fps)
+        self.image_size = None if image_size is None else (int(image_size[0]), int(image_size[1]))
+        self.metadata: dict[str, Any] = dict(metadata or {})
+
+    # -- basic access ---------------------------------------------------------------------------
+    @property
+    def first_frame(self) -> int | None:
+        return int(self.frame_numbers[0]) if self.frame_numbers.size else None
+
+    @property
+    def last_frame(self) -> int | None:
+        return int(self.frame_numbers[-1]) if self.frame_numbers.size else None
+
+    def __contains__(self, track_id: object) -> bool:
+        return isinstance(track_id, (int, np.integer)) and int(track_id) in self.tracks
+
+    def __len__(self) -> int:
+        return int(self.frame_numbers.size)
+
+    def __repr__(self) -> str:
+        span = "empty" if not len(self) else f"frames {self.first_frame}-{self.last_frame}"
+        return f"Scene({span}, {len(self.tracks)} tracks, {len(self.events)} events)"
+
+    def describe(self, track_id: int) -> str:
+        """``"track 7 (cyclist)"``, or ``"track 7"`` when it is not in the scene."""
+        t = self.tracks.get(int(track_id))
+        return f"track {track_id} ({t.class_name})" if t else f"track {track_id}"
+
+    def events_of(self, track_id: int) -> list[Event]:
+        """Events that involve ``track_id`` (as any argument), in order."""
+        return [e for e in self.events if track_id in e.args]
+
+    def seconds(self, frames: float) -> float:
+        """A frame count in seconds."""
+        return float(frames) / self.fps
+
+    # -- fluents --------------------------------------------------------------------------------
+    @cached_property
+    def fluents(self) -> list[FluentInterval]:
+        """Every fluent interval, sorted by start frame (see :class:`FluentInterval`)."""
+        out: list[FluentInterval] = []
+        for t in self.tracks.values():
+            pos = np.searchsorted(self.frame_numbers, t.frames)
+            fr = t.frames
+            for a, b in _runs(pos, np.zeros_like(pos)):
+                out.append(FluentInterval(int(fr[a]), int(fr[b]), "in_fov", (t.id,), "true"))
+            hid = np.flatnonzero(t.state == TrackState.HIDDEN)
+            for a, b in _runs(pos[hid], t.occluder[hid]):
+                occ = int(t.occluder[hid[a]])
+                if occ >= 0:
+                    out.append(FluentInterval(int(fr[hid[a]]), int(fr[hid[b]]), "hidden_by", (t.id, occ), "true"))
+            for a, b in _runs(pos, t.visibility.astype(np.int64)):
+                out.append(FluentInterval(int(fr[a]), int(fr[b]), "visibility", (t.id,),
+                                          _VISIBILITY[int(t.visibility[a])]))
+        out.sort()
+        return out
+
+    def fluent_intervals(self, fluent: str | None = None, track_id: int | None = None) -> list[FluentInterval]:
+        """Fluent intervals of one kind and/or with ``track_id`` as first argument."""
+        return [f for f in self.fluents if (fluent is None or f.fluent == fluent)
+                and (track_id is None or f.args[0] == track_id)]
+
+    # -- replay ---------------------------------------------------------------------------------
+    def frame_results(self) -> Iterator[FrameResult]:
+        """The recorded frames again, as :class:`FrameResult` (e.g. to run a monitor offline)."""
+        rows = self._rows()
+        by_frame: dict[int, list[Event]] = {}
+        for e in self.events:
+            by_frame.setdefault(e.frame, []).append(e)
+        order = np.argsort(rows["frame"], kind="stable")
+        frames_sorted = rows["frame"][order]
+        for f in self.frame_numbers.tolist():
+            lo, hi = np.searchsorted(frames_sorted, [f, f + 1])
+            idx = order[lo:hi]
+            tracks = Detections(
+                xyxy=rows["xyxy"][idx], confidence=rows["confidence"][idx], class_id=rows["class_id"][idx],
+                tracker_id=rows["track"][idx], frame=rows["frame"][idx],
+                data={"state": rows["state"][idx].astype(np.int64), "occluder": rows["occluder"][idx],
+                      "visibility": rows["visibility"][idx].astype(np.int64),
+                      "hidden_frames": rows["hidden_frames"][idx]},
+            )
+            yield FrameResult(frame=int(f), tracks=tracks, events=sorted(by_frame.get(f, [])))
+
+    def _rows(self) -> dict[str, np.ndarray]:
+        ts = list(self.tracks.values())
+        if not ts:
+            z = np.zeros(0, dtype=np.int64)
+            return {"frame": z, "track": z, "class_id": z, "xyxy": np.zeros((0, 4)), "confidence": np.zeros(0),
+                    "state": z, "occluder": z, "visibility": z, "hidden_frames": z}
+        return {
+            "frame": np.concatenate([t.frames for t in ts]),
+            "track": np.concatenate([np.full(len(t), t.id, dtype=np.int64) for t in ts]),
+            "class_id": np.concatenate([np.full(len(t), t.class_id, dtype=np.int64) for t in ts]),
+            "xyxy": np.concatenate([t.xyxy for t in ts]),
+            "confidence": np.concatenate([t.confidence for t in ts]),
+            "state": np.concatenate([t.state for t in ts]),
+            "occluder": np.concatenate([t.occluder for t in ts]),
+            "visibility": np.concatenate([t.visibility for t in ts]),
+            "hidden_frames": np.concatenate([t.hidden_frames for t in ts]),
+        }
+
+    # -- ASP facts ------------------------------------------------------------------------------
+    def to_facts(self, *, boxes: bool = True, states: bool = True, relations: bool = True, motion: bool = True,
+                 corridor: bool = True, context: SceneContext | None = None,
+                 relation_config: RelationConfig | None = None,
+                 motion_thresholds: MotionThresholds | None = None) -> str:
+        """The scene as ASP facts (predicates documented in ``reasoning/encodings/scene.lp``).
+
+        Args:
+            boxes: ``box/6`` per track and frame.
+            states: ``state/3`` per track and frame.
+            relations: ``ra/5`` rectangle relations of near pairs per frame.
+            motion: ``motion/3`` qualitative motion of visible boxes.
+            corridor: ``in_corridor/2`` (needs ``image_size``; uses ``context.corridor``).
+            context: :class:`~sensemaking.reasoning.context.SceneContext` (corridor, lanes);
+                default: the default corridor, no lanes.
+            relation_config, motion_thresholds: see :mod:`sensemaking.reasoning.relations`.
+        """
+        from sensemaking.reasoning.context import SceneContext
+        from sensemaking.reasoning.relations import (
+            MotionThresholds, RelationConfig, motion_facts, pair_relations, relation_facts, track_motion,
+        )
+
+        ctx = context or SceneContext()
+        out: list[str] = []
+        fr = self.frame_numbers
+        if fr.size:
+            out.append(f"scene_frames({int(fr[0])},{int(fr[-1])}).")
+            if fr.size == int(fr[-1] - fr[0]) + 1:
+                out.append(f"frame({int(fr[0])}..{int(fr[-1])}).")
+            else:
+                out.extend(f"frame({f})." for f in fr.tolist())
+        out.append(f"fps({int(round(self.fps))}).")
+        if self.image_size is not None:
+            out.append(f"image({self.image_size[0]},{self.image_size[1]}).")
+        for t in self.tracks.values():
+            out.append(f"track({t.id},{t.class_name}). first_frame({t.id},{t.first}). last_frame({t.id},{t.last}).")
+        if boxes:
+            for t in self.tracks.values():
+                b = np.rint(t.xyxy).astype(np.int64)
+                out.extend(f"box({t.id},{f},{x1},{y1},{x2},{y2})." for f, (x1, y1, x2, y2) in zip(t.frames.tolist(), b.tolist()))
+        if states:
+            for t in self.tracks.values():
+                out.extend(f"state({t.id},{f},{_STATES[s]})." for f, s in zip(t.frames.tolist(), t.state.tolist()))
+        out.extend(f"occurs_at({e.name}({','.join(map(str, e.args))}),{e.frame})." for e in self.events)
+        out.extend(f.asp() for f in self.fluents)
+        rows = self._rows() if (relations or corridor) else None
+        if corridor and self.image_size is not None and rows is not None and rows["frame"].size:
+            inside = ctx.corridor.contains_boxes(rows["xyxy"], self.image_size)
+            out.extend(f"in_corridor({t},{f})." for t, f in
+                       zip(rows["track"][inside].tolist(), rows["frame"][inside].tolist()))
+        if relations and rows is not None and rows["frame"].size:
+            rc = relation_config or RelationConfig()
+            order = np.argsort(rows["frame"], kind="stable")
+            fs = rows["frame"][order]
+            cuts = np.flatnonzero(np.diff(fs)) + 1
+            for chunk in np.split(order, cuts):
+                if chunk.size < 2:
+                    continue
+                pairs, codes = pair_relations(rows["xyxy"][chunk], rc)
+                out.extend(relation_facts(int(rows["frame"][chunk[0]]), rows["track"][chunk], pairs, codes))
+        if motion:
+            mt = motion_thresholds or MotionThresholds()
+            for t in self.tracks.values():
+                vis = t.visible_mask()
+                frames, kinds, _ = track_motion(t.frames[vis], t.xyxy[vis], self.fps, mt)
+                for f, k in zip(frames.tolist(), kinds):
+                    out.extend(motion_facts(f, np.array([t.id]), k[None, :]))
+        return "\n".join(out) + "\n"
+
+    # -- JSON -----------------------------------------------------------------------------------
+    def to_json(self) -> dict[str, Any]:
+        """The scene as a JSON-able dict (format in the module docstring)."""
+        fr = self.frame_numbers
+        record: dict[str, Any] = {
+            "format": SCENE_FORMAT, "version": SCENE_VERSION, "fps": self.fps,
+            "image_size": None if self.image_size is None else list(self.image_size),
+            "frames": [int(fr[0]), int(fr[-1])] if fr.size else [],
+        }
+        if fr.size and fr.size != int(fr[-1] - fr[0]) + 1:
+            record["frame_numbers"] = fr.tolist()
+        record["metadata"] = self.metadata
+        record["tracks"] = [
+            {
+                "id": t.id, "class": t.class_name, "class_id": t.class_id, "frames": t.frames.tolist(),
+                "boxes": np.round(t.xyxy, 2).tolist(), "confidence": np.round(t.confidence, 4).tolist(),
+                "state": [_STATES[s] for s in t.state.tolist()], "occluder": t.occluder.tolist(),
+                "visibility": [_VISIBILITY[v] for v in t.visibility.tolist()],
+                "hidden_frames": t.hidden_frames.tolist(),
+            }
+            for t in self.tracks.values()
+        ]
+        record["events"] = [e.to_json() for e in self.events]
+        return record
+
+    @classmethod
+    def from_json(cls, record: Any, path: str | PathLike[str] | None = None) -> Scene:
+        """Build from :meth:`to_json` output. Raises InputError naming ``path`` on bad input."""
+        where = None if path is None else str(path)
+        if not isinstance(record, Mapping) or record.get("format") != SCENE_FORMAT:
+            raise InputError(f"not a scene file (expected \"format\": \"{SCENE_FORMAT}\"; "
+                             "write one with `sensemaking track --scene PATH`)", where)
+        if int(record.get("version", 0)) > SCENE_VERSION:
+            raise InputError(f"scene format version {record.get('version')} is newer than this "
+                             f"sensemaking reads ({SCENE_VERSION})", where)
+        try:
+            tracks: dict[int, Track] = {}
+            for i, r in enumerate(record.get("tracks", [])):
+                tracks[int(r["id"])] = _track_from_json(r, i, where)
+            events = [Event.from_json(e) for e in record.get("events", [])]
+            if "frame_numbers" in record:
+                frames = np.asarray(record["frame_numbers"], dtype=np.int64)
+            elif record.get("frames"):
+                f0, f1 = (int(v) for v in record["frames"])
+                frames = np.arange(f0, f1 + 1, dtype=np.int64)
+            else:
+                frames = np.zeros(0, dtype=np.int64)
+            size = record.get("image_size")
+            return cls(tracks, events, frames, fps=float(record.get("fps", 10.0)),
+                       image_size=None if size is None else (int(size[0]), int(size[1])),
+                       metadata=record.get("metadata") or {})
+        except InputError:
+            raise
+        except (KeyError, TypeError, ValueError, IndexError) as exc:
+            raise InputError(f"malformed scene: {type(exc).__name__}: {exc}", where) from None
+
+    def save(self, path: str | PathLike[str]) -> None:
+        """Write the scene JSON atomically (a failed write leaves no partial file)."""
+        with atomic_write(path) as fh:
+            json.dump(self.to_json(), fh, separators=(",", ":"))
+            fh.write("\n")
+
+    @classmethod
+    def load(cls, path: str | PathLike[str]) -> Scene:
+        """Read a scene JSON file. Raises InputError naming the file (and line, for bad JSON)."""
+        p = Path(path)
+        try:
+            text = p.read_text(encoding="utf-8")
+        except FileNotFoundError:
+            raise InputError("scene file not found", p) from None
+        except (IsADirectoryError, UnicodeDecodeError) as exc:
+            raise InputError(f"cannot read scene file: {exc}", p) from None
+        try:
+            record = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise InputError(f"not valid JSON: {exc.msg}", p, exc.lineno) from None
+        return cls.from_json(record, p)
+
+
+def _track_from_json(r: Mapping[str, Any], i: int, where: str | None) -> Track:
+    frames = np.asarray(r["frames"], dtype=np.int64)
+    k = frames.shape[0]
+    if k == 0 or np.any(np.diff(frames) <= 0):
+        raise InputError(f"tracks[{i}]: 'frames' must be non-empty and increasing", where)
+    xyxy = np.asarray(r["boxes"], dtype=np.float64).reshape(-1, 4)
+
+    def col(name: str, default: Any, conv: Any = None) -> np.ndarray:
+        v = r.get(name)
+        if v is None:
+            return np.full(k, default)
+        arr = np.asarray([conv(x) for x in v] if conv else v)
+        if arr.shape[0] != k:
+            raise InputError(f"tracks[{i}]: '{name}' has {arr.shape[0]} entries for {k} frames", where)
+        return arr
+
+    if xyxy.shape[0] != k:
+        raise InputError(f"tracks[{i}]: 'boxes' has {xyxy.shape[0]} entries for {k} frames", where)
+
+    def enum(names: tuple[str, ...], what: str):
+        def conv(x: Any) -> int:
+            if isinstance(x, str):
+                if x not in names:
+                    raise InputError(f"tracks[{i}]: unknown {what} {x!r} (one of {', '.join(names)})", where)
+                return names.index(x)
+            return int(x)
+        return conv
+
+    cid = int(r.get("class_id", 0)) if "class_id" in r else _class_from_name(r.get("class"))
+    return Track(
+        id=int(r["id"]), class_id=cid, frames=frames, xyxy=xyxy,
+        confidence=col("confidence", 1.0).astype(np.float64),
+        state=col("state", 0, enum(_STATES, "state")).astype(np.int8),
+        occluder=col("occluder", -1).astype(np.int64),
+        visibility=col("visibility", 0, enum(_VISIBILITY, "visibility")).astype(np.int8),
+        hidden_frames=col("hidden_frames", 0).astype(np.int64),
+    )
+
+
+def _class_from_name(name: Any) -> int:
+    from sensemaking.classes import class_id
+
+    try:
+        return class_id(str(name)) if name is not None else 0
+    except KeyError:
+        return 0
+
+
+class SceneRecorder:
+    """Collects frame results online into a :class:`Scene`.
+
+    ``add(result)`` costs a few array copies per frame; the scene is assembled on demand.
+
+    Args:
+        fps: frames per second of the sequence. image_size: ``(width, height)`` pixels or None.
+        metadata: free-form JSON-able information stored with the scene.
+    """
+
+    def __init__(self, fps: float = 10.0, image_size: tuple[int, int] | None = None,
+                 metadata: Mapping[str, Any] | None = None):
+        if fps <= 0:
+            raise ValueError(f"fps must be positive, got {fps}")
+        self.fps = float(fps)
+        self.image_size = image_size
+        self.metadata = dict(metadata or {})
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget everything recorded."""
+        self._frames: list[int] = []
+        self._parts: list[tuple[np.ndarray, ...]] = []
+        self._events: list[Event] = []
+
+    def __len__(self) -> int:
+        return len(self._frames)
+
+    def add(self, result: FrameResult) -> None:
+        """Record one frame (frames must increase)."""
+        f = int(result.frame)
+        if self._frames and f <= self._frames[-1]:
+            raise ValueError(f"frames must increase: got frame {f} after {self._frames[-1]}")
+        self._frames.append(f)
+        tr = result.tracks
+        n = len(tr)
+        if n:
+            d = tr.data
+            self._parts.append((
+                np.full(n, f, dtype=np.int64), tr.tracker_id.copy(), tr.class_id.copy(), tr.xyxy.copy(),
+                tr.confidence.copy(),
+                np.asarray(d.get("state", np.zeros(n)), dtype=np.int8).copy(),
+                np.asarray(d.get("occluder", np.full(n, -1)), dtype=np.int64).copy(),
+                np.asarray(d.get("visibility", np.zeros(n)), dtype=np.int8).copy(),
+                np.asarray(d.get("hidden_frames", np.zeros(n)), dtype=np.int64).copy(),
+            ))
+        self._events.extend(result.events)
+
+    def scene(self) -> Scene:
+        """The scene recorded so far."""
+        tracks: dict[int, Track] = {}
+        if self._parts:
+            cols = [np.concatenate(c) for c in zip(*self._parts)]
+            frame, tid, cid, xyxy, conf, state, occ, vis, hid = cols
+            order = np.lexsort((frame, tid))
+            tids = tid[order]
+            cuts = np.flatnonzero(np.diff(tids)) + 1
+            for chunk in np.split(order, cuts):
+                t = int(tid[chunk[0]])
+                classes, counts = np.unique(cid[chunk], return_counts=True)
+                tracks[t] = Track(
+                    id=t, class_id=int(classes[np.argmax(counts)]), frames=frame[chunk], xyxy=xyxy[chunk],
+                    confidence=conf[chunk], state=state[chunk], occluder=occ[chunk], visibility=vis[chunk],
+                    hidden_frames=hid[chunk],
+                )
+        return Scene(tracks, self._events, self._frames, fps=self.fps, image_size=self.image_size,
+                     metadata=self.metadata)

@@ -1,0 +1,136 @@
+"""Anticipating reappearance of hidden objects (sensemaking.reasoning.anticipation)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from test_scene_helpers import CAR, CYC, Obj, build_results, build_scene, cyclist_behind_turning_car, linear
+
+from sensemaking.reasoning.anticipation import (
+    AnticipationConfig, anticipate, anticipate_scene, fit_motion, reappearance_errors,
+)
+from sensemaking.reasoning.context import Corridor
+from sensemaking.reasoning.online import SituationMonitor
+
+
+def test_fit_motion_recovers_linear_motion():
+    f = np.arange(10, 15)
+    boxes = np.array([[100 + 3 * t, 50, 140 + 3 * t, 90 + t] for t in range(5)], float)
+    last, box, vel = fit_motion(f, boxes)
+    assert last == 14 and np.allclose(box, boxes[-1]) and np.allclose(vel, [3, 0, 3, 1])
+    last, box, vel = fit_motion(f[:1], boxes[:1])
+    assert np.allclose(vel, 0) and np.allclose(box, boxes[0])
+    # the span limit drops stale boxes
+    last, box, vel = fit_motion(np.array([0, 13, 14]), boxes[[0, 3, 4]], span=2)
+    assert np.allclose(vel, [3, 0, 3, 1])
+
+
+def test_known_reappearance_frame_and_position_exact():
+    """Cyclist (linear, +6 px/frame) behind a car (-9 px/frame): hidden 21-33, visible at 34
+    with its bottom centre at (658, 254); the prediction at frame 21 is exact."""
+    scene = build_scene(cyclist_behind_turning_car())
+    (err,) = reappearance_errors(scene)
+    assert (err.hidden_from, err.actual_frame, err.predicted_frame) == (21, 34, 34)
+    assert err.frame_error == 0 and err.position_error_px == pytest.approx(0.0, abs=1e-6)
+    assert err.actual_position == pytest.approx((658.0, 254.0))
+    (a,) = anticipate_scene(scene, 21)
+    assert (a.track, a.occluder, a.lead_frames, a.lead_s) == (1, 2, 13, pytest.approx(1.3))
+    assert a.in_corridor and a.in_image and not a.overdue
+
+
+def test_error_bound_with_detection_noise(record_property):
+    """1 px corner noise on every visible box, 20 seeds: at most 1 frame and 20 px off."""
+    frames, px = [], []
+    for seed in range(20):
+        scene = build_scene(cyclist_behind_turning_car(), noise_px=1.0, seed=seed)
+        for e in reappearance_errors(scene):
+            frames.append(abs(e.frame_error))
+            px.append(e.position_error_px)
+    assert len(frames) == 20
+    record_property("frame_error_max", max(frames))
+    record_property("position_error_px_mean", float(np.mean(px)))
+    assert max(frames) <= 1 and float(np.mean(frames)) <= 0.5
+    assert max(px) <= 20.0 and float(np.mean(px)) <= 10.0
+
+
+def test_synthetic_occlusion_suite(record_property):
+    """The shared synthetic scenes (straight crossings and turning vehicles): prediction at the
+    hiding frame against the ground-truth reappearance (visibility back above 1 - threshold)."""
+    synthetic = pytest.importorskip("sensemaking.synthetic")
+    suite = synthetic.occlusion_suite(0)
+    results = []
+    for sc in suite:
+        gt = sc.ground_truth
+        objs = []
+        for i in np.unique(gt.tracker_id):
+            m = gt.tracker_id == i
+            objs.append(Obj(int(i), int(gt.class_id[m][0]), {int(f): b for f, b in zip(gt.frame[m], gt.xyxy[m])}))
+        scene = build_scene(objs, sc.n_frames, size=(sc.width, sc.height), hide_cover=0.6, fps=sc.fps)
+        for e in reappearance_errors(scene, config=AnticipationConfig(reappear_coverage=0.6)):
+            m = gt.tracker_id == e.track
+            vis = dict(zip(gt.frame[m].tolist(), gt.data["visibility"][m].tolist()))
+            truth = next(f for f in sorted(vis) if f > e.hidden_from and vis[f] >= 0.4)
+            results.append((sc.name, e.predicted_frame - truth, e.position_error_px))
+    assert len(results) >= 6
+    record_property("anticipation_errors", results)
+    assert all(abs(df) <= 1 for _, df, _ in results), results
+    assert all(px <= 5.0 for _, _, px in results), results
+
+
+def test_no_reappearance_when_moving_together():
+    f = np.arange(5)
+    hidden = np.array([[100 + 5 * t, 50, 140 + 5 * t, 90] for t in f], float)
+    occl = np.array([[80 + 5 * t, 40, 200 + 5 * t, 120] for t in f], float)
+    assert anticipate(f[:3], hidden[:3], f, occl, 4, fps=10.0) is None
+    assert anticipate(f[:0], hidden[:0], f, occl, 4, fps=10.0) is None
+
+
+def test_overdue_and_outside_the_image():
+    f = np.arange(5)
+    # stands still beside a static occluder that barely covers it: overdue
+    hidden = np.tile([100, 50, 140, 90], (5, 1)).astype(float)
+    occl = np.tile([0, 0, 115, 120], (5, 1)).astype(float)
+    a = anticipate(f, hidden, f, occl, 6, fps=10.0, image_size=(1242, 375))
+    assert a.overdue and a.reappear_frame == 7 and a.lead_frames == 1
+    # moves left out of the image before it clears the occluder
+    moving = np.array([[300 - 40 * t, 50, 340 - 40 * t, 90] for t in f], float)
+    wall = np.tile([-500, 0, 300, 120], (5, 1)).astype(float)
+    a = anticipate(f[:2], moving[:2], f, wall, 4, fps=10.0, image_size=(1242, 375))
+    assert a is not None and not a.in_image and not a.in_corridor
+
+
+def test_corridor_decides_in_corridor():
+    scene = build_scene(cyclist_behind_turning_car())
+    narrow = Corridor(((0.0, 0.9), (0.2, 0.9), (0.2, 0.95), (0.0, 0.95)))
+    (a,) = anticipate_scene(scene, 21, corridor=narrow)
+    assert not a.in_corridor and a.reappear_frame == 34
+
+
+def test_online_monitor_warns_with_the_same_prediction_while_hidden():
+    results = build_results(cyclist_behind_turning_car())
+    mon = SituationMonitor(fps=10.0, image_size=(1242, 375))
+    warned = [w for r in results for w in mon.update(r) if w.situation == "HIDDEN_ENTITY"]
+    (w,) = warned
+    assert w.frame == 21 and w.objects == (1, 2)
+    assert w.details["lead_frames"] == 13 and w.details["lead_s"] == pytest.approx(1.3)
+    ant = w.details["anticipation"]
+    assert ant["reappear_frame"] == 34 and ant["position"] == [658.0, 254.0] and ant["in_corridor"]
+    assert "may reappear in front of the ego vehicle at frame 34 (in 13 frames, 1.3 s)" in w.message
+    # issued while hidden: the cyclist is hidden at the warning frame
+    assert results[21].state_of(1).name == "HIDDEN"
+
+
+def test_prediction_follows_the_occluder_during_the_occlusion():
+    """A pedestrian stands behind a car that drives off: the reappearance frame is set by the
+    occluder's motion, and the online lead time shrinks frame by frame."""
+    ped = Obj(1, CYC, linear(range(40), (600, 200, 640, 280)))
+    car = Obj(2, CAR, linear(range(40), (340, 190, 500, 300), (10, 0, 10, 0)))
+    results = build_results([ped, car])
+    mon = SituationMonitor(fps=10.0, image_size=(1242, 375))
+    leads = []
+    for r in results:
+        mon.update(r)
+        leads += [(r.frame, a.reappear_frame) for a in mon.anticipations]
+    first_visible = next(r.frame for r in results if r.frame > 12 and r.state_of(1).name == "VISIBLE")
+    assert first_visible == 29
+    assert [f for f, _ in leads] == list(range(12, 29)) and all(rf == 29 for _, rf in leads)
