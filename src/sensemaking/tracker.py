@@ -66,6 +66,9 @@ class TrackerConfig:
             by ``resume_growth`` per unseen frame, up to 2x). Lower: more re-identification
             after long gaps, with more wrong re-identifications.
         resume_growth: widening of an unseen track's predicted box per frame, fraction of size.
+        new_track_growth: widening of the predicted box of a track seen only once (its velocity
+            is unknown), e.g. 1.5 = 50 % larger. Higher: fast objects keep their id from the
+            second frame on; too high: neighbours can take each other's young tracks.
         min_confidence: minimum detection score to continue or resume a track (score units of
             the detector). Low-score detections can then keep tracks alive without starting any.
         start_confidence: minimum detection score to start a track. Higher: fewer false tracks.
@@ -100,6 +103,7 @@ class TrackerConfig:
     iou_assign: float = 0.3
     iou_resume: float = 0.1
     resume_growth: float = 0.05
+    new_track_growth: float = 1.5
     min_confidence: float = 0.0
     start_confidence: float = 0.5
     max_hidden_s: float = 3.0
@@ -254,15 +258,19 @@ class Tracker:
         c = self.config
         if len(pred) == 0 or len(dets) == 0:
             return np.zeros((len(pred), len(dets)))
+        # widen the predictions whose motion is uncertain: unseen tracks (more with time) and
+        # tracks seen once (velocity unknown); they are gated at the lower iou_resume
+        grow = np.minimum(1.0 + c.resume_growth * self._unseen, 2.0)
+        grow = np.where(self._hits <= 1, np.maximum(grow, c.new_track_growth), grow)
+        unseen = (self._unseen > 0) | (self._hits <= 1)
         boxes = pred
-        unseen = self._unseen > 0
         if unseen.any():
             boxes = pred.copy()
-            grow = np.minimum(1.0 + c.resume_growth * self._unseen[unseen], 2.0)
+            g = grow[unseen]
             cx = (boxes[unseen, 0] + boxes[unseen, 2]) / 2
             cy = (boxes[unseen, 1] + boxes[unseen, 3]) / 2
-            hw = (boxes[unseen, 2] - boxes[unseen, 0]) / 2 * grow
-            hh = (boxes[unseen, 3] - boxes[unseen, 1]) / 2 * grow
+            hw = (boxes[unseen, 2] - boxes[unseen, 0]) / 2 * g
+            hh = (boxes[unseen, 3] - boxes[unseen, 1]) / 2 * g
             boxes[unseen] = np.stack([cx - hw, cy - hh, cx + hw, cy + hh], axis=1)
         lik = iou(boxes, dets.xyxy)
         ok = dets.confidence[None, :] >= c.min_confidence
@@ -329,6 +337,7 @@ class Tracker:
         return FrameProblem(
             track_id=self._id, active=self._unseen == 0, tentative=~self._confirmed, expired=expired,
             outside=outside, at_border=at_border, overlapped=overlapped, track_class=self._cls,
+            uncertain=(self._hits <= 1) & (self._unseen == 0),
             det_conf=det_conf_fact, det_class=dets.class_id, det_border=det_border & start_ok,
             det_overlapped=det_overlapped, cand=cand, covers=covers, keeps_covering=keeps,
             hidden_by=np.stack([self._id[hid], self._occluder[hid]], axis=1) if hid.size else np.zeros((0, 2), np.int64),

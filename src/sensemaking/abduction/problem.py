@@ -28,6 +28,7 @@ class FrameProblem:
         track_id: (T,) int track ids.
         active: (T,) bool, matched in the previous frame.
         tentative: (T,) bool, not yet confirmed.
+        uncertain: (T,) bool, seen only once: widened prediction, gated like a halted track.
         expired: (T,) bool, unobserved too long: must end.
         outside: (T,) bool, predicted box outside the field of view: must end.
         at_border: (T,) bool, predicted box touches the border.
@@ -59,6 +60,7 @@ class FrameProblem:
     det_border: np.ndarray
     det_overlapped: np.ndarray
     cand: np.ndarray
+    uncertain: np.ndarray | None = None
     covers: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=np.int64))
     keeps_covering: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=np.int64))
     hidden_by: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=np.int64))
@@ -124,6 +126,7 @@ class FrameProblem:
             overlapped=self.overlapped[tracks], track_class=self.track_class[tracks],
             det_conf=self.det_conf[dets], det_class=self.det_class[dets], det_border=self.det_border[dets],
             det_overlapped=self.det_overlapped[dets], cand=rel(self.cand, 0, 1),
+            uncertain=None if self.uncertain is None else self.uncertain[tracks],
             covers=rel(self.covers, 1, 0), keeps_covering=rel(self.keeps_covering, 1, 0),
             hidden_by=hidden, visibility=None if self.visibility is None else self.visibility[tracks],
             first_frame=self.first_frame,
@@ -136,7 +139,9 @@ class FrameProblem:
         add = out.append
         for t, k, a in zip(tid.tolist(), self.track_class.tolist(), self.active.tolist()):
             add(f"track({t}).ttype({t},{k}).{'active' if a else 'halted'}({t}).")
-        for name, mask in (("tentative", self.tentative), ("expired", self.expired), ("outside", self.outside),
+        uncertain = self.uncertain if self.uncertain is not None else np.zeros(len(tid), dtype=bool)
+        for name, mask in (("tentative", self.tentative), ("uncertain", uncertain),
+                           ("expired", self.expired), ("outside", self.outside),
                            ("at_border", self.at_border), ("overlapped", self.overlapped)):
             for t in _ids(mask, tid):
                 add(f"{name}({t}).")
