@@ -1,0 +1,83 @@
+"""``sensemaking render``: draw a scene onto its frames (mp4 / GIF / PNG folder)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from sensemaking.errors import InputError
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "render",
+        help="draw a scene's tracks, hidden objects, events and warnings onto its frames",
+        description="Draw a scene (from `sensemaking track --scene`) onto the sequence's images, a video, "
+        "or a plain canvas of the image size. The output kind follows the path: .mp4/.mkv/.mov/.avi/.webm "
+        "(ffmpeg), .gif, or a folder (one PNG per frame). Needs the 'viz' extra.",
+    )
+    p.add_argument("scene", type=Path, help="scene JSON written by `sensemaking track --scene`")
+    p.add_argument("--output", "-o", required=True, help="out.mp4, out.gif or a folder (ending in /) for PNGs")
+    src = p.add_mutually_exclusive_group()
+    src.add_argument("--images", type=Path, help="folder of the sequence's images (sorted; numbered names = frames)")
+    src.add_argument("--video", type=Path, help="video of the sequence (its first frame = the scene's first)")
+    p.add_argument("--fps", type=float, default=None, help="output frame rate (default: the scene's)")
+    p.add_argument("--scale", type=float, default=None,
+                   help="output px per image px (default: fit 640 px wide on a plain canvas, 1280 over images)")
+    p.add_argument("--frames", default=None, metavar="A:B", help="only frames A..B (inclusive)")
+    p.add_argument("--first-frame", type=int, default=None,
+                   help="frame number of the first image / video frame when file names do not say it")
+    add_warning_options(p)
+    p.set_defaults(func=run)
+
+
+def add_warning_options(p: argparse.ArgumentParser) -> None:
+    w = p.add_mutually_exclusive_group()
+    w.add_argument("--warnings", type=Path, default=None,
+                   help="warnings JSON lines from `sensemaking track --warnings` (default: recomputed from the scene)")
+    w.add_argument("--no-warnings", action="store_true", help="show no warnings")
+
+
+def warnings_arg(args: argparse.Namespace) -> Any:
+    if getattr(args, "no_warnings", False):
+        return None
+    if getattr(args, "warnings", None) is not None:
+        from sensemaking.viz._run import read_warnings
+
+        return read_warnings(args.warnings)
+    return "auto"
+
+
+def parse_frames(text: str | None) -> range | None:
+    if text is None:
+        return None
+    a, sep, b = text.partition(":")
+    try:
+        lo, hi = int(a), int(b if sep else a)
+    except ValueError:
+        raise InputError(f"--frames must look like 10:80, got {text!r}") from None
+    if hi < lo:
+        raise InputError(f"--frames: the last frame {hi} is before the first {lo}")
+    return range(lo, hi + 1)
+
+
+def run(args: argparse.Namespace) -> int:
+    from sensemaking.cli._progress import Progress
+    from sensemaking.viz._run import as_run
+    from sensemaking.viz.render import render_scene
+
+    if args.fps is not None and args.fps <= 0:
+        raise InputError(f"--fps must be positive, got {args.fps}")
+    if args.scale is not None and not 0 < args.scale <= 4:
+        raise InputError(f"--scale must be in (0, 4], got {args.scale}")
+    scene = as_run(args.scene, warnings=warnings_arg(args))
+    frames = parse_frames(args.frames)
+    total = len(frames) if frames is not None else len(scene.frames)
+    with Progress(total, "rendering", enabled=not args.quiet) as progress:
+        out = render_scene(scene, args.output, images=args.images, video=args.video, fps=args.fps,
+                           scale=args.scale, frames=frames, first_frame=args.first_frame,
+                           progress=progress.advance)
+    if not args.quiet:
+        print(f"{out}: {total} frames")
+    return 0

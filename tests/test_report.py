@@ -1,0 +1,161 @@
+"""The HTML report: sections, stories, key frames, metrics, self-containment, CLI."""
+
+from __future__ import annotations
+
+import base64
+import io
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+pytest.importorskip("PIL")
+pytest.importorskip("imageio_ffmpeg")
+
+from PIL import Image  # noqa: E402
+from test_render import Warn, occlusion_results, occlusion_run  # noqa: E402
+
+from sensemaking.detections import Detections  # noqa: E402
+from sensemaking.errors import InputError  # noqa: E402
+from sensemaking.viz import report as report_mod  # noqa: E402
+from sensemaking.viz._run import as_run  # noqa: E402
+from sensemaking.viz.report import build_report, fallback_story, key_frames, track_story, write_report  # noqa: E402
+
+
+@pytest.fixture
+def no_explain(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Use the event-built stories whether or not sensemaking.reasoning has explain()."""
+    monkeypatch.setattr(report_mod, "_explain_function", lambda: None)
+
+
+def test_report_sections(no_explain: None):
+    text = build_report(occlusion_run())
+    assert text.startswith("<!DOCTYPE html>")
+    assert len(re.findall(r'<g class="track-row" data-track="\d+">', text)) == 3
+    assert text.count('class="span hidden"') == 1
+    assert text.count('class="span missing"') == 1
+    assert 'data-event="hides_behind"' in text
+    assert text.count('<li class="warning"') == 1
+    assert "#2 cyclist hidden behind #1 car may reappear in front" in text
+    assert len(re.findall(r'<article class="story" id="track-\d+"', text)) == 3
+    assert 'id="metrics"' not in text
+
+
+def test_report_is_self_contained():
+    text = build_report(occlusion_run())
+    assert "http:" not in text and "https:" not in text and "//" not in re.sub(r"data:[^\"]+", "", text)
+    assert "<link" not in text and " src=\"data:" in text
+    assert not re.search(r'src="(?!data:)', text)
+
+
+def test_thumbnails_decode(no_explain: None):
+    text = build_report(occlusion_run(), thumbnail_width=320)
+    uris = re.findall(r'src="data:image/png;base64,([^"]+)"', text)
+    frames = re.findall(r'<figure class="thumb" id="frame-(\d+)"', text)
+    assert len(uris) == len(frames) >= 4
+    assert {"15", "16", "23", "28"} <= set(frames)
+    im = Image.open(io.BytesIO(base64.b64decode(uris[0])))
+    im.load()
+    assert im.size[0] == 320
+
+
+def test_key_frames_prefer_warnings_and_occlusions():
+    run = occlusion_run()
+    assert key_frames(run, 1) == [16]  # the warning
+    two = key_frames(run, 2)
+    assert 16 in two and abs(two[0] - two[1]) >= 40 // 4  # spread out
+    assert key_frames(run, 3) == [5, 16, 23]
+    frames = key_frames(run, 24)
+    assert frames == sorted(frames) and {0, 5, 15, 16, 23, 28} <= set(frames)
+    quiet = as_run(occlusion_results()[:10], warnings=None)
+    quiet = as_run([r.__class__(r.frame, r.tracks, []) for r in quiet.results], warnings=None)
+    assert key_frames(quiet, 24) == [0, 2, 4, 5, 7, 9]
+
+
+def test_fallback_story_tells_the_occlusion():
+    run = occlusion_run()
+    story = fallback_story(run, 2)
+    assert story[0].startswith("#2 cyclist was tracked from frame 0 to frame 39 (4.0 s), visible in 32 of 40")
+    assert "Frame 15: #2 cyclist is hidden behind #1 car (for 8 frames, 0.8 s)." in story
+    assert "Frame 23: #2 cyclist reappears from behind #1 car." in story
+    assert any("#3 car: detections are missing (for 3 frames" in s for s in fallback_story(run, 3))
+    assert fallback_story(run, 99) == []
+
+
+def test_story_uses_reasoning_when_available():
+    run = occlusion_run()
+    seen: list[Any] = []
+
+    def explain(scene: Any, track_id: int) -> list[str]:
+        seen.append((scene, track_id))
+        return [f"Track {track_id} did things.", "Then more."]
+
+    pytest.importorskip("sensemaking.scene")
+    sentences, source = track_story(run, 2, explain)
+    assert (sentences, source) == (["Track 2 did things.", "Then more."], "reasoning")
+    assert seen[0][0] is run.scene and len(run.scene.tracks) == 3
+
+    def broken(scene: Any, track_id: int) -> str:
+        raise KeyError(track_id)
+
+    assert track_story(run, 2, broken)[1] == "events"
+
+
+def test_metrics_against_ground_truth(no_explain: None):
+    from sensemaking.classes import CLASS_IDS
+
+    people = [r.__class__(r.frame, r.tracks.with_(class_id=np.full(len(r.tracks), CLASS_IDS["pedestrian"])),
+                          r.events) for r in occlusion_results()]
+    run = as_run(people, warnings=None)
+    visible = [r.visible for r in run.results]
+    gt = Detections.concatenate([Detections(xyxy=v.xyxy, class_id=np.ones(len(v), int), tracker_id=v.tracker_id,
+                                            frame=v.frame + 1) for v in visible])
+    shifted = as_run([r.__class__(r.frame + 1, r.tracks.with_(frame=r.tracks.frame + 1), r.events)
+                      for r in run.results], warnings=None, width=800, height=300)
+    text = build_report(shifted, gt=gt, gt_format="mot", max_thumbnails=0)
+    assert '<table class="metrics">' in text and "mot17 pedestrian" in text
+    row = re.search(r"<tr><td>mot17 pedestrian</td>(.*?)</tr>", text).group(1)
+    cells = re.findall(r"<td>([^<]+)</td>", row)
+    assert cells[report_mod.METRIC_COLUMNS.index("MOTA")] == "100.0"
+    assert cells[report_mod.METRIC_COLUMNS.index("IDSW")] == "0"
+    with pytest.raises(InputError, match="no pedestrian tracks"):
+        build_report(occlusion_run(), gt=gt, gt_format="mot", max_thumbnails=0)
+
+
+def test_write_report_and_cli(tmp_path: Path, no_explain: None):
+    from sensemaking.cli import main
+
+    out = write_report(occlusion_run(), tmp_path / "r.html", max_thumbnails=2)
+    assert out.read_text(encoding="utf-8").count('<figure class="thumb"') == 2
+    assert (out.stat().st_mode & 0o777) != 0o600
+
+    scene_mod = pytest.importorskip("sensemaking.scene")
+    rec = scene_mod.SceneRecorder(fps=10.0, image_size=(800, 300))
+    for r in occlusion_results():
+        rec.add(r)
+    rec.scene().save(tmp_path / "scene.json")
+    assert main(["-q", "report", str(tmp_path / "scene.json"), "--output", str(tmp_path / "c.html"),
+                 "--thumbnails", "3", "--no-warnings", "--title", "My run"]) == 0
+    html = (tmp_path / "c.html").read_text(encoding="utf-8")
+    assert "<title>My run</title>" in html and html.count('<figure class="thumb"') == 3
+    assert main(["-q", "report", str(tmp_path / "scene.json"), "--output", str(tmp_path / "d.html"),
+                 "--format", "mot"]) == 2
+    assert not (tmp_path / "d.html").exists()
+
+
+def test_notes_are_listed_apart_from_warnings(no_explain: None):
+    note = Warn(3, "BLOCKED_LANE", (), "", {"skipped": "no lanes known"})
+    text = build_report(as_run(occlusion_results(), warnings=[note], width=800, height=300), max_thumbnails=0)
+    assert "No warnings." in text and "BLOCKED_LANE (no lanes known)" in text
+    assert 'class="warning-mark"' not in text
+
+
+def test_report_of_empty_runs(no_explain: None):
+    from sensemaking.detections import Detections
+    from sensemaking.results import FrameResult
+
+    assert "No tracks." in build_report([])
+    trackless = build_report([FrameResult(f, Detections.empty()) for f in range(5)])
+    assert "No tracks." in trackless and trackless.count('<figure class="thumb"') == 5
