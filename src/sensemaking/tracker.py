@@ -276,8 +276,11 @@ class Tracker:
         ok = dets.confidence[None, :] >= c.min_confidence
         if c.class_aware:
             ok = ok & (self._cls[:, None] == dets.class_id[None, :])
-        thr = np.where(unseen, c.iou_resume, c.iou_assign)[:, None]
-        ok &= lik >= thr
+        thr = np.where(unseen, c.iou_resume, c.iou_assign)
+        # gate on the solver's likelihood grid against its (floored) thresholds, so that the gate
+        # admits exactly the pairs the encoding's constraints allow (gating is only an
+        # optimisation): comparing the raw IoU instead dropped pairs that round up to the threshold
+        ok &= self._quantize(lik) >= self._quantize(thr, np.floor)[:, None]
         return np.where(ok, lik, 0.0)
 
     def _scaled_confidence(self, conf: np.ndarray) -> np.ndarray:
