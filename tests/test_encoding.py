@@ -182,8 +182,10 @@ def test_expired_track_must_end_even_with_a_good_candidate():
     facts = track(1, halted=True, flags=("expired",)) + det(0) + "cand(1,d(0),900)."
     assert solve(facts) == ["end(1)", "occurs(ends(1))", "occurs(starts(d(0)))", "start(d(0))",
                             "value(in_fov(d(0)),true)", "value(visibility(d(0)),fully_visible)"]
-    # an expired track ends at no event cost
-    assert cost(track(1, halted=True, flags=("expired",))) == 1000
+    # an expired track ends at (almost) no event cost: 1, so that at the border leaving is preferred
+    assert cost(track(1, halted=True, flags=("expired",))) == 1001
+    assert solve(track(1, halted=True, flags=("expired", "at_border"))) == [
+        "end(1)", "occurs(leaves_fov(1))", "value(in_fov(1),false)"]
 
 
 def test_outside_track_must_end():
@@ -323,11 +325,13 @@ def test_still_hidden_needs_no_new_explanation():
 
 def test_missing_track_may_be_found_hiding():
     facts = track(1, halted=True) + track(2) + det(0) + "cand(2,d(0),900). covers(d(0),1)."
-    # optional: chosen only when a hides_behind is cheaper than staying unseen
-    assert solve(facts, consts={"cost_unseen": 0}) == ["assign(2,d(0))", "ignore_trk(1)"]
-    assert solve(facts, consts={"cost_unseen": 60}) == [
+    # explaining a missing track as hidden is free and saves the cost of an unseen frame
+    assert solve(facts) == [
         "assign(2,d(0))", "ignore_trk(1)", "occurs(hides_behind(1,2))",
         "value(hidden_by(1,2),true)", "value(visibility(1),fully_occluded)"]
+    # without an occluder it stays missing
+    assert solve(track(1, halted=True) + track(2) + det(0) + "cand(2,d(0),900).") == [
+        "assign(2,d(0))", "ignore_trk(1)"]
 
 
 def test_in_fov_by_inertia_and_dropped_for_ended_tracks():
