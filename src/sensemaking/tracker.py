@@ -155,9 +155,9 @@ class TrackerConfig:
         """The one parameter set per dataset family (``"kitti"`` or ``"mot"``); see docs/PARAMETERS.md."""
         family = family.lower()
         if family == "kitti":
-            base = cls(fps=10.0, image_size=(1242, 375))
+            base = cls(fps=10.0, image_size=(1242, 375), iou_assign=0.2)
         elif family in ("mot", "mot17", "mot15", "motchallenge"):
-            base = cls(fps=30.0)
+            base = cls(fps=30.0, min_confidence=0.3, start_confidence=0.6)
         else:
             raise ValueError(f"unknown dataset family {family!r} (kitti or mot)")
         return replace(base, **changes)
