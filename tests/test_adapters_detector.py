@@ -182,3 +182,28 @@ def test_layout_guessing():
     v5[:, 2] = [5, 4]  # centre x, centre y, w, h: "x2" < "x1"
     assert _guess_layout(v5, 1) == "yolov5"
     assert _guess_layout(np.zeros((50, 9)), None) is None
+
+
+def test_track_verb_runs_a_local_onnx_model_on_a_video(tmp_path: Path, image: np.ndarray):
+    """`sensemaking track --source VIDEO --detector MODEL`: same boxes every frame -> 2 stable tracks."""
+    iio = pytest.importorskip("imageio.v3")
+    from sensemaking.cli import main
+    from sensemaking.io.mot import read_mot
+
+    raw = np.concatenate([CANDIDATES.T, PERSON[None], CAR[None]])[None]
+    model = _onnx_model(tmp_path / "v8.onnx", raw)
+    video = tmp_path / "clip.gif"
+    iio.imwrite(video, np.stack([image + 40 * i for i in range(6)]).astype(np.uint8), extension=".gif")
+    out = tmp_path / "res.txt"
+    assert main(["-q", "track", "--source", str(video), "--detector", str(model), "--output", str(out),
+                 "--fps", "10"]) == 0
+    res = read_mot(out, kind="results")
+    assert res.frame.min() == 1 and res.frame.max() == 6
+    assert len(np.unique(res.tracker_id)) == 2 and len(res) == 12
+
+
+def test_track_verb_source_needs_a_detector(tmp_path: Path, capsys):
+    from sensemaking.cli import main
+
+    assert main(["track", "--source", str(tmp_path), "--output", str(tmp_path / "r.txt")]) == 2
+    assert "--detector" in capsys.readouterr().err

@@ -26,8 +26,15 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="Online abductive tracking of a detections file. Writes tracks in the input's "
         "format and, optionally, the abduced events (JSON lines), the scene model and warnings.",
     )
-    p.add_argument("--detections", required=True, type=Path, help="detections file (MOT det.txt or a KITTI file)")
-    p.add_argument("--format", required=True, choices=("mot", "kitti"), help="format of input and output")
+    src = p.add_mutually_exclusive_group(required=True)
+    src.add_argument("--detections", type=Path, help="detections file (MOT det.txt or a KITTI file)")
+    src.add_argument("--source", type=Path,
+                     help="a video file or image folder to run --detector on (frames numbered from 1)")
+    p.add_argument("--detector", type=Path, default=None,
+                   help="a local model file for --source: .onnx (extra 'detector') or ultralytics .pt "
+                   "(extra 'ultralytics'); nothing is downloaded. See docs/detectors.md")
+    p.add_argument("--format", choices=("mot", "kitti"), default=None,
+                   help="format of input and output (required with --detections; --source writes mot)")
     p.add_argument("--output", required=True, type=Path, help="tracking results, in the input's format")
     p.add_argument("--events", type=Path, help='events as JSON lines {"frame":…, "event":…, "args":[…]}')
     p.add_argument("--scene", type=Path, help="the scene model (JSON) for `sensemaking ask/explain/render/report`")
@@ -125,20 +132,54 @@ def frame_range(dets: Detections, fmt: str, length: int | None) -> range:
     return range(first, last + 1)
 
 
-def run(args: argparse.Namespace) -> int:
-    from sensemaking.io.formats import read_detections, write_results
-    from sensemaking.tracker import Tracker
+def _file_frames(args: argparse.Namespace):
+    """(frames to track as (frame, Detections) pairs, count, fps, image size) from a detections file."""
+    from sensemaking.io.formats import read_detections
 
+    if args.format is None:
+        raise InputError("--format mot|kitti is required with --detections")
     dets = read_detections(args.detections, args.format, class_name=args.class_name)
     fps, size, length = _sequence_info(args)
+    frames = frame_range(dets, args.format, length)
+    by_frame = dict(dets.frames())
+    return ((f, by_frame.get(f, Detections.empty())) for f in frames), len(frames), fps, size
+
+
+def _video_frames(args: argparse.Namespace):
+    """The same for ``--source VIDEO --detector MODEL``: detections made frame by frame."""
+    from sensemaking.detector import iter_video_frames, load_detector
+
+    if args.detector is None:
+        raise InputError("--source needs --detector MODEL (a local .onnx or .pt file)")
+    if args.format not in (None, "mot"):
+        raise InputError("--source writes MOTChallenge results: use --format mot (or leave it out)")
+    args.format = "mot"
+    detector = load_detector(args.detector)
+    images = iter_video_frames(args.source)
+    try:
+        first = next(images)
+    except StopIteration:
+        raise InputError("no frames in the video", args.source) from None
+
+    def frames():
+        yield 1, detector(first, frame=1)
+        for f, image in enumerate(images, start=2):
+            yield f, detector(image, frame=f)
+
+    return frames(), 0, None, (int(first.shape[1]), int(first.shape[0]))
+
+
+def run(args: argparse.Namespace) -> int:
+    from sensemaking.io.formats import write_results
+    from sensemaking.tracker import Tracker
+
+    frames, n_frames, fps, size = _video_frames(args) if args.source else _file_frames(args)
     if args.fps:
         fps = args.fps
     if args.image_size:
         size = parse_size(args.image_size)
     config = tracker_config(args, fps, size)
     tracker = Tracker(config)
-    frames = frame_range(dets, args.format, length)
-    by_frame = dict(dets.frames())
     outputs: list[Detections] = []
     n_events = 0
     recorder = _optional_recorder(args, config)
@@ -146,9 +187,9 @@ def run(args: argparse.Namespace) -> int:
     with ExitStack() as stack:
         events_out = stack.enter_context(atomic_write(args.events)) if args.events else None
         warnings_out = stack.enter_context(atomic_write(args.warnings)) if args.warnings else None
-        progress = stack.enter_context(Progress(len(frames), "tracking", enabled=not args.quiet))
-        for f in frames:
-            result = tracker.update(by_frame.get(f, Detections.empty()), frame=f)
+        progress = stack.enter_context(Progress(n_frames, "tracking", enabled=not args.quiet))
+        for f, frame_dets in frames:
+            result = tracker.update(frame_dets, frame=f)
             outputs.append(result.tracks if args.write_hidden else result.visible)
             if events_out is not None:
                 for ev in result.events:
@@ -184,7 +225,9 @@ def _optional_recorder(args: argparse.Namespace, config) -> Any:
         from sensemaking.scene import SceneRecorder
     except ImportError as exc:  # pragma: no cover - the scene module ships with the package
         raise SensemakingError(f"--scene needs sensemaking.scene: {exc}") from exc
-    return SceneRecorder(fps=config.fps, image_size=config.image_size)
+    source = args.detections or args.source
+    return SceneRecorder(fps=config.fps, image_size=config.image_size,
+                         metadata={"name": Path(source).stem, "source": str(source)})
 
 
 def _optional_monitor(args: argparse.Namespace, config) -> Any:
