@@ -272,7 +272,10 @@ class Tracker:
             hw = (boxes[unseen, 2] - boxes[unseen, 0]) / 2 * g
             hh = (boxes[unseen, 3] - boxes[unseen, 1]) / 2 * g
             boxes[unseen] = np.stack([cx - hw, cy - hh, cx + hw, cy + hh], axis=1)
-        lik = iou(boxes, dets.xyxy)
+        lik = iou(pred, dets.xyxy)
+        if unseen.any():
+            # the widened box admits far matches; an exact fit to the plain prediction still wins
+            lik[unseen] = np.maximum(lik[unseen], iou(boxes[unseen], dets.xyxy))
         ok = dets.confidence[None, :] >= c.min_confidence
         if c.class_aware:
             ok = ok & (self._cls[:, None] == dets.class_id[None, :])
