@@ -272,9 +272,16 @@ SHOW_HOLDS = "#show now(F,V) : holds(F,V,1)."
 
 
 def test_unhides_from_behind():
-    facts = HIDDEN + det(1) + "cand(1,d(1),500)."
+    facts = HIDDEN + det(1) + "cand(1,d(1),500). emerges(d(1),1)."
     assert solve(facts) == ["assign(2,d(0))", "occurs(unhides_from_behind(1,2))", "resume(1,d(1))",
                             "value(hidden_by(1,2),false)", "value(visibility(1),partially_occluded)"]
+
+
+def test_a_hidden_track_unhides_only_where_its_occluder_is():
+    # d(1) is a candidate but does not touch the occluder's box: it cannot be track 1 coming out
+    facts = HIDDEN + det(1) + "cand(1,d(1),500)."
+    atoms = solve(facts)
+    assert "resume(1,d(1))" not in atoms and "start(d(1))" in atoms
 
 
 def test_reappears_after_missing_detections():
@@ -364,7 +371,7 @@ def test_visibility_fully_occluded_when_hiding():
 
 def test_every_fluent_has_exactly_one_value():
     # a busy frame: hidden, hiding, unhiding, new and ended tracks together
-    facts = (HIDDEN + det(1) + "cand(1,d(1),500)."
+    facts = (HIDDEN + det(1) + "cand(1,d(1),500). emerges(d(1),1)."
              + track(3) + track(4, flags=("at_border",)) + det(2, flags=("det_overlapped", "det_border"))
              + "covers(d(0),3).")
     atoms = solve(facts, extra=SHOW_HOLDS + "#show two(F) : holds(F,V,1), holds(F,W,1), V < W.")

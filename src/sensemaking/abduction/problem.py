@@ -43,6 +43,8 @@ class FrameProblem:
             the track's predicted box and covers at least the hiding fraction of it.
         keeps_covering: (Q, 2) int rows, as ``covers`` with the lower "stay hidden" fraction.
         hidden_by: (H, 2) int rows ``track id, occluder track id`` true in the previous frame.
+        emerges: (E, 2) int rows ``detection index, track index``: the detection touches the box
+            of the hidden track's occluder.
         visibility: (T,) int index into :data:`VISIBILITY_VALUES`, previous frame.
         first_frame: no reason is needed for objects present at the start.
     """
@@ -64,6 +66,7 @@ class FrameProblem:
     covers: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=np.int64))
     keeps_covering: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=np.int64))
     hidden_by: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=np.int64))
+    emerges: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=np.int64))
     visibility: np.ndarray | None = None
     first_frame: bool = False
 
@@ -128,6 +131,7 @@ class FrameProblem:
             det_overlapped=self.det_overlapped[dets], cand=rel(self.cand, 0, 1),
             uncertain=None if self.uncertain is None else self.uncertain[tracks],
             covers=rel(self.covers, 1, 0), keeps_covering=rel(self.keeps_covering, 1, 0),
+            emerges=rel(self.emerges, 1, 0),
             hidden_by=hidden, visibility=None if self.visibility is None else self.visibility[tracks],
             first_frame=self.first_frame,
         )
@@ -161,6 +165,8 @@ class FrameProblem:
             add(f"holds(in_fov({t}),true,0).")
         for t, o in self.hidden_by.tolist():
             add(f"holds(hidden_by({t},{o}),true,0).")
+        for dj, ti in self.emerges.tolist():
+            add(f"emerges(d({dj}),{tid[ti]}).")
         if self.visibility is not None:
             for t, v in zip(tid.tolist(), self.visibility.tolist()):
                 add(f"holds(visibility({t}),{VISIBILITY_VALUES[v]},0).")
