@@ -6,7 +6,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup demo test bench clean
+.PHONY: setup demo test bench benchmark clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -24,6 +24,10 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/scalability.py
+
+# every benchmark in ../shared/data, ours beside SORT/ByteTrack/OC-SORT; writes docs/BENCHMARKS.md
+benchmark: $(STAMP)
+	$(BIN)/sensemaking benchmark
 
 clean:
 	rm -rf $(VENV) demo-output build *.egg-info src/*.egg-info
