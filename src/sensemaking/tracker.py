@@ -383,16 +383,20 @@ class Tracker:
         d_rest = np.ones(problem.n_dets, dtype=bool)
         t_rest[pairs[:, 0]] = False
         d_rest[pairs[:, 1]] = False
+        ignored = problem.forced_ignores() if self.config.decompose else np.zeros(0, np.int64)
+        d_rest[ignored] = False
         answer: Answer | None = Answer()
         if t_rest.any() or d_rest.any():
-            rest = problem.subset(t_rest, d_rest) if len(pairs) else problem
+            reduced = len(pairs) or len(ignored)
+            rest = problem.subset(t_rest, d_rest) if reduced else problem
             answer = self._solver_solve(rest)
-            if answer is not None and len(pairs):
+            if answer is not None and reduced:
                 answer = _renumber_detections(answer, np.flatnonzero(d_rest))
         if answer is None:
             self.stats["timed_out"] += 1
             self.stats["fallback"] += 1
             return self._hungarian(pred, dets), True
+        answer.ignore_det = sorted(answer.ignore_det + ignored.tolist())
         for ti, dj in pairs.tolist():
             tid = int(problem.track_id[ti])
             answer.assign[tid] = dj

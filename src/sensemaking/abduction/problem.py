@@ -80,12 +80,13 @@ class FrameProblem:
 
     def isolated_pairs(self) -> np.ndarray:
         """(K, 2) rows ``track index, detection index`` whose optimum is forced: an active,
-        unexpired, inside track with exactly one candidate detection that has no other
-        candidate, likelihood > 0, and neither takes part in a covers/keeps_covering fact.
+        unexpired, inside track with exactly one candidate detection that is no other track's
+        candidate, likelihood > 0, and whose detection covers no *other* track.
 
         With non-negative costs, assigning such a pair costs ``1000 - L < 1000``, while any
-        alternative costs at least 1000 (the unmatched track) plus non-negative event costs,
-        and the pair constrains nothing else: the joint optimum assigns it, whatever the rest.
+        alternative costs at least 1000 (the unmatched track) plus non-negative event costs. So
+        the track never halts (its own covers facts do not matter) and the only way the pair
+        touches the rest is through its detection occluding another track -- excluded here.
         """
         if self.cand.size == 0:
             return np.zeros((0, 2), dtype=np.int64)
@@ -94,13 +95,24 @@ class FrameProblem:
         d_deg = np.bincount(dj, minlength=self.n_dets)
         ok = (t_deg[ti] == 1) & (d_deg[dj] == 1) & (lik > 0)
         ok &= self.active[ti] & ~self.expired[ti] & ~self.outside[ti]
-        involved_d = np.zeros(self.n_dets, dtype=bool)
-        involved_t = np.zeros(self.n_tracks, dtype=bool)
+        partner = np.full(self.n_dets, -1, dtype=np.int64)
+        partner[dj] = ti  # meaningful where the detection has one candidate track
+        couples = np.zeros(self.n_dets, dtype=bool)
         for rel in (self.covers, self.keeps_covering):
-            involved_d[rel[:, 0]] = True
-            involved_t[rel[:, 1]] = True
-        ok &= ~involved_d[dj] & ~involved_t[ti]
+            if len(rel):
+                other = rel[:, 1] != partner[rel[:, 0]]
+                couples[rel[other, 0]] = True
+        ok &= ~couples[dj]
         return np.stack([ti[ok], dj[ok]], axis=1)
+
+    def forced_ignores(self) -> np.ndarray:
+        """(K,) indices of detections whose only possible action is ``ignore_det``: too weak to
+        start a track (confidence fact 0) and no track's candidate. Such a detection can be
+        neither an occluder (that needs it matched or started) nor anything else."""
+        weak = self.det_conf == 0
+        if self.cand.size:
+            weak[self.cand[:, 1]] = False
+        return np.flatnonzero(weak)
 
     def subset(self, tracks: np.ndarray, dets: np.ndarray) -> FrameProblem:
         """The problem restricted to the tracks and detections whose masks are True
