@@ -395,3 +395,30 @@ def test_figure1_cyclist_hides_behind_the_car_and_unhides(suite_runs):
         car = hides[0].args[1]
         assert owner[car] == {2}  # behind the turning car
         assert unhides[0].args == (tid, car)
+
+
+def test_decomposition_is_exact_the_optimum_cost_never_changes():
+    """Isolated pairs and forced ignores are settled outside the solver; on every frame of a dense
+    scene with misses and false positives, that must give exactly the full problem's optimum."""
+    from sensemaking.synthetic import make_scene
+
+    scene = make_scene(30, n_frames=40, overlap=0.5, seed=7, miss_rate=0.1, false_positive_rate=0.3)
+    t = Tracker(TrackerConfig(fps=scene.fps, image_size=(scene.width, scene.height), min_confidence=0.2,
+                              start_confidence=0.6))
+    settled = 0
+    for f, dets in scene.frames():
+        pred = t._kf.copy().predict(1) if len(t._kf) else np.zeros((0, 4))
+        problem = t._problem(pred, dets)
+        full = t._solver.solve(problem).cost
+        pairs, ignored = problem.isolated_pairs(), problem.forced_ignores()
+        rest_t = np.ones(problem.n_tracks, dtype=bool)
+        rest_d = np.ones(problem.n_dets, dtype=bool)
+        rest_t[pairs[:, 0]] = False
+        rest_d[pairs[:, 1]] = False
+        rest_d[ignored] = False
+        rest = t._solver.solve(problem.subset(rest_t, rest_d)).cost if rest_t.any() or rest_d.any() else 0
+        lik = {(int(a), int(b)): int(c) for a, b, c in problem.cand.tolist()}
+        assert full == rest + sum(1000 - lik[(i, j)] for i, j in pairs.tolist()), f"frame {f}"
+        settled += len(pairs) + len(ignored)
+        t.update(dets, frame=f)
+    assert settled > 100  # the decomposition really did something
