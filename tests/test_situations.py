@@ -232,12 +232,10 @@ def test_prefilter_gives_the_same_warnings_as_grounding_everything(name):
     noise = 1.0 if name == "noisy" else 0.0
     fast = SituationMonitor(SituationConfig(prefilter=True), ctx, 10.0, SIZE)
     full = SituationMonitor(SituationConfig(prefilter=False), ctx, 10.0, SIZE)
-    a_all, b_all = [], []
     for r in build_results(objs, noise_px=noise):
         a, b = fast.update(r), full.update(r)
         assert [w.to_json() for w in a] == [w.to_json() for w in b]
         assert [w.to_json() for w in fast.active] == [w.to_json() for w in full.active]
-        a_all += a
     assert fast.stats["solver_calls"] <= full.stats["solver_calls"]
 
 

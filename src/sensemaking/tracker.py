@@ -21,7 +21,7 @@ from sensemaking.abduction.solver import AbductionSolver, Answer
 from sensemaking.detections import Detections
 from sensemaking.geometry import coverage, intersection, iou
 from sensemaking.motion import KalmanBank, KalmanConfig
-from sensemaking.results import Event, FrameResult, TrackState, Visibility
+from sensemaking.results import Event, FrameResult, TrackState
 
 __all__ = ["TrackerConfig", "Tracker", "FrameResult", "Event", "TrackState"]
 

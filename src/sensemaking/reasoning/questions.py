@@ -285,7 +285,7 @@ def _q_hidden(scene: Scene, args: list[int], context: SceneContext | None) -> An
         if k is not None and k + 1 < len(track) and track.frames[k + 1] == b + 1:
             nxt = TrackState(int(track.state[k + 1]))
             after = (f"; it reappeared at frame {b + 1}" if nxt == TrackState.VISIBLE else
-                     f"; then its detections were missing" if nxt == TrackState.MISSING else "")
+                     "; then its detections were missing" if nxt == TrackState.MISSING else "")
         elif b == scene.last_frame:
             after = "; still hidden at the end of the scene"
         elif b == track.last:
