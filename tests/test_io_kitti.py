@@ -17,8 +17,7 @@ from sensemaking.io.formats import read_detections, write_results
 from sensemaking.io.kitti import read_kitti_detections, read_kitti_labels, read_kitti_seqinfo, write_kitti
 from sensemaking.io.mot import SequenceInfo
 
-DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
-COLUMNS = ("xyxy", "confidence", "class_id", "tracker_id", "frame", "source_row")
+from io_checks import DATA, assert_same, data, same_array  # noqa: F401 (data is a fixture)
 CAR, PED, CYC, VAN, DONTCARE = (CLASS_IDS[n] for n in ("car", "pedestrian", "cyclist", "van", "dontcare"))
 
 LABELS = (
@@ -28,32 +27,6 @@ LABELS = (
     "1.858523 13.410495 -2.115488\n"
     "1 1 Pedestrian 1 2 0.5 10 20 30 60 1.7 0.6 0.8 1 2 3 0.25\n"
 )
-
-
-@pytest.fixture(scope="module")
-def data() -> Path:
-    if not DATA.is_dir():
-        pytest.skip("../shared/data is absent")
-    return DATA
-
-
-def assert_same(a: Detections, b: Detections, skip: tuple[str, ...] = (), where: object = "") -> None:
-    """Every column identical: same dtype, same values bit for bit (signed zeros included)."""
-    assert len(a) == len(b), where
-    for name in COLUMNS:
-        if name not in skip:
-            _same_array(getattr(a, name), getattr(b, name), f"{where} {name}")
-    if "data" not in skip:
-        assert sorted(a.data) == sorted(b.data), where
-        for key in a.data:
-            _same_array(a.data[key], b.data[key], f"{where} data[{key!r}]")
-
-
-def _same_array(x: np.ndarray, y: np.ndarray, name: str) -> None:
-    assert x.dtype == y.dtype and x.shape == y.shape, name
-    assert np.array_equal(x, y), name
-    if x.dtype.kind == "f":
-        assert np.array_equal(np.signbit(x), np.signbit(y)), name
 
 
 def write(path: Path, text: str) -> Path:
@@ -279,7 +252,7 @@ def test_round_trip_every_kitti_file(parsed: tuple[dict[str, Detections], float]
         else:  # detections: boxes, scores, classes, frames and 3D fields survive the results format
             assert_same(first, second, skip=("source_row", "data"), where=name)
             for key, value in first.data.items():
-                _same_array(value, second.data[key], f"{name} data[{key!r}]")
+                same_array(value, second.data[key], f"{name} data[{key!r}]")
 
 
 @pytest.mark.integration
