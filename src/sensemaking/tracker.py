@@ -167,6 +167,10 @@ class TrackerConfig:
         return replace(base, **changes)
 
 
+#: per-track state, one array each, parallel to the Kalman bank's rows
+_TRACK_COLUMNS = ("_id", "_cls", "_state", "_occluder", "_vis", "_unseen", "_hits", "_conf", "_confirmed")
+
+
 class Tracker:
     """Online multi-object tracker with abductive explanations.
 
@@ -203,9 +207,9 @@ class Tracker:
         self._kf = KalmanBank(self.config.kalman)
         self._id = np.zeros(0, dtype=np.int64)
         self._cls = np.zeros(0, dtype=np.int64)
-        self._state = np.zeros(0, dtype=np.int64)
-        self._occluder = np.zeros(0, dtype=np.int64)
-        self._vis = np.zeros(0, dtype=np.int64)
+        self._state = np.zeros(0, dtype=np.int64)  # TrackState
+        self._occluder = np.zeros(0, dtype=np.int64)  # id of the hiding track, -1 if none
+        self._vis = np.zeros(0, dtype=np.int64)  # index into VISIBILITY_VALUES
         self._unseen = np.zeros(0, dtype=np.int64)  # frames since last matched
         self._hits = np.zeros(0, dtype=np.int64)
         self._conf = np.zeros(0, dtype=np.float64)
@@ -252,8 +256,8 @@ class Tracker:
             answer, timed_out = self._hungarian(pred, dets), False
         solve_ms = (time.perf_counter() - t0) * 1000.0
         self.stats["solve_ms"] += solve_ms
-        events = self._apply(answer, pred, dets, frame)
-        return FrameResult(frame=frame, tracks=self._output(pred, dets, answer, frame), events=events,
+        events, matched = self._apply(answer, dets, frame)
+        return FrameResult(frame=frame, tracks=self._output(dets, matched, frame), events=events,
                            solve_ms=solve_ms, timed_out=timed_out)
 
     # -- association --------------------------------------------------------------------------
@@ -337,10 +341,8 @@ class Tracker:
             np.fill_diagonal(dcov, 0.0)
             dfront = dets.xyxy[None, :, 3] > dets.xyxy[:, None, 3]
             det_overlapped = np.where(dfront, dcov, 0.0).max(axis=1) >= c.partial_cover
-        hidden = self._state == TrackState.HIDDEN
-        limit = np.where(hidden, c.max_hidden_frames, c.max_missing_frames)
-        expired = (self._unseen > 0) & (self._unseen + 1 > limit)
-        hid = np.flatnonzero(hidden & (self._occluder >= 0))
+        expired = self._expired()
+        hid = np.flatnonzero((self._state == TrackState.HIDDEN) & (self._occluder >= 0))
         emerges = self._emerges(pred, dets, hid, lik)
         det_conf = self._scaled_confidence(dets.confidence)
         # detections too weak to start a track: still usable to continue one (conf gate in numpy)
@@ -355,6 +357,12 @@ class Tracker:
             emerges=emerges,
             visibility=self._vis, first_frame=self._frames_seen == 1,
         )
+
+    def _expired(self) -> np.ndarray:
+        """(T,) bool: unseen tracks that would pass their time limit (hidden or missing) now."""
+        c = self.config
+        limit = np.where(self._state == TrackState.HIDDEN, c.max_hidden_frames, c.max_missing_frames)
+        return (self._unseen > 0) & (self._unseen + 1 > limit)
 
     def _emerges(self, pred: np.ndarray, dets: Detections, hid: np.ndarray, lik: np.ndarray) -> np.ndarray:
         """(E, 2) ``detection, track`` rows: candidate detections of hidden tracks that touch the
@@ -425,15 +433,14 @@ class Tracker:
                     (ans.assign if self._unseen[r] == 0 else ans.resume)[tid] = k
                     matched_t.add(r)
                     matched_d.add(k)
-        hidden = self._state == TrackState.HIDDEN
-        limit = np.where(hidden, c.max_hidden_frames, c.max_missing_frames)
+        expired = self._expired()
         for r in range(len(self._id)):
             if r in matched_t:
                 if self._unseen[r] > 0:
                     ans.events.append(("reappears", (int(self._id[r]),)))
                 continue
             tid = int(self._id[r])
-            if not self._confirmed[r] or self._unseen[r] + 1 > limit[r]:
+            if not self._confirmed[r] or expired[r]:
                 ans.end.append(tid)
                 ans.events.append(("ends", (tid,)))
             elif self._unseen[r] == 0:
@@ -452,7 +459,9 @@ class Tracker:
         return ans
 
     # -- applying the answer ----------------------------------------------------------------------
-    def _apply(self, ans: Answer, pred: np.ndarray, dets: Detections, frame: int) -> list[Event]:
+    def _apply(self, ans: Answer, dets: Detections, frame: int) -> tuple[list[Event], dict[int, int]]:
+        """Update the tracks by the answer; return this frame's events and ``track id -> detection row``
+        of every track observed this frame (matched or new)."""
         c = self.config
         index = {int(t): i for i, t in enumerate(self._id.tolist())}
         # matched tracks
@@ -465,7 +474,7 @@ class Tracker:
             self._state[rows] = TrackState.VISIBLE
             self._hits[rows] += 1
             self._conf[rows] = dets.confidence[cols]
-        self._matched_det = dict(matched)  # track id -> detection row, this frame
+        observed = dict(matched)
         # new tracks (first, so that fluents and events can name them)
         new_vis = {a[0]: v for n, a, v in ans.fluents if n == "visibility" and isinstance(a[0], str)}
         new_ids: dict[str, int] = {}
@@ -475,18 +484,15 @@ class Tracker:
             self._next_id += len(cols)
             new_ids = {f"d{k}": int(t) for k, t in zip(cols.tolist(), ids.tolist())}
             self._kf.add(dets.xyxy[cols])
-            confirmed = np.full(len(cols), c.min_hits <= 1 or self._frames_seen <= c.min_hits)
-            self._id = np.concatenate([self._id, ids])
-            self._cls = np.concatenate([self._cls, dets.class_id[cols]])
-            self._state = np.concatenate([self._state, np.zeros(len(cols), np.int64)])
-            self._occluder = np.concatenate([self._occluder, np.full(len(cols), -1, np.int64)])
-            self._vis = np.concatenate([self._vis, np.array(
-                [VISIBILITY_VALUES.index(new_vis.get(f"d{k}", "fully_visible")) for k in cols.tolist()], np.int64)])
-            self._unseen = np.concatenate([self._unseen, np.zeros(len(cols), np.int64)])
-            self._hits = np.concatenate([self._hits, np.ones(len(cols), np.int64)])
-            self._conf = np.concatenate([self._conf, dets.confidence[cols]])
-            self._confirmed = np.concatenate([self._confirmed, confirmed])
-            self._matched_det.update({new_ids[f"d{k}"]: k for k in cols.tolist()})
+            k = len(cols)
+            vis = [VISIBILITY_VALUES.index(new_vis.get(f"d{j}", "fully_visible")) for j in cols.tolist()]
+            new = {"_id": ids, "_cls": dets.class_id[cols], "_state": np.full(k, TrackState.VISIBLE),
+                   "_occluder": np.full(k, -1), "_vis": np.array(vis), "_unseen": np.zeros(k),
+                   "_hits": np.ones(k), "_conf": dets.confidence[cols], "_confirmed": np.zeros(k, bool)}
+            for name in _TRACK_COLUMNS:  # confirmation of new tracks: by the general rule below
+                old = getattr(self, name)
+                setattr(self, name, np.concatenate([old, new[name].astype(old.dtype)]))
+            observed.update({new_ids[f"d{j}"]: j for j in cols.tolist()})
         # fluents: the answer holds the values that changed; the others carry on (inertia)
         for fname, fargs, value in ans.fluents:
             i = index.get(fargs[0])  # None for ended tracks and new ones (done above)
@@ -528,23 +534,23 @@ class Tracker:
         if ended:
             keep = ~np.isin(self._id, np.fromiter(ended, dtype=np.int64))
             self._kf.remove(np.flatnonzero(~keep))
-            for name in ("_id", "_cls", "_state", "_occluder", "_vis", "_unseen", "_hits", "_conf", "_confirmed"):
+            for name in _TRACK_COLUMNS:
                 setattr(self, name, getattr(self, name)[keep])
             for t in ended:
                 self._pending.pop(t, None)
         events.sort()
-        return events
+        return events, observed
 
-    def _output(self, pred: np.ndarray, dets: Detections, ans: Answer, frame: int) -> Detections:
-        """Every live confirmed track: detection box if matched, else the prediction."""
+    def _output(self, dets: Detections, observed: dict[int, int], frame: int) -> Detections:
+        """Every live confirmed track: its detection's box if observed, else the prediction."""
         n = len(self._id)
         boxes = self._kf.xyxy() if n else np.zeros((0, 4))
         rows = np.full(n, -1, dtype=np.int64)
         conf = self._conf.copy()
-        if self._matched_det:
+        if observed:
             pos = {int(t): i for i, t in enumerate(self._id.tolist())}
-            idx = np.array([pos[t] for t in self._matched_det], dtype=np.int64)
-            cols = np.array(list(self._matched_det.values()), dtype=np.int64)
+            idx = np.array([pos[t] for t in observed], dtype=np.int64)
+            cols = np.array(list(observed.values()), dtype=np.int64)
             boxes[idx] = dets.xyxy[cols]
             rows[idx] = dets.source_row[cols]
         keep = self._confirmed
