@@ -45,6 +45,9 @@ _STATE_NAMES = tuple(s.name.lower() for s in TrackState)
 #: y relations that put A's bottom lower than B's (``bottom_lower/1`` of relations.lp)
 BOTTOM_LOWER: frozenset[str] = frozenset({"after", "met_by", "overlapped_by", "contains", "started_by"})
 _BOTTOM_LOWER_CODES = frozenset(IA_RELATIONS.index(r) for r in BOTTOM_LOWER)
+#: x relations of boxes side by side (``lateral/1`` of relations.lp; closed under the converse)
+_LATERAL_CODES = frozenset(IA_RELATIONS.index(r) for r in
+                           ("before", "after", "meets", "met_by", "overlaps", "overlapped_by"))
 _K = {k: i for i, k in enumerate(MOTION_KINDS)}
 
 
@@ -345,9 +348,11 @@ class SituationMonitor:
         cls = self._class
         out: dict[Situation, Any] = {}
         # HIDDEN_ENTITY: hidden participant with an anticipated reappearance in the corridor
+        # within he_lead_ms
         out[Situation.HIDDEN_ENTITY] = {
             (t, a.occluder) for t, a in self._anticip.items()
-            if a.in_corridor and (cls.get(t) in VEHICLES or cls.get(t) in PEOPLE)}
+            if a.in_corridor and (cls.get(t) in VEHICLES or cls.get(t) in PEOPLE)
+            and (a.reappear_frame - now.frame) * self._frame_ms <= c["he_lead_ms"]}
         # REDUCED_VISIBILITY: in the corridor and large and visible, or hiding someone
         occluders = set(now.hidden_by.values())
         out[Situation.REDUCED_VISIBILITY] = {
@@ -366,13 +371,17 @@ class SituationMonitor:
         out[Situation.SUDDEN_STOP] = sudden
         # BLOCKED_LANE: on a lane and stopped now
         out[Situation.BLOCKED_LANE] = {t for t in now.on_lane if "stopped" in now.motion.get(t, ())}
-        # OVERTAKING: a vehicle pair whose depth order flipped within ov_ms
-        if now.closer:
+        # OVERTAKING: a vehicle pair side by side now, B not approaching, whose depth order
+        # flipped within ov_ms
+        flipped = {(a, b) for (b, a) in now.closer
+                   if now.ra[(a, b) if a < b else (b, a)][0] in _LATERAL_CODES
+                   and "approaching" not in now.motion.get(b, ())}
+        if flipped:
             earlier: set[tuple[int, int]] = set()
             for fr in self._within("ov_ms"):
                 if fr.frame < now.frame:
                     earlier |= fr.closer
-            out[Situation.OVERTAKING] = {(a, b) for (b, a) in now.closer if (a, b) in earlier}
+            out[Situation.OVERTAKING] = flipped & earlier
         # EXITING_VEHICLE: a person started within ev_ms (after the first frame), and a vehicle
         # stood still in the window
         start = self._seq_start if self._seq_start is not None else now.frame
