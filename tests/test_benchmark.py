@@ -267,3 +267,16 @@ def test_ours_adapter_filters_states() -> None:
         assert len(tracks) == 1 and tracks.frame[0] == f
     tracks, _ = adapter.update(Detections(xyxy=np.zeros((0, 4))), 3)  # missed: not visible
     assert len(tracks) == 0
+
+
+def test_pointrcnn_logits_reach_every_tracker_as_probabilities(fake_data: Path) -> None:
+    d = fake_data / "kitti" / "detections" / "pointrcnn" / "car"
+    d.mkdir(parents=True)
+    tail = "1.5,1.6,4.0,1.0,1.5,20.0,0.1,0.2"
+    d.joinpath("0000.txt").write_text(f"0,2,100,150,220,230,-2.0,{tail}\n1,2,108,150,228,230,0.0,{tail}\n"
+                                      f"2,2,116,150,236,230,3.0,{tail}\n")
+    found = datasets.discover(fake_data, only=["kitti-pointrcnn-car"])
+    bench = datasets.load_benchmark(*found.found[0])
+    conf = bench.sequences[0].detections.confidence
+    np.testing.assert_allclose(conf, 1 / (1 + np.exp(-np.array([-2.0, 0.0, 3.0]))))
+    assert datasets.SPECS[0].logit_scores is False  # RRC scores are probabilities already
