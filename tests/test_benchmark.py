@@ -226,6 +226,8 @@ def test_run_end_to_end_writes_tables(fake_data: Path, tmp_path: Path) -> None:
         assert set(bench["trackers"]["sort"]["variants"]) == {"default", "prefilter"}
         assert set(bench["trackers"]["ours"]["variants"]) == {"visible", "predicted"}
     assert data["paper_table2"]["kitti-cars"]["rows"]["with abduction"]["MOTA"] == 50.5
+    if HAVE_TRACKERS and _tracker_available():
+        assert "## Targets" in md and md.count("| kitti-rrc-car | ") == 8  # 3 vs ablation, 5 vs peers
 
 
 def test_cli_list_and_run(fake_data: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -280,3 +282,33 @@ def test_pointrcnn_logits_reach_every_tracker_as_probabilities(fake_data: Path) 
     conf = bench.sequences[0].detections.confidence
     np.testing.assert_allclose(conf, 1 / (1 + np.exp(-np.array([-2.0, 0.0, 3.0]))))
     assert datasets.SPECS[0].logit_scores is False  # RRC scores are probabilities already
+
+
+def _fake_run(metrics: dict[str, dict[str, float]], ms: dict[str, float]) -> runner.BenchmarkRun:
+    b = runner.BenchmarkRun(datasets.SPECS[0], ["0000"], 100, [])
+    for name, m in metrics.items():
+        r = runner.TrackerRun(tracker=name, variant="visible" if name.startswith("ours") else "default", metrics=m)
+        r.set_times(np.full(100, ms[name] / 1000))
+        b.runs[name] = [r]
+    return b
+
+
+def test_check_targets_states_each_gap_with_its_size() -> None:
+    m = {"ours": {"HOTA": 0.80, "MOTA": 0.900, "IDF1": 0.85, "IDSW": 10},
+         "ours-noabd": {"HOTA": 0.79, "MOTA": 0.91, "IDF1": 0.84, "IDSW": 20},
+         "sort": {"HOTA": 0.81, "MOTA": 0.904, "IDF1": 0.80, "IDSW": 12},
+         "bytetrack": {"HOTA": 0.70, "MOTA": 0.80, "IDF1": 0.70, "IDSW": 9}}
+    checks = {c.target: c for c in report.check_targets(_fake_run(m, {"ours": 3.0, "ours-noabd": 1.0, "sort": 1.0,
+                                                                      "bytetrack": 2.0}))}
+    assert checks["HOTA: with abduction > without"].met
+    assert not checks["MOTA: with abduction > without"].met
+    assert checks["MOTA: with abduction > without"].margin == pytest.approx(-1.0)
+    hota = checks["HOTA: ahead of every peer"]
+    assert not hota.met and hota.margin == pytest.approx(-1.0) and "SORT" in hota.detail
+    assert checks["IDF1: ahead of every peer"].met
+    assert checks["MOTA: at most 0.5 behind the best peer"].met  # 0.4 behind
+    idsw = checks["ID switches: fewer than any peer"]
+    assert not idsw.met and idsw.margin == -1 and "ByteTrack" in idsw.detail
+    time = checks["time per frame: at most 2x the fastest peer"]
+    assert not time.met and time.margin == pytest.approx(-1.0)
+    assert report.check_targets(_fake_run({"sort": m["sort"]}, {"sort": 1.0})) == []
