@@ -212,9 +212,9 @@ class SituationMonitor:
             return
         ids = tr.tracker_id.tolist()
         cls = tr.class_id.tolist()
-        state_arr = np.asarray(tr.data.get("state", np.zeros(n)), dtype=np.int64)
-        occl = np.asarray(tr.data.get("occluder", np.full(n, -1)), dtype=np.int64).tolist()
-        states = state_arr.tolist()
+        data = tr.data
+        states = np.asarray(data["state"] if "state" in data else np.zeros(n), dtype=np.int64).tolist()
+        occl = np.asarray(data["occluder"] if "occluder" in data else np.full(n, -1), dtype=np.int64).tolist()
         xyxy = tr.xyxy
         fr.ids = ids
         fr.state = dict(zip(ids, states))
