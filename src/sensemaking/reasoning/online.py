@@ -45,6 +45,7 @@ log = logging.getLogger(__name__)
 _STATE_NAMES = tuple(s.name.lower() for s in TrackState)
 #: y relations that put A's bottom lower than B's (``bottom_lower/1`` of relations.lp)
 BOTTOM_LOWER: frozenset[str] = frozenset({"after", "met_by", "overlapped_by", "contains", "started_by"})
+#: (13,) bool by relation code: the code is in BOTTOM_LOWER
 _BOTTOM_LOWER_CODE = np.isin(np.arange(len(IA_RELATIONS)), [IA_RELATIONS.index(r) for r in BOTTOM_LOWER])
 #: x relations of boxes side by side (``lateral/1`` of relations.lp; closed under the converse)
 _LATERAL_CODES = frozenset(IA_RELATIONS.index(r) for r in
