@@ -364,7 +364,7 @@ def _gated_and_ungated(t: Tracker, dets: Detections):
         t.config = config
     ti, dj = np.nonzero(lik > 0)
     cand = np.stack([ti, dj, t._quantize(lik[ti, dj])], axis=1) if ti.size else np.zeros((0, 3), np.int64)
-    return gated, dataclasses.replace(gated, cand=cand)
+    return gated, dataclasses.replace(gated, cand=cand, cand_exact=lik[ti, dj])
 
 
 def _random_frames(rng: np.random.Generator, n_frames: int = 10):

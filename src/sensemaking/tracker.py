@@ -324,6 +324,7 @@ class Tracker:
         lik = self._likelihood(pred, dets)
         ti, dj = np.nonzero(lik > 0)
         cand = np.stack([ti, dj, self._quantize(lik[ti, dj])], axis=1) if ti.size else np.zeros((0, 3), np.int64)
+        cand_exact = lik[ti, dj]
         at_border, outside = self._borders(pred)
         det_border, _ = self._borders(dets.xyxy)
         start_ok = dets.confidence >= c.start_confidence
@@ -364,7 +365,7 @@ class Tracker:
             det_overlapped=det_overlapped, cand=cand, covers=covers, keeps_covering=keeps,
             hidden_by=np.stack([self._id[hid], self._occluder[hid]], axis=1) if hid.size else np.zeros((0, 2), np.int64),
             emerges=emerges,
-            visibility=self._vis, first_frame=self._frames_seen == 1,
+            visibility=self._vis, first_frame=self._frames_seen == 1, cand_exact=cand_exact,
         )
 
     def _expired(self) -> np.ndarray:
