@@ -17,6 +17,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from sensemaking.abduction.problem import VISIBILITY_VALUES, FrameProblem
+from sensemaking.abduction.settle import settle
 from sensemaking.abduction.solver import AbductionSolver, Answer
 from sensemaking.detections import Detections
 from sensemaking.geometry import coverage, intersection, iou
@@ -397,7 +398,7 @@ class Tracker:
         if t_rest.any() or d_rest.any():
             reduced = len(pairs) or len(ignored)
             rest = problem.subset(t_rest, d_rest) if reduced else problem
-            answer = self._solver_solve(rest)
+            answer = self._settle_and_solve(rest)
             if answer is not None and reduced:
                 answer = _renumber_detections(answer, np.flatnonzero(d_rest))
         if answer is None:
@@ -414,6 +415,17 @@ class Tracker:
         if answer.timed_out:
             self.stats["timed_out"] += 1
         return answer, answer.timed_out
+
+    def _settle_and_solve(self, problem: FrameProblem) -> Answer | None:
+        """Settle the problem in Python if each of its components has a unique optimum (exact,
+        see abduction.settle); otherwise the solver takes all of it. All or nothing: where the
+        optimum is tied, the solver's pick depends on the whole program it is given, so a
+        partly settled problem could change its pick among equal optima."""
+        if self.config.decompose:
+            settled, t_rest, d_rest = settle(problem, self._solver.constants)
+            if not (t_rest.any() or d_rest.any()):
+                return settled
+        return self._solver_solve(problem)
 
     def _solver_solve(self, problem: FrameProblem) -> Answer | None:
         return self._solver.solve(problem, budget_ms=self.config.max_solve_ms)

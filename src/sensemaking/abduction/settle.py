@@ -1,0 +1,341 @@
+"""Exact settlement of small independent parts of a frame's problem in Python, without clingo.
+
+A frame's problem falls apart into connected components: tracks and detections linked by
+``cand``, ``covers`` and ``keeps_covering`` facts. No rule of ``encodings/tracking.lp`` joins atoms
+of two components (the occluder and keeps-occluding rules go through those facts; ``hidden_by``
+names its occluder only as a constant, and the occluder can only keep covering through a
+``keeps_covering`` fact) and the optimisation is a plain sum, so an optimal answer of the frame
+is an optimal answer of each component, side by side.
+
+:func:`settle` enumerates, for each small component, every answer of the encoding restricted to
+it (the matching, then start or ignore of the unmatched detections that could occlude, then each
+object's cheapest explanation) and evaluates the encoding's weak constraints on it. A component
+is settled only if its optimum is *unique*: then every optimal answer of the whole frame -- the
+one clingo would return included -- contains exactly this part, so settling it in Python changes
+nothing. Components with ties, or too large to enumerate, are left to the solver.
+
+The rules mirrored here are those of ``tracking.lp``; ``tests/test_settle.py`` checks the two
+against each other on random and real problems.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from sensemaking.abduction.problem import VISIBILITY_VALUES, FrameProblem
+from sensemaking.abduction.solver import Answer
+
+__all__ = ["settle", "DEFAULT_CONSTANTS"]
+
+#: the encoding's ``#const`` defaults (tracking.lp); the solver's constants override them
+DEFAULT_CONSTANTS: dict[str, int] = {
+    "iou_assign": 300, "iou_resume": 100, "conf_assign": 0, "conf_start": 500,
+    "cost_enters": 100, "cost_appears": 400, "cost_leaves": 100, "cost_lost": 600, "cost_hides": 50,
+    "cost_missing": 250, "cost_unseen": 20, "cost_ignore": 600,
+}
+
+_FV, _PO, _FO = VISIBILITY_VALUES  # fully_visible, partially_occluded, fully_occluded
+
+# one way to explain an object: (cost, action, events, fluents)
+_Option = tuple[int, tuple, tuple, tuple]
+
+
+def settle(problem: FrameProblem, constants: Mapping[str, int] | None = None,
+           max_branches: int = 512) -> tuple[Answer, np.ndarray, np.ndarray]:
+    """Settle every component of ``problem`` whose optimum is unique and small to enumerate.
+
+    Returns:
+        (the answer for the settled objects, in ``problem``'s detection numbering; mask of the
+        tracks left to the solver; mask of the detections left to the solver)
+    """
+    k = {**DEFAULT_CONSTANTS, **(constants or {})}
+    nt, nd = problem.n_tracks, problem.n_dets
+    answer = Answer(cost=0, optimal=True)
+    t_rest = np.ones(nt, dtype=bool)
+    d_rest = np.ones(nd, dtype=bool)
+    if nt + nd == 0:
+        return answer, t_rest, d_rest
+    # union-find over tracks 0..nt-1 and detections nt..nt+nd-1
+    parent = list(range(nt + nd))
+
+    def find(x: int) -> int:
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+
+    cand = problem.cand.tolist()
+    covers = problem.covers.tolist()
+    keeps = problem.keeps_covering.tolist()
+    emerges = {(int(d), int(t)) for d, t in problem.emerges.tolist()}
+    for t, d, _ in cand:
+        parent[find(t)] = find(nt + d)
+    for d, t in covers + keeps:
+        parent[find(t)] = find(nt + d)
+    groups: dict[int, tuple[list[int], list[int]]] = {}
+    for x in range(nt + nd):
+        g = groups.setdefault(find(x), ([], []))
+        (g[0] if x < nt else g[1]).append(x if x < nt else x - nt)
+
+    ctx = _Context(problem, k, cand, covers, keeps, emerges)
+    for tracks, dets in groups.values():
+        part = ctx.solve(tracks, dets, max_branches)
+        if part is None:
+            continue
+        _merge(answer, part)
+        answer.cost += part.cost
+        t_rest[tracks] = False
+        d_rest[dets] = False
+    for ints in (answer.start, answer.end, answer.halt, answer.ignore_trk, answer.ignore_det):
+        ints.sort()
+    answer.events.sort(key=str)
+    answer.fluents.sort(key=str)
+    return answer, t_rest, d_rest
+
+
+def _merge(answer: Answer, part: Answer) -> None:
+    answer.assign.update(part.assign)
+    answer.resume.update(part.resume)
+    for name in ("start", "end", "halt", "ignore_trk", "ignore_det", "events", "fluents"):
+        getattr(answer, name).extend(getattr(part, name))
+
+
+class _Context:
+    """Per-frame lookups shared by the components."""
+
+    def __init__(self, p: FrameProblem, k: dict[str, int], cand: list, covers: list, keeps: list,
+                 emerges: set[tuple[int, int]]):
+        self.k = k
+        self.tid = p.track_id.tolist()
+        self.active = p.active.tolist()
+        self.tentative = p.tentative.tolist()
+        self.uncertain = p.uncertain.tolist() if p.uncertain is not None else [False] * len(self.tid)
+        self.expired = p.expired.tolist()
+        self.outside = p.outside.tolist()
+        self.at_border = p.at_border.tolist()
+        self.overlapped = p.overlapped.tolist()
+        self.tclass = p.track_class.tolist()
+        self.vis0 = ([VISIBILITY_VALUES[v] for v in p.visibility.tolist()] if p.visibility is not None
+                     else [None] * len(self.tid))
+        self.conf = p.det_conf.tolist()
+        self.dclass = p.det_class.tolist()
+        self.dborder = p.det_border.tolist()
+        self.doverlapped = p.det_overlapped.tolist()
+        self.first_frame = bool(p.first_frame)
+        self.hidden0: dict[int, int] = {}
+        for t, o in p.hidden_by.tolist():
+            self.hidden0.setdefault(t, o)
+        self.n_hidden0 = {}
+        for t, _ in p.hidden_by.tolist():
+            self.n_hidden0[t] = self.n_hidden0.get(t, 0) + 1
+        self.cand: dict[int, list[tuple[int, int]]] = {}
+        for t, d, lik in cand:
+            self.cand.setdefault(t, []).append((d, lik))
+        self.covers: dict[int, list[int]] = {}
+        for d, t in covers:
+            self.covers.setdefault(t, []).append(d)
+        self.keeps: dict[int, list[int]] = {}
+        for d, t in keeps:
+            self.keeps.setdefault(t, []).append(d)
+        self.covering = {d for d, _ in covers}
+        self.emerges = emerges
+
+    # -- the component ------------------------------------------------------------------------
+    def solve(self, tracks: list[int], dets: list[int], max_branches: int) -> Answer | None:
+        k = self.k
+        for t in tracks:
+            if self.n_hidden0.get(self.tid[t], 0) > 1:
+                return None  # a track hidden behind two: not produced by the tracker; leave it
+        allowed: dict[int, list[tuple[int, int]]] = {}
+        for t in tracks:
+            tid = self.tid[t]
+            ok = []
+            if self.expired[t] or self.outside[t]:
+                allowed[t] = ok  # must end: never matched
+                continue
+            for d, lik in self.cand.get(t, ()):
+                if lik < k["iou_resume"] or self.conf[d] < k["conf_assign"] or self.tclass[t] != self.dclass[d]:
+                    continue
+                if self.active[t]:
+                    if lik < k["iou_assign"] and not self.uncertain[t]:
+                        continue
+                elif tid in self.hidden0 and (d, t) not in self.emerges:
+                    continue
+                ok.append((d, lik))
+            allowed[t] = ok
+        matchings: list[dict[int, int]] = []
+        budget = [max_branches]
+
+        def rec(i: int, used: dict[int, int]) -> bool:
+            if i == len(tracks):
+                matchings.append(dict(used))
+                budget[0] -= 1
+                return budget[0] >= 0
+            t = tracks[i]
+            if not rec(i + 1, used):
+                return False
+            for d, _ in allowed[t]:
+                if d not in used.values():
+                    used[t] = d
+                    if not rec(i + 1, used):
+                        return False
+                    del used[t]
+            return True
+
+        if not rec(0, {}):
+            return None
+        best: tuple[int, Answer] | None = None
+        n_best = 0
+        for m in matchings:
+            taken = set(m.values())
+            free_cov = [d for d in dets if d not in taken and d in self.covering and self.conf[d] >= k["conf_start"]]
+            if len(free_cov) > 6:
+                return None
+            budget[0] -= 1 << len(free_cov)
+            if budget[0] < 0:
+                return None
+            for mask in range(1 << len(free_cov)):
+                started = {d for b, d in enumerate(free_cov) if mask >> b & 1}
+                res = self._evaluate(tracks, dets, m, started)
+                if res is None:
+                    continue
+                cost, unique, ans = res
+                if best is None or cost < best[0]:
+                    best, n_best = (cost, ans), (1 if unique else 2)
+                elif cost == best[0]:
+                    n_best += 2
+        if best is None or n_best != 1:
+            return None
+        best[1].cost = best[0]
+        return best[1]
+
+    def _evaluate(self, tracks: list[int], dets: list[int], m: dict[int, int],
+                  started: set[int]) -> tuple[int, bool, Answer] | None:
+        """Cost of the cheapest answer with matching ``m`` and the covering detections ``started``
+        starting (the others ignored), whether it is the only one of that cost, and the answer."""
+        k = self.k
+        ans = Answer()
+        cost = 0
+        unique = True
+        by_det = {d: t for t, d in m.items()}
+        lik_of = {t: dict(self.cand.get(t, ())) for t in m}
+        for t in tracks:
+            tid = self.tid[t]
+            h0 = self.hidden0.get(tid)
+            if t in m:
+                d = m[t]
+                cost += 1000 - lik_of[t][d]
+                if self.active[t]:
+                    ans.assign[tid] = d
+                    unhides = False
+                else:
+                    ans.resume[tid] = d
+                    unhides = h0 is not None
+                    if unhides:
+                        ans.events.append(("unhides_from_behind", (tid, h0)))
+                        ans.fluents.append(("hidden_by", (tid, h0), "false"))
+                    else:
+                        ans.events.append(("reappears", (tid,)))
+                vis = _PO if (self.overlapped[t] or unhides) else _FV
+                if vis != self.vis0[t]:
+                    ans.fluents.append(("visibility", (tid,), vis))
+                continue
+            cost += 1000
+            opts = self._unmatched(t, tid, h0, by_det, started)
+            if not opts:
+                return None
+            c, u, opt = _cheapest(opts)
+            cost += c
+            unique &= u
+            action, events, fluents = opt[1], opt[2], opt[3]
+            getattr(ans, action).append(tid)
+            ans.events.extend(events)
+            ans.fluents.extend(fluents)
+        for d in dets:
+            if d in by_det:
+                continue
+            name = f"d{d}"
+            start_opts: list[_Option] = []
+            if self.conf[d] >= k["conf_start"]:
+                vis = _PO if self.doverlapped[d] else _FV
+                fl = (("in_fov", (name,), "true"), ("visibility", (name,), vis))
+                if self.dborder[d]:
+                    start_opts.append((k["cost_enters"], "start", (("enters_fov", (name,)),), fl))
+                start_opts.append((0 if self.first_frame else k["cost_appears"], "start", (("starts", (name,)),), fl))
+            ignore = (k["cost_ignore"] * self.conf[d] // 1000, "ignore_det", (), ())
+            if d in self.covering and self.conf[d] >= k["conf_start"]:
+                opts = start_opts if d in started else [ignore]  # chosen by the caller
+            else:
+                opts = start_opts + [ignore]
+            c, u, opt = _cheapest(opts)
+            cost += c
+            unique &= u
+            getattr(ans, opt[1]).append(d)
+            ans.events.extend(opt[2])
+            ans.fluents.extend(opt[3])
+        return cost, unique, ans
+
+    def _unmatched(self, t: int, tid: int, h0: int | None, by_det: dict[int, int],
+                   started: set[int]) -> list[_Option]:
+        """The ways to explain an unmatched track ``t``: end, halt or stay unobserved."""
+        k = self.k
+        opts: list[_Option] = []
+        expired = self.expired[t]
+        if self.at_border[t]:
+            opts.append((0 if expired else k["cost_leaves"], "end", (("leaves_fov", (tid,)),),
+                         (("in_fov", (tid,), "false"),)))
+        opts.append((1 if expired else k["cost_lost"], "end", (("ends", (tid,)),), ()))
+        if expired or self.outside[t]:
+            return opts
+        occluders: set[int | str] = set()
+        for d in self.covers.get(t, ()):
+            if d in by_det:
+                o = self.tid[by_det[d]]
+                if o != tid:
+                    occluders.add(o)
+            elif d in started:
+                occluders.add(f"d{d}")
+        vis0 = self.vis0[t]
+
+        def hide(o: int | str, cost: int, action: str) -> _Option:
+            fl = []
+            if h0 is not None and h0 != o:
+                fl.append(("hidden_by", (tid, h0), "false"))
+            if h0 != o:
+                fl.append(("hidden_by", (tid, o), "true"))
+            if vis0 != _FO:
+                fl.append(("visibility", (tid,), _FO))
+            return (cost, action, (("hides_behind", (tid, o)),), tuple(fl))
+
+        def missing(cost: int, action: str) -> _Option:
+            fl = []
+            if h0 is not None:
+                fl.append(("hidden_by", (tid, h0), "false"))
+                if vis0 != _FV:
+                    fl.append(("visibility", (tid,), _FV))
+            return (cost, action, (("missing_detections", (tid,)),), tuple(fl))
+
+        if self.active[t]:
+            if not self.tentative[t]:
+                opts += [hide(o, k["cost_hides"], "halt") for o in occluders]
+                opts.append(missing(k["cost_missing"], "halt"))
+            return opts
+        if h0 is not None:
+            still = any(d in by_det and self.tid[by_det[d]] == h0 and h0 != tid for d in self.keeps.get(t, ()))
+            if still:
+                opts.append((0, "ignore_trk", (), ()))
+            else:
+                opts += [hide(o, 0, "ignore_trk") for o in occluders if o != h0]
+                opts.append(missing(k["cost_missing"] + k["cost_unseen"], "ignore_trk"))
+        else:
+            opts += [hide(o, 0, "ignore_trk") for o in occluders]
+            opts.append((k["cost_unseen"], "ignore_trk", (), ()))
+        return opts
+
+
+def _cheapest(opts: list[_Option]) -> tuple[int, bool, _Option]:
+    best = min(opts, key=lambda o: o[0])
+    n = sum(1 for o in opts if o[0] == best[0])
+    return best[0], n == 1, best
