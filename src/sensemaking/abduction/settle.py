@@ -165,56 +165,92 @@ class _Context:
                     continue
                 ok.append((d, lik))
             allowed[t] = ok
-        matchings: list[dict[int, int]] = []
-        budget = [max_branches]
+        # costs that do not depend on the choice: each object's own, computed once
+        fixed_t = {t: _cheapest(self._unmatched(t, self.tid[t], self.hidden0.get(self.tid[t]), {}, set()))[:2]
+                   for t in tracks if t not in self.covers and t not in self.keeps}
+        dynamic_t = [t for t in tracks if t not in fixed_t]
+        startable = {d for d in dets if d in self.covering and self.conf[d] >= k["conf_start"]}
+        start_cost = {d: _cheapest(self._untaken(d, True))[:2] for d in startable}
+        ignore_cost = {d: self._untaken(d, False)[0][0] for d in startable}
+        fixed_d = {d: _cheapest(self._untaken(d, None))[:2] for d in dets if d not in startable}
+        # branch and bound over the matching, track by track, best candidates first. A track
+        # costs at least its best candidate's 1000 - L, or 1000 (+ its own cost if that does
+        # not depend on others) unmatched; only branches strictly worse than the best answer so
+        # far are cut, so every optimum -- ties included -- is reached.
+        order = sorted(tracks, key=lambda t: -len(allowed[t]))
+        for t in order:
+            allowed[t].sort(key=lambda x: -x[1])
+        unmatched_cost = {t: 1000 + fixed_t[t][0] if t in fixed_t else 1000 for t in tracks}
+        floor = [min([1000 - lik for _, lik in allowed[t]] + [unmatched_cost[t]]) for t in order]
+        suffix = [0] * (len(order) + 1)
+        for i in range(len(order) - 1, -1, -1):
+            suffix[i] = suffix[i + 1] + floor[i]
+        state = {"best": None, "n": 0, "budget": max_branches}
+        m: dict[int, int] = {}
+        by_det: dict[int, int] = {}
 
-        def rec(i: int, used: dict[int, int]) -> bool:
-            if i == len(tracks):
-                matchings.append(dict(used))
-                budget[0] -= 1
-                return budget[0] >= 0
-            t = tracks[i]
-            if not rec(i + 1, used):
+        def leaf(partial: int, unique: bool) -> bool:
+            cost = partial
+            for d in dets:
+                if d not in by_det and d in fixed_d:
+                    c, u = fixed_d[d]
+                    cost += c
+                    unique &= u
+            free_cov = [d for d in dets if d not in by_det and d in startable]
+            free_t = [t for t in dynamic_t if t not in m]
+            state["budget"] -= 1 << len(free_cov)
+            if len(free_cov) > 6 or state["budget"] < 0:
                 return False
-            for d, _ in allowed[t]:
-                if d not in used.values():
-                    used[t] = d
-                    if not rec(i + 1, used):
-                        return False
-                    del used[t]
-            return True
-
-        if not rec(0, {}):
-            return None
-        best: tuple[int, Answer] | None = None
-        n_best = 0
-        for m in matchings:
-            taken = set(m.values())
-            free_cov = [d for d in dets if d not in taken and d in self.covering and self.conf[d] >= k["conf_start"]]
-            if len(free_cov) > 6:
-                return None
-            budget[0] -= 1 << len(free_cov)
-            if budget[0] < 0:
-                return None
             for mask in range(1 << len(free_cov)):
                 started = {d for b, d in enumerate(free_cov) if mask >> b & 1}
-                res = self._evaluate(tracks, dets, m, started)
-                if res is None:
-                    continue
-                cost, unique, ans = res
-                if best is None or cost < best[0]:
-                    best, n_best = (cost, ans), (1 if unique else 2)
-                elif cost == best[0]:
-                    n_best += 2
+                total, uniq = cost, unique
+                for d in free_cov:
+                    c, u = start_cost[d] if d in started else (ignore_cost[d], True)
+                    total += c
+                    uniq &= u
+                for t in free_t:
+                    c, u, _ = _cheapest(self._unmatched(t, self.tid[t], self.hidden0.get(self.tid[t]), by_det, started))
+                    total += c
+                    uniq &= u
+                best = state["best"]
+                if best is None or total < best[0]:
+                    state["best"], state["n"] = (total, dict(m), started), (1 if uniq else 2)
+                elif total == best[0]:
+                    state["n"] += 2
+            return True
+
+        def rec(i: int, partial: int, unique: bool) -> bool:
+            best = state["best"]
+            if best is not None and partial + suffix[i] > best[0]:
+                return True
+            if i == len(order):
+                return leaf(partial, unique)
+            t = order[i]
+            for d, lik in allowed[t]:
+                if d not in by_det:
+                    m[t], by_det[d] = d, t
+                    ok = rec(i + 1, partial + 1000 - lik, unique)
+                    del m[t], by_det[d]
+                    if not ok:
+                        return False
+            u = fixed_t[t][1] if t in fixed_t else True
+            return rec(i + 1, partial + unmatched_cost[t], unique and u)
+
+        if not rec(0, 0, True):
+            return None
+        best, n_best = state["best"], state["n"]
         if best is None or n_best != 1:
             return None
-        best[1].cost = best[0]
-        return best[1]
+        cost, unique, ans = self._evaluate(tracks, dets, best[1], best[2])
+        if cost != best[0] or not unique:  # cannot happen: the same rules, evaluated again
+            return None
+        ans.cost = cost
+        return ans
 
     def _evaluate(self, tracks: list[int], dets: list[int], m: dict[int, int],
-                  started: set[int]) -> tuple[int, bool, Answer] | None:
-        """Cost of the cheapest answer with matching ``m`` and the covering detections ``started``
-        starting (the others ignored), whether it is the only one of that cost, and the answer."""
+                  started: set[int]) -> tuple[int, bool, Answer]:
+        """The cheapest answer with matching ``m`` and the covering detections ``started`` starting
+        (the others ignored): its cost, whether it is the only one of that cost, and the answer."""
         k = self.k
         ans = Answer()
         cost = 0
@@ -243,10 +279,7 @@ class _Context:
                     ans.fluents.append(("visibility", (tid,), vis))
                 continue
             cost += 1000
-            opts = self._unmatched(t, tid, h0, by_det, started)
-            if not opts:
-                return None
-            c, u, opt = _cheapest(opts)
+            c, u, opt = _cheapest(self._unmatched(t, tid, h0, by_det, started))
             cost += c
             unique &= u
             action, events, fluents = opt[1], opt[2], opt[3]
@@ -256,19 +289,8 @@ class _Context:
         for d in dets:
             if d in by_det:
                 continue
-            name = f"d{d}"
-            start_opts: list[_Option] = []
-            if self.conf[d] >= k["conf_start"]:
-                vis = _PO if self.doverlapped[d] else _FV
-                fl = (("in_fov", (name,), "true"), ("visibility", (name,), vis))
-                if self.dborder[d]:
-                    start_opts.append((k["cost_enters"], "start", (("enters_fov", (name,)),), fl))
-                start_opts.append((0 if self.first_frame else k["cost_appears"], "start", (("starts", (name,)),), fl))
-            ignore = (k["cost_ignore"] * self.conf[d] // 1000, "ignore_det", (), ())
-            if d in self.covering and self.conf[d] >= k["conf_start"]:
-                opts = start_opts if d in started else [ignore]  # chosen by the caller
-            else:
-                opts = start_opts + [ignore]
+            startable = d in self.covering and self.conf[d] >= k["conf_start"]
+            opts = self._untaken(d, d in started if startable else None)
             c, u, opt = _cheapest(opts)
             cost += c
             unique &= u
@@ -276,6 +298,22 @@ class _Context:
             ans.events.extend(opt[2])
             ans.fluents.extend(opt[3])
         return cost, unique, ans
+
+    def _untaken(self, d: int, start: bool | None) -> list[_Option]:
+        """The ways to explain an untaken detection: start (``start`` True), ignore (False), or
+        either (None)."""
+        k = self.k
+        opts: list[_Option] = []
+        if start is not False and self.conf[d] >= k["conf_start"]:
+            name = f"d{d}"
+            vis = _PO if self.doverlapped[d] else _FV
+            fl = (("in_fov", (name,), "true"), ("visibility", (name,), vis))
+            if self.dborder[d]:
+                opts.append((k["cost_enters"], "start", (("enters_fov", (name,)),), fl))
+            opts.append((0 if self.first_frame else k["cost_appears"], "start", (("starts", (name,)),), fl))
+        if start is not True:
+            opts.append((k["cost_ignore"] * self.conf[d] // 1000, "ignore_det", (), ()))
+        return opts
 
     def _unmatched(self, t: int, tid: int, h0: int | None, by_det: dict[int, int],
                    started: set[int]) -> list[_Option]:
