@@ -422,7 +422,7 @@ class Tracker:
         optimum is tied, the solver's pick depends on the whole program it is given, so a
         partly settled problem could change its pick among equal optima."""
         if self.config.decompose:
-            settled, t_rest, d_rest = settle(problem, self._solver.constants)
+            settled, t_rest, d_rest = settle(problem, self._solver.constants, whole=True)
             if not (t_rest.any() or d_rest.any()):
                 return settled
         return self._solver_solve(problem)

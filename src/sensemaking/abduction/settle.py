@@ -43,8 +43,12 @@ _Option = tuple[int, tuple, tuple, tuple]
 
 
 def settle(problem: FrameProblem, constants: Mapping[str, int] | None = None,
-           max_branches: int = 512) -> tuple[Answer, np.ndarray, np.ndarray]:
+           max_branches: int = 2048, whole: bool = False) -> tuple[Answer, np.ndarray, np.ndarray]:
     """Settle every component of ``problem`` whose optimum is unique and small to enumerate.
+
+    ``max_branches`` bounds the search per component (nodes of the branch and bound plus the
+    start/ignore choices it tries). ``whole``: stop at the first component that cannot be
+    settled (smallest first: quick to find) and settle nothing -- for callers that only want the whole problem.
 
     Returns:
         (the answer for the settled objects, in ``problem``'s detection numbering; mask of the
@@ -80,9 +84,11 @@ def settle(problem: FrameProblem, constants: Mapping[str, int] | None = None,
         (g[0] if x < nt else g[1]).append(x if x < nt else x - nt)
 
     ctx = _Context(problem, k, cand, covers, keeps, emerges)
-    for tracks, dets in groups.values():
+    for tracks, dets in sorted(groups.values(), key=lambda g: len(g[0]) + len(g[1])):
         part = ctx.solve(tracks, dets, max_branches)
         if part is None:
+            if whole:
+                return Answer(), np.ones(nt, dtype=bool), np.ones(nd, dtype=bool)
             continue
         _merge(answer, part)
         answer.cost += part.cost
@@ -220,6 +226,9 @@ class _Context:
             return True
 
         def rec(i: int, partial: int, unique: bool) -> bool:
+            state["budget"] -= 1
+            if state["budget"] < 0:
+                return False
             best = state["best"]
             if best is not None and partial + suffix[i] > best[0]:
                 return True
