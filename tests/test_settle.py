@@ -16,7 +16,7 @@ from sensemaking.abduction.problem import VISIBILITY_VALUES, FrameProblem
 from sensemaking.abduction.settle import DEFAULT_CONSTANTS, settle
 from sensemaking.abduction.solver import Answer, load_encoding
 from sensemaking.synthetic import make_scene, occlusion_suite
-from sensemaking.tracker import Tracker, TrackerConfig
+from sensemaking.tracker import Tracker, TrackerConfig, _renumber_detections
 
 ENCODING = load_encoding()
 #: the constants the tracker gives the solver (confidence gates applied in numpy)
@@ -188,3 +188,16 @@ def test_empty_problem_settles_to_the_empty_answer():
     )
     ans, t_rest, d_rest = settle(p)
     assert shown(ans) == set() and t_rest.size == 0 and d_rest.size == 0
+
+
+def test_masks_settle_the_same_as_the_subset():
+    rng = np.random.default_rng(11)
+    for _ in range(200):
+        problem = random_problem(rng)
+        tracks, dets = rng.random(problem.n_tracks) < 0.7, rng.random(problem.n_dets) < 0.7
+        ans, t_rest, d_rest = settle(problem, CONSTANTS, tracks=tracks, dets=dets)
+        sub, st_rest, sd_rest = settle(problem.subset(tracks, dets), CONSTANTS)
+        index = np.flatnonzero(dets)
+        assert shown(ans) == shown(_renumber_detections(sub, index))
+        assert t_rest[tracks].tolist() == st_rest.tolist() and not t_rest[~tracks].any()
+        assert d_rest[dets].tolist() == sd_rest.tolist() and not d_rest[~dets].any()

@@ -419,10 +419,21 @@ class Tracker:
         answer: Answer | None = Answer()
         if t_rest.any() or d_rest.any():
             reduced = len(pairs) or len(ignored)
-            rest = problem.subset(t_rest, d_rest) if reduced else problem
-            answer = self._settle_and_solve(rest)
-            if answer is not None and reduced:
-                answer = _renumber_detections(answer, np.flatnonzero(d_rest))
+            # the rest in closed form if each of its components has a unique optimum (exact, see
+            # abduction.settle); else the solver takes all of it. All or nothing: where the
+            # optimum is tied, the solver's pick depends on the whole program it is given
+            settled = None
+            if self.config.decompose:
+                settled, t_left, d_left = settle(problem, self._solver.constants, whole=True,
+                                                 tracks=t_rest, dets=d_rest)
+                if t_left.any() or d_left.any():
+                    settled = None
+            if settled is not None:
+                answer = settled
+            else:
+                answer = self._solver_solve(problem.subset(t_rest, d_rest) if reduced else problem)
+                if answer is not None and reduced:
+                    answer = _renumber_detections(answer, np.flatnonzero(d_rest))
         if answer is None:
             self.stats["timed_out"] += 1
             self.stats["fallback"] += 1
@@ -437,17 +448,6 @@ class Tracker:
         if answer.timed_out:
             self.stats["timed_out"] += 1
         return answer, answer.timed_out
-
-    def _settle_and_solve(self, problem: FrameProblem) -> Answer | None:
-        """Settle the problem in Python if each of its components has a unique optimum (exact,
-        see abduction.settle); otherwise the solver takes all of it. All or nothing: where the
-        optimum is tied, the solver's pick depends on the whole program it is given, so a
-        partly settled problem could change its pick among equal optima."""
-        if self.config.decompose:
-            settled, t_rest, d_rest = settle(problem, self._solver.constants, whole=True)
-            if not (t_rest.any() or d_rest.any()):
-                return settled
-        return self._solver_solve(problem)
 
     def _solver_solve(self, problem: FrameProblem) -> Answer | None:
         return self._solver.solve(problem, budget_ms=self.config.max_solve_ms)

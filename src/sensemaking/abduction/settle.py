@@ -43,23 +43,28 @@ _Option = tuple[int, tuple, tuple, tuple]
 
 
 def settle(problem: FrameProblem, constants: Mapping[str, int] | None = None,
-           max_branches: int = 2048, whole: bool = False) -> tuple[Answer, np.ndarray, np.ndarray]:
+           max_branches: int = 2048, whole: bool = False, tracks: np.ndarray | None = None,
+           dets: np.ndarray | None = None) -> tuple[Answer, np.ndarray, np.ndarray]:
     """Settle every component of ``problem`` whose optimum is unique and small to enumerate.
+
+    ``tracks``, ``dets``: masks of the objects to consider (default all): the same as settling
+    ``problem.subset(tracks, dets)``, but the answer keeps ``problem``'s detection numbering.
 
     ``max_branches`` bounds the search per component (nodes of the branch and bound plus the
     start/ignore choices it tries). ``whole``: stop at the first component that cannot be
-    settled (smallest first: quick to find) and settle nothing -- for callers that only want the whole problem.
+    settled (smallest first: quick to find) and settle nothing -- for callers that want all or
+    nothing.
 
     Returns:
         (the answer for the settled objects, in ``problem``'s detection numbering; mask of the
-        tracks left to the solver; mask of the detections left to the solver)
+        considered tracks left to the solver; mask of the considered detections left to it)
     """
     k = {**DEFAULT_CONSTANTS, **(constants or {})}
     nt, nd = problem.n_tracks, problem.n_dets
     answer = Answer(cost=0, optimal=True)
-    t_rest = np.ones(nt, dtype=bool)
-    d_rest = np.ones(nd, dtype=bool)
-    if nt + nd == 0:
+    t_rest = np.ones(nt, dtype=bool) if tracks is None else tracks.copy()
+    d_rest = np.ones(nd, dtype=bool) if dets is None else dets.copy()
+    if not (t_rest.any() or d_rest.any()):
         return answer, t_rest, d_rest
     # union-find over tracks 0..nt-1 and detections nt..nt+nd-1
     parent = list(range(nt + nd))
@@ -73,27 +78,33 @@ def settle(problem: FrameProblem, constants: Mapping[str, int] | None = None,
     cand = problem.cand.tolist()
     covers = problem.covers.tolist()
     keeps = problem.keeps_covering.tolist()
-    emerges = {(int(d), int(t)) for d, t in problem.emerges.tolist()}
+    emerges = problem.emerges.tolist()
+    if tracks is not None or dets is not None:  # drop the relations of objects not considered
+        tk, dk = t_rest.tolist(), d_rest.tolist()
+        cand = [r for r in cand if tk[r[0]] and dk[r[1]]]
+        covers, keeps, emerges = ([r for r in rel if dk[r[0]] and tk[r[1]]] for rel in (covers, keeps, emerges))
+    emerges = {(int(d), int(t)) for d, t in emerges}
     for t, d, _ in cand:
         parent[find(t)] = find(nt + d)
     for d, t in covers + keeps:
         parent[find(t)] = find(nt + d)
     groups: dict[int, tuple[list[int], list[int]]] = {}
-    for x in range(nt + nd):
+    for x in np.flatnonzero(np.concatenate([t_rest, d_rest])).tolist():
         g = groups.setdefault(find(x), ([], []))
         (g[0] if x < nt else g[1]).append(x if x < nt else x - nt)
 
     ctx = _Context(problem, k, cand, covers, keeps, emerges)
-    for tracks, dets in sorted(groups.values(), key=lambda g: len(g[0]) + len(g[1])):
-        part = ctx.solve(tracks, dets, max_branches)
+    considered = t_rest.copy(), d_rest.copy()
+    for ts, ds in sorted(groups.values(), key=lambda g: len(g[0]) + len(g[1])):
+        part = ctx.solve(ts, ds, max_branches)
         if part is None:
             if whole:
-                return Answer(), np.ones(nt, dtype=bool), np.ones(nd, dtype=bool)
+                return Answer(), considered[0], considered[1]
             continue
         _merge(answer, part)
         answer.cost += part.cost
-        t_rest[tracks] = False
-        d_rest[dets] = False
+        t_rest[ts] = False
+        d_rest[ds] = False
     for ints in (answer.start, answer.end, answer.halt, answer.ignore_trk, answer.ignore_det):
         ints.sort()
     answer.events.sort(key=str)
