@@ -305,8 +305,9 @@ class Tracker:
             conf = 1.0 / (1.0 + np.exp(-conf))
         return self._quantize(conf)
 
-    def _borders(self, boxes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(at the border, mostly outside) for (N, 4) boxes; all False without an image size."""
+    def _borders(self, boxes: np.ndarray, outside: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+        """(at the border, mostly outside) for (N, 4) boxes; all False without an image size.
+        ``outside=False``: only the first (the second is None)."""
         n = len(boxes)
         if self.config.image_size is None or n == 0:
             return np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
@@ -314,6 +315,8 @@ class Tracker:
         m = self.config.border_margin
         x1, y1, x2, y2 = boxes.T
         at = (x1 <= m) | (y1 <= m) | (x2 >= w - m) | (y2 >= h - m)
+        if not outside:
+            return at, None
         # geometry.coverage(boxes, image) for one image box, in the same arithmetic
         inter = np.clip(np.minimum(x2, w) - np.maximum(x1, 0.0), 0.0, None) * \
             np.clip(np.minimum(y2, h) - np.maximum(y1, 0.0), 0.0, None)
@@ -341,7 +344,7 @@ class Tracker:
         ti, dj = np.nonzero(lik > 0)
         cand = np.stack([ti, dj, qlik[ti, dj]], axis=1) if ti.size else np.zeros((0, 3), np.int64)
         at_border, outside = self._borders(pred)
-        det_border, _ = self._borders(dxy)
+        det_border, _ = self._borders(dxy, outside=False)
         start_ok = dets.confidence >= c.start_confidence
         covers = keeps = np.zeros((0, 2), dtype=np.int64)
         overlapped = np.zeros(n, dtype=bool)
