@@ -226,6 +226,8 @@ def test_run_end_to_end_writes_tables(fake_data: Path, tmp_path: Path) -> None:
         assert set(bench["trackers"]["sort"]["variants"]) == {"default", "prefilter"}
         assert set(bench["trackers"]["ours"]["variants"]) == {"visible", "predicted"}
     assert data["paper_table2"]["kitti-cars"]["rows"]["with abduction"]["MOTA"] == 50.5
+    if HAVE_TRACKERS and _tracker_available():
+        assert "## Targets" in md and md.count("| kitti-rrc-car | ") == 8  # 3 vs ablation, 5 vs peers
 
 
 def test_cli_list_and_run(fake_data: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -267,3 +269,46 @@ def test_ours_adapter_filters_states() -> None:
         assert len(tracks) == 1 and tracks.frame[0] == f
     tracks, _ = adapter.update(Detections(xyxy=np.zeros((0, 4))), 3)  # missed: not visible
     assert len(tracks) == 0
+
+
+def test_pointrcnn_logits_reach_every_tracker_as_probabilities(fake_data: Path) -> None:
+    d = fake_data / "kitti" / "detections" / "pointrcnn" / "car"
+    d.mkdir(parents=True)
+    tail = "1.5,1.6,4.0,1.0,1.5,20.0,0.1,0.2"
+    d.joinpath("0000.txt").write_text(f"0,2,100,150,220,230,-2.0,{tail}\n1,2,108,150,228,230,0.0,{tail}\n"
+                                      f"2,2,116,150,236,230,3.0,{tail}\n")
+    found = datasets.discover(fake_data, only=["kitti-pointrcnn-car"])
+    bench = datasets.load_benchmark(*found.found[0])
+    conf = bench.sequences[0].detections.confidence
+    np.testing.assert_allclose(conf, 1 / (1 + np.exp(-np.array([-2.0, 0.0, 3.0]))))
+    assert datasets.SPECS[0].logit_scores is False  # RRC scores are probabilities already
+
+
+def _fake_run(metrics: dict[str, dict[str, float]], ms: dict[str, float]) -> runner.BenchmarkRun:
+    b = runner.BenchmarkRun(datasets.SPECS[0], ["0000"], 100, [])
+    for name, m in metrics.items():
+        r = runner.TrackerRun(tracker=name, variant="visible" if name.startswith("ours") else "default", metrics=m)
+        r.set_times(np.full(100, ms[name] / 1000))
+        b.runs[name] = [r]
+    return b
+
+
+def test_check_targets_states_each_gap_with_its_size() -> None:
+    m = {"ours": {"HOTA": 0.80, "MOTA": 0.900, "IDF1": 0.85, "IDSW": 10},
+         "ours-noabd": {"HOTA": 0.79, "MOTA": 0.91, "IDF1": 0.84, "IDSW": 20},
+         "sort": {"HOTA": 0.81, "MOTA": 0.904, "IDF1": 0.80, "IDSW": 12},
+         "bytetrack": {"HOTA": 0.70, "MOTA": 0.80, "IDF1": 0.70, "IDSW": 9}}
+    checks = {c.target: c for c in report.check_targets(_fake_run(m, {"ours": 3.0, "ours-noabd": 1.0, "sort": 1.0,
+                                                                      "bytetrack": 2.0}))}
+    assert checks["HOTA: with abduction > without"].met
+    assert not checks["MOTA: with abduction > without"].met
+    assert checks["MOTA: with abduction > without"].margin == pytest.approx(-1.0)
+    hota = checks["HOTA: ahead of every peer"]
+    assert not hota.met and hota.margin == pytest.approx(-1.0) and "SORT" in hota.detail
+    assert checks["IDF1: ahead of every peer"].met
+    assert checks["MOTA: at most 0.5 behind the best peer"].met  # 0.4 behind
+    idsw = checks["ID switches: fewer than any peer"]
+    assert not idsw.met and idsw.margin == -1 and "ByteTrack" in idsw.detail
+    time = checks["time per frame: at most 2x the fastest peer"]
+    assert not time.met and time.margin == pytest.approx(-1.0)
+    assert report.check_targets(_fake_run({"sort": m["sort"]}, {"sort": 1.0})) == []

@@ -465,3 +465,32 @@ def test_constants_can_be_overridden_through_the_solver():
     assert raised.cost == 1000 + 250 + 400
     dear = AbductionSolver(constants={"iou_assign": 900, "cost_missing": 2000, "cost_appears": 0})
     assert dear.solve(problem).atoms() == ["end(1)", "ends(1)", "start(d(0))", "starts(d(0))"]
+
+
+def test_tie_break_prefers_the_exact_maximum_likelihood_matching():
+    # two people one behind the other: quantised likelihoods tie, the exact ones do not
+    facts = track(1) + track(2) + det(0) + det(1) + "cand(1,d(0),800). cand(1,d(1),800). cand(2,d(0),800). cand(2,d(1),800)."
+    assert len(optimal(facts)) == 2  # without a preference the two matchings tie
+    preferred = facts + "prefer(1,d(1)). prefer(2,d(0))."
+    assert solve(preferred) == ["assign(1,d(1))", "assign(2,d(0))"]
+    # the preference never overrides the main objective
+    better = track(1) + det(0) + det(1) + "cand(1,d(0),900). cand(1,d(1),800). prefer(1,d(1))."
+    assert "assign(1,d(0))" in solve(better, consts={"cost_appears": 10_000})
+
+
+def test_problem_names_the_preferred_pairs_from_exact_likelihoods():
+    b = np.array
+    p = FrameProblem(
+        track_id=b([5, 6]), active=b([True, True]), tentative=b([False, False]), expired=b([False, False]),
+        outside=b([False, False]), at_border=b([False, False]), overlapped=b([False, False]),
+        track_class=b([1, 1]), det_conf=b([900, 900]), det_class=b([1, 1]), det_border=b([False, False]),
+        det_overlapped=b([False, False]), cand=b([[0, 0, 800], [0, 1, 800], [1, 0, 800], [1, 1, 800]]),
+        cand_exact=b([0.81, 0.80, 0.80, 0.78]))
+    # 0.80 + 0.80 beats 0.81 + 0.78: track 5 takes d(1), track 6 takes d(0)
+    assert p.preferred_pairs().tolist() == [[0, 1], [1, 0]]
+    facts = p.to_facts()
+    assert "prefer(5,d(1))." in facts and "prefer(6,d(0))." in facts
+    answer = AbductionSolver().solve(p)
+    assert answer.assign == {5: 1, 6: 0} and answer.cost == 400
+    sub = p.subset(b([False, True]), b([True, True]))
+    assert sub.cand_exact.tolist() == [0.80, 0.78] and sub.preferred_pairs().tolist() == [[0, 0]]

@@ -96,6 +96,23 @@ def test_new_track_has_zero_velocity_and_stays_put():
     np.testing.assert_allclose(bank.predict(3), box)
 
 
+def test_prior_velocity_moves_the_first_prediction_and_the_second_detection_overrides_it():
+    bank = KalmanBank()
+    box = np.array([[10.0, 20.0, 50.0, 100.0]])
+    bank.add(box, velocity=np.array([5.0, -2.0, 0.0, 0.0]))
+    np.testing.assert_allclose(bank.predict(1), box + [5, -2, 5, -2])
+    # the object in fact moves by +1 px in x: two points set the velocity, not the prior
+    bank.update(np.array([0]), box + [1, 0, 1, 0])
+    bank.predict(1)
+    bank.update(np.array([0]), box + [2, 0, 2, 0])
+    assert abs(bank.velocity()[0, 0] - 1.0) < 0.5 and abs(bank.velocity()[0, 1]) < 0.5
+
+
+def test_prior_velocity_must_be_finite():
+    with pytest.raises(ValueError, match="finite"):
+        KalmanBank().add(np.array([[0.0, 0.0, 10.0, 10.0]]), velocity=np.array([np.nan, 0, 0, 0]))
+
+
 # invariants ------------------------------------------------------------------------------
 @SETTINGS
 @given(bank=bank_with_history(), vector=st.booleans())

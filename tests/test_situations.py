@@ -105,6 +105,25 @@ def test_overtaking_not_for_oncoming_traffic():
     assert only(run([Obj(1, CAR, a), Obj(2, CAR, b)]), "OVERTAKING") == []
 
 
+@pytest.mark.parametrize("name", ["oncoming", "overtaking", "hidden_late"])
+def test_prefilter_calls_the_solver_only_when_the_situation_holds(name):
+    # OVERTAKING and HIDDEN_ENTITY candidates already pass every condition of their rules that
+    # holds at the current frame alone (side by side, B not approaching, lead within he_lead_ms)
+    a = linear(range(30), box(500, 290, 120, 80))
+    b = piecewise([(0, box(650, 260, 90, 60)), (29, box(690, 330, 150, 100))])  # near, oncoming
+    objs, config = {
+        "oncoming": ([Obj(1, CAR, a), Obj(2, CAR, b)], SituationConfig(situations={"OVERTAKING"})),
+        "overtaking": (overtaking(), SituationConfig(situations={"OVERTAKING"})),
+        "hidden_late": (cyclist_behind_turning_car(),
+                        SituationConfig(situations={"HIDDEN_ENTITY"}, constants={"he_lead_ms": 1000})),
+    }[name]
+    mon = SituationMonitor(config, fps=10.0, image_size=SIZE)
+    for r in build_results(objs):
+        calls = mon.stats["solver_calls"]
+        mon.update(r)
+        assert mon.stats["solver_calls"] == calls + bool(mon.active)
+
+
 # -- HIDDEN_ENTITY --------------------------------------------------------------------------------
 def test_hidden_entity_occurs_while_hidden():
     w = only(run(cyclist_behind_turning_car()), "HIDDEN_ENTITY")

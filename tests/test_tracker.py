@@ -219,6 +219,70 @@ def test_min_hits_tentative_tracks_are_not_reported():
     assert ids(results[11]) == [1, 2]
 
 
+def test_confirm_confidence_reports_strong_tracks_at_once_and_weak_ones_after_min_hits():
+    t = Tracker(TrackerConfig(min_hits=3, confirm_confidence=0.9))
+    t.update(frame(walker(0, x0=900)), frame=0)  # first frames of a run are reported at once
+    t.update(frame(walker(1, x0=900)), frame=1)
+    t.update(frame(walker(2, x0=900)), frame=2)
+    results = []
+    for f in range(3, 8):
+        strong = Detections(np.array([walker(f)]), confidence=0.95, class_id=PED)
+        weak = Detections(np.array([walker(f, x0=500)]), confidence=0.8, class_id=PED)
+        results.append(t.update(Detections.concatenate([frame(walker(f, x0=900)), strong, weak]), frame=f))
+    strong_id, weak_id = 2, 3
+    assert strong_id in ids(results[0])  # confirmed by its first, strong detection
+    assert weak_id not in ids(results[0]) and weak_id not in ids(results[1])
+    assert weak_id in ids(results[2])  # third hit
+
+
+def test_confirm_confidence_none_keeps_plain_min_hits():
+    t = Tracker(TrackerConfig(min_hits=3))
+    for f in range(3):
+        t.update(frame(walker(f, x0=900)), frame=f)
+    r = t.update(Detections.concatenate([frame(walker(3, x0=900)),
+                                         Detections(np.array([walker(3)]), confidence=0.99, class_id=PED)]), frame=3)
+    assert ids(r) == [1]
+
+
+def convoy(f: int, n_cars: int = 3, start: int = 3) -> list[tuple]:
+    """A turning camera: every object moves 30 px/frame to the right. Two parked-car pairs
+    (established tracks) and, from frame ``start``, a convoy of cars 40 px wide spaced 30 px
+    apart: from one frame to the next each car stands where the one ahead of it stood."""
+    boxes = [(100 + 30 * f, 300, 160 + 30 * f, 340), (100 + 30 * f, 100, 160 + 30 * f, 140)]
+    if f >= start:
+        boxes += [(30 * f - 30 * k, 200, 30 * f - 30 * k + 40, 230) for k in range(n_cars)]
+    return boxes
+
+
+@pytest.mark.parametrize("abduction", [True, False])
+def test_inherit_motion_keeps_ids_in_a_convoy_seen_from_a_turning_camera(abduction):
+    def switches(inherit: bool) -> int:
+        t = Tracker(TrackerConfig(fps=10, abduction=abduction, inherit_motion=inherit, iou_assign=0.2))
+        owner: dict[int, int] = {}  # source row within the convoy -> track id
+        n = 0
+        for f in range(12):
+            r = t.update(frame(*convoy(f), cls=CAR, rows=np.arange(len(convoy(f)))), frame=f)
+            for tid, row in zip(ids(r), r.tracks.source_row.tolist()):
+                if row >= 2:
+                    n += owner.get(row, tid) != tid
+                    owner[row] = tid
+        return n
+
+    assert switches(True) == 0
+    assert switches(False) > 0  # standing-still predictions: each car takes the track of the one ahead
+
+
+def test_scene_velocity_needs_two_established_tracks():
+    t = Tracker(TrackerConfig())
+    for f in range(5):
+        t.update(frame(walker(f, v=10.0)), frame=f)
+    np.testing.assert_array_equal(t._scene_velocity(), np.zeros(4))  # one track: no scene motion
+    t2 = Tracker(TrackerConfig())
+    for f in range(5):
+        t2.update(frame(walker(f, v=10.0), walker(f, x0=600, v=10.0)), frame=f)
+    assert abs(t2._scene_velocity()[0] - 10.0) < 1.0 and t2._scene_velocity()[2:].tolist() == [0.0, 0.0]
+
+
 # ---- class-aware matching -------------------------------------------------------------------
 def test_car_detection_never_continues_a_pedestrian_track():
     t = Tracker()
@@ -300,7 +364,7 @@ def _gated_and_ungated(t: Tracker, dets: Detections):
         t.config = config
     ti, dj = np.nonzero(lik > 0)
     cand = np.stack([ti, dj, t._quantize(lik[ti, dj])], axis=1) if ti.size else np.zeros((0, 3), np.int64)
-    return gated, dataclasses.replace(gated, cand=cand)
+    return gated, dataclasses.replace(gated, cand=cand, cand_exact=lik[ti, dj])
 
 
 def _random_frames(rng: np.random.Generator, n_frames: int = 10):

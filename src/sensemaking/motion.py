@@ -158,8 +158,13 @@ class KalmanBank:
                 vs[low] = np.maximum(vs[low], 0.0)
 
     # public API ------------------------------------------------------------------------
-    def add(self, xyxy: np.ndarray) -> np.ndarray:
-        """Start tracks at boxes ``xyxy`` (K, 4) pixels, velocity 0. Returns their row indices (K,)."""
+    def add(self, xyxy: np.ndarray, velocity: np.ndarray | None = None) -> np.ndarray:
+        """Start tracks at boxes ``xyxy`` (K, 4) pixels. Returns their row indices (K,).
+
+        ``velocity``: (K, 4) or (4,) prior velocity of ``cx, cy, w, h`` in pixels per frame
+        (default 0). Its uncertainty stays ``init_velocity_std``: the second detection still
+        sets the velocity; the prior only moves the first prediction.
+        """
         z = _to_cxcywh(xyxy)
         if not np.all(np.isfinite(z)):
             raise ValueError("KalmanBank.add: boxes must be finite")
@@ -168,7 +173,10 @@ class KalmanBank:
         s = self._scale(z)
         start = len(self)
         self._x = np.concatenate([self._x, z])
-        self._v = np.concatenate([self._v, np.zeros_like(z)])
+        v0 = np.zeros_like(z) if velocity is None else np.broadcast_to(np.asarray(velocity, float), z.shape)
+        if not np.all(np.isfinite(v0)):
+            raise ValueError("KalmanBank.add: velocities must be finite")
+        self._v = np.concatenate([self._v, v0])
         self._pp = np.concatenate([self._pp, (cfg.init_position_std * s) ** 2])
         self._pv = np.concatenate([self._pv, np.zeros_like(z)])
         self._vv = np.concatenate([self._vv, (cfg.init_velocity_std * s) ** 2])

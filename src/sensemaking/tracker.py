@@ -77,6 +77,9 @@ class TrackerConfig:
         max_missing_s: how long a track with missing detections (no occluder) is kept (seconds).
         min_hits: detections needed before a new track is reported (1 = at once). During the
             first ``min_hits`` frames of a run tracks are reported at once.
+        confirm_confidence: a detection scoring at least this confirms its track at once, whatever
+            ``min_hits`` says (detector score units; None: only ``min_hits`` confirms). Strong
+            evidence is reported from the first frame, weak evidence must repeat itself.
         hide_cover: fraction of a track's predicted box that a track in front must cover for it to
             hide behind it. Lower: occlusion is abduced more readily.
         keep_cover: fraction of coverage needed to stay hidden (hysteresis; <= hide_cover).
@@ -86,6 +89,11 @@ class TrackerConfig:
         partial_cover: fraction of coverage from which a visible track is partially occluded.
         border_margin: distance to the image border (pixels) counted as "at the border".
         class_aware: only match detections of the track's class.
+        inherit_motion: a new track's first prediction moves with the median image velocity of
+            the established tracks (seen ``min_hits`` + 2 times or more, visible now): with a
+            moving camera every object shifts with it, and a new object predicted to stand still
+            loses its id to the object behind it (convoys, turning ego vehicle). False: start
+            at rest, as SORT does.
         confidence_sigmoid: map detector scores through a sigmoid for the costs (for detectors
             that give logits, e.g. PointRCNN). Thresholds stay in the detector's own units.
         likelihood_levels: resolution of likelihoods and confidences in the solver's objective
@@ -113,12 +121,14 @@ class TrackerConfig:
     max_hidden_s: float = 3.0
     max_missing_s: float = 1.0
     min_hits: int = 1
+    confirm_confidence: float | None = None
     hide_cover: float = 0.5
     emerge_margin: float = 0.25
     keep_cover: float = 0.2
     partial_cover: float = 0.1
     border_margin: float = 10.0
     class_aware: bool = True
+    inherit_motion: bool = True
     confidence_sigmoid: bool = False
     likelihood_levels: int = 40
     decompose: bool = True
@@ -277,18 +287,20 @@ class Tracker:
         # widen the predictions whose motion is uncertain: unseen tracks (more with time) and
         # tracks seen once (velocity unknown); they are gated at the lower iou_resume
         unseen = (self._unseen > 0) | (self._hits <= 1)
+        grow = np.minimum(1.0 + c.resume_growth * self._unseen, 2.0)
+        grow = np.where(self._hits <= 1, np.maximum(grow, c.new_track_growth), grow)
         lik = iou(pred, dets.xyxy) if plain is None else plain.copy()
         if unseen.any():
-            grow = np.minimum(1.0 + c.resume_growth * self._unseen[unseen], 2.0)
-            grow = np.where(self._hits[unseen] <= 1, np.maximum(grow, c.new_track_growth), grow)
-            b = pred[unseen]
-            cx = (b[:, 0] + b[:, 2]) / 2
-            cy = (b[:, 1] + b[:, 3]) / 2
-            hw = (b[:, 2] - b[:, 0]) / 2 * grow
-            hh = (b[:, 3] - b[:, 1]) / 2 * grow
-            wide = np.stack([cx - hw, cy - hh, cx + hw, cy + hh], axis=1)
             # the widened box admits far matches; an exact fit to the plain prediction still wins
-            lik[unseen] = np.maximum(lik[unseen], iou(wide, dets.xyxy))
+            lik[unseen] = np.maximum(lik[unseen], iou(_widen(pred[unseen], grow[unseen]), dets.xyxy))
+        young = self._hits <= 1
+        if c.inherit_motion and young.any():
+            # a young track moved with the scene's motion (inherit_motion); in case its own
+            # motion differs, a fit at rest counts as well
+            v = self._kf.velocity()[young, :2]
+            rest = pred[young] - np.concatenate([v, v], axis=1)
+            at_rest = np.maximum(iou(rest, dets.xyxy), iou(_widen(rest, grow[young]), dets.xyxy))
+            lik[young] = np.maximum(lik[young], at_rest)
         ok = dets.confidence[None, :] >= c.min_confidence
         if c.class_aware:
             ok = ok & (self._cls[:, None] == dets.class_id[None, :])
@@ -343,6 +355,7 @@ class Tracker:
         lik, qlik = self._gate(pred, dets, plain)
         ti, dj = np.nonzero(lik > 0)
         cand = np.stack([ti, dj, qlik[ti, dj]], axis=1) if ti.size else np.zeros((0, 3), np.int64)
+        cand_exact = lik[ti, dj]
         at_border, outside = self._borders(pred)
         det_border, _ = self._borders(dxy, outside=False)
         start_ok = dets.confidence >= c.start_confidence
@@ -381,7 +394,7 @@ class Tracker:
             det_overlapped=det_overlapped, cand=cand, covers=covers, keeps_covering=keeps,
             hidden_by=np.stack([self._id[hid], self._occluder[hid]], axis=1) if hid.size else np.zeros((0, 2), np.int64),
             emerges=emerges,
-            visibility=self._vis, first_frame=self._frames_seen == 1,
+            visibility=self._vis, first_frame=self._frames_seen == 1, cand_exact=cand_exact,
         )
 
     def _expired(self) -> np.ndarray:
@@ -520,7 +533,7 @@ class Tracker:
             ids = np.arange(self._next_id, self._next_id + len(cols), dtype=np.int64)
             self._next_id += len(cols)
             new_ids = {f"d{k}": int(t) for k, t in zip(cols.tolist(), ids.tolist())}
-            self._kf.add(dets.xyxy[cols])
+            self._kf.add(dets.xyxy[cols], velocity=self._scene_velocity())
             k = len(cols)
             vis = [VISIBILITY_VALUES.index(new_vis.get(f"d{j}", "fully_visible")) for j in cols.tolist()]
             new = {"_id": ids, "_cls": dets.class_id[cols], "_state": np.full(k, TrackState.VISIBLE),
@@ -549,7 +562,10 @@ class Tracker:
             self._unseen[i] += 1
             self._state[i] = TrackState.HIDDEN if self._occluder[i] >= 0 else TrackState.MISSING
         # confirmation
-        newly_confirmed = (~self._confirmed) & ((self._hits >= c.min_hits) | (self._frames_seen <= c.min_hits))
+        confirm = (self._hits >= c.min_hits) | (self._frames_seen <= c.min_hits)
+        if c.confirm_confidence is not None:
+            confirm |= (self._unseen == 0) & (self._conf >= c.confirm_confidence)
+        newly_confirmed = (~self._confirmed) & confirm
         self._confirmed |= newly_confirmed
         # events, with detections renamed to their new track ids. A tentative track's start
         # event waits until the track is confirmed; its other events are not reported.
@@ -578,6 +594,17 @@ class Tracker:
         events.sort()
         return events, observed
 
+    def _scene_velocity(self) -> np.ndarray:
+        """(4,) prior velocity of new tracks (pixels per frame): the median ``cx, cy`` velocity of
+        the established visible tracks, 0 without ``inherit_motion`` or fewer than two of them."""
+        prior = np.zeros(4)
+        if not self.config.inherit_motion or len(self._id) < 2:
+            return prior
+        settled = (self._unseen == 0) & (self._hits >= self.config.min_hits + 2)
+        if settled.sum() >= 2:
+            prior[:2] = np.median(self._kf.velocity()[settled, :2], axis=0)
+        return prior
+
     def _output(self, dets: Detections, observed: dict[int, int], frame: int) -> Detections:
         """Every live confirmed track: its detection's box if observed, else the prediction."""
         n = len(self._id)
@@ -597,6 +624,13 @@ class Tracker:
             data={"state": self._state[keep].copy(), "occluder": self._occluder[keep].copy(),
                   "visibility": self._vis[keep].copy(), "hidden_frames": self._unseen[keep].copy()},
         )
+
+
+def _widen(boxes: np.ndarray, factor: np.ndarray) -> np.ndarray:
+    """(N, 4) ``xyxy`` boxes scaled about their centres by (N,) ``factor``."""
+    c = (boxes[:, :2] + boxes[:, 2:]) / 2
+    half = (boxes[:, 2:] - boxes[:, :2]) / 2 * factor[:, None]
+    return np.concatenate([c - half, c + half], axis=1)
 
 
 def _renumber_detections(answer: Answer, index: np.ndarray) -> Answer:

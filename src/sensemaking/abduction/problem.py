@@ -47,6 +47,9 @@ class FrameProblem:
             of the hidden track's occluder.
         visibility: (T,) int index into :data:`VISIBILITY_VALUES`, previous frame.
         first_frame: no reason is needed for objects present at the start.
+        cand_exact: (K,) float likelihoods of ``cand`` before quantisation (IoU in [0, 1]), or
+            None. With them the facts name a maximum-likelihood matching (``prefer/2``) that
+            breaks ties between optima the quantised likelihoods cannot tell apart.
     """
 
     track_id: np.ndarray
@@ -69,6 +72,7 @@ class FrameProblem:
     emerges: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=np.int64))
     visibility: np.ndarray | None = None
     first_frame: bool = False
+    cand_exact: np.ndarray | None = None
 
     @property
     def n_tracks(self) -> int:
@@ -114,6 +118,19 @@ class FrameProblem:
             weak[self.cand[:, 1]] = False
         return np.flatnonzero(weak)
 
+    def preferred_pairs(self) -> np.ndarray:
+        """(P, 2) rows ``track index, detection index``: a matching of maximum summed exact
+        likelihood over the candidate pairs (Hungarian); empty without ``cand_exact``."""
+        if self.cand_exact is None or self.cand.size == 0:
+            return np.zeros((0, 2), dtype=np.int64)
+        from scipy.optimize import linear_sum_assignment
+
+        w = np.zeros((self.n_tracks, self.n_dets))
+        w[self.cand[:, 0], self.cand[:, 1]] = self.cand_exact
+        rows, cols = linear_sum_assignment(w, maximize=True)
+        ok = w[rows, cols] > 0
+        return np.stack([rows[ok], cols[ok]], axis=1).astype(np.int64)
+
     def subset(self, tracks: np.ndarray, dets: np.ndarray) -> FrameProblem:
         """The problem restricted to the tracks and detections whose masks are True
         (indices renumbered; relations touching a removed object are dropped)."""
@@ -133,6 +150,7 @@ class FrameProblem:
                 out[:, d_col] = d_new[out[:, d_col]]
             return out
 
+        cand_kept = tracks[self.cand[:, 0]] & dets[self.cand[:, 1]] if len(self.cand) else np.zeros(0, bool)
         kept_ids = self.track_id[tracks]
         hidden = self.hidden_by[np.isin(self.hidden_by[:, 0], kept_ids)] if len(self.hidden_by) else self.hidden_by
         return FrameProblem(
@@ -146,6 +164,7 @@ class FrameProblem:
             emerges=rel(self.emerges, 1, 0),
             hidden_by=hidden, visibility=None if self.visibility is None else self.visibility[tracks],
             first_frame=self.first_frame,
+            cand_exact=None if self.cand_exact is None else self.cand_exact[cand_kept],
         )
 
     def to_facts(self) -> str:
@@ -169,6 +188,8 @@ class FrameProblem:
             add(f"det_overlapped(d({j})).")
         for ti, dj, lik in self.cand.tolist():
             add(f"cand({tid[ti]},d({dj}),{lik}).")
+        for ti, dj in self.preferred_pairs().tolist():
+            add(f"prefer({tid[ti]},d({dj})).")
         for dj, ti in self.covers.tolist():
             add(f"covers(d({dj}),{tid[ti]}).")
         for dj, ti in self.keeps_covering.tolist():

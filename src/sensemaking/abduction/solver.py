@@ -130,7 +130,8 @@ class AbductionSolver:
 
         def on_model(model: clingo.Model) -> None:
             best[:] = model.symbols(shown=True)
-            info["cost"] = sum(model.cost)
+            # the cost of the main objective; the tie-break level (priority < 0) is not a cost
+            info["cost"] = sum(c for c, p in zip(model.cost, model.priority) if p >= 0)
             info["optimal"] = model.optimality_proven
 
         timed_out = False

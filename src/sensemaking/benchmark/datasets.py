@@ -62,6 +62,9 @@ class BenchmarkSpec:
         detector: detector folder name (KITTI) or sequence-name suffix (MOT17).
         paper: key of the paper's Table 2 block quoted beside this benchmark, or None.
         note: one remark for the report (empty: none).
+        logit_scores: the detector's scores are logits; the loader maps them through a sigmoid
+            to probabilities in (0, 1) before any tracker sees them, so that every tracker's
+            score thresholds mean what they say.
     """
 
     name: str
@@ -73,10 +76,11 @@ class BenchmarkSpec:
     detector: str | None = None
     paper: str | None = None
     note: str = ""
+    logit_scores: bool = False
 
 
 _POINTRCNN_NOTE = ("PointRCNN scores are raw logits (often negative, many low-score false positives); "
-                   "every tracker's score thresholds apply to them as they are.")
+                   "the loader maps them through a sigmoid to (0, 1), the same input for every tracker.")
 
 #: every benchmark the runner knows, in report order
 SPECS: tuple[BenchmarkSpec, ...] = (
@@ -85,10 +89,11 @@ SPECS: tuple[BenchmarkSpec, ...] = (
     BenchmarkSpec("kitti-rrc-pedestrian", "KITTI tracking training 0000-0010, Pedestrian, RRC detections",
                   "kitti", "kitti", "kitti", "pedestrian", "rrc", "kitti-pedestrians"),
     BenchmarkSpec("kitti-pointrcnn-car", "KITTI tracking training 0000-0010, Car, PointRCNN detections",
-                  "kitti", "kitti", "kitti", "car", "pointrcnn", "kitti-cars", _POINTRCNN_NOTE),
+                  "kitti", "kitti", "kitti", "car", "pointrcnn", "kitti-cars", _POINTRCNN_NOTE, True),
     BenchmarkSpec("kitti-pointrcnn-pedestrian",
                   "KITTI tracking training 0000-0010, Pedestrian, PointRCNN detections",
-                  "kitti", "kitti", "kitti", "pedestrian", "pointrcnn", "kitti-pedestrians", _POINTRCNN_NOTE),
+                  "kitti", "kitti", "kitti", "pedestrian", "pointrcnn", "kitti-pedestrians", _POINTRCNN_NOTE,
+                  True),
     BenchmarkSpec("mot17-yolox-halfval", "MOT17 half-val (02, 04, 05, 09), YOLOX-X detections",
                   "motchallenge", "mot17", "mot", None, "YOLOX-half", None),
     BenchmarkSpec("mot17-frcnn", "MOT17-05, public Faster R-CNN detections",
@@ -301,6 +306,8 @@ def _with_class(dets: Detections, cid: int) -> Detections:
 
 
 def _load_kitti(spec: BenchmarkSpec, sources: list[SequenceSource]) -> tuple[list[Sequence], list[str]]:
+    import numpy as np
+
     from sensemaking.classes import class_id
     from sensemaking.io.kitti import read_kitti_detections, read_kitti_seqinfo
 
@@ -313,6 +320,8 @@ def _load_kitti(spec: BenchmarkSpec, sources: list[SequenceSource]) -> tuple[lis
             continue
         dets = read_kitti_detections(src.det_path, class_name=spec.class_name)
         dets = _with_class(dets, class_id(str(spec.class_name)))
+        if spec.logit_scores and len(dets):
+            dets = dets.with_(confidence=1.0 / (1.0 + np.exp(-dets.confidence)))
         out.append(Sequence(src.name, dets, src.gt_path, info, src.det_path, first_frame=0))
     return out, skipped
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -13,7 +14,8 @@ from sensemaking.benchmark.peers import DISPLAY_NAMES
 from sensemaking.benchmark.runner import SELECT_BY, BenchmarkRun, RunSummary, TrackerRun
 from sensemaking.io.atomic import atomic_write
 
-__all__ = ["PAPER_TABLE2", "COLUMNS", "render_markdown", "write_report", "write_json", "summary_json"]
+__all__ = ["PAPER_TABLE2", "COLUMNS", "TargetCheck", "check_targets", "render_markdown", "write_report",
+           "write_json", "summary_json"]
 
 #: the paper's Table 2 (IJCAI 2019), quoted for reference: MOTA/MOTP/ML/MT in %, others counts
 PAPER_TABLE2: dict[str, dict[str, Any]] = {
@@ -203,6 +205,94 @@ def _overview(summary: RunSummary) -> list[str]:
     return lines
 
 
+@dataclass(frozen=True)
+class TargetCheck:
+    """One target of issue #3 on one benchmark: whether it is met and by how much.
+
+    Attributes:
+        benchmark: benchmark name.
+        target: what is asked, in words.
+        met: True when met.
+        margin: how far from the bound, in the target's unit (positive: met with room to spare,
+            negative: missed by that much); percentage points for scores, counts for ID switches,
+            a factor for times.
+        detail: the numbers behind it.
+    """
+
+    benchmark: str
+    target: str
+    met: bool
+    margin: float
+    detail: str
+
+
+#: MOTA may trail the best peer by this much (fraction, 0.5 points)
+MOTA_SLACK = 0.005
+#: our time per frame may be at most this multiple of the fastest peer's
+TIME_FACTOR = 2.0
+_PEER_KEYS = ("sort", "bytetrack", "ocsort")
+
+
+def check_targets(b: BenchmarkRun) -> list[TargetCheck]:
+    """The targets of the benchmark issue checked on one benchmark's run (empty if ours is missing):
+    with abduction beats without on MOTA, IDF1 and HOTA; ahead of every peer on IDF1 and HOTA;
+    MOTA at most 0.5 points behind the best peer; fewer ID switches than any peer; time per frame
+    at most twice the fastest peer's."""
+    ours = b.chosen("ours")
+    if ours is None or ours.error is not None or not ours.metrics:
+        return []
+    out: list[TargetCheck] = []
+    name = b.spec.name
+    m = ours.metrics
+    abl = b.chosen("ours-noabd")
+    if abl is not None and abl.error is None and abl.metrics:
+        for key in ("MOTA", "IDF1", "HOTA"):
+            a, o = _get(abl.metrics, key), _get(m, key)
+            out.append(TargetCheck(name, f"{key}: with abduction > without", o > a, 100 * (o - a),
+                                   f"{_pct(o)} vs {_pct(a)}"))
+    peers = {k: b.chosen(k) for k in _PEER_KEYS}
+    peers = {k: r for k, r in peers.items() if r is not None and r.error is None and r.metrics}
+    if not peers:
+        return out
+    for key in ("IDF1", "HOTA"):
+        best = max(peers, key=lambda k: _get(peers[k].metrics, key))
+        o, p = _get(m, key), _get(peers[best].metrics, key)
+        out.append(TargetCheck(name, f"{key}: ahead of every peer", o > p, 100 * (o - p),
+                               f"{_pct(o)} vs {DISPLAY_NAMES[best]} {_pct(p)}"))
+    best = max(peers, key=lambda k: _get(peers[k].metrics, "MOTA"))
+    o, p = _get(m, "MOTA"), _get(peers[best].metrics, "MOTA")
+    out.append(TargetCheck(name, "MOTA: at most 0.5 behind the best peer", o >= p - MOTA_SLACK,
+                           100 * (o - p + MOTA_SLACK), f"{_pct(o)} vs {DISPLAY_NAMES[best]} {_pct(p)}"))
+    fewest = min(peers, key=lambda k: _get(peers[k].metrics, "IDSW"))
+    o, p = _get(m, "IDSW"), _get(peers[fewest].metrics, "IDSW")
+    out.append(TargetCheck(name, "ID switches: fewer than any peer", o < p, p - o,
+                           f"{_int(o)} vs {DISPLAY_NAMES[fewest]} {_int(p)}"))
+    timed = {k: r for k, r in peers.items() if r.frames}
+    if timed and ours.frames:
+        fastest = min(timed, key=lambda k: timed[k].ms_per_frame)
+        factor = ours.ms_per_frame / timed[fastest].ms_per_frame
+        out.append(TargetCheck(name, "time per frame: at most 2x the fastest peer", factor <= TIME_FACTOR,
+                               TIME_FACTOR - factor,
+                               f"{ours.ms_per_frame:.2f} vs {DISPLAY_NAMES[fastest]} "
+                               f"{timed[fastest].ms_per_frame:.2f} ms ({factor:.1f}x)"))
+    return out
+
+
+def _targets_section(summary: RunSummary) -> list[str]:
+    checks = [c for b in summary.benchmarks for c in check_targets(b)]
+    if not checks:
+        return []
+    met = sum(c.met for c in checks)
+    lines = ["## Targets", "",
+             f"The benchmark issue's targets, checked on this run: {met} of {len(checks)} met. *Margin* is "
+             "how far from the bound (percentage points for scores, counts for ID switches, the factor "
+             "for time); negative means missed by that much.", "",
+             "| Benchmark | target | met | margin | numbers |", "|---|---|---|---:|---|"]
+    for c in checks:
+        lines.append(f"| {c.benchmark} | {c.target} | {'yes' if c.met else '**no**'} | {c.margin:+.3g} | {c.detail} |")
+    return lines
+
+
 def _machine_line(machine: Mapping[str, Any]) -> str:
     pk = machine.get("packages", {}) or {}
     versions = ", ".join(f"{k} {v}" for k, v in pk.items() if v)
@@ -277,6 +367,10 @@ def render_markdown(summary: RunSummary, json_name: str = "benchmarks.json") -> 
     add("")
     out.extend(_overview(summary))
     add("")
+    targets = _targets_section(summary)
+    if targets:
+        out.extend(targets)
+        add("")
     for b in summary.benchmarks:
         add(f"## {b.spec.name}")
         add("")

@@ -107,11 +107,16 @@ def _profile(points: tuple[tuple[float, float], ...], normalized: bool,
     return ys, xl, xr
 
 
+def _edge_ratio(xyxy: np.ndarray, xl: np.ndarray, xr: np.ndarray) -> np.ndarray:
+    """Length of ``[xl, xr]`` within each box's bottom edge over the edge's length, unclipped
+    (negative for a gap, NaN where ``xl``/``xr`` are NaN)."""
+    w = np.maximum(xyxy[:, 2] - xyxy[:, 0], 1e-9)
+    return (np.minimum(xyxy[:, 2], xr) - np.maximum(xyxy[:, 0], xl)) / w
+
+
 def _edge_overlap(xyxy: np.ndarray, xl: np.ndarray, xr: np.ndarray) -> np.ndarray:
     """Fraction of each box's bottom edge inside ``[xl, xr]`` (0 where NaN)."""
-    w = np.maximum(xyxy[:, 2] - xyxy[:, 0], 1e-9)
-    inter = np.minimum(xyxy[:, 2], xr) - np.maximum(xyxy[:, 0], xl)
-    out = np.clip(inter / w, 0.0, 1.0)
+    out = np.clip(_edge_ratio(xyxy, xl, xr), 0.0, 1.0)
     return np.where(np.isnan(out), 0.0, out)
 
 
@@ -158,7 +163,9 @@ class Corridor:
 
     def contains_boxes(self, xyxy: np.ndarray, image_size: tuple[int, int]) -> np.ndarray:
         """(N,) bool: the box stands in the corridor (``overlap >= min_overlap``)."""
-        return self.overlap(xyxy, image_size) >= self.min_overlap
+        # min_overlap is in (0, 1]: clipping the ratio to [0, 1] and NaN -> 0 change nothing here
+        b = np.asarray(xyxy, dtype=np.float64).reshape(-1, 4)
+        return _edge_ratio(b, *self.span_at(b[:, 3], image_size)) >= self.min_overlap
 
     def contains_points(self, points: np.ndarray, image_size: tuple[int, int]) -> np.ndarray:
         """(N,) bool: points ``(x, y)`` in pixels lie inside the corridor."""

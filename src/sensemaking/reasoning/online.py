@@ -22,6 +22,7 @@ import time
 from collections import deque
 from collections.abc import Iterable
 from dataclasses import dataclass, field
+from itertools import compress
 from typing import Any
 
 import numpy as np
@@ -44,8 +45,13 @@ log = logging.getLogger(__name__)
 _STATE_NAMES = tuple(s.name.lower() for s in TrackState)
 #: y relations that put A's bottom lower than B's (``bottom_lower/1`` of relations.lp)
 BOTTOM_LOWER: frozenset[str] = frozenset({"after", "met_by", "overlapped_by", "contains", "started_by"})
-_BOTTOM_LOWER_CODES = frozenset(IA_RELATIONS.index(r) for r in BOTTOM_LOWER)
+#: (13,) bool by relation code: the code is in BOTTOM_LOWER
+_BOTTOM_LOWER_CODE = np.isin(np.arange(len(IA_RELATIONS)), [IA_RELATIONS.index(r) for r in BOTTOM_LOWER])
+#: x relations of boxes side by side (``lateral/1`` of relations.lp; closed under the converse)
+_LATERAL_CODES = frozenset(IA_RELATIONS.index(r) for r in
+                           ("before", "after", "meets", "met_by", "overlaps", "overlapped_by"))
 _K = {k: i for i, k in enumerate(MOTION_KINDS)}
+_VISIBLE, _HIDDEN = int(TrackState.VISIBLE), int(TrackState.HIDDEN)
 
 
 def _lane_term(lane_id: int | str) -> str:
@@ -122,8 +128,8 @@ class SituationMonitor:
     def reset(self) -> None:
         """Forget all history; the next update starts a new sequence."""
         self._frames: deque[_Frame] = deque(maxlen=self._window)
-        self._hist: dict[int, deque[tuple[int, np.ndarray]]] = {}
-        self._speed: dict[int, deque[tuple[int, float]]] = {}
+        # visible frames of each track: [frame, box, centre speed px/s there (NaN if unknown)]
+        self._hist: dict[int, deque[list[Any]]] = {}
         self._class: dict[int, int] = {}
         self._last_live: dict[int, int] = {}
         self._last_held: dict[tuple[str, tuple[int, ...]], int] = {}
@@ -207,20 +213,23 @@ class SituationMonitor:
             return
         ids = tr.tracker_id.tolist()
         cls = tr.class_id.tolist()
-        state_arr = np.asarray(tr.data.get("state", np.zeros(n)), dtype=np.int64)
-        occl = np.asarray(tr.data.get("occluder", np.full(n, -1)), dtype=np.int64).tolist()
-        states = state_arr.tolist()
+        data = tr.data
+        states = np.asarray(data["state"] if "state" in data else np.zeros(n), dtype=np.int64).tolist()
+        occl = np.asarray(data["occluder"] if "occluder" in data else np.full(n, -1), dtype=np.int64).tolist()
         xyxy = tr.xyxy
         fr.ids = ids
-        boxes = {}
-        for i, t in enumerate(ids):
-            self._class[t] = cls[i]
-            self._last_live[t] = f
-            fr.state[t] = states[i]
-            boxes[t] = xyxy[i]
-            if states[i] == TrackState.VISIBLE:
-                self._hist.setdefault(t, deque(maxlen=self._hist_len)).append((f, xyxy[i]))
-            elif states[i] == TrackState.HIDDEN and occl[i] >= 0:
+        fr.state = dict(zip(ids, states))
+        self._class.update(zip(ids, cls))
+        self._last_live.update(dict.fromkeys(ids, f))
+        visible = []
+        for i, (t, s) in enumerate(zip(ids, states)):
+            if s == _VISIBLE:
+                h = self._hist.get(t)
+                if h is None:
+                    h = self._hist[t] = deque(maxlen=self._hist_len)
+                h.append([f, xyxy[i], np.nan])
+                visible.append(i)
+            elif s == _HIDDEN and occl[i] >= 0:
                 fr.hidden_by[t] = occl[i]
 
         # corridor and area
@@ -235,15 +244,17 @@ class SituationMonitor:
                 fr.in_corr.add(ids[i])
                 fr.area[ids[i]] = a
 
-        self._motion(fr, ids, states, xyxy)
+        self._motion(fr, ids, visible, xyxy)
         fr.person_starts = [(e.args[0], e.frame) for e in fr.events
                             if e.name == "starts" and e.args and self._class.get(e.args[0]) in PEOPLE]
 
         # anticipation of hidden tracks
-        for t, o in fr.hidden_by.items():
-            a = self._anticipate(t, o, f, boxes)
-            if a is not None:
-                self._anticip[t] = a
+        if fr.hidden_by:
+            boxes = dict(zip(ids, xyxy))
+            for t, o in fr.hidden_by.items():
+                a = self._anticipate(t, o, f, boxes)
+                if a is not None:
+                    self._anticip[t] = a
 
         # relations of near pairs involving a vehicle (vehicle/vehicle and person/vehicle)
         is_veh = [c in VEHICLES for c in cls]
@@ -252,19 +263,17 @@ class SituationMonitor:
             rel_a = np.asarray(rel)
             pairs, codes = pair_relations(xyxy[rel_a], self.config.relations)
             if pairs.shape[0]:
-                gi = rel_a[pairs]
-                keep = np.asarray([is_veh[a] or is_veh[b] for a, b in gi.tolist()])
+                veh = np.asarray(is_veh)[rel_a]
+                va, vb = veh[pairs[:, 0]], veh[pairs[:, 1]]
+                keep = va | vb
                 if keep.any():
-                    ta, tb, codes = order_pairs(np.asarray(ids), gi[keep], codes[keep])
-                    inv_y = inverse_codes(codes[:, 1]).tolist()
-                    vehicles = {ids[i] for i in rel if is_veh[i]}
-                    for k, (x, y, c) in enumerate(zip(ta.tolist(), tb.tolist(), codes.tolist())):
-                        fr.ra[(x, y)] = (c[0], c[1])
-                        if x in vehicles and y in vehicles:
-                            if c[1] in _BOTTOM_LOWER_CODES:
-                                fr.closer.add((x, y))
-                            elif inv_y[k] in _BOTTOM_LOWER_CODES:
-                                fr.closer.add((y, x))
+                    ta, tb, codes = order_pairs(np.asarray(ids)[rel_a], pairs[keep], codes[keep])
+                    fr.ra = dict(zip(zip(ta.tolist(), tb.tolist()), map(tuple, codes.tolist())))
+                    both = (va & vb)[keep]
+                    lower = both & _BOTTOM_LOWER_CODE[codes[:, 1]]  # ta nearer than tb
+                    upper = both & ~lower & _BOTTOM_LOWER_CODE[inverse_codes(codes[:, 1])]  # tb nearer
+                    fr.closer = set(zip(ta[lower].tolist(), tb[lower].tolist()))
+                    fr.closer.update(zip(tb[upper].tolist(), ta[upper].tolist()))
 
         # lanes and segmentation
         lanes = self.context.lanes.lanes_at(f) if self.context.lanes else ()
@@ -280,37 +289,31 @@ class SituationMonitor:
                 if s is not None:
                     fr.surface[ids[i]] = asp_name(s)
 
-    def _motion(self, fr: _Frame, ids: list[int], states: list[int], xyxy: np.ndarray) -> None:
-        """Qualitative motion of visible tracks with a box ``lag`` to ``2 lag`` frames before."""
+    def _motion(self, fr: _Frame, ids: list[int], visible: list[int], xyxy: np.ndarray) -> None:
+        """Qualitative motion of the ``visible`` rows with a box ``lag`` to ``2 lag`` frames before."""
         f, lag = fr.frame, self._lag
-        rows, prev, dts, before = [], [], [], []
-        for i, t in enumerate(ids):
-            if states[i] != TrackState.VISIBLE:
+        rows, prev = [], []
+        for i in visible:
+            h = self._hist[ids[i]]
+            k = len(h) - 1 - lag
+            if k >= 0 and h[k][0] == f - lag:  # seen every frame: the box lag frames before
+                prev.append(h[k])
+                rows.append(i)
                 continue
-            h = self._hist.get(t)
-            if h is None or len(h) < 2:
-                continue
-            cand = None
-            for fp, bp in reversed(h):
-                if fp <= f - lag:
-                    cand = (fp, bp)
-                    break
-            if cand is None or f - cand[0] > 2 * lag:
-                continue
-            rows.append(i)
-            prev.append(cand[1])
-            dts.append((f - cand[0]) / self.fps)
-            sp = self._speed.get(t)
-            before.append(next((s for fs, s in reversed(sp) if fs == cand[0]), np.nan) if sp else np.nan)
+            cand = next((e for e in reversed(h) if e[0] <= f - lag), None)
+            if cand is not None and f - cand[0] <= 2 * lag:
+                prev.append(cand)
+                rows.append(i)
         if not rows:
             return
-        feats = motion_features(np.asarray(prev), xyxy[rows], np.asarray(dts))
-        kinds = classify_motion(feats, np.asarray(before), self.config.motion)
+        feats = motion_features(np.asarray([e[1] for e in prev]), xyxy[rows],
+                                np.asarray([(f - e[0]) / self.fps for e in prev]))
+        kinds = classify_motion(feats, np.asarray([e[2] for e in prev]), self.config.motion)
         speed, vx, growth = feats.speed.tolist(), feats.vx.tolist(), feats.growth.tolist()
         for k, (i, row) in enumerate(zip(rows, kinds.tolist())):
             t = ids[i]
-            self._speed.setdefault(t, deque(maxlen=2 * lag + 2)).append((f, speed[k]))
-            names = tuple(name for name, on in zip(MOTION_KINDS, row) if on)
+            self._hist[t][-1][2] = speed[k]
+            names = tuple(compress(MOTION_KINDS, row))
             if names:
                 fr.motion[t] = names
             self._features[t] = (speed[k], vx[k], growth[k])
@@ -345,9 +348,11 @@ class SituationMonitor:
         cls = self._class
         out: dict[Situation, Any] = {}
         # HIDDEN_ENTITY: hidden participant with an anticipated reappearance in the corridor
+        # within he_lead_ms
         out[Situation.HIDDEN_ENTITY] = {
             (t, a.occluder) for t, a in self._anticip.items()
-            if a.in_corridor and (cls.get(t) in VEHICLES or cls.get(t) in PEOPLE)}
+            if a.in_corridor and (cls.get(t) in VEHICLES or cls.get(t) in PEOPLE)
+            and (a.reappear_frame - now.frame) * self._frame_ms <= c["he_lead_ms"]}
         # REDUCED_VISIBILITY: in the corridor and large and visible, or hiding someone
         occluders = set(now.hidden_by.values())
         out[Situation.REDUCED_VISIBILITY] = {
@@ -366,13 +371,17 @@ class SituationMonitor:
         out[Situation.SUDDEN_STOP] = sudden
         # BLOCKED_LANE: on a lane and stopped now
         out[Situation.BLOCKED_LANE] = {t for t in now.on_lane if "stopped" in now.motion.get(t, ())}
-        # OVERTAKING: a vehicle pair whose depth order flipped within ov_ms
-        if now.closer:
+        # OVERTAKING: a vehicle pair side by side now, B not approaching, whose depth order
+        # flipped within ov_ms
+        flipped = {(a, b) for (b, a) in now.closer
+                   if now.ra[(a, b) if a < b else (b, a)][0] in _LATERAL_CODES
+                   and "approaching" not in now.motion.get(b, ())}
+        if flipped:
             earlier: set[tuple[int, int]] = set()
             for fr in self._within("ov_ms"):
                 if fr.frame < now.frame:
                     earlier |= fr.closer
-            out[Situation.OVERTAKING] = {(a, b) for (b, a) in now.closer if (a, b) in earlier}
+            out[Situation.OVERTAKING] = flipped & earlier
         # EXITING_VEHICLE: a person started within ev_ms (after the first frame), and a vehicle
         # stood still in the window
         start = self._seq_start if self._seq_start is not None else now.frame
@@ -500,7 +509,7 @@ class SituationMonitor:
         if f % self._window:
             return
         for t in [t for t, last in self._last_live.items() if f - last > self._window]:
-            for d in (self._hist, self._speed, self._class, self._last_live):
+            for d in (self._hist, self._class, self._last_live):
                 d.pop(t, None)
         for key in [k for k, last in self._last_held.items() if f - last > self._rearm]:
             del self._last_held[key]

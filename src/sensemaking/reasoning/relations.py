@@ -123,6 +123,17 @@ def _code_table() -> np.ndarray:
 
 
 _WEIGHTS = np.array([27, 9, 3, 1], dtype=np.int64)
+#: end points compared by :func:`_codes`, per axis: start-start, end-end, end of a - start of b,
+#: start of a - end of b (columns of an interval ``[lo, hi]``, and of a box on x then y)
+_IA_A, _IA_B = np.array([0, 1, 1, 0]), np.array([0, 1, 0, 1])
+_RA_A, _RA_B = np.array([0, 2, 2, 0, 1, 3, 3, 1]), np.array([0, 2, 0, 2, 1, 3, 1, 3])
+
+
+def _codes(d: np.ndarray, tol: np.ndarray) -> np.ndarray:
+    """Relation codes from end-point differences ``d`` (..., 4) (order of :data:`_IA_A`) and
+    tolerances broadcastable to ``d``: each difference is -1 / 0 / +1 beyond ``tol``."""
+    c = (d > tol).astype(np.int64) - (d < -tol) + 1
+    return _code_table()[c @ _WEIGHTS]
 
 
 def interval_relations(a: np.ndarray, b: np.ndarray, tol: float | np.ndarray = 0.0) -> np.ndarray:
@@ -134,10 +145,7 @@ def interval_relations(a: np.ndarray, b: np.ndarray, tol: float | np.ndarray = 0
     a = np.asarray(a, dtype=np.float64).reshape(-1, 2)
     b = np.asarray(b, dtype=np.float64).reshape(-1, 2)
     t = np.asarray(tol, dtype=np.float64)
-    # start-start, end-end, end of a - start of b, start of a - end of b: (4, N)
-    d = np.stack([a[:, 0] - b[:, 0], a[:, 1] - b[:, 1], a[:, 1] - b[:, 0], a[:, 0] - b[:, 1]])
-    c = (d > t).astype(np.int64) - (d < -t) + 1
-    return _code_table()[_WEIGHTS @ c]
+    return _codes(a.take(_IA_A, axis=1) - b.take(_IA_B, axis=1), t[:, None] if t.ndim == 1 else t)
 
 
 def rectangle_relations(a: np.ndarray, b: np.ndarray, tol: float | np.ndarray = 0.0) -> np.ndarray:
@@ -151,11 +159,10 @@ def rectangle_relations(a: np.ndarray, b: np.ndarray, tol: float | np.ndarray = 
     b = np.asarray(b, dtype=np.float64).reshape(-1, 4)
     n = a.shape[0]
     t = np.asarray(tol, dtype=np.float64)
-    t = np.broadcast_to(t[:, None] if t.ndim == 1 else t, (n, 2))
-    # both axes in one call: rows 0..n-1 are x intervals, n..2n-1 y intervals
-    codes = interval_relations(np.concatenate([a[:, [0, 2]], a[:, [1, 3]]]),
-                               np.concatenate([b[:, [0, 2]], b[:, [1, 3]]]), np.concatenate([t[:, 0], t[:, 1]]))
-    return np.stack([codes[:n], codes[n:]], axis=1)
+    if t.shape != (n, 2):
+        t = np.broadcast_to(t[:, None] if t.ndim == 1 else t, (n, 2))
+    # both axes at once: (N, 2 axes, 4 end-point differences)
+    return _codes((a.take(_RA_A, axis=1) - b.take(_RA_B, axis=1)).reshape(n, 2, 4), t[:, :, None])
 
 
 def inverse_codes(codes: np.ndarray) -> np.ndarray:
@@ -204,8 +211,16 @@ def near_pairs(xyxy: np.ndarray, near: float = 0.5) -> np.ndarray:
     gap_x = np.maximum(x[None, :, 0] - x[:, None, 2], x[:, None, 0] - x[None, :, 2])
     gap_y = np.maximum(x[None, :, 1] - x[:, None, 3], x[:, None, 1] - x[None, :, 3])
     ok = (gap_x <= near * np.maximum(w[:, None], w[None, :])) & (gap_y <= near * np.maximum(h[:, None], h[None, :]))
-    i, j = np.nonzero(np.triu(ok, 1))
-    return np.stack([i, j], axis=1).astype(np.int64)
+    i, j = np.nonzero(ok & _upper(n))
+    out = np.empty((i.shape[0], 2), dtype=np.int64)
+    out[:, 0], out[:, 1] = i, j
+    return out
+
+
+@lru_cache(maxsize=64)
+def _upper(n: int) -> np.ndarray:
+    """(n, n) bool, True above the diagonal (``i < j``); cached, do not modify."""
+    return np.triu(np.ones((n, n), dtype=bool), 1)
 
 
 def pair_relations(xyxy: np.ndarray, config: RelationConfig | None = None,
@@ -228,7 +243,7 @@ def pair_relations(xyxy: np.ndarray, config: RelationConfig | None = None,
     pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
     if pairs.shape[0] == 0:
         return pairs, np.zeros((0, 2), dtype=np.int8)
-    a, b = x[pairs[:, 0]], x[pairs[:, 1]]
+    a, b = x.take(pairs[:, 0], axis=0), x.take(pairs[:, 1], axis=0)
     size = np.minimum(a[:, 2:] - a[:, :2], b[:, 2:] - b[:, :2])  # (P, 2) smaller w, h
     tol = np.maximum(c.tol_px, c.tol_rel * size)
     return pairs, rectangle_relations(a, b, tol)
@@ -299,15 +314,17 @@ def motion_features(prev: np.ndarray, cur: np.ndarray, dt: float | np.ndarray) -
     """Velocities of boxes from ``prev`` (N, 4) to ``cur`` (N, 4), ``dt`` seconds apart (scalar or (N,))."""
     p = np.asarray(prev, dtype=np.float64).reshape(-1, 4)
     c = np.asarray(cur, dtype=np.float64).reshape(-1, 4)
-    dt = np.broadcast_to(np.asarray(dt, dtype=np.float64), (p.shape[0],))
+    dt = np.asarray(dt, dtype=np.float64)
+    if dt.shape != (p.shape[0],):
+        dt = np.broadcast_to(dt, (p.shape[0],))
     if np.any(dt <= 0):
         raise ValueError("dt must be positive")
-    vx = ((c[:, 0] + c[:, 2]) - (p[:, 0] + p[:, 2])) / 2 / dt
-    vy = ((c[:, 1] + c[:, 3]) - (p[:, 1] + p[:, 3])) / 2 / dt
+    v = ((c[:, :2] + c[:, 2:]) - (p[:, :2] + p[:, 2:])) / 2 / dt[:, None]  # centre vx, vy
     vbottom = (c[:, 3] - p[:, 3]) / dt
     hp = np.maximum(p[:, 3] - p[:, 1], 1e-6)
     hc = np.maximum(c[:, 3] - c[:, 1], 1e-6)
     growth = (hc - hp) / (0.5 * (hp + hc)) / dt
+    vx, vy = v[:, 0], v[:, 1]
     return MotionFeatures(vx, vy, vbottom, growth, np.hypot(vx, vy))
 
 
@@ -340,7 +357,6 @@ def classify_motion(now: MotionFeatures, speed_before: np.ndarray | None = None,
     out[:, 6] = approaching & (now.growth >= t.looming_s)
     out[:, 7] = np.abs(now.growth) < t.growth_s
     return out
-
 
 
 def track_motion(frames: np.ndarray, xyxy: np.ndarray, fps: float,
