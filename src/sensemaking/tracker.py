@@ -17,9 +17,10 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from sensemaking.abduction.problem import VISIBILITY_VALUES, FrameProblem
+from sensemaking.abduction.settle import settle
 from sensemaking.abduction.solver import AbductionSolver, Answer
 from sensemaking.detections import Detections
-from sensemaking.geometry import coverage, intersection, iou
+from sensemaking.geometry import _area, coverage, intersection, iou
 from sensemaking.motion import KalmanBank, KalmanConfig
 from sensemaking.results import Event, FrameResult, TrackState
 
@@ -275,15 +276,22 @@ class Tracker:
     # -- association --------------------------------------------------------------------------
     def _likelihood(self, pred: np.ndarray, dets: Detections) -> np.ndarray:
         """(T, D) IoU of (widened, for unseen tracks) predictions and detections, 0 where gated."""
+        return self._gate(pred, dets)[0]
+
+    def _gate(self, pred: np.ndarray, dets: Detections,
+              plain: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`_likelihood` and its values on the solver's grid (``_quantize``); ``plain`` is
+        ``iou(pred, dets.xyxy)`` if the caller has it already."""
         c = self.config
         if len(pred) == 0 or len(dets) == 0:
-            return np.zeros((len(pred), len(dets)))
+            empty = np.zeros((len(pred), len(dets)))
+            return empty, empty.astype(np.int64)
         # widen the predictions whose motion is uncertain: unseen tracks (more with time) and
         # tracks seen once (velocity unknown); they are gated at the lower iou_resume
+        unseen = (self._unseen > 0) | (self._hits <= 1)
         grow = np.minimum(1.0 + c.resume_growth * self._unseen, 2.0)
         grow = np.where(self._hits <= 1, np.maximum(grow, c.new_track_growth), grow)
-        unseen = (self._unseen > 0) | (self._hits <= 1)
-        lik = iou(pred, dets.xyxy)
+        lik = iou(pred, dets.xyxy) if plain is None else plain.copy()
         if unseen.any():
             # the widened box admits far matches; an exact fit to the plain prediction still wins
             lik[unseen] = np.maximum(lik[unseen], iou(_widen(pred[unseen], grow[unseen]), dets.xyxy))
@@ -298,50 +306,71 @@ class Tracker:
         ok = dets.confidence[None, :] >= c.min_confidence
         if c.class_aware:
             ok = ok & (self._cls[:, None] == dets.class_id[None, :])
-        thr = np.where(unseen, c.iou_resume, c.iou_assign)
+        resume, assign = self._quantize(np.array([c.iou_resume, c.iou_assign]), np.floor).tolist()
         # gate on the solver's likelihood grid against its (floored) thresholds, so that the gate
         # admits exactly the pairs the encoding's constraints allow (gating is only an
         # optimisation): comparing the raw IoU instead dropped pairs that round up to the threshold
-        ok &= self._quantize(lik) >= self._quantize(thr, np.floor)[:, None]
-        return np.where(ok, lik, 0.0)
+        q = self._quantize(lik)
+        ok &= q >= np.where(unseen, resume, assign)[:, None]
+        return np.where(ok, lik, 0.0), q
 
     def _scaled_confidence(self, conf: np.ndarray) -> np.ndarray:
         if self.config.confidence_sigmoid:
             conf = 1.0 / (1.0 + np.exp(-conf))
         return self._quantize(conf)
 
-    def _borders(self, boxes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(at the border, mostly outside) for (N, 4) boxes; all False without an image size."""
+    def _borders(self, boxes: np.ndarray, outside: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+        """(at the border, mostly outside) for (N, 4) boxes; all False without an image size.
+        ``outside=False``: only the first (the second is None)."""
         n = len(boxes)
         if self.config.image_size is None or n == 0:
             return np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
         w, h = self.config.image_size
         m = self.config.border_margin
-        at = (boxes[:, 0] <= m) | (boxes[:, 1] <= m) | (boxes[:, 2] >= w - m) | (boxes[:, 3] >= h - m)
-        inside = coverage(boxes, np.array([[0.0, 0.0, w, h]]))[:, 0]
+        x1, y1, x2, y2 = boxes.T
+        at = (x1 <= m) | (y1 <= m) | (x2 >= w - m) | (y2 >= h - m)
+        if not outside:
+            return at, None
+        # geometry.coverage(boxes, image) for one image box, in the same arithmetic
+        inter = np.clip(np.minimum(x2, w) - np.maximum(x1, 0.0), 0.0, None) * \
+            np.clip(np.minimum(y2, h) - np.maximum(y1, 0.0), 0.0, None)
+        area = np.clip(x2 - x1, 0.0, None) * np.clip(y2 - y1, 0.0, None)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inside = np.where(area > 0, inter / np.where(area > 0, area, 1.0), 0.0)
         return at, inside < 0.05  # (almost) nothing left in view; detections may stick out far
 
     def _problem(self, pred: np.ndarray, dets: Detections) -> FrameProblem:
         c = self.config
-        lik = self._likelihood(pred, dets)
+        n, dxy = len(pred), dets.xyxy
+        # one intersection of the predictions with themselves and the detections: geometry.iou and
+        # geometry.coverage of its parts, in the same arithmetic
+        plain = cov = dcov = None
+        if n and (n > 1 or len(dets)):
+            inter = intersection(pred, np.concatenate([pred, dxy]) if len(dets) else pred)
+            area = _area(pred)[:, None]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                covered = np.where(area > 0, inter / np.where(area > 0, area, 1.0), 0.0)
+                cov, dcov = covered[:, :n], covered[:, n:]  # fraction of track i covered by track / detection j
+                if len(dets):
+                    union = area + _area(dxy)[None, :] - inter[:, n:]
+                    plain = np.where(union > 0, inter[:, n:] / np.where(union > 0, union, 1.0), 0.0)
+        lik, qlik = self._gate(pred, dets, plain)
         ti, dj = np.nonzero(lik > 0)
-        cand = np.stack([ti, dj, self._quantize(lik[ti, dj])], axis=1) if ti.size else np.zeros((0, 3), np.int64)
+        cand = np.stack([ti, dj, qlik[ti, dj]], axis=1) if ti.size else np.zeros((0, 3), np.int64)
         cand_exact = lik[ti, dj]
         at_border, outside = self._borders(pred)
-        det_border, _ = self._borders(dets.xyxy)
+        det_border, _ = self._borders(dxy, outside=False)
         start_ok = dets.confidence >= c.start_confidence
-        n = len(pred)
         covers = keeps = np.zeros((0, 2), dtype=np.int64)
         overlapped = np.zeros(n, dtype=bool)
         if n > 1:
-            cov = coverage(pred, pred)  # cov[i, j]: fraction of i covered by j
+            cov = cov.copy()  # cov[i, j]: fraction of i covered by j
             np.fill_diagonal(cov, 0.0)
             front = pred[None, :, 3] > pred[:, None, 3]  # front[i, j]: j is nearer than i
             overlapped = np.where(front, cov, 0.0).max(axis=1) >= c.partial_cover
         if n and len(dets):
             # an occluder is visible: measure coverage with its detection, not its prediction
-            dcov = coverage(pred, dets.xyxy)  # dcov[i, j]: fraction of track i covered by detection j
-            dcov = np.where(dets.xyxy[None, :, 3] > pred[:, None, 3], dcov, 0.0)
+            dcov = np.where(dxy[None, :, 3] > pred[:, None, 3], dcov, 0.0)
             back, dj = np.nonzero(dcov >= c.hide_cover)
             covers = np.stack([dj, back], axis=1)
             if (self._occluder >= 0).any():
@@ -408,10 +437,21 @@ class Tracker:
         answer: Answer | None = Answer()
         if t_rest.any() or d_rest.any():
             reduced = len(pairs) or len(ignored)
-            rest = problem.subset(t_rest, d_rest) if reduced else problem
-            answer = self._solver_solve(rest)
-            if answer is not None and reduced:
-                answer = _renumber_detections(answer, np.flatnonzero(d_rest))
+            # the rest in closed form if each of its components has a unique optimum (exact, see
+            # abduction.settle); else the solver takes all of it. All or nothing: where the
+            # optimum is tied, the solver's pick depends on the whole program it is given
+            settled = None
+            if self.config.decompose:
+                settled, t_left, d_left = settle(problem, self._solver.constants, whole=True,
+                                                 tracks=t_rest, dets=d_rest)
+                if t_left.any() or d_left.any():
+                    settled = None
+            if settled is not None:
+                answer = settled
+            else:
+                answer = self._solver_solve(problem.subset(t_rest, d_rest) if reduced else problem)
+                if answer is not None and reduced:
+                    answer = _renumber_detections(answer, np.flatnonzero(d_rest))
         if answer is None:
             self.stats["timed_out"] += 1
             self.stats["fallback"] += 1
