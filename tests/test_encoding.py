@@ -219,9 +219,25 @@ def test_leaves_fov_only_at_the_border():
 
 
 def test_ends_without_explanation():
+    # a confirmed track that must end away from the border is lost (cost_lost) ...
+    facts = track(1, flags=("expired",))
+    assert solve(facts) == ["end(1)", "occurs(ends(1))"]
+    assert cost(track(1) + ":- not end(1).") == 1000 + 600
+    # ... a tentative one is a hypothesis dropped (cost_dropped)
     facts = track(1, flags=("tentative",))
     assert solve(facts) == ["end(1)", "occurs(ends(1))"]
-    assert cost(facts) == 1000 + 600
+    assert cost(facts) == 1000 + 0
+    assert cost(facts, consts={"cost_dropped": 70}) == 1000 + 70
+
+
+def test_a_young_track_does_not_take_the_detection_of_the_confirmed_track_it_overlaps():
+    # track 2 is tentative (started last frame on a duplicate / partial box inside track 1's);
+    # its widened prediction also fits track 1's detection, which covers track 1
+    facts = (track(1) + track(2, flags=("tentative", "uncertain")) + det(0)
+             + "cand(1,d(0),850). cand(2,d(0),500). covers(d(0),1).")
+    assert solve(facts) == ["assign(1,d(0))", "end(2)", "occurs(ends(2))"]
+    # charged like a lost object, dropping it used to be dearer than hiding track 1 behind it
+    assert "occurs(hides_behind(1,2))" in solve(facts, consts={"cost_dropped": 600})
 
 
 FRONT_BACK = track(1) + track(2) + det(0) + "cand(2,d(0),900)."  # 1 behind, 2 in front and seen

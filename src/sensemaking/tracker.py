@@ -40,6 +40,7 @@ class AbductionCosts:
     appears: int = 400  #: a track starting away from the border. Higher: fewer false tracks, later starts.
     leaves: int = 100  #: leaves_fov at the border. Higher: tracks linger at the border as missing.
     lost: int = 600  #: a track ending without explanation. Higher: tracks are kept as missing longer.
+    dropped: int = 0  #: a tentative (unconfirmed) track ending: a hypothesis dropped. Higher: young tracks fight for detections.
     hides: int = 50  #: hides_behind. Higher: fewer occlusion explanations, more missing detections.
     missing: int = 250  #: missing_detections. Higher: tracks end instead of waiting.
     unseen: int = 20  #: per frame a track stays missing. Higher: missing tracks end sooner.
@@ -203,7 +204,7 @@ class Tracker:
             "conf_assign": 0,
             "conf_start": 1,
             "cost_enters": c.costs.enters, "cost_appears": c.costs.appears,
-            "cost_leaves": c.costs.leaves, "cost_lost": c.costs.lost,
+            "cost_leaves": c.costs.leaves, "cost_lost": c.costs.lost, "cost_dropped": c.costs.dropped,
             "cost_hides": c.costs.hides, "cost_missing": c.costs.missing,
             "cost_unseen": c.costs.unseen, "cost_ignore": c.costs.ignore,
         })

@@ -32,8 +32,8 @@ __all__ = ["settle", "DEFAULT_CONSTANTS"]
 #: the encoding's ``#const`` defaults (tracking.lp); the solver's constants override them
 DEFAULT_CONSTANTS: dict[str, int] = {
     "iou_assign": 300, "iou_resume": 100, "conf_assign": 0, "conf_start": 500,
-    "cost_enters": 100, "cost_appears": 400, "cost_leaves": 100, "cost_lost": 600, "cost_hides": 50,
-    "cost_missing": 250, "cost_unseen": 20, "cost_ignore": 600,
+    "cost_enters": 100, "cost_appears": 400, "cost_leaves": 100, "cost_lost": 600, "cost_dropped": 0,
+    "cost_hides": 50, "cost_missing": 250, "cost_unseen": 20, "cost_ignore": 600,
 }
 
 _FV, _PO, _FO = VISIBILITY_VALUES  # fully_visible, partially_occluded, fully_occluded
@@ -344,7 +344,8 @@ class _Context:
         if self.at_border[t]:
             opts.append((0 if expired else k["cost_leaves"], "end", (("leaves_fov", (tid,)),),
                          (("in_fov", (tid,), "false"),)))
-        opts.append((1 if expired else k["cost_lost"], "end", (("ends", (tid,)),), ()))
+        lost = k["cost_dropped"] if self.tentative[t] else k["cost_lost"]
+        opts.append((1 if expired else lost, "end", (("ends", (tid,)),), ()))
         if expired or self.outside[t]:
             return opts
         occluders: set[int | str] = set()
