@@ -103,6 +103,25 @@ def sit(program: str, part: str, **consts: int) -> list[str]:
            for k, vs in d.info.items() for v in vs])
 
 
+def test_program_text_is_the_parsed_program_with_the_constants_substituted():
+    from clingo import ast
+
+    from sensemaking.reasoning.situations import Situation, _program, _program_text
+
+    consts = tuple(sorted(situation_constants({"rv_area": 99}).items()))
+    names = tuple(s.value for s in Situation)
+    text = _program_text(consts, names)
+    assert "#const" not in text and "rv_area" not in text and "A >= 99" in text
+    parsed: list[str] = []
+    ast.parse_string(text, lambda stmt: parsed.append(str(stmt)))
+    parts = _program(consts)
+    expected = [str(s) for name in ("base",) + names + ("relations",) for s in parts[name]
+                if s.ast_type != ast.ASTType.Program]
+    assert parsed[1:] == expected  # after the implicit #program base.
+    # relations.lp only with the parts that use it
+    assert "side_by_side" not in _program_text(consts, ("reduced_visibility",))
+
+
 def test_constants_and_defaults():
     c = situation_constants()
     assert set(c) == {"ov_ms", "he_lead_ms", "rv_area", "ss_area", "ss_ms", "bl_ms", "ev_ms"}

@@ -158,14 +158,6 @@ def _program(constants: tuple[tuple[str, int], ...]) -> dict[str, list[Any]]:
             for name, stmts in parts.items()}
 
 
-@lru_cache(maxsize=1)
-def _BASE_PROGRAM() -> Any:  # noqa: N802 - a cached AST node
-    """A ``#program base.`` statement (relations.lp is added to base after the parts)."""
-    stmts: list[Any] = []
-    clingo_ast.parse_string("#program base.", stmts.append)
-    return stmts[-1]
-
-
 def situation_constants(overrides: Mapping[str, int] | None = None) -> dict[str, int]:
     """The ``#const`` parameters of situations.lp with ``overrides`` applied. Raises ValueError
     for unknown names or non-integer values."""
@@ -237,6 +229,18 @@ def _value(sym: clingo.Symbol) -> Any:
     return str(sym)
 
 
+@lru_cache(maxsize=64)
+def _program_text(constants: tuple[tuple[str, int], ...], names: tuple[str, ...]) -> str:
+    """Base plus the parts ``names`` (and relations.lp when they use it) as one program text for
+    ``#program base``, the constants substituted: clingo parses it in one call, cheaper than
+    adding the statements one by one (grounding base and the parts together is the same)."""
+    parts = _program(constants)
+    stmts = [stmt for name in ("base",) + names for stmt in parts.get(name, [])]
+    if _USES_RELATIONS.intersection(names):
+        stmts += parts["relations"]
+    return "".join(f"{stmt}\n" for stmt in stmts if stmt.ast_type != clingo_ast.ASTType.Program)
+
+
 def solve_window(facts: str, situations: Iterable[Situation | str],
                  constants: Mapping[str, int] | None = None) -> list[SituationMatch]:
     """Ground base plus the parts of ``situations`` with ``facts`` on a fresh Control and return
@@ -245,19 +249,10 @@ def solve_window(facts: str, situations: Iterable[Situation | str],
     parts_wanted = [Situation.parse(s.value if isinstance(s, Situation) else s) for s in situations]
     if not parts_wanted:
         return []
-    parts = _program(tuple(sorted(situation_constants(constants).items())))
+    consts = tuple(sorted(situation_constants(constants).items()))
     ctl = clingo.Control(["--warn=none"])
-    names = [s.value for s in parts_wanted]
-    with clingo_ast.ProgramBuilder(ctl) as builder:
-        for name in ["base"] + names:
-            for stmt in parts.get(name, []):
-                builder.add(stmt)
-        if _USES_RELATIONS.intersection(names):
-            builder.add(_BASE_PROGRAM())
-            for stmt in parts["relations"]:
-                builder.add(stmt)
-    ctl.add("base", [], facts)
-    ctl.ground([("base", [])] + [(s.value, []) for s in parts_wanted])
+    ctl.add("base", [], _program_text(consts, tuple(s.value for s in parts_wanted)) + facts)
+    ctl.ground([("base", [])])
     warns: dict[tuple[Situation, tuple[int, ...]], dict[str, list[Any]]] = {}
     infos: list[clingo.Symbol] = []
 
