@@ -363,6 +363,7 @@ class Tracker:
         det_border, _ = self._borders(dxy, outside=False)
         start_ok = dets.confidence >= c.start_confidence
         covers = keeps = np.zeros((0, 2), dtype=np.int64)
+        covers_exact = np.zeros(0)
         overlapped = np.zeros(n, dtype=bool)
         if n > 1:
             cov = cov.copy()  # cov[i, j]: fraction of i covered by j
@@ -374,6 +375,7 @@ class Tracker:
             dcov = np.where(dxy[None, :, 3] > pred[:, None, 3], dcov, 0.0)
             back, dj = np.nonzero(dcov >= c.hide_cover)
             covers = np.stack([dj, back], axis=1)
+            covers_exact = dcov[back, dj]
             if (self._occluder >= 0).any():
                 back, dj = np.nonzero((dcov >= c.keep_cover) & (self._occluder >= 0)[:, None])
                 keeps = np.stack([dj, back], axis=1)
@@ -398,6 +400,7 @@ class Tracker:
             hidden_by=np.stack([self._id[hid], self._occluder[hid]], axis=1) if hid.size else np.zeros((0, 2), np.int64),
             emerges=emerges,
             visibility=self._vis, first_frame=self._frames_seen == 1, cand_exact=cand_exact,
+            covers_exact=covers_exact,
         )
 
     def _expired(self) -> np.ndarray:
