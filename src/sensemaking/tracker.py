@@ -213,7 +213,7 @@ class Tracker:
     def _quantize(self, x: np.ndarray, rounding=np.round) -> np.ndarray:
         """Values in [0, 1] -> integers 0..1000 on a grid of ``likelihood_levels`` steps."""
         levels = self.config.likelihood_levels
-        return (rounding(np.clip(x, 0.0, 1.0) * levels + 1e-9) * 1000 // levels).astype(np.int64)
+        return (rounding(np.minimum(np.maximum(x, 0.0), 1.0) * levels + 1e-9) * 1000 // levels).astype(np.int64)
 
     # -- state ------------------------------------------------------------------------------
     def reset(self) -> None:
@@ -307,13 +307,21 @@ class Tracker:
         ok = dets.confidence[None, :] >= c.min_confidence
         if c.class_aware:
             ok = ok & (self._cls[:, None] == dets.class_id[None, :])
-        resume, assign = self._quantize(np.array([c.iou_resume, c.iou_assign]), np.floor).tolist()
+        resume, assign = self._thresholds(c.iou_resume, c.iou_assign)
         # gate on the solver's likelihood grid against its (floored) thresholds, so that the gate
         # admits exactly the pairs the encoding's constraints allow (gating is only an
         # optimisation): comparing the raw IoU instead dropped pairs that round up to the threshold
         q = self._quantize(lik)
         ok &= q >= np.where(unseen, resume, assign)[:, None]
         return np.where(ok, lik, 0.0), q
+
+    def _thresholds(self, *iou: float) -> list[int]:
+        """IoU thresholds on the solver's grid, rounded down (cached: asked every frame)."""
+        key = (self.config.likelihood_levels, *iou)
+        cache = self.__dict__.setdefault("_threshold_cache", {})
+        if key not in cache:
+            cache[key] = self._quantize(np.array(iou), np.floor).tolist()
+        return cache[key]
 
     def _scaled_confidence(self, conf: np.ndarray) -> np.ndarray:
         if self.config.confidence_sigmoid:
@@ -333,9 +341,9 @@ class Tracker:
         if not outside:
             return at, None
         # geometry.coverage(boxes, image) for one image box, in the same arithmetic
-        inter = np.clip(np.minimum(x2, w) - np.maximum(x1, 0.0), 0.0, None) * \
-            np.clip(np.minimum(y2, h) - np.maximum(y1, 0.0), 0.0, None)
-        area = np.clip(x2 - x1, 0.0, None) * np.clip(y2 - y1, 0.0, None)
+        inter = np.maximum(np.minimum(x2, w) - np.maximum(x1, 0.0), 0.0) * \
+            np.maximum(np.minimum(y2, h) - np.maximum(y1, 0.0), 0.0)
+        area = np.maximum(x2 - x1, 0.0) * np.maximum(y2 - y1, 0.0)
         with np.errstate(divide="ignore", invalid="ignore"):
             inside = np.where(area > 0, inter / np.where(area > 0, area, 1.0), 0.0)
         return at, inside < 0.05  # (almost) nothing left in view; detections may stick out far
@@ -591,7 +599,7 @@ class Tracker:
                 self._pending[ids_[0]] = ev
         # drop ended tracks
         if ended:
-            keep = ~np.isin(self._id, np.fromiter(ended, dtype=np.int64))
+            keep = np.array([t not in ended for t in self._id.tolist()], dtype=bool)
             self._kf.remove(np.flatnonzero(~keep))
             for name in _TRACK_COLUMNS:
                 setattr(self, name, getattr(self, name)[keep])
