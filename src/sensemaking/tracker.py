@@ -420,20 +420,20 @@ class Tracker:
     def _emerges(self, pred: np.ndarray, dets: Detections, hid: np.ndarray, lik: np.ndarray) -> np.ndarray:
         """(E, 2) ``detection, track`` rows: candidate detections of hidden tracks that touch the
         occluder's predicted box, widened by ``emerge_margin`` of its size on every side."""
-        rows = [np.zeros((0, 2), dtype=np.int64)]
-        if hid.size and len(dets):
-            pos = {int(t): i for i, t in enumerate(self._id.tolist())}
-            for i in hid.tolist():
-                o = pos.get(int(self._occluder[i]))
-                cand = np.flatnonzero(lik[i] > 0)
-                if o is None or cand.size == 0:
-                    continue
-                x1, y1, x2, y2 = pred[o]
-                mx, my = (x2 - x1) * self.config.emerge_margin, (y2 - y1) * self.config.emerge_margin
-                box = np.array([[x1 - mx, y1 - my, x2 + mx, y2 + my]])
-                touch = cand[intersection(dets.xyxy[cand], box)[:, 0] > 0]
-                rows.append(np.stack([touch, np.full(touch.size, i)], axis=1))
-        return np.concatenate(rows).astype(np.int64)
+        if not (hid.size and len(dets)):
+            return np.zeros((0, 2), dtype=np.int64)
+        pos = {int(t): i for i, t in enumerate(self._id.tolist())}
+        pairs = [(i, pos[o]) for i, o in zip(hid.tolist(), self._occluder[hid].tolist()) if o in pos]
+        if not pairs:
+            return np.zeros((0, 2), dtype=np.int64)
+        tracks, occ = np.array(pairs, dtype=np.int64).T
+        x1, y1, x2, y2 = pred[occ].T
+        mx, my = (x2 - x1) * self.config.emerge_margin, (y2 - y1) * self.config.emerge_margin
+        boxes = np.stack([x1 - mx, y1 - my, x2 + mx, y2 + my], axis=1)
+        # (hidden track, detection): a candidate that touches the widened occluder box
+        touch = (lik[tracks] > 0) & (intersection(boxes, dets.xyxy) > 0)
+        h, d = np.nonzero(touch)
+        return np.stack([d, tracks[h]], axis=1).astype(np.int64)
 
     def _abduce(self, pred: np.ndarray, dets: Detections) -> tuple[Answer, bool]:
         problem = self._problem(pred, dets)
