@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from sensemaking.reasoning.relations import (
     IA_RELATIONS, INVERSE, MOTION_KINDS, MotionThresholds, RelationConfig, classify_motion, interval_relation_masks,
-    interval_relations, inverse_codes, motion_facts, motion_features, near_pairs, order_pairs, pair_relations,
+    interval_relations, inverse_codes, motion_facts, motion_features, motion_rows, near_pair_codes, near_pairs, order_pairs, pair_relations,
     rectangle_relations, relation_facts, track_motion,
 )
 
@@ -177,3 +177,46 @@ def test_threshold_validation():
         MotionThresholds(stopped_px_s=50, moving_px_s=40)
     with pytest.raises(ValueError):
         RelationConfig(near=-1)
+
+
+def _random_boxes(rng: np.random.Generator, n: int) -> np.ndarray:
+    """Boxes on a coarse grid (ties, touching edges, equal sizes) plus some fractional ones."""
+    x0, y0 = rng.integers(0, 60, n).astype(float), rng.integers(0, 60, n).astype(float)
+    if rng.random() < 0.3:
+        x0 += rng.random(n) * 7.3
+        y0 += rng.random(n)
+    return np.stack([x0, y0, x0 + rng.integers(1, 30, n), y0 + rng.integers(1, 30, n)], 1).reshape(n, 4)
+
+
+def test_near_pair_codes_equals_pair_relations_on_random_boxes():
+    rng = np.random.default_rng(7)
+    for _ in range(3000):
+        n = int(rng.integers(0, 10))
+        xy = _random_boxes(rng, n)
+        cfg = RelationConfig(near=float(rng.choice([0, 0.25, 0.5, 1.0])), tol_px=float(rng.choice([0, 1, 3])),
+                             tol_rel=float(rng.choice([0, 0.05, 0.3])))
+        wanted = (rng.random(n) < 0.6).tolist()
+        pairs, codes = pair_relations(xy, cfg)
+        keep = [wanted[i] or wanted[j] for i, j in pairs.tolist()]
+        expected = [(i, j, cx, cy) for (i, j), (cx, cy), k in zip(pairs.tolist(), codes.tolist(), keep) if k]
+        assert near_pair_codes(xy.tolist(), cfg, wanted) == expected
+        assert near_pair_codes(xy.tolist(), cfg) == [(i, j, cx, cy) for (i, j), (cx, cy) in
+                                                     zip(pairs.tolist(), codes.tolist())]
+
+
+def test_motion_rows_equals_motion_features_and_classify_motion():
+    rng = np.random.default_rng(3)
+    th = MotionThresholds()
+    for _ in range(2000):
+        n = int(rng.integers(1, 8))
+        cur = _random_boxes(rng, n)
+        prev = cur + rng.integers(-4, 5, (n, 4)) * rng.choice([1.0, 0.1, 7.3])
+        prev[:, 2:] = np.maximum(prev[:, 2:], prev[:, :2] + 0.5)
+        dt = rng.choice([0.1, 0.2, 0.3], n)
+        before = np.where(rng.random(n) < 0.3, np.nan, rng.uniform(0, 80, n))
+        feats = motion_features(prev, cur, dt)
+        kinds, speed, vx, growth = motion_rows(prev.tolist(), cur.tolist(), dt.tolist(), before.tolist(), th)
+        assert kinds == [tuple(r) for r in classify_motion(feats, before, th).tolist()]
+        assert speed == feats.speed.tolist() and vx == feats.vx.tolist() and growth == feats.growth.tolist()
+    with pytest.raises(ValueError):
+        motion_rows([[0, 0, 1, 1]], [[0, 0, 1, 1]], [0.0], [np.nan], th)

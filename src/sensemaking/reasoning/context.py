@@ -39,6 +39,7 @@ from __future__ import annotations
 import json
 import logging
 import re
+from bisect import bisect_right
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -107,6 +108,14 @@ def _profile(points: tuple[tuple[float, float], ...], normalized: bool,
     return ys, xl, xr
 
 
+@lru_cache(maxsize=64)
+def _profile_lists(points: tuple[tuple[float, float], ...], normalized: bool,
+                   image_size: tuple[int, int]) -> tuple[list[float], list[float], list[float]]:
+    """:func:`_profile` as Python lists."""
+    ys, xl, xr = _profile(points, normalized, image_size)
+    return ys.tolist(), xl.tolist(), xr.tolist()
+
+
 def _edge_ratio(xyxy: np.ndarray, xl: np.ndarray, xr: np.ndarray) -> np.ndarray:
     """Length of ``[xl, xr]`` within each box's bottom edge over the edge's length, unclipped
     (negative for a gap, NaN where ``xl``/``xr`` are NaN)."""
@@ -166,6 +175,26 @@ class Corridor:
         # min_overlap is in (0, 1]: clipping the ratio to [0, 1] and NaN -> 0 change nothing here
         b = np.asarray(xyxy, dtype=np.float64).reshape(-1, 4)
         return _edge_ratio(b, *self.span_at(b[:, 3], image_size)) >= self.min_overlap
+
+    def contains_rows(self, boxes: list[list[float]], image_size: tuple[int, int]) -> list[bool]:
+        """Plain-Python :meth:`contains_boxes` for a few boxes ``[x1, y1, x2, y2]`` (Python floats):
+        the same result (np.interp's arithmetic over the same profile), without numpy's per-call cost."""
+        ys, xl, xr = _profile_lists(self.points, self.normalized, (int(image_size[0]), int(image_size[1])))
+        lo, hi, last, m = ys[0], ys[-1], len(ys) - 1, self.min_overlap
+        out = []
+        for x1, _, x2, y in boxes:
+            if y < lo or y > hi or y != y:
+                out.append(False)
+                continue
+            j = bisect_right(ys, y) - 1
+            if j >= last or ys[j] == y:  # np.interp returns the vertex value there
+                left, right = xl[j], xr[j]
+            else:
+                dy = ys[j + 1] - ys[j]
+                left = (xl[j + 1] - xl[j]) / dy * (y - ys[j]) + xl[j]
+                right = (xr[j + 1] - xr[j]) / dy * (y - ys[j]) + xr[j]
+            out.append((min(x2, right) - max(x1, left)) / max(x2 - x1, 1e-9) >= m)
+        return out
 
     def contains_points(self, points: np.ndarray, image_size: tuple[int, int]) -> np.ndarray:
         """(N,) bool: points ``(x, y)`` in pixels lie inside the corridor."""

@@ -30,9 +30,7 @@ import numpy as np
 from sensemaking.classes import PEOPLE, VEHICLES, class_name
 from sensemaking.reasoning.anticipation import Anticipation, anticipate
 from sensemaking.reasoning.context import SceneContext, asp_name
-from sensemaking.reasoning.relations import (
-    IA_RELATIONS, MOTION_KINDS, classify_motion, inverse_codes, motion_features, order_pairs, pair_relations,
-)
+from sensemaking.reasoning.relations import INVERSE, IA_RELATIONS, MOTION_KINDS, motion_rows, near_pair_codes
 from sensemaking.reasoning.situations import (
     SituationMatch, Situation, SituationConfig, Warning, situation_constants, solve_window,
 )
@@ -45,8 +43,10 @@ log = logging.getLogger(__name__)
 _STATE_NAMES = tuple(s.name.lower() for s in TrackState)
 #: y relations that put A's bottom lower than B's (``bottom_lower/1`` of relations.lp)
 BOTTOM_LOWER: frozenset[str] = frozenset({"after", "met_by", "overlapped_by", "contains", "started_by"})
-#: (13,) bool by relation code: the code is in BOTTOM_LOWER
-_BOTTOM_LOWER_CODE = np.isin(np.arange(len(IA_RELATIONS)), [IA_RELATIONS.index(r) for r in BOTTOM_LOWER])
+#: by relation code: the code is in BOTTOM_LOWER
+_BL: list[bool] = [r in BOTTOM_LOWER for r in IA_RELATIONS]
+#: by relation code: the code of the converse relation
+_INV: list[int] = [IA_RELATIONS.index(INVERSE[r]) for r in IA_RELATIONS]
 #: x relations of boxes side by side (``lateral/1`` of relations.lp; closed under the converse)
 _LATERAL_CODES = frozenset(IA_RELATIONS.index(r) for r in
                            ("before", "after", "meets", "met_by", "overlaps", "overlapped_by"))
@@ -202,6 +202,8 @@ class SituationMonitor:
 
     # -- per-frame snapshot ---------------------------------------------------------------------
     def _observe(self, result: FrameResult) -> None:
+        # plain Python over the rows: a frame has a few tracks, and numpy's per-call cost would
+        # dominate (the helpers do the same float operations as their numpy counterparts)
         f = int(result.frame)
         fr = _Frame(f, events=list(result.events))
         self._frames.append(fr)
@@ -214,66 +216,67 @@ class SituationMonitor:
         ids = tr.tracker_id.tolist()
         cls = tr.class_id.tolist()
         data = tr.data
-        states = np.asarray(data["state"] if "state" in data else np.zeros(n), dtype=np.int64).tolist()
-        occl = np.asarray(data["occluder"] if "occluder" in data else np.full(n, -1), dtype=np.int64).tolist()
+        states = np.asarray(data["state"], dtype=np.int64).tolist() if "state" in data else [0] * n
+        occl = np.asarray(data["occluder"], dtype=np.int64).tolist() if "occluder" in data else [-1] * n
         xyxy = tr.xyxy
+        boxes = xyxy.tolist()
         fr.ids = ids
         fr.state = dict(zip(ids, states))
         self._class.update(zip(ids, cls))
         self._last_live.update(dict.fromkeys(ids, f))
         visible = []
+        hist, hist_len = self._hist, self._hist_len
         for i, (t, s) in enumerate(zip(ids, states)):
             if s == _VISIBLE:
-                h = self._hist.get(t)
+                h = hist.get(t)
                 if h is None:
-                    h = self._hist[t] = deque(maxlen=self._hist_len)
-                h.append([f, xyxy[i], np.nan])
+                    h = hist[t] = deque(maxlen=hist_len)
+                h.append([f, boxes[i], np.nan])
                 visible.append(i)
             elif s == _HIDDEN and occl[i] >= 0:
                 fr.hidden_by[t] = occl[i]
 
-        # corridor and area
-        inside = (self.context.corridor.contains_boxes(xyxy, self.image_size) if self.image_size is not None
-                  else np.zeros(n, dtype=bool))
-        if inside.any():
+        # corridor and area (permille of the image, np.rint: round half to even)
+        if self.image_size is not None:
             W, H = self.image_size
-            idx = np.flatnonzero(inside)
-            b = xyxy[idx]
-            area = np.rint((b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1]) * (1000.0 / (W * H))).astype(np.int64)
-            for i, a in zip(idx.tolist(), area.tolist()):
-                fr.in_corr.add(ids[i])
-                fr.area[ids[i]] = a
+            k = 1000.0 / (W * H)
+            for i, inside in enumerate(self.context.corridor.contains_rows(boxes, self.image_size)):
+                if inside:
+                    x1, y1, x2, y2 = boxes[i]
+                    fr.in_corr.add(ids[i])
+                    fr.area[ids[i]] = round((x2 - x1) * (y2 - y1) * k)
 
-        self._motion(fr, ids, visible, xyxy)
-        fr.person_starts = [(e.args[0], e.frame) for e in fr.events
-                            if e.name == "starts" and e.args and self._class.get(e.args[0]) in PEOPLE]
+        if visible:
+            self._motion(fr, ids, visible, boxes)
+        if fr.events:
+            fr.person_starts = [(e.args[0], e.frame) for e in fr.events
+                                if e.name == "starts" and e.args and self._class.get(e.args[0]) in PEOPLE]
 
         # anticipation of hidden tracks
         if fr.hidden_by:
-            boxes = dict(zip(ids, xyxy))
+            by_id = dict(zip(ids, boxes))
             for t, o in fr.hidden_by.items():
-                a = self._anticipate(t, o, f, boxes)
+                a = self._anticipate(t, o, f, by_id)
                 if a is not None:
                     self._anticip[t] = a
 
         # relations of near pairs involving a vehicle (vehicle/vehicle and person/vehicle)
         is_veh = [c in VEHICLES for c in cls]
-        rel = [i for i, c in enumerate(cls) if is_veh[i] or c in PEOPLE]
-        if len(rel) >= 2 and any(is_veh[i] for i in rel):
-            rel_a = np.asarray(rel)
-            pairs, codes = pair_relations(xyxy[rel_a], self.config.relations)
-            if pairs.shape[0]:
-                veh = np.asarray(is_veh)[rel_a]
-                va, vb = veh[pairs[:, 0]], veh[pairs[:, 1]]
-                keep = va | vb
-                if keep.any():
-                    ta, tb, codes = order_pairs(np.asarray(ids)[rel_a], pairs[keep], codes[keep])
-                    fr.ra = dict(zip(zip(ta.tolist(), tb.tolist()), map(tuple, codes.tolist())))
-                    both = (va & vb)[keep]
-                    lower = both & _BOTTOM_LOWER_CODE[codes[:, 1]]  # ta nearer than tb
-                    upper = both & ~lower & _BOTTOM_LOWER_CODE[inverse_codes(codes[:, 1])]  # tb nearer
-                    fr.closer = set(zip(ta[lower].tolist(), tb[lower].tolist()))
-                    fr.closer.update(zip(tb[upper].tolist(), ta[upper].tolist()))
+        if any(is_veh):
+            rel = [i for i, c in enumerate(cls) if is_veh[i] or c in PEOPLE]
+            if len(rel) >= 2:
+                veh = [is_veh[i] for i in rel]
+                ra, closer = fr.ra, fr.closer
+                for i, j, cx, cy in near_pair_codes([boxes[i] for i in rel], self.config.relations, veh):
+                    ta, tb = ids[rel[i]], ids[rel[j]]
+                    if ta > tb:
+                        ta, tb, cx, cy = tb, ta, _INV[cx], _INV[cy]
+                    ra[(ta, tb)] = (cx, cy)
+                    if veh[i] and veh[j]:
+                        if _BL[cy]:  # ta nearer than tb
+                            closer.add((ta, tb))
+                        elif _BL[_INV[cy]]:
+                            closer.add((tb, ta))
 
         # lanes and segmentation
         lanes = self.context.lanes.lanes_at(f) if self.context.lanes else ()
@@ -289,7 +292,7 @@ class SituationMonitor:
                 if s is not None:
                     fr.surface[ids[i]] = asp_name(s)
 
-    def _motion(self, fr: _Frame, ids: list[int], visible: list[int], xyxy: np.ndarray) -> None:
+    def _motion(self, fr: _Frame, ids: list[int], visible: list[int], boxes: list[list[float]]) -> None:
         """Qualitative motion of the ``visible`` rows with a box ``lag`` to ``2 lag`` frames before."""
         f, lag = fr.frame, self._lag
         rows, prev = [], []
@@ -306,16 +309,15 @@ class SituationMonitor:
                 rows.append(i)
         if not rows:
             return
-        feats = motion_features(np.asarray([e[1] for e in prev]), xyxy[rows],
-                                np.asarray([(f - e[0]) / self.fps for e in prev]))
-        kinds = classify_motion(feats, np.asarray([e[2] for e in prev]), self.config.motion)
-        speed, vx, growth = feats.speed.tolist(), feats.vx.tolist(), feats.growth.tolist()
-        for k, (i, row) in enumerate(zip(rows, kinds.tolist())):
+        fps = self.fps
+        kinds, speed, vx, growth = motion_rows([e[1] for e in prev], [boxes[i] for i in rows],
+                                               [(f - e[0]) / fps for e in prev], [e[2] for e in prev],
+                                               self.config.motion)
+        for k, (i, row) in enumerate(zip(rows, kinds)):
             t = ids[i]
             self._hist[t][-1][2] = speed[k]
-            names = tuple(compress(MOTION_KINDS, row))
-            if names:
-                fr.motion[t] = names
+            if any(row):
+                fr.motion[t] = tuple(compress(MOTION_KINDS, row))
             self._features[t] = (speed[k], vx[k], growth[k])
 
     def _anticipate(self, t: int, o: int, f: int, boxes: dict[int, np.ndarray]) -> Anticipation | None:

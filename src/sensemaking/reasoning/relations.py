@@ -26,7 +26,7 @@ __all__ = [
     "IA_RELATIONS", "INVERSE", "MOTION_KINDS", "RelationConfig", "MotionThresholds", "MotionFeatures",
     "interval_relation_masks", "interval_relations", "rectangle_relations", "inverse_codes", "relation_name",
     "near_pairs", "pair_relations", "order_pairs", "motion_features", "classify_motion", "track_motion", "relation_facts",
-    "motion_facts",
+    "motion_facts", "near_pair_codes", "motion_rows",
 ]
 
 #: the 13 Allen relations; the index is the relation's integer code
@@ -123,6 +123,8 @@ def _code_table() -> np.ndarray:
 
 
 _WEIGHTS = np.array([27, 9, 3, 1], dtype=np.int64)
+#: :func:`_code_table` as a list (plain-Python lookups)
+_CODE_LIST: list[int] = _code_table().tolist()
 #: end points compared by :func:`_codes`, per axis: start-start, end-end, end of a - start of b,
 #: start of a - end of b (columns of an interval ``[lo, hi]``, and of a box on x then y)
 _IA_A, _IA_B = np.array([0, 1, 1, 0]), np.array([0, 1, 0, 1])
@@ -249,6 +251,51 @@ def pair_relations(xyxy: np.ndarray, config: RelationConfig | None = None,
     return pairs, rectangle_relations(a, b, tol)
 
 
+def near_pair_codes(boxes: list[list[float]], config: RelationConfig,
+                    wanted: list[bool] | None = None) -> list[tuple[int, int, int, int]]:
+    """Plain-Python :func:`pair_relations` for a few boxes (faster than numpy below ~20 boxes).
+
+    Args:
+        boxes: N boxes ``[x1, y1, x2, y2]`` (Python floats, e.g. ``xyxy.tolist()``).
+        config: :class:`RelationConfig`.
+        wanted: only pairs with ``wanted[i] or wanted[j]`` (default: all pairs).
+
+    Returns:
+        ``(i, j, x code, y code)`` for the near pairs ``i < j`` in the order of :func:`near_pairs`;
+        the same pairs and codes as :func:`pair_relations` (the same float operations).
+    """
+    n = len(boxes)
+    out: list[tuple[int, int, int, int]] = []
+    if n < 2:
+        return out
+    near, tol_px, tol_rel = config.near, config.tol_px, config.tol_rel
+    table = _CODE_LIST
+    for i in range(n - 1):
+        a0, a1, a2, a3 = boxes[i]
+        wa, ha = a2 - a0, a3 - a1
+        wi = True if wanted is None else wanted[i]
+        for j in range(i + 1, n):
+            if not (wi or wanted[j]):  # type: ignore[index]
+                continue
+            b0, b1, b2, b3 = boxes[j]
+            wb, hb = b2 - b0, b3 - b1
+            if max(b0 - a2, a0 - b2) > near * max(wa, wb) or max(b1 - a3, a1 - b3) > near * max(ha, hb):
+                continue
+            t = max(tol_px, tol_rel * min(wa, wb))
+            code_x = table[_sign3(a0 - b0, t) * 27 + _sign3(a2 - b2, t) * 9 + _sign3(a2 - b0, t) * 3
+                           + _sign3(a0 - b2, t)]
+            t = max(tol_px, tol_rel * min(ha, hb))
+            code_y = table[_sign3(a1 - b1, t) * 27 + _sign3(a3 - b3, t) * 9 + _sign3(a3 - b1, t) * 3
+                           + _sign3(a1 - b3, t)]
+            out.append((i, j, code_x, code_y))
+    return out
+
+
+def _sign3(d: float, tol: float) -> int:
+    """0 / 1 / 2 where ``d`` is below ``-tol`` / within / above ``tol`` (as in :func:`_codes`)."""
+    return 2 if d > tol else 0 if d < -tol else 1
+
+
 # -- motion -------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class MotionThresholds:
@@ -357,6 +404,41 @@ def classify_motion(now: MotionFeatures, speed_before: np.ndarray | None = None,
     out[:, 6] = approaching & (now.growth >= t.looming_s)
     out[:, 7] = np.abs(now.growth) < t.growth_s
     return out
+
+
+def motion_rows(prev: list[list[float]], cur: list[list[float]], dt: list[float], speed_before: list[float],
+                thresholds: MotionThresholds) -> tuple[list[tuple[bool, ...]], list[float], list[float], list[float]]:
+    """Plain-Python :func:`motion_features` + :func:`classify_motion` for a few boxes.
+
+    Args:
+        prev, cur: N boxes ``[x1, y1, x2, y2]`` each (Python floats). dt: N seconds (> 0).
+        speed_before: N centre speeds before (px/s, NaN where unknown). thresholds: see its class.
+
+    Returns:
+        ``kinds`` (N rows of 8 bools, columns :data:`MOTION_KINDS`), ``speed``, ``vx`` and
+        ``growth`` (N floats each): the same values as the numpy functions (the same float
+        operations; the speed through ``np.hypot``, as math.hypot may differ in the last bit).
+    """
+    t = thresholds
+    g, gl, bp, lat, st, mv = t.growth_s, t.looming_s, t.bottom_px_s, t.lateral_px_s, t.stopped_px_s, t.moving_px_s
+    vxs, vys, vbs, grs = [], [], [], []
+    for p, c, d in zip(prev, cur, dt):
+        if not d > 0:
+            raise ValueError("dt must be positive")
+        vxs.append(((c[0] + c[2]) - (p[0] + p[2])) / 2 / d)
+        vys.append(((c[1] + c[3]) - (p[1] + p[3])) / 2 / d)
+        vbs.append((c[3] - p[3]) / d)
+        hp = max(p[3] - p[1], 1e-6)
+        hc = max(c[3] - c[1], 1e-6)
+        grs.append((hc - hp) / (0.5 * (hp + hc)) / d)
+    speed = np.hypot(vxs, vys).tolist() if vxs else []
+    kinds = []
+    for vx, vb, gr, sp, before in zip(vxs, vbs, grs, speed, speed_before):
+        approaching = gr >= g and vb >= bp
+        stopped = sp < st and abs(gr) < g
+        kinds.append((approaching, gr <= -g and vb <= -bp, vx <= -lat, vx >= lat, stopped,
+                      stopped and before >= mv, approaching and gr >= gl, abs(gr) < g))
+    return kinds, speed, vxs, grs
 
 
 def track_motion(frames: np.ndarray, xyxy: np.ndarray, fps: float,
