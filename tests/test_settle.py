@@ -24,7 +24,8 @@ CONSTANTS = {**DEFAULT_CONSTANTS, "iou_assign": 300, "iou_resume": 100, "conf_as
 
 
 def optimal(problem: FrameProblem, consts: dict[str, int]) -> list[tuple[int, frozenset[str]]]:
-    """Every optimal answer of the encoding: (cost, shown atoms)."""
+    """Every optimal answer of the encoding, tie-breaks included: (cost without the tie-break
+    levels, shown atoms)."""
     opts = ["--opt-mode=optN", "--warn=none", "0"] + [f"-c{k}={v}" for k, v in consts.items()]
     ctl = clingo.Control(opts)
     ctl.add("base", [], ENCODING + "\n" + problem.to_facts())
@@ -33,7 +34,8 @@ def optimal(problem: FrameProblem, consts: dict[str, int]) -> list[tuple[int, fr
 
     def on_model(m: clingo.Model) -> None:
         if m.optimality_proven or not m.cost:
-            found[frozenset(str(s) for s in m.symbols(shown=True))] = sum(m.cost)
+            found[frozenset(str(s) for s in m.symbols(shown=True))] = sum(
+                c for c, p in zip(m.cost, m.priority) if p >= 0)
 
     assert ctl.solve(on_model=on_model).satisfiable
     return sorted(((c, a) for a, c in found.items()), key=lambda x: (x[0], sorted(x[1])))
@@ -71,6 +73,8 @@ def random_problem(rng: np.random.Generator) -> FrameProblem:
         return np.array(x, dtype=np.int64).reshape(-1, k)
 
     flag = lambda n, p: rng.random(n) < p  # noqa: E731
+    # coverages with ties half of the time (the tie-break falls back to the detection index)
+    covers_exact = rng.choice([0.5, 0.7, 0.7, 0.9], len(covers)) if rng.random() < 0.5 else None
     return FrameProblem(
         track_id=ids, active=active, tentative=flag(nt, 0.2), expired=~active & flag(nt, 0.2),
         outside=flag(nt, 0.1), at_border=flag(nt, 0.3), overlapped=flag(nt, 0.3),
@@ -80,7 +84,7 @@ def random_problem(rng: np.random.Generator) -> FrameProblem:
         det_border=flag(nd, 0.3), det_overlapped=flag(nd, 0.3), cand=rows(cand, 3),
         covers=rows(covers, 2), keeps_covering=rows(keeps, 2), hidden_by=rows(hidden, 2),
         emerges=rows(emerges, 2), visibility=rng.integers(0, len(VISIBILITY_VALUES), nt),
-        first_frame=bool(rng.random() < 0.1),
+        first_frame=bool(rng.random() < 0.1), covers_exact=covers_exact,
     )
 
 
@@ -107,18 +111,33 @@ def test_settled_components_are_the_unique_optimum_on_random_problems(costs):
     assert whole > 100 and partial + refused > 20, (whole, partial, refused)
 
 
-def test_ties_are_left_to_the_solver():
-    # a missing track behind two equally good new occluders: hiding behind either is free
-    p = FrameProblem(
+def _behind_two_new_occluders(**extra) -> FrameProblem:
+    """A missing track behind two new occluders: hiding behind either is free."""
+    return FrameProblem(
         track_id=np.array([5]), active=np.array([False]), tentative=np.array([False]),
         expired=np.array([False]), outside=np.array([False]), at_border=np.array([False]),
         overlapped=np.array([False]), track_class=np.array([1]), det_conf=np.array([900, 900]),
         det_class=np.array([1, 1]), det_border=np.array([False, False]), det_overlapped=np.array([False, False]),
-        cand=np.zeros((0, 3), np.int64), covers=np.array([[0, 0], [1, 0]]), visibility=np.array([0]),
+        cand=np.zeros((0, 3), np.int64), covers=np.array([[0, 0], [1, 0]]), visibility=np.array([0]), **extra,
     )
+
+
+def test_ties_are_left_to_the_solver():
+    # without coverages nothing prefers one occluder
+    p = _behind_two_new_occluders()
     ans, t_rest, d_rest = settle(p, CONSTANTS)
     assert t_rest.all() and d_rest.all() and not ans.events
     assert len({a for c, a in optimal(p, CONSTANTS) if c == optimal(p, CONSTANTS)[0][0]}) == 2
+
+
+def test_occluder_ties_are_broken_by_coverage():
+    # with them the track hides behind the detection covering most, in settle as in the solver
+    p = _behind_two_new_occluders(covers_exact=np.array([0.6, 0.8]))
+    ans, t_rest, d_rest = settle(p, CONSTANTS)
+    assert not t_rest.any() and not d_rest.any()
+    assert ("hides_behind", (5, "d1")) in ans.events
+    models = optimal(p, CONSTANTS)
+    assert len(models) == 1 and shown(ans) == models[0][1]
 
 
 def test_enumeration_budget_leaves_big_components_to_the_solver():

@@ -213,7 +213,7 @@ class KalmanBank:
             raise ValueError(f"update: {idx.size} rows but {z.shape[0]} boxes")
         if idx.size == 0:
             return
-        if np.unique(idx).size != idx.size:
+        if len(set(idx.tolist())) != idx.size:
             raise ValueError("update: row indices must be distinct")
         if not np.all(np.isfinite(z)):
             raise ValueError("update: boxes must be finite")

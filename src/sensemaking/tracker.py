@@ -213,7 +213,7 @@ class Tracker:
     def _quantize(self, x: np.ndarray, rounding=np.round) -> np.ndarray:
         """Values in [0, 1] -> integers 0..1000 on a grid of ``likelihood_levels`` steps."""
         levels = self.config.likelihood_levels
-        return (rounding(np.clip(x, 0.0, 1.0) * levels + 1e-9) * 1000 // levels).astype(np.int64)
+        return (rounding(np.minimum(np.maximum(x, 0.0), 1.0) * levels + 1e-9) * 1000 // levels).astype(np.int64)
 
     # -- state ------------------------------------------------------------------------------
     def reset(self) -> None:
@@ -307,13 +307,21 @@ class Tracker:
         ok = dets.confidence[None, :] >= c.min_confidence
         if c.class_aware:
             ok = ok & (self._cls[:, None] == dets.class_id[None, :])
-        resume, assign = self._quantize(np.array([c.iou_resume, c.iou_assign]), np.floor).tolist()
+        resume, assign = self._thresholds(c.iou_resume, c.iou_assign)
         # gate on the solver's likelihood grid against its (floored) thresholds, so that the gate
         # admits exactly the pairs the encoding's constraints allow (gating is only an
         # optimisation): comparing the raw IoU instead dropped pairs that round up to the threshold
         q = self._quantize(lik)
         ok &= q >= np.where(unseen, resume, assign)[:, None]
         return np.where(ok, lik, 0.0), q
+
+    def _thresholds(self, *iou: float) -> list[int]:
+        """IoU thresholds on the solver's grid, rounded down (cached: asked every frame)."""
+        key = (self.config.likelihood_levels, *iou)
+        cache = self.__dict__.setdefault("_threshold_cache", {})
+        if key not in cache:
+            cache[key] = self._quantize(np.array(iou), np.floor).tolist()
+        return cache[key]
 
     def _scaled_confidence(self, conf: np.ndarray) -> np.ndarray:
         if self.config.confidence_sigmoid:
@@ -333,9 +341,9 @@ class Tracker:
         if not outside:
             return at, None
         # geometry.coverage(boxes, image) for one image box, in the same arithmetic
-        inter = np.clip(np.minimum(x2, w) - np.maximum(x1, 0.0), 0.0, None) * \
-            np.clip(np.minimum(y2, h) - np.maximum(y1, 0.0), 0.0, None)
-        area = np.clip(x2 - x1, 0.0, None) * np.clip(y2 - y1, 0.0, None)
+        inter = np.maximum(np.minimum(x2, w) - np.maximum(x1, 0.0), 0.0) * \
+            np.maximum(np.minimum(y2, h) - np.maximum(y1, 0.0), 0.0)
+        area = np.maximum(x2 - x1, 0.0) * np.maximum(y2 - y1, 0.0)
         with np.errstate(divide="ignore", invalid="ignore"):
             inside = np.where(area > 0, inter / np.where(area > 0, area, 1.0), 0.0)
         return at, inside < 0.05  # (almost) nothing left in view; detections may stick out far
@@ -363,6 +371,7 @@ class Tracker:
         det_border, _ = self._borders(dxy, outside=False)
         start_ok = dets.confidence >= c.start_confidence
         covers = keeps = np.zeros((0, 2), dtype=np.int64)
+        covers_exact = np.zeros(0)
         overlapped = np.zeros(n, dtype=bool)
         if n > 1:
             cov = cov.copy()  # cov[i, j]: fraction of i covered by j
@@ -374,6 +383,7 @@ class Tracker:
             dcov = np.where(dxy[None, :, 3] > pred[:, None, 3], dcov, 0.0)
             back, dj = np.nonzero(dcov >= c.hide_cover)
             covers = np.stack([dj, back], axis=1)
+            covers_exact = dcov[back, dj]
             if (self._occluder >= 0).any():
                 back, dj = np.nonzero((dcov >= c.keep_cover) & (self._occluder >= 0)[:, None])
                 keeps = np.stack([dj, back], axis=1)
@@ -398,6 +408,7 @@ class Tracker:
             hidden_by=np.stack([self._id[hid], self._occluder[hid]], axis=1) if hid.size else np.zeros((0, 2), np.int64),
             emerges=emerges,
             visibility=self._vis, first_frame=self._frames_seen == 1, cand_exact=cand_exact,
+            covers_exact=covers_exact,
         )
 
     def _expired(self) -> np.ndarray:
@@ -409,20 +420,20 @@ class Tracker:
     def _emerges(self, pred: np.ndarray, dets: Detections, hid: np.ndarray, lik: np.ndarray) -> np.ndarray:
         """(E, 2) ``detection, track`` rows: candidate detections of hidden tracks that touch the
         occluder's predicted box, widened by ``emerge_margin`` of its size on every side."""
-        rows = [np.zeros((0, 2), dtype=np.int64)]
-        if hid.size and len(dets):
-            pos = {int(t): i for i, t in enumerate(self._id.tolist())}
-            for i in hid.tolist():
-                o = pos.get(int(self._occluder[i]))
-                cand = np.flatnonzero(lik[i] > 0)
-                if o is None or cand.size == 0:
-                    continue
-                x1, y1, x2, y2 = pred[o]
-                mx, my = (x2 - x1) * self.config.emerge_margin, (y2 - y1) * self.config.emerge_margin
-                box = np.array([[x1 - mx, y1 - my, x2 + mx, y2 + my]])
-                touch = cand[intersection(dets.xyxy[cand], box)[:, 0] > 0]
-                rows.append(np.stack([touch, np.full(touch.size, i)], axis=1))
-        return np.concatenate(rows).astype(np.int64)
+        if not (hid.size and len(dets)):
+            return np.zeros((0, 2), dtype=np.int64)
+        pos = {int(t): i for i, t in enumerate(self._id.tolist())}
+        pairs = [(i, pos[o]) for i, o in zip(hid.tolist(), self._occluder[hid].tolist()) if o in pos]
+        if not pairs:
+            return np.zeros((0, 2), dtype=np.int64)
+        tracks, occ = np.array(pairs, dtype=np.int64).T
+        x1, y1, x2, y2 = pred[occ].T
+        mx, my = (x2 - x1) * self.config.emerge_margin, (y2 - y1) * self.config.emerge_margin
+        boxes = np.stack([x1 - mx, y1 - my, x2 + mx, y2 + my], axis=1)
+        # (hidden track, detection): a candidate that touches the widened occluder box
+        touch = (lik[tracks] > 0) & (intersection(boxes, dets.xyxy) > 0)
+        h, d = np.nonzero(touch)
+        return np.stack([d, tracks[h]], axis=1).astype(np.int64)
 
     def _abduce(self, pred: np.ndarray, dets: Detections) -> tuple[Answer, bool]:
         problem = self._problem(pred, dets)
@@ -588,7 +599,7 @@ class Tracker:
                 self._pending[ids_[0]] = ev
         # drop ended tracks
         if ended:
-            keep = ~np.isin(self._id, np.fromiter(ended, dtype=np.int64))
+            keep = np.array([t not in ended for t in self._id.tolist()], dtype=bool)
             self._kf.remove(np.flatnonzero(~keep))
             for name in _TRACK_COLUMNS:
                 setattr(self, name, getattr(self, name)[keep])

@@ -50,6 +50,10 @@ class FrameProblem:
         cand_exact: (K,) float likelihoods of ``cand`` before quantisation (IoU in [0, 1]), or
             None. With them the facts name a maximum-likelihood matching (``prefer/2``) that
             breaks ties between optima the quantised likelihoods cannot tell apart.
+        covers_exact: (P,) float fraction of the track's predicted box covered by the detection,
+            one per ``covers`` row, or None. With them the facts rank each track's covering
+            detections (``cover_rank/3``): a lowest-priority tie-break between occluders that
+            hide a track at the same cost.
     """
 
     track_id: np.ndarray
@@ -73,6 +77,7 @@ class FrameProblem:
     visibility: np.ndarray | None = None
     first_frame: bool = False
     cand_exact: np.ndarray | None = None
+    covers_exact: np.ndarray | None = None
 
     @property
     def n_tracks(self) -> int:
@@ -131,6 +136,22 @@ class FrameProblem:
         ok = w[rows, cols] > 0
         return np.stack([rows[ok], cols[ok]], axis=1).astype(np.int64)
 
+    def cover_ranks(self) -> np.ndarray:
+        """(P,) rank of each ``covers`` row among the rows of its track: 0 for the detection that
+        covers the most (ties: lower detection index first), -1 for a track covered by one
+        detection only (nothing to break); all -1 without ``covers_exact``."""
+        ranks = np.full(len(self.covers), -1, dtype=np.int64)
+        if self.covers_exact is None or len(self.covers) < 2:
+            return ranks
+        by_track: dict[int, list[tuple[float, int, int]]] = {}
+        for row, ((d, t), c) in enumerate(zip(self.covers.tolist(), self.covers_exact.tolist())):
+            by_track.setdefault(t, []).append((-c, d, row))
+        for rows in by_track.values():
+            if len(rows) > 1:
+                for r, (_, _, row) in enumerate(sorted(rows)):
+                    ranks[row] = r
+        return ranks
+
     def subset(self, tracks: np.ndarray, dets: np.ndarray) -> FrameProblem:
         """The problem restricted to the tracks and detections whose masks are True
         (indices renumbered; relations touching a removed object are dropped)."""
@@ -151,6 +172,8 @@ class FrameProblem:
             return out
 
         cand_kept = tracks[self.cand[:, 0]] & dets[self.cand[:, 1]] if len(self.cand) else np.zeros(0, bool)
+        covers_kept = (tracks[self.covers[:, 1]] & dets[self.covers[:, 0]] if len(self.covers)
+                       else np.zeros(0, bool))
         kept_ids = self.track_id[tracks]
         hidden = self.hidden_by[np.isin(self.hidden_by[:, 0], kept_ids)] if len(self.hidden_by) else self.hidden_by
         return FrameProblem(
@@ -165,6 +188,7 @@ class FrameProblem:
             hidden_by=hidden, visibility=None if self.visibility is None else self.visibility[tracks],
             first_frame=self.first_frame,
             cand_exact=None if self.cand_exact is None else self.cand_exact[cand_kept],
+            covers_exact=None if self.covers_exact is None else self.covers_exact[covers_kept],
         )
 
     def to_facts(self) -> str:
@@ -190,8 +214,10 @@ class FrameProblem:
             add(f"cand({tid[ti]},d({dj}),{lik}).")
         for ti, dj in self.preferred_pairs().tolist():
             add(f"prefer({tid[ti]},d({dj})).")
-        for dj, ti in self.covers.tolist():
+        for (dj, ti), r in zip(self.covers.tolist(), self.cover_ranks().tolist()):
             add(f"covers(d({dj}),{tid[ti]}).")
+            if r >= 0:
+                add(f"cover_rank(d({dj}),{tid[ti]},{r}).")
         for dj, ti in self.keeps_covering.tolist():
             add(f"keeps_covering(d({dj}),{tid[ti]}).")
         for t in tid.tolist():

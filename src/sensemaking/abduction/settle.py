@@ -10,7 +10,9 @@ is an optimal answer of each component, side by side.
 :func:`settle` enumerates, for each small component, every answer of the encoding restricted to
 it (the matching, then start or ignore of the unmatched detections that could occlude, then each
 object's cheapest explanation) and evaluates the encoding's weak constraints on it. A component
-is settled only if its optimum is *unique*: then every optimal answer of the whole frame -- the
+is settled only if its optimum is *unique* -- up to the choice between occluders that hide a
+track at the same cost, which the encoding's lowest-priority ``cover_rank/3`` tie-break makes
+(mirrored here; no other tie-break is): then every optimal answer of the whole frame -- the
 one clingo would return included -- contains exactly this part, so settling it in Python changes
 nothing. Components with ties, or too large to enumerate, are left to the solver.
 
@@ -158,6 +160,8 @@ class _Context:
             self.keeps.setdefault(t, []).append(d)
         self.covering = {d for d, _ in covers}
         self.emerges = emerges
+        # the encoding's cover_rank/3: among occluders of equal cost, the covering-most wins
+        self.rank = {(d, t): r for (d, t), r in zip(p.covers.tolist(), p.cover_ranks().tolist()) if r >= 0}
 
     # -- the component ------------------------------------------------------------------------
     def solve(self, tracks: list[int], dets: list[int], max_branches: int) -> Answer | None:
@@ -348,15 +352,23 @@ class _Context:
         opts.append((1 if expired else lost, "end", (("ends", (tid,)),), ()))
         if expired or self.outside[t]:
             return opts
-        occluders: set[int | str] = set()
+        occluders: dict[int | str, int] = {}  # occluder -> its detection
         for d in self.covers.get(t, ()):
             if d in by_det:
                 o = self.tid[by_det[d]]
                 if o != tid:
-                    occluders.add(o)
+                    occluders[o] = d
             elif d in started:
-                occluders.add(f"d{d}")
+                occluders[f"d{d}"] = d
         vis0 = self.vis0[t]
+        rank = self.rank
+
+        def ranked(occs: list[int | str]) -> list[int | str]:
+            """The occluders left by the encoding's lowest-priority tie-break (cover_rank/3):
+            hiding behind any of them costs the same, so only the best-ranked one is optimal."""
+            if len(occs) > 1 and all((occluders[o], t) in rank for o in occs):
+                return [min(occs, key=lambda o: rank[occluders[o], t])]
+            return occs
 
         def hide(o: int | str, cost: int, action: str) -> _Option:
             fl = []
@@ -378,7 +390,7 @@ class _Context:
 
         if self.active[t]:
             if not self.tentative[t]:
-                opts += [hide(o, k["cost_hides"], "halt") for o in occluders]
+                opts += [hide(o, k["cost_hides"], "halt") for o in ranked(list(occluders))]
                 opts.append(missing(k["cost_missing"], "halt"))
             return opts
         if h0 is not None:
@@ -386,10 +398,10 @@ class _Context:
             if still:
                 opts.append((0, "ignore_trk", (), ()))
             else:
-                opts += [hide(o, 0, "ignore_trk") for o in occluders if o != h0]
+                opts += [hide(o, 0, "ignore_trk") for o in ranked([o for o in occluders if o != h0])]
                 opts.append(missing(k["cost_missing"] + k["cost_unseen"], "ignore_trk"))
         else:
-            opts += [hide(o, 0, "ignore_trk") for o in occluders]
+            opts += [hide(o, 0, "ignore_trk") for o in ranked(list(occluders))]
             opts.append((k["cost_unseen"], "ignore_trk", (), ()))
         return opts
 
