@@ -203,3 +203,31 @@ def test_detections_frames_grouping_and_order(frames):
 def test_detections_accepts_any_float_boxes_and_keeps_them(xyxy):
     d = Detections(xyxy)
     assert np.array_equal(d.xyxy, xyxy) and len(d) == len(xyxy)
+
+
+def test_detections_trusted_equals_validated():
+    cols = dict(xyxy=np.array([[0.0, 0, 10, 10], [5, 5, 20, 30]]), confidence=np.array([0.5, 0.9]),
+                class_id=np.array([1, 2], dtype=np.int64), tracker_id=np.array([3, 4], dtype=np.int64),
+                frame=np.array([7, 7], dtype=np.int64), source_row=np.array([-1, 2], dtype=np.int64),
+                data={"state": np.array([0, 1])})
+    a, b = Detections(**cols), Detections.trusted(**cols)
+    for name in ("xyxy", "confidence", "class_id", "tracker_id", "frame", "source_row"):
+        x, y = getattr(a, name), getattr(b, name)
+        assert x.dtype == y.dtype and x.shape == y.shape and np.array_equal(x, y)
+    assert a.data.keys() == b.data.keys() and np.array_equal(a.data["state"], b.data["state"])
+
+
+def test_tracker_output_columns_are_valid():
+    """The tracker builds its output with Detections.trusted: validating it again changes nothing."""
+    from sensemaking.tracker import Tracker
+
+    t = Tracker(image_size=(100, 100))
+    for f in range(3):
+        out = t.update(Detections(xyxy=[[10.0 + f, 10, 30 + f, 40], [50, 50, 70, 90]], confidence=[0.9, 0.8],
+                                  frame=[f, f])).tracks
+        again = Detections(xyxy=out.xyxy, confidence=out.confidence, class_id=out.class_id,
+                           tracker_id=out.tracker_id, frame=out.frame, source_row=out.source_row, data=out.data)
+        for name in ("xyxy", "confidence", "class_id", "tracker_id", "frame", "source_row"):
+            assert getattr(again, name).dtype == getattr(out, name).dtype
+            assert np.array_equal(getattr(again, name), getattr(out, name))
+    assert len(out) == 2

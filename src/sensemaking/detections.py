@@ -77,6 +77,19 @@ class Detections:
         return cls(xyxy=np.zeros((0, 4)))
 
     @classmethod
+    def trusted(cls, xyxy: np.ndarray, confidence: np.ndarray, class_id: np.ndarray, tracker_id: np.ndarray,
+                frame: np.ndarray, source_row: np.ndarray, data: dict[str, np.ndarray]) -> Detections:
+        """Without validation, for callers whose columns are valid already: ``xyxy`` (N, 4)
+        float64, the others (N,) of the dtypes above, ``data`` arrays of length N (the tracker's
+        output, built every frame). Equal to ``Detections(...)`` on such input."""
+        obj = object.__new__(cls)
+        for name, value in (("xyxy", xyxy), ("confidence", confidence), ("class_id", class_id),
+                            ("tracker_id", tracker_id), ("frame", frame), ("source_row", source_row),
+                            ("data", data)):
+            object.__setattr__(obj, name, value)
+        return obj
+
+    @classmethod
     def from_xywh(cls, xywh: np.ndarray, **kwargs: Any) -> Detections:
         """From (N, 4) ``x, y, w, h`` (top-left corner plus size, pixels)."""
         xywh = np.asarray(xywh, dtype=np.float64).reshape(-1, 4)

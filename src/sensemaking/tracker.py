@@ -436,6 +436,8 @@ class Tracker:
         return np.stack([d, tracks[h]], axis=1).astype(np.int64)
 
     def _abduce(self, pred: np.ndarray, dets: Detections) -> tuple[Answer, bool]:
+        if len(pred) == 0 and len(dets) == 0:
+            return Answer(), False  # nothing to explain (most frames of sparse sequences)
         problem = self._problem(pred, dets)
         # Exact decomposition: isolated pairs have a forced optimum (see isolated_pairs), so
         # only the rest goes to the solver -- on most frames of real sequences, nothing.
@@ -527,6 +529,8 @@ class Tracker:
         """Update the tracks by the answer; return this frame's events and ``track id -> detection row``
         of every track observed this frame (matched or new)."""
         c = self.config
+        if len(self._id) == 0 and not (ans.start or ans.events or ans.fluents):
+            return [], {}  # no track before or after: nothing to update, confirm or report
         index = {int(t): i for i, t in enumerate(self._id.tolist())}
         # matched tracks
         matched = {**ans.assign, **ans.resume}
@@ -632,9 +636,10 @@ class Tracker:
             boxes[idx] = dets.xyxy[cols]
             rows[idx] = dets.source_row[cols]
         keep = self._confirmed
-        return Detections(
+        # the columns have the validated dtypes and shapes already: no validation every frame
+        return Detections.trusted(
             xyxy=boxes[keep], confidence=conf[keep], class_id=self._cls[keep], tracker_id=self._id[keep],
-            frame=np.full(int(keep.sum()), frame), source_row=rows[keep],
+            frame=np.full(int(keep.sum()), frame, dtype=np.int64), source_row=rows[keep],
             data={"state": self._state[keep].copy(), "occluder": self._occluder[keep].copy(),
                   "visibility": self._vis[keep].copy(), "hidden_frames": self._unseen[keep].copy()},
         )
