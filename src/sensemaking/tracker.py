@@ -20,7 +20,7 @@ from sensemaking.abduction.problem import VISIBILITY_VALUES, FrameProblem
 from sensemaking.abduction.settle import settle
 from sensemaking.abduction.solver import AbductionSolver, Answer
 from sensemaking.detections import Detections
-from sensemaking.geometry import _area, coverage, intersection, iou
+from sensemaking.geometry import _area, intersection, iou
 from sensemaking.motion import KalmanBank, KalmanConfig
 from sensemaking.results import Event, FrameResult, TrackState
 
@@ -289,21 +289,29 @@ class Tracker:
             return empty, empty.astype(np.int64)
         # widen the predictions whose motion is uncertain: unseen tracks (more with time) and
         # tracks seen once (velocity unknown); they are gated at the lower iou_resume
-        unseen = (self._unseen > 0) | (self._hits <= 1)
-        grow = np.minimum(1.0 + c.resume_growth * self._unseen, 2.0)
-        grow = np.where(self._hits <= 1, np.maximum(grow, c.new_track_growth), grow)
-        lik = iou(pred, dets.xyxy) if plain is None else plain.copy()
-        if unseen.any():
-            # the widened box admits far matches; an exact fit to the plain prediction still wins
-            lik[unseen] = np.maximum(lik[unseen], iou(_widen(pred[unseen], grow[unseen]), dets.xyxy))
         young = self._hits <= 1
-        if c.inherit_motion and young.any():
-            # a young track moved with the scene's motion (inherit_motion); in case its own
-            # motion differs, a fit at rest counts as well
-            v = self._kf.velocity()[young, :2]
-            rest = pred[young] - np.concatenate([v, v], axis=1)
-            at_rest = np.maximum(iou(rest, dets.xyxy), iou(_widen(rest, grow[young]), dets.xyxy))
-            lik[young] = np.maximum(lik[young], at_rest)
+        unseen = (self._unseen > 0) | young
+        lik = iou(pred, dets.xyxy) if plain is None else plain.copy()
+        # the extra boxes of a track whose plain prediction is uncertain, each a (rows, boxes)
+        # part; one iou call for all of them (iou is elementwise in its rows: same values)
+        parts: list[tuple[np.ndarray, np.ndarray]] = []
+        if unseen.any():
+            grow = np.minimum(1.0 + c.resume_growth * self._unseen, 2.0)
+            grow = np.where(young, np.maximum(grow, c.new_track_growth), grow)
+            # the widened box admits far matches; an exact fit to the plain prediction still wins
+            parts.append((unseen, _widen(pred[unseen], grow[unseen])))
+            if c.inherit_motion and young.any():
+                # a young track moved with the scene's motion (inherit_motion); in case its own
+                # motion differs, a fit at rest counts as well
+                v = self._kf.velocity()[young, :2]
+                rest = pred[young] - np.concatenate([v, v], axis=1)
+                parts += [(young, rest), (young, _widen(rest, grow[young]))]
+        if parts:
+            extra = iou(np.concatenate([b for _, b in parts]), dets.xyxy)
+            start = 0
+            for rows, boxes in parts:  # max is exact and order-free: as one max per part
+                lik[rows] = np.maximum(lik[rows], extra[start:start + len(boxes)])
+                start += len(boxes)
         ok = dets.confidence[None, :] >= c.min_confidence
         if c.class_aware:
             ok = ok & (self._cls[:, None] == dets.class_id[None, :])
@@ -350,49 +358,46 @@ class Tracker:
 
     def _problem(self, pred: np.ndarray, dets: Detections) -> FrameProblem:
         c = self.config
-        n, dxy = len(pred), dets.xyxy
-        # one intersection of the predictions with themselves and the detections: geometry.iou and
-        # geometry.coverage of its parts, in the same arithmetic
-        plain = cov = dcov = None
-        if n and (n > 1 or len(dets)):
-            inter = intersection(pred, np.concatenate([pred, dxy]) if len(dets) else pred)
-            area = _area(pred)[:, None]
-            with np.errstate(divide="ignore", invalid="ignore"):
-                covered = np.where(area > 0, inter / np.where(area > 0, area, 1.0), 0.0)
-                cov, dcov = covered[:, :n], covered[:, n:]  # fraction of track i covered by track / detection j
-                if len(dets):
-                    union = area + _area(dxy)[None, :] - inter[:, n:]
-                    plain = np.where(union > 0, inter[:, n:] / np.where(union > 0, union, 1.0), 0.0)
+        n, nd, dxy = len(pred), len(dets), dets.xyxy
+        # one intersection of every box (predictions, then detections) with every other:
+        # geometry.iou and geometry.coverage of its blocks, in the same (elementwise) arithmetic
+        boxes = np.concatenate([pred, dxy]) if n and nd else (pred if n else dxy)
+        inter = intersection(boxes, boxes)
+        area = _area(boxes)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            col = area[:, None]
+            covered = np.where(col > 0, inter / np.where(col > 0, col, 1.0), 0.0)  # i covered by j
+            plain = None
+            if n and nd:
+                union = col[:n] + area[None, n:] - inter[:n, n:]
+                plain = np.where(union > 0, inter[:n, n:] / np.where(union > 0, union, 1.0), 0.0)
+        # coverage by boxes in front only (bottom lower in the image; never a box by itself)
+        bottom = boxes[:, 3]
+        in_front = np.where(bottom[None, :] > bottom[:, None], covered, 0.0)
         lik, qlik = self._gate(pred, dets, plain)
         ti, dj = np.nonzero(lik > 0)
         cand = np.stack([ti, dj, qlik[ti, dj]], axis=1) if ti.size else np.zeros((0, 3), np.int64)
         cand_exact = lik[ti, dj]
-        at_border, outside = self._borders(pred)
-        det_border, _ = self._borders(dxy, outside=False)
+        at_all, outside_all = self._borders(boxes)
+        at_border, outside, det_border = at_all[:n], outside_all[:n], at_all[n:]
         start_ok = dets.confidence >= c.start_confidence
         covers = keeps = np.zeros((0, 2), dtype=np.int64)
         covers_exact = np.zeros(0)
         overlapped = np.zeros(n, dtype=bool)
         if n > 1:
-            cov = cov.copy()  # cov[i, j]: fraction of i covered by j
-            np.fill_diagonal(cov, 0.0)
-            front = pred[None, :, 3] > pred[:, None, 3]  # front[i, j]: j is nearer than i
-            overlapped = np.where(front, cov, 0.0).max(axis=1) >= c.partial_cover
-        if n and len(dets):
+            overlapped = in_front[:n, :n].max(axis=1) >= c.partial_cover
+        if n and nd:
             # an occluder is visible: measure coverage with its detection, not its prediction
-            dcov = np.where(dxy[None, :, 3] > pred[:, None, 3], dcov, 0.0)
+            dcov = in_front[:n, n:]
             back, dj = np.nonzero(dcov >= c.hide_cover)
             covers = np.stack([dj, back], axis=1)
             covers_exact = dcov[back, dj]
             if (self._occluder >= 0).any():
                 back, dj = np.nonzero((dcov >= c.keep_cover) & (self._occluder >= 0)[:, None])
                 keeps = np.stack([dj, back], axis=1)
-        det_overlapped = np.zeros(len(dets), dtype=bool)
-        if len(dets) > 1:
-            dcov = coverage(dets.xyxy, dets.xyxy)
-            np.fill_diagonal(dcov, 0.0)
-            dfront = dets.xyxy[None, :, 3] > dets.xyxy[:, None, 3]
-            det_overlapped = np.where(dfront, dcov, 0.0).max(axis=1) >= c.partial_cover
+        det_overlapped = np.zeros(nd, dtype=bool)
+        if nd > 1:
+            det_overlapped = in_front[n:, n:].max(axis=1) >= c.partial_cover
         expired = self._expired()
         hid = np.flatnonzero((self._state == TrackState.HIDDEN) & (self._occluder >= 0))
         emerges = self._emerges(pred, dets, hid, lik)
