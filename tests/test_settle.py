@@ -220,3 +220,37 @@ def test_masks_settle_the_same_as_the_subset():
         assert shown(ans) == shown(_renumber_detections(sub, index))
         assert t_rest[tracks].tolist() == st_rest.tolist() and not t_rest[~tracks].any()
         assert d_rest[dets].tolist() == sd_rest.tolist() and not d_rest[~dets].any()
+
+
+def _isolated_pairs_arrays(p: FrameProblem) -> np.ndarray:
+    """FrameProblem.isolated_pairs in its former array formulation (the reference)."""
+    if p.cand.size == 0:
+        return np.zeros((0, 2), dtype=np.int64)
+    ti, dj, lik = p.cand[:, 0], p.cand[:, 1], p.cand[:, 2]
+    t_deg = np.bincount(ti, minlength=p.n_tracks)
+    d_deg = np.bincount(dj, minlength=p.n_dets)
+    ok = (t_deg[ti] == 1) & (d_deg[dj] == 1) & (lik > 0)
+    ok &= p.active[ti] & ~p.expired[ti] & ~p.outside[ti]
+    partner = np.full(p.n_dets, -1, dtype=np.int64)
+    partner[dj] = ti
+    couples = np.zeros(p.n_dets, dtype=bool)
+    for rel in (p.covers, p.keeps_covering):
+        if len(rel):
+            other = rel[:, 1] != partner[rel[:, 0]]
+            couples[rel[other, 0]] = True
+    ok &= ~couples[dj]
+    return np.stack([ti[ok], dj[ok]], axis=1)
+
+
+def test_isolated_pairs_match_the_array_formulation():
+    rng = np.random.default_rng(11)
+    found = 0
+    for _ in range(3000):
+        p = random_problem(rng)
+        if rng.random() < 0.5:  # sparser frames: more isolated pairs
+            p.cand = p.cand[rng.random(len(p.cand)) < 0.4]
+            p.covers, p.keeps_covering = p.covers[:int(rng.integers(0, 2))], p.keeps_covering[:0]
+        got, want = p.isolated_pairs(), _isolated_pairs_arrays(p)
+        assert got.dtype == want.dtype and got.shape == want.shape and np.array_equal(got, want)
+        found += len(got)
+    assert found > 300

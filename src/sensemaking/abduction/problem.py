@@ -99,20 +99,22 @@ class FrameProblem:
         """
         if self.cand.size == 0:
             return np.zeros((0, 2), dtype=np.int64)
-        ti, dj, lik = self.cand[:, 0], self.cand[:, 1], self.cand[:, 2]
-        t_deg = np.bincount(ti, minlength=self.n_tracks)
-        d_deg = np.bincount(dj, minlength=self.n_dets)
-        ok = (t_deg[ti] == 1) & (d_deg[dj] == 1) & (lik > 0)
-        ok &= self.active[ti] & ~self.expired[ti] & ~self.outside[ti]
-        partner = np.full(self.n_dets, -1, dtype=np.int64)
-        partner[dj] = ti  # meaningful where the detection has one candidate track
-        couples = np.zeros(self.n_dets, dtype=bool)
-        for rel in (self.covers, self.keeps_covering):
-            if len(rel):
-                other = rel[:, 1] != partner[rel[:, 0]]
-                couples[rel[other, 0]] = True
-        ok &= ~couples[dj]
-        return np.stack([ti[ok], dj[ok]], axis=1)
+        # plain Python over the rows: a frame has a few dozen at most, where numpy's per-call
+        # cost dominates (tests/test_settle.py checks it against the array formulation)
+        rows = self.cand.tolist()
+        t_deg: dict[int, int] = {}
+        d_deg: dict[int, int] = {}
+        partner: dict[int, int] = {}  # meaningful where the detection has one candidate track
+        for t, d, _ in rows:
+            t_deg[t] = t_deg.get(t, 0) + 1
+            d_deg[d] = d_deg.get(d, 0) + 1
+            partner[d] = t
+        couples = {d for rel in (self.covers, self.keeps_covering) for d, t in rel.tolist() if t != partner.get(d, -1)}
+        active, expired, outside = self.active.tolist(), self.expired.tolist(), self.outside.tolist()
+        pairs = [(t, d) for t, d, lik in rows
+                 if t_deg[t] == 1 and d_deg[d] == 1 and lik > 0 and active[t] and not expired[t]
+                 and not outside[t] and d not in couples]
+        return np.array(pairs, dtype=np.int64).reshape(-1, 2)
 
     def forced_ignores(self) -> np.ndarray:
         """(K,) indices of detections whose only possible action is ``ignore_det``: too weak to
