@@ -486,3 +486,33 @@ def test_decomposition_is_exact_the_optimum_cost_never_changes():
         settled += len(pairs) + len(ignored)
         t.update(dets, frame=f)
     assert settled > 100  # the decomposition really did something
+
+
+def _borders_reference(t: Tracker, boxes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Tracker._borders in its former per-coordinate formulation."""
+    w, h = t.config.image_size
+    m = t.config.border_margin
+    x1, y1, x2, y2 = boxes.T
+    at = (x1 <= m) | (y1 <= m) | (x2 >= w - m) | (y2 >= h - m)
+    inter = np.maximum(np.minimum(x2, w) - np.maximum(x1, 0.0), 0.0) * \
+        np.maximum(np.minimum(y2, h) - np.maximum(y1, 0.0), 0.0)
+    area = np.maximum(x2 - x1, 0.0) * np.maximum(y2 - y1, 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inside = np.where(area > 0, inter / np.where(area > 0, area, 1.0), 0.0)
+    return at, inside < 0.05
+
+
+def test_borders_match_the_per_coordinate_formulation():
+    rng = np.random.default_rng(5)
+    t = Tracker(image_size=(1242, 375), border_margin=10.0)
+    for _ in range(200):
+        n = int(rng.integers(1, 30))
+        xy = rng.uniform(-300, 1500, (n, 2))
+        wh = rng.choice([0.0, 1.0, 5.0, 50.0, 400.0], (n, 2)) * rng.random((n, 2))
+        boxes = np.concatenate([xy, xy + wh], axis=1)
+        boxes[rng.random(n) < 0.1] = [10.0, 10.0, 1232.0, 365.0]  # exactly at the margins
+        at, out = t._borders(boxes)
+        at_ref, out_ref = _borders_reference(t, boxes)
+        assert np.array_equal(at, at_ref) and np.array_equal(out, out_ref)
+    empty = Tracker()._borders(np.zeros((3, 4)))
+    assert not empty[0].any() and not empty[1].any()

@@ -181,6 +181,8 @@ class TrackerConfig:
         return replace(base, **changes)
 
 
+_HIDDEN = int(TrackState.HIDDEN)  # as a plain int: numpy compares it faster than the enum
+
 #: per-track state, one array each, parallel to the Kalman bank's rows
 _TRACK_COLUMNS = ("_id", "_cls", "_state", "_occluder", "_vis", "_unseen", "_hits", "_conf", "_confirmed")
 
@@ -336,24 +338,23 @@ class Tracker:
             conf = 1.0 / (1.0 + np.exp(-conf))
         return self._quantize(conf)
 
-    def _borders(self, boxes: np.ndarray, outside: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+    def _borders(self, boxes: np.ndarray, area: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(at the border, mostly outside) for (N, 4) boxes; all False without an image size.
-        ``outside=False``: only the first (the second is None)."""
+        ``area``: ``geometry._area(boxes)`` if the caller has it already."""
         n = len(boxes)
         if self.config.image_size is None or n == 0:
             return np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
         w, h = self.config.image_size
         m = self.config.border_margin
-        x1, y1, x2, y2 = boxes.T
-        at = (x1 <= m) | (y1 <= m) | (x2 >= w - m) | (y2 >= h - m)
-        if not outside:
-            return at, None
-        # geometry.coverage(boxes, image) for one image box, in the same arithmetic
-        inter = np.maximum(np.minimum(x2, w) - np.maximum(x1, 0.0), 0.0) * \
-            np.maximum(np.minimum(y2, h) - np.maximum(y1, 0.0), 0.0)
-        area = np.maximum(x2 - x1, 0.0) * np.maximum(y2 - y1, 0.0)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            inside = np.where(area > 0, inter / np.where(area > 0, area, 1.0), 0.0)
+        # x1 <= m or y1 <= m or x2 >= w - m or y2 >= h - m
+        at = (boxes[:, :2] <= m).any(axis=1) | (boxes[:, 2:] >= (w - m, h - m)).any(axis=1)
+        # geometry.coverage(boxes, image) for one image box, in the same arithmetic: per axis
+        # max(min(x2, w) - max(x1, 0), 0), their product over the box's area
+        side = np.maximum(np.minimum(boxes[:, 2:], (w, h)) - np.maximum(boxes[:, :2], 0.0), 0.0)
+        inter = side[:, 0] * side[:, 1]
+        area = _area(boxes) if area is None else area
+        positive = area > 0  # no division by zero below: area is replaced by 1 where it is 0
+        inside = np.where(positive, inter / np.where(positive, area, 1.0), 0.0)
         return at, inside < 0.05  # (almost) nothing left in view; detections may stick out far
 
     def _problem(self, pred: np.ndarray, dets: Detections) -> FrameProblem:
@@ -378,7 +379,7 @@ class Tracker:
         ti, dj = np.nonzero(lik > 0)
         cand = np.stack([ti, dj, qlik[ti, dj]], axis=1) if ti.size else np.zeros((0, 3), np.int64)
         cand_exact = lik[ti, dj]
-        at_all, outside_all = self._borders(boxes)
+        at_all, outside_all = self._borders(boxes, area)
         at_border, outside, det_border = at_all[:n], outside_all[:n], at_all[n:]
         start_ok = dets.confidence >= c.start_confidence
         covers = keeps = np.zeros((0, 2), dtype=np.int64)
@@ -419,8 +420,11 @@ class Tracker:
     def _expired(self) -> np.ndarray:
         """(T,) bool: unseen tracks that would pass their time limit (hidden or missing) now."""
         c = self.config
-        limit = np.where(self._state == TrackState.HIDDEN, c.max_hidden_frames, c.max_missing_frames)
-        return (self._unseen > 0) & (self._unseen + 1 > limit)
+        unseen = self._unseen > 0
+        if not unseen.any():
+            return unseen  # all False: every track was seen last frame
+        limit = np.where(self._state == _HIDDEN, c.max_hidden_frames, c.max_missing_frames)
+        return unseen & (self._unseen + 1 > limit)
 
     def _emerges(self, pred: np.ndarray, dets: Detections, hid: np.ndarray, lik: np.ndarray) -> np.ndarray:
         """(E, 2) ``detection, track`` rows: candidate detections of hidden tracks that touch the

@@ -23,6 +23,7 @@ against each other on random and real problems.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from functools import cached_property
 
 import numpy as np
 
@@ -160,8 +161,14 @@ class _Context:
             self.keeps.setdefault(t, []).append(d)
         self.covering = {d for d, _ in covers}
         self.emerges = emerges
-        # the encoding's cover_rank/3: among occluders of equal cost, the covering-most wins
-        self.rank = {(d, t): r for (d, t), r in zip(p.covers.tolist(), p.cover_ranks().tolist()) if r >= 0}
+        self._problem = p
+
+    @cached_property
+    def rank(self) -> dict[tuple[int, int], int]:
+        """The encoding's cover_rank/3 as ``(detection, track) -> rank``: among occluders of equal
+        cost, the covering-most wins (computed on first use: most frames never tie)."""
+        p = self._problem
+        return {(d, t): r for (d, t), r in zip(p.covers.tolist(), p.cover_ranks().tolist()) if r >= 0}
 
     # -- the component ------------------------------------------------------------------------
     def solve(self, tracks: list[int], dets: list[int], max_branches: int) -> Answer | None:
@@ -361,13 +368,14 @@ class _Context:
             elif d in started:
                 occluders[f"d{d}"] = d
         vis0 = self.vis0[t]
-        rank = self.rank
 
         def ranked(occs: list[int | str]) -> list[int | str]:
             """The occluders left by the encoding's lowest-priority tie-break (cover_rank/3):
             hiding behind any of them costs the same, so only the best-ranked one is optimal."""
-            if len(occs) > 1 and all((occluders[o], t) in rank for o in occs):
-                return [min(occs, key=lambda o: rank[occluders[o], t])]
+            if len(occs) > 1:
+                rank = self.rank
+                if all((occluders[o], t) in rank for o in occs):
+                    return [min(occs, key=lambda o: rank[occluders[o], t])]
             return occs
 
         def hide(o: int | str, cost: int, action: str) -> _Option:
