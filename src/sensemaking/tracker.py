@@ -588,20 +588,23 @@ class Tracker:
             i = index[t]
             self._unseen[i] += 1
             self._state[i] = TrackState.HIDDEN if self._occluder[i] >= 0 else TrackState.MISSING
-        # confirmation
-        confirm = (self._hits >= c.min_hits) | (self._frames_seen <= c.min_hits)
-        if c.confirm_confidence is not None:
-            confirm |= (self._unseen == 0) & (self._conf >= c.confirm_confidence)
-        newly_confirmed = (~self._confirmed) & confirm
-        self._confirmed |= newly_confirmed
-        # events, with detections renamed to their new track ids. A tentative track's start
-        # event waits until the track is confirmed; its other events are not reported.
+        # confirmation (nothing to do when every track is confirmed already)
         events: list[Event] = []
-        for i in np.flatnonzero(newly_confirmed).tolist():
-            pending = self._pending.pop(int(self._id[i]), None)
-            if pending is not None:
-                events.append(pending)
-        confirmed = set(self._id[self._confirmed].tolist())
+        tentative = ~self._confirmed
+        if tentative.any():
+            confirm = (self._hits >= c.min_hits) | (self._frames_seen <= c.min_hits)
+            if c.confirm_confidence is not None:
+                confirm |= (self._unseen == 0) & (self._conf >= c.confirm_confidence)
+            newly_confirmed = tentative & confirm
+            self._confirmed |= newly_confirmed
+            # a tentative track's start event waits until the track is confirmed
+            for i in np.flatnonzero(newly_confirmed).tolist():
+                pending = self._pending.pop(int(self._id[i]), None)
+                if pending is not None:
+                    events.append(pending)
+        # events, with detections renamed to their new track ids; a tentative track's events
+        # other than its start are not reported
+        confirmed = set(self._id[self._confirmed].tolist()) if ans.events else set()
         ended = set(ans.end)
         for name, args in ans.events:
             ids_ = tuple(new_ids[a] if isinstance(a, str) else int(a) for a in args)
@@ -637,7 +640,6 @@ class Tracker:
         n = len(self._id)
         boxes = self._kf.xyxy() if n else np.zeros((0, 4))
         rows = np.full(n, -1, dtype=np.int64)
-        conf = self._conf.copy()
         if observed:
             pos = {int(t): i for i, t in enumerate(self._id.tolist())}
             idx = np.array([pos[t] for t in observed], dtype=np.int64)
@@ -647,10 +649,11 @@ class Tracker:
         keep = self._confirmed
         # the columns have the validated dtypes and shapes already: no validation every frame
         return Detections.trusted(
-            xyxy=boxes[keep], confidence=conf[keep], class_id=self._cls[keep], tracker_id=self._id[keep],
+            xyxy=boxes[keep], confidence=self._conf[keep], class_id=self._cls[keep], tracker_id=self._id[keep],
             frame=np.full(int(keep.sum()), frame, dtype=np.int64), source_row=rows[keep],
-            data={"state": self._state[keep].copy(), "occluder": self._occluder[keep].copy(),
-                  "visibility": self._vis[keep].copy(), "hidden_frames": self._unseen[keep].copy()},
+            # boolean indexing copies: the columns never alias the tracker's state
+            data={"state": self._state[keep], "occluder": self._occluder[keep],
+                  "visibility": self._vis[keep], "hidden_frames": self._unseen[keep]},
         )
 
 
