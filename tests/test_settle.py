@@ -254,3 +254,30 @@ def test_isolated_pairs_match_the_array_formulation():
         assert got.dtype == want.dtype and got.shape == want.shape and np.array_equal(got, want)
         found += len(got)
     assert found > 300
+
+
+def test_lone_objects_are_settled_as_the_search_settles_them():
+    """settle's shortcut for one-object components (a track with no candidate, a detection with
+    no track) gives the general search's answer, refusals included."""
+    from sensemaking.abduction.settle import _Context
+
+    rng = np.random.default_rng(17)
+    checked = refused = 0
+    tied = {**CONSTANTS, "cost_leaves": 600}  # leaving at the border costs as much as ending
+    for i in range(1500):
+        p = random_problem(rng)
+        ctx = _Context(p, tied if i % 2 else CONSTANTS, p.cand.tolist(), p.covers.tolist(), p.keeps_covering.tolist(),
+                       {(d, t) for d, t in p.emerges.tolist()})
+        linked_t = set(p.cand[:, 0].tolist()) | set(p.covers[:, 1].tolist()) | set(p.keeps_covering[:, 1].tolist())
+        linked_d = set(p.cand[:, 1].tolist()) | set(p.covers[:, 0].tolist()) | set(p.keeps_covering[:, 0].tolist())
+        lone = [([t], []) for t in range(p.n_tracks) if t not in linked_t]
+        lone += [([], [d]) for d in range(p.n_dets) if d not in linked_d]
+        for ts, ds in lone:
+            fast, full = ctx.solve(ts, ds, 2048), ctx._search(ts, ds, 2048)
+            assert (fast is None) == (full is None)
+            if fast is not None:
+                assert shown(fast) == shown(full) and fast.cost == full.cost
+                checked += 1
+            else:
+                refused += 1
+    assert checked > 300 and refused > 0, (checked, refused)

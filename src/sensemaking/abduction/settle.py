@@ -172,10 +172,29 @@ class _Context:
 
     # -- the component ------------------------------------------------------------------------
     def solve(self, tracks: list[int], dets: list[int], max_branches: int) -> Answer | None:
-        k = self.k
+        """The component's unique optimal answer (its ``cost`` set), or None if it is tied or
+        larger than ``max_branches``."""
         for t in tracks:
             if self.n_hidden0.get(self.tid[t], 0) > 1:
                 return None  # a track hidden behind two: not produced by the tracker; leave it
+        if not (tracks and dets) and max_branches >= 3:
+            return self._lone(tracks, dets)
+        return self._search(tracks, dets, max_branches)
+
+    def _lone(self, tracks: list[int], dets: list[int]) -> Answer | None:
+        """:meth:`_search` on a component of one object: a track with no candidate or a detection
+        with no track (links join a track to a detection, so a component without one kind holds
+        one object). Nothing to choose but its own explanation: the cheapest, if unique. The
+        search would visit at most 3 nodes for it (hence ``max_branches >= 3`` in :meth:`solve`)."""
+        cost, unique, ans = self._evaluate(tracks, dets, {}, set())
+        if not unique:
+            return None
+        ans.cost = cost
+        return ans
+
+    def _search(self, tracks: list[int], dets: list[int], max_branches: int) -> Answer | None:
+        """Branch and bound over the matching, then start/ignore of the occluding detections."""
+        k = self.k
         allowed: dict[int, list[tuple[int, int]]] = {}
         for t in tracks:
             tid = self.tid[t]
