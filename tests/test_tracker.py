@@ -516,3 +516,14 @@ def test_borders_match_the_per_coordinate_formulation():
         assert np.array_equal(at, at_ref) and np.array_equal(out, out_ref)
     empty = Tracker()._borders(np.zeros((3, 4)))
     assert not empty[0].any() and not empty[1].any()
+
+
+def test_quantize_rounds_as_np_round():
+    """_quantize rounds with np.rint: np.round's own choice for 0 decimals (halves to even)."""
+    t = Tracker()
+    rng = np.random.default_rng(2)
+    x = np.concatenate([rng.random(5000), np.arange(0, 41) / 40, (np.arange(0, 80) + 0.5) / 80, [0.0, 1.0, 1.5, -0.2]])
+    levels = t.config.likelihood_levels
+    ref = (np.round(np.minimum(np.maximum(x, 0.0), 1.0) * levels + 1e-9) * 1000 // levels).astype(np.int64)
+    assert np.array_equal(t._quantize(x), ref)
+    assert np.array_equal(np.rint(x * 7), np.round(x * 7))

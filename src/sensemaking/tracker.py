@@ -212,8 +212,9 @@ class Tracker:
         })
         self.reset()
 
-    def _quantize(self, x: np.ndarray, rounding=np.round) -> np.ndarray:
-        """Values in [0, 1] -> integers 0..1000 on a grid of ``likelihood_levels`` steps."""
+    def _quantize(self, x: np.ndarray, rounding=np.rint) -> np.ndarray:
+        """Values in [0, 1] -> integers 0..1000 on a grid of ``likelihood_levels`` steps
+        (``np.rint``: what ``np.round`` calls for 0 decimals, without its Python layers)."""
         levels = self.config.likelihood_levels
         return (rounding(np.minimum(np.maximum(x, 0.0), 1.0) * levels + 1e-9) * 1000 // levels).astype(np.int64)
 
@@ -281,21 +282,14 @@ class Tracker:
         """(T, D) IoU of (widened, for unseen tracks) predictions and detections, 0 where gated."""
         return self._gate(pred, dets)[0]
 
-    def _gate(self, pred: np.ndarray, dets: Detections,
-              plain: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`_likelihood` and its values on the solver's grid (``_quantize``); ``plain`` is
-        ``iou(pred, dets.xyxy)`` if the caller has it already."""
+    def _uncertain(self, pred: np.ndarray) -> tuple[np.ndarray, list[tuple[np.ndarray, np.ndarray]]]:
+        """(T,) mask of the tracks whose motion is uncertain -- unseen (more with time) or seen
+        once (velocity unknown), gated at the lower ``iou_resume`` -- and the extra boxes whose
+        fit counts for them, as ``(rows, boxes)`` parts: their widened predictions and, for
+        young tracks, the prediction at rest and its widening."""
         c = self.config
-        if len(pred) == 0 or len(dets) == 0:
-            empty = np.zeros((len(pred), len(dets)))
-            return empty, empty.astype(np.int64)
-        # widen the predictions whose motion is uncertain: unseen tracks (more with time) and
-        # tracks seen once (velocity unknown); they are gated at the lower iou_resume
         young = self._hits <= 1
         unseen = (self._unseen > 0) | young
-        lik = iou(pred, dets.xyxy) if plain is None else plain.copy()
-        # the extra boxes of a track whose plain prediction is uncertain, each a (rows, boxes)
-        # part; one iou call for all of them (iou is elementwise in its rows: same values)
         parts: list[tuple[np.ndarray, np.ndarray]] = []
         if unseen.any():
             grow = np.minimum(1.0 + c.resume_growth * self._unseen, 2.0)
@@ -308,8 +302,24 @@ class Tracker:
                 v = self._kf.velocity()[young, :2]
                 rest = pred[young] - np.concatenate([v, v], axis=1)
                 parts += [(young, rest), (young, _widen(rest, grow[young]))]
+        return unseen, parts
+
+    def _gate(self, pred: np.ndarray, dets: Detections, plain: np.ndarray | None = None,
+              uncertain: tuple[np.ndarray, list] | None = None,
+              extra: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`_likelihood` and its values on the solver's grid (``_quantize``). A caller that
+        has them already passes ``plain`` = ``iou(pred, dets.xyxy)``, ``uncertain`` =
+        ``self._uncertain(pred)`` and ``extra`` = the iou of its parts' boxes (stacked) with the
+        detections."""
+        c = self.config
+        if len(pred) == 0 or len(dets) == 0:
+            empty = np.zeros((len(pred), len(dets)))
+            return empty, empty.astype(np.int64)
+        unseen, parts = self._uncertain(pred) if uncertain is None else uncertain
+        lik = iou(pred, dets.xyxy) if plain is None else plain.copy()
         if parts:
-            extra = iou(np.concatenate([b for _, b in parts]), dets.xyxy)
+            if extra is None:  # one iou call for all parts (iou is elementwise in its rows)
+                extra = iou(np.concatenate([b for _, b in parts]), dets.xyxy)
             start = 0
             for rows, boxes in parts:  # max is exact and order-free: as one max per part
                 lik[rows] = np.maximum(lik[rows], extra[start:start + len(boxes)])
@@ -360,26 +370,37 @@ class Tracker:
     def _problem(self, pred: np.ndarray, dets: Detections) -> FrameProblem:
         c = self.config
         n, nd, dxy = len(pred), len(dets), dets.xyxy
-        # one intersection of every box (predictions, then detections) with every other:
+        nb = n + nd
+        # one intersection of every box (predictions, then detections, then the uncertain
+        # tracks' extra boxes, see _uncertain) with the predictions and detections:
         # geometry.iou and geometry.coverage of its blocks, in the same (elementwise) arithmetic
-        boxes = np.concatenate([pred, dxy]) if n and nd else (pred if n else dxy)
-        inter = intersection(boxes, boxes)
+        uncertain = self._uncertain(pred) if n and nd else None
+        if uncertain is not None:
+            boxes = np.concatenate([pred, dxy] + [b for _, b in uncertain[1]])
+        else:
+            boxes = pred if n else dxy
+        inter = intersection(boxes, boxes[:nb])
         area = _area(boxes)
         with np.errstate(divide="ignore", invalid="ignore"):
-            col = area[:, None]
-            covered = np.where(col > 0, inter / np.where(col > 0, col, 1.0), 0.0)  # i covered by j
-            plain = None
+            col = area[:nb, None]
+            positive = col > 0
+            covered = np.where(positive, inter[:nb] / np.where(positive, col, 1.0), 0.0)  # i covered by j
+            plain = extra = None
             if n and nd:
-                union = col[:n] + area[None, n:] - inter[:n, n:]
-                plain = np.where(union > 0, inter[:n, n:] / np.where(union > 0, union, 1.0), 0.0)
+                # iou of every box with the detections (rows n..nb, detections with themselves,
+                # are not used)
+                union = area[:, None] + area[None, n:nb] - inter[:, n:nb]
+                positive = union > 0
+                fit = np.where(positive, inter[:, n:nb] / np.where(positive, union, 1.0), 0.0)
+                plain, extra = fit[:n], fit[nb:]
         # coverage by boxes in front only (bottom lower in the image; never a box by itself)
-        bottom = boxes[:, 3]
+        bottom = boxes[:nb, 3]
         in_front = np.where(bottom[None, :] > bottom[:, None], covered, 0.0)
-        lik, qlik = self._gate(pred, dets, plain)
+        lik, qlik = self._gate(pred, dets, plain, uncertain, extra)
         ti, dj = np.nonzero(lik > 0)
         cand = np.stack([ti, dj, qlik[ti, dj]], axis=1) if ti.size else np.zeros((0, 3), np.int64)
         cand_exact = lik[ti, dj]
-        at_all, outside_all = self._borders(boxes, area)
+        at_all, outside_all = self._borders(boxes[:nb], area[:nb])
         at_border, outside, det_border = at_all[:n], outside_all[:n], at_all[n:]
         start_ok = dets.confidence >= c.start_confidence
         covers = keeps = np.zeros((0, 2), dtype=np.int64)
@@ -400,15 +421,16 @@ class Tracker:
         if nd > 1:
             det_overlapped = in_front[n:, n:].max(axis=1) >= c.partial_cover
         expired = self._expired()
-        hid = np.flatnonzero((self._state == TrackState.HIDDEN) & (self._occluder >= 0))
+        hid = np.flatnonzero((self._state == _HIDDEN) & (self._occluder >= 0))
         emerges = self._emerges(pred, dets, hid, lik)
         det_conf = self._scaled_confidence(dets.confidence)
         # detections too weak to start a track: still usable to continue one (conf gate in numpy)
         det_conf_fact = np.where(start_ok, np.maximum(det_conf, 1), 0)
+        active = self._unseen == 0
         return FrameProblem(
-            track_id=self._id, active=self._unseen == 0, tentative=~self._confirmed, expired=expired,
+            track_id=self._id, active=active, tentative=~self._confirmed, expired=expired,
             outside=outside, at_border=at_border, overlapped=overlapped, track_class=self._cls,
-            uncertain=(self._hits <= 1) & (self._unseen == 0),
+            uncertain=(self._hits <= 1) & active,
             det_conf=det_conf_fact, det_class=dets.class_id, det_border=det_border & start_ok,
             det_overlapped=det_overlapped, cand=cand, covers=covers, keeps_covering=keeps,
             hidden_by=np.stack([self._id[hid], self._occluder[hid]], axis=1) if hid.size else np.zeros((0, 2), np.int64),
