@@ -348,19 +348,29 @@ class Tracker:
             conf = 1.0 / (1.0 + np.exp(-conf))
         return self._quantize(conf)
 
+    def _image_limits(self) -> tuple[float, np.ndarray, np.ndarray]:
+        """``border_margin``, ``(w, h)`` and ``(w - margin, h - margin)`` as arrays (cached: asked
+        every frame; needs ``image_size``)."""
+        key = (self.config.image_size, self.config.border_margin)
+        cache = self.__dict__.setdefault("_limits_cache", {})
+        if key not in cache:
+            (w, h), m = key
+            cache[key] = (m, np.array([w, h], dtype=np.float64), np.array([w - m, h - m], dtype=np.float64))
+        return cache[key]
+
     def _borders(self, boxes: np.ndarray, area: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(at the border, mostly outside) for (N, 4) boxes; all False without an image size.
         ``area``: ``geometry._area(boxes)`` if the caller has it already."""
         n = len(boxes)
         if self.config.image_size is None or n == 0:
             return np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
-        w, h = self.config.image_size
-        m = self.config.border_margin
+        m, size, far = self._image_limits()
         # x1 <= m or y1 <= m or x2 >= w - m or y2 >= h - m
-        at = (boxes[:, :2] <= m).any(axis=1) | (boxes[:, 2:] >= (w - m, h - m)).any(axis=1)
+        near = (boxes[:, :2] <= m) | (boxes[:, 2:] >= far)  # (N, 2): x side, y side
+        at = near[:, 0] | near[:, 1]
         # geometry.coverage(boxes, image) for one image box, in the same arithmetic: per axis
         # max(min(x2, w) - max(x1, 0), 0), their product over the box's area
-        side = np.maximum(np.minimum(boxes[:, 2:], (w, h)) - np.maximum(boxes[:, :2], 0.0), 0.0)
+        side = np.maximum(np.minimum(boxes[:, 2:], size) - np.maximum(boxes[:, :2], 0.0), 0.0)
         inter = side[:, 0] * side[:, 1]
         area = _area(boxes) if area is None else area
         positive = area > 0  # no division by zero below: area is replaced by 1 where it is 0
