@@ -60,7 +60,7 @@ def _lane_term(lane_id: int | str) -> str:
     return '"' + str(lane_id).replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
-@dataclass
+@dataclass(slots=True)
 class _Frame:
     """One frame of the window: everything the situation rules may use, before rendering."""
 
@@ -351,48 +351,55 @@ class SituationMonitor:
         out: dict[Situation, Any] = {}
         # HIDDEN_ENTITY: hidden participant with an anticipated reappearance in the corridor
         # within he_lead_ms
-        out[Situation.HIDDEN_ENTITY] = {
-            (t, a.occluder) for t, a in self._anticip.items()
-            if a.in_corridor and (cls.get(t) in VEHICLES or cls.get(t) in PEOPLE)
-            and (a.reappear_frame - now.frame) * self._frame_ms <= c["he_lead_ms"]}
-        # REDUCED_VISIBILITY: in the corridor and large and visible, or hiding someone
-        occluders = set(now.hidden_by.values())
-        out[Situation.REDUCED_VISIBILITY] = {
-            t for t in now.in_corr
-            if t in occluders or (now.state.get(t) == TrackState.VISIBLE and now.area[t] >= c["rv_area"])}
-        # SUDDEN_STOP: a vehicle in the corridor, large enough, stopping now, or looming now after
-        # keeping its distance within ss_ms
-        sudden = set()
-        for t in now.in_corr:
-            m = now.motion.get(t, ())
-            if cls.get(t) not in VEHICLES or now.area[t] < c["ss_area"]:
-                continue
-            if "stopping" in m or ("looming" in m and any(
-                    fr.frame < now.frame and "keeping_distance" in fr.motion.get(t, ()) for fr in self._within("ss_ms"))):
-                sudden.add(t)
-        out[Situation.SUDDEN_STOP] = sudden
+        if self._anticip:
+            out[Situation.HIDDEN_ENTITY] = {
+                (t, a.occluder) for t, a in self._anticip.items()
+                if a.in_corridor and (cls.get(t) in VEHICLES or cls.get(t) in PEOPLE)
+                and (a.reappear_frame - now.frame) * self._frame_ms <= c["he_lead_ms"]}
+        if now.in_corr:
+            # REDUCED_VISIBILITY: in the corridor and large and visible, or hiding someone
+            occluders = set(now.hidden_by.values())
+            out[Situation.REDUCED_VISIBILITY] = {
+                t for t in now.in_corr
+                if t in occluders or (now.state.get(t) == TrackState.VISIBLE and now.area[t] >= c["rv_area"])}
+            # SUDDEN_STOP: a vehicle in the corridor, large enough, stopping now, or looming now
+            # after keeping its distance within ss_ms
+            sudden = set()
+            for t in now.in_corr:
+                m = now.motion.get(t, ())
+                if not m or cls.get(t) not in VEHICLES or now.area[t] < c["ss_area"]:
+                    continue
+                if "stopping" in m or ("looming" in m and any(
+                        fr.frame < now.frame and "keeping_distance" in fr.motion.get(t, ())
+                        for fr in self._within("ss_ms"))):
+                    sudden.add(t)
+            out[Situation.SUDDEN_STOP] = sudden
         # BLOCKED_LANE: on a lane and stopped now
-        out[Situation.BLOCKED_LANE] = {t for t in now.on_lane if "stopped" in now.motion.get(t, ())}
+        if now.on_lane:
+            out[Situation.BLOCKED_LANE] = {t for t in now.on_lane if "stopped" in now.motion.get(t, ())}
         # OVERTAKING: a vehicle pair side by side now, B not approaching, whose depth order
         # flipped within ov_ms
-        flipped = {(a, b) for (b, a) in now.closer
-                   if now.ra[(a, b) if a < b else (b, a)][0] in _LATERAL_CODES
-                   and "approaching" not in now.motion.get(b, ())}
-        if flipped:
-            earlier: set[tuple[int, int]] = set()
-            for fr in self._within("ov_ms"):
-                if fr.frame < now.frame:
-                    earlier |= fr.closer
-            out[Situation.OVERTAKING] = flipped & earlier
+        if now.closer:
+            flipped = {(a, b) for (b, a) in now.closer
+                       if now.ra[(a, b) if a < b else (b, a)][0] in _LATERAL_CODES
+                       and "approaching" not in now.motion.get(b, ())}
+            if flipped:
+                earlier: set[tuple[int, int]] = set()
+                for fr in self._within("ov_ms"):
+                    if fr.frame < now.frame:
+                        earlier |= fr.closer
+                out[Situation.OVERTAKING] = flipped & earlier
         # EXITING_VEHICLE: a person started within ev_ms (after the first frame), and a vehicle
         # stood still in the window
-        start = self._seq_start if self._seq_start is not None else now.frame
-        persons = {(p, f0) for fr in self._frames for p, f0 in fr.person_starts
-                   if f0 > start and (now.frame - f0) * self._frame_ms <= c["ev_ms"]}
-        if persons:
-            parked = {t for fr in self._frames for t, m in fr.motion.items() if "stopped" in m and cls.get(t) in VEHICLES}
-            if parked:
-                out[Situation.EXITING_VEHICLE] = (persons, parked)
+        if any(fr.person_starts for fr in self._frames):
+            start = self._seq_start if self._seq_start is not None else now.frame
+            persons = {(p, f0) for fr in self._frames for p, f0 in fr.person_starts
+                       if f0 > start and (now.frame - f0) * self._frame_ms <= c["ev_ms"]}
+            if persons:
+                parked = {t for fr in self._frames for t, m in fr.motion.items()
+                          if "stopped" in m and cls.get(t) in VEHICLES}
+                if parked:
+                    out[Situation.EXITING_VEHICLE] = (persons, parked)
         return out
 
     # -- rendering facts ------------------------------------------------------------------------
