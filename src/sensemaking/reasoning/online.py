@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from sensemaking.classes import PEOPLE, VEHICLES, class_name
-from sensemaking.reasoning.anticipation import Anticipation, anticipate
+from sensemaking.reasoning.anticipation import Anticipation, anticipate_fits, fit_motion
 from sensemaking.reasoning.context import SceneContext, asp_name
 from sensemaking.reasoning.relations import INVERSE, IA_RELATIONS, MOTION_KINDS, motion_rows, near_pair_codes
 from sensemaking.reasoning.situations import (
@@ -137,6 +137,8 @@ class SituationMonitor:
         self._last_frame: int | None = None
         self._anticip: dict[int, Anticipation] = {}
         self._features: dict[int, tuple[float, float, float]] = {}  # speed px/s, vx px/s, growth 1/s
+        # fit_motion of hidden tracks, with (history length, last visible frame) it was made from
+        self._fits: dict[int, tuple[tuple[int, int], tuple[int, np.ndarray, np.ndarray]]] = {}
         self.active: list[Warning] = []
         self.stats: dict[str, float] = {"frames": 0, "solver_calls": 0, "ms": 0.0}
 
@@ -320,7 +322,7 @@ class SituationMonitor:
                 fr.motion[t] = tuple(compress(MOTION_KINDS, row))
             self._features[t] = (speed[k], vx[k], growth[k])
 
-    def _anticipate(self, t: int, o: int, f: int, boxes: dict[int, np.ndarray]) -> Anticipation | None:
+    def _anticipate(self, t: int, o: int, f: int, boxes: dict[int, list[float]]) -> Anticipation | None:
         h = self._hist.get(t)
         if not h:
             return None
@@ -329,11 +331,20 @@ class SituationMonitor:
             oh.append((f, boxes[o]))  # the occluder's box now (a prediction if not visible)
         if not oh:
             return None
-        return anticipate(
-            np.array([p[0] for p in h]), np.array([p[1] for p in h]),
-            np.array([p[0] for p in oh]), np.array([p[1] for p in oh]), f,
+        ap = self.config.anticipation
+        points, span = ap.velocity_points, ap.velocity_span_s * self.fps
+        # the hidden track's history does not change while it stays hidden: fit it once
+        key = (len(h), h[-1][0])
+        fit = self._fits.get(t)
+        if fit is None or fit[0] != key:
+            last = list(h)[-points:]  # fit_motion uses the latest `points` boxes only
+            fit = self._fits[t] = (key, fit_motion(np.array([p[0] for p in last]), np.array([p[1] for p in last]),
+                                                   points, span))
+        oh = oh[-points:]
+        return anticipate_fits(
+            fit[1], fit_motion(np.array([p[0] for p in oh]), np.array([p[1] for p in oh]), points, span), f,
             fps=self.fps, track=t, occluder=o, image_size=self.image_size,
-            corridor=self.context.corridor, config=self.config.anticipation,
+            corridor=self.context.corridor, config=ap,
         )
 
     def _within(self, ms_name: str) -> list[_Frame]:
@@ -518,7 +529,7 @@ class SituationMonitor:
         if f % self._window:
             return
         for t in [t for t, last in self._last_live.items() if f - last > self._window]:
-            for d in (self._hist, self._class, self._last_live):
+            for d in (self._hist, self._class, self._last_live, self._fits):
                 d.pop(t, None)
         for key in [k for k, last in self._last_held.items() if f - last > self._rearm]:
             del self._last_held[key]
