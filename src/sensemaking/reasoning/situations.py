@@ -300,9 +300,15 @@ def _statements(constants: tuple[tuple[str, int], ...], names: tuple[str, ...]) 
     return tuple(_stmt(stmt) for stmt in stmts if stmt.ast_type != clingo_ast.ASTType.Program)
 
 
-@lru_cache(maxsize=256)
 def _program_text(constants: tuple[tuple[str, int], ...], names: tuple[str, ...],
                   present: frozenset[str] | None = None) -> str:
+    """The program text of :func:`_pruned`."""
+    return _pruned(constants, names, present)[0]
+
+
+@lru_cache(maxsize=256)
+def _pruned(constants: tuple[tuple[str, int], ...], names: tuple[str, ...],
+            present: frozenset[str] | None = None) -> tuple[str, frozenset[str] | None]:
     """Base plus the parts ``names`` (and relations.lp when they use it) as one program text for
     ``#program base``, the constants substituted: clingo parses it in one call, cheaper than
     adding the statements one by one (grounding base and the parts together is the same).
@@ -313,7 +319,9 @@ def _program_text(constants: tuple[tuple[str, int], ...], names: tuple[str, ...]
     facts, no rule left for it) has no ground instance; (2) rules whose heads warn/2 and info/4
     do not depend on form a top part of the program that the rest does not use -- dropped only
     when that part is stratified by construction (negation only of predicates without rule
-    bodies, no constraints or other statements), so it extends every answer set of the rest."""
+    bodies, no constraints or other statements), so it extends every answer set of the rest.
+    Also returns the predicate names the program left uses (None if nothing was left out):
+    facts of other predicates change no answer either."""
     stmts = _statements(constants, names)
     if present is not None and all(s.heads is not None or s.text.startswith("#show") for s in stmts):
         avail = set(present)
@@ -335,11 +343,13 @@ def _program_text(constants: tuple[tuple[str, int], ...], names: tuple[str, ...]
             stmts = tuple(keep)
         else:
             stmts = tuple(live)
-    return "".join(f"{s.text}\n" for s in stmts)
+        used = frozenset({"warn", "info"}.union(*(s.uses | s.heads for s in stmts if s.heads is not None)))
+        return "".join(f"{s.text}\n" for s in stmts), used
+    return "".join(f"{s.text}\n" for s in stmts), None
 
 
-#: a predicate name at the start of a fact
-_FACT_NAME = re.compile(r"\s*([a-z_][A-Za-z0-9_']*)")
+#: one fact on a line, its predicate name (no "." inside, so not several facts)
+_FACT_LINE = re.compile(r"([a-z_][A-Za-z0-9_']*)\([^.]*\)\.")
 
 
 def _fact_names(facts: str) -> frozenset[str] | None:
@@ -360,7 +370,11 @@ def solve_window(facts: str, situations: Iterable[Situation | str],
         return []
     consts = tuple(sorted(situation_constants(constants).items()))
     ctl = clingo.Control(["--warn=none"])
-    ctl.add("base", [], _program_text(consts, tuple(s.value for s in parts_wanted), _fact_names(facts)) + facts)
+    program, used = _pruned(consts, tuple(s.value for s in parts_wanted), _fact_names(facts))
+    if used is not None:  # drop the lines holding one fact of a predicate the program does not use
+        facts = "".join(f"{line}\n" for line in facts.splitlines()
+                        if (m := _FACT_LINE.fullmatch(line)) is None or m.group(1) in used)
+    ctl.add("base", [], program + facts)
     ctl.ground([("base", [])])
     warns: dict[tuple[Situation, tuple[int, ...]], dict[str, list[Any]]] = {}
     infos: list[clingo.Symbol] = []
