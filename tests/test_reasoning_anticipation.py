@@ -152,3 +152,21 @@ def test_anticipate_fits_equals_anticipate_on_random_histories():
         fits = (fit_motion(hf, hx, cfg.velocity_points, span), fit_motion(of, ox, cfg.velocity_points, span))
         assert anticipate_fits(*fits, now, fps=10.0, image_size=size) == anticipate(hf, hx, of, ox, now, fps=10.0,
                                                                                    image_size=size)
+
+
+def test_stepwise_look_ahead_equals_the_whole_horizon_at_once(monkeypatch):
+    from sensemaking.reasoning import anticipation
+
+    rng = np.random.default_rng(12)
+    for it in range(400):
+        k, m = int(rng.integers(1, 6)), int(rng.integers(1, 6))
+        hf, of = np.sort(rng.choice(20, k, replace=False)), np.sort(rng.choice(22, m, replace=False))
+        hx = np.stack([rng.uniform(300, 900, k), rng.uniform(150, 200, k)], 1)
+        hx = np.concatenate([hx, hx + rng.uniform(20, 150, (k, 2))], 1)
+        ox = hx[:1].repeat(m, 0) + rng.normal(0, 15, (m, 4)) + [-60, -10, 60, 10]
+        now = int(max(hf.max(), of.max())) + int(rng.integers(0, 3))
+        size = None if it % 3 == 0 else (1242, 375)
+        got = anticipate(hf, hx, of, ox, now, fps=10.0, image_size=size)
+        with monkeypatch.context() as mp:
+            mp.setattr(anticipation, "_STEPWISE", 0)  # arrays only
+            assert anticipate(hf, hx, of, ox, now, fps=10.0, image_size=size) == got

@@ -138,6 +138,42 @@ def _coverage_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return w * h / np.maximum(area, 1e-9)
 
 
+#: frames ahead that anticipate_fits checks one by one before the whole horizon
+_STEPWISE = 12
+
+
+def _box_at(last: int, box: list[float], vel: list[float], frame: int) -> list[float]:
+    """One row of :func:`_extrapolate`: ``box + vel * (frame - last)``, sides kept >= 1 px."""
+    dt = float(frame) - last
+    x1, y1, x2, y2 = (b + v * dt for b, v in zip(box, vel))
+    cx, cy = (x1 + x2) / 2, (y1 + y2) / 2
+    hw, hh = x2 - x1, y2 - y1
+    hw = (hw if hw >= 1.0 else 1.0) / 2
+    hh = (hh if hh >= 1.0 else 1.0) / 2
+    return [cx - hw, cy - hh, cx + hw, cy + hh]
+
+
+def _coverage(a: list[float], b: list[float]) -> float:
+    """One row of :func:`_coverage_rows`."""
+    w = (a[2] if a[2] < b[2] else b[2]) - (a[0] if a[0] > b[0] else b[0])
+    h = (a[3] if a[3] < b[3] else b[3]) - (a[1] if a[1] > b[1] else b[1])
+    area = (a[2] - a[0]) * (a[3] - a[1])
+    return (w if w > 0 else 0.0) * (h if h > 0 else 0.0) / (area if area >= 1e-9 else 1e-9)
+
+
+def _first_uncovered(t_last: int, t_box: list[float], t_vel: list[float], o_last: int, o_box: list[float],
+                     o_vel: list[float], now: int, steps: int,
+                     coverage: float) -> tuple[int, list[float], bool] | None:
+    """``(k, box, overdue)`` for the first of the frames ``now + 1 .. now + steps`` at which the
+    extrapolated object is less than ``coverage`` covered, or None if there is none."""
+    overdue = _coverage(_box_at(t_last, t_box, t_vel, now), _box_at(o_last, o_box, o_vel, now)) < coverage
+    for k in range(1, steps + 1):
+        tb = _box_at(t_last, t_box, t_vel, now + k)
+        if _coverage(tb, _box_at(o_last, o_box, o_vel, now + k)) < coverage:
+            return k, tb, overdue and k == 1
+    return None
+
+
 def anticipate(hidden_frames: np.ndarray, hidden_xyxy: np.ndarray, occluder_frames: np.ndarray,
                occluder_xyxy: np.ndarray, now: int, *, fps: float, track: int = -1, occluder: int = -1,
                image_size: tuple[int, int] | None = None, corridor: Corridor | None = None,
@@ -181,16 +217,23 @@ def anticipate_fits(hidden_fit: tuple[int, np.ndarray, np.ndarray], occluder_fit
     t_last, t_box, t_vel = hidden_fit
     o_last, o_box, o_vel = occluder_fit
     horizon = max(1, int(round(c.horizon_s * fps)))
-    future = np.arange(now, now + horizon + 1, dtype=np.float64)  # now, now+1, ..., now+H
-    tb, ob = _extrapolate(np.stack([t_box, o_box]), np.stack([t_vel, o_vel]),
-                          np.stack([future - t_last, future - o_last]))
-    cov = _coverage_rows(tb, ob)
-    out = np.flatnonzero(cov[1:] < c.reappear_coverage)
-    if out.size == 0:
-        return None
-    k = int(out[0]) + 1
-    overdue = bool(cov[0] < c.reappear_coverage) and k == 1
-    box = tb[k].tolist()
+    # most objects come out within a few frames: look frame by frame first (the same float
+    # operations as the arrays below), then at the whole horizon at once
+    found = _first_uncovered(t_last, t_box.tolist(), t_vel.tolist(), o_last, o_box.tolist(), o_vel.tolist(), now,
+                             min(horizon, _STEPWISE), c.reappear_coverage)
+    if found is not None:
+        k, box, overdue = found
+    else:
+        future = np.arange(now, now + horizon + 1, dtype=np.float64)  # now, now+1, ..., now+H
+        tb, ob = _extrapolate(np.stack([t_box, o_box]), np.stack([t_vel, o_vel]),
+                              np.stack([future - t_last, future - o_last]))
+        cov = _coverage_rows(tb, ob)
+        out = np.flatnonzero(cov[1:] < c.reappear_coverage)
+        if out.size == 0:
+            return None
+        k = int(out[0]) + 1
+        overdue = bool(cov[0] < c.reappear_coverage) and k == 1
+        box = tb[k].tolist()
     pos = ((box[0] + box[2]) / 2, box[3])
     in_corridor, in_image = False, True
     if image_size is not None:
