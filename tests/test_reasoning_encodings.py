@@ -130,7 +130,8 @@ def test_program_text_leaves_out_rules_that_cannot_fire_or_do_not_matter():
                        _fact_names("now(3). in_corridor(1,3). state(1,3,visible). area(1,3,200)."))
     assert "hidden_by" not in rv and "area_permille" in rv and "#show warn/2." in rv
     # without state/3 no warn rule can fire, so neither can the info rules
-    assert "reduced_visibility" not in _program_text(consts, ("reduced_visibility",), _fact_names("now(3). area(1,3,9)."))
+    assert "reduced_visibility" not in _program_text(consts, ("reduced_visibility",),
+                                                      _fact_names("now(3). area(1,3,9)."))
     ov = _program_text(consts, ("overtaking",),
                        _fact_names("now(3). frame_ms(100). vehicle(1). vehicle(2). ra(1,2,3,before,after)."))
     assert "closer(A,B,F) :-" in ov and "touching" not in ov and "ia(" not in ov

@@ -344,7 +344,8 @@ def test_leaving_out_rules_that_cannot_matter_changes_no_answer(name, monkeypatc
     from sensemaking.reasoning import situations
 
     calls: list[tuple[str, list[Situation]]] = []
-    monkeypatch.setattr(online, "solve_window", lambda facts, parts, consts=None: calls.append((facts, list(parts))) or [])
+    monkeypatch.setattr(online, "solve_window",
+                        lambda facts, parts, consts=None: calls.append((facts, list(parts))) or [])
     objs, ctx = SCENES[name]
     mon = SituationMonitor(SituationConfig(prefilter=False), ctx, 10.0, SIZE)
     for r in build_results(objs, noise_px=1.0 if name == "noisy" else 0.0):

@@ -1,15 +1,17 @@
 """Online detection of safety-critical situations: ``SituationMonitor.update(result) -> warnings``.
 
 Per frame the monitor condenses the tracker's :class:`~sensemaking.results.FrameResult` into a
-small snapshot, computed once in numpy and kept for the last ``window`` frames: states and
+small snapshot, computed once (in plain Python over the few rows: numpy's per-call cost would
+dominate; same float operations) and kept for the last ``window`` frames: states and
 occluders, which boxes stand in the ego corridor, qualitative motion of visible boxes,
 rectangle relations of near pairs involving a vehicle, events, lanes and ground labels, and the
 anticipated reappearance of hidden tracks. From the snapshots it finds the *candidates* of each
 situation -- the objects for which the trigger facts of its rules are present, a necessary
 condition of the rule bodies -- and, only when there are any, grounds ``situations.lp`` on a
 fresh clingo Control with the facts of those objects (on most frames nothing is grounded at
-all). History is never re-grounded. With ``SituationConfig(prefilter=False)`` every situation
-is grounded every frame with every fact of the window; the warnings are the same.
+all; :func:`~sensemaking.reasoning.situations.solve_window` leaves out the rules that cannot fire
+with those facts). History is never re-grounded. With ``SituationConfig(prefilter=False)``
+every situation is grounded every frame with every fact of the window; the warnings are the same.
 
 A warning is returned when its situation starts to hold; :attr:`SituationMonitor.active`
 lists every situation holding at the current frame.
