@@ -167,6 +167,7 @@ def test_contains_rows_equals_contains_boxes(corridor):
     for _ in range(300):
         n = int(rng.integers(0, 12))
         x1 = rng.uniform(-100, 1300, n)
-        y2 = np.where(rng.random(n) < 0.3, rng.choice(np.concatenate([ys, ys + 0.5, ys - 1e-9])), rng.uniform(100, 400, n)) if n else np.zeros(0)
+        rows = np.concatenate([ys, ys + 0.5, ys - 1e-9])  # at, between and just above the vertex rows
+        y2 = np.where(rng.random(n) < 0.3, rng.choice(rows, n), rng.uniform(100, 400, n))
         b = np.stack([x1, y2 - rng.uniform(1, 80, n), x1 + rng.uniform(0, 300, n), y2], 1).reshape(n, 4)
         assert corridor.contains_rows(b.tolist(), SIZE) == corridor.contains_boxes(b, SIZE).tolist()

@@ -122,6 +122,26 @@ def test_program_text_is_the_parsed_program_with_the_constants_substituted():
     assert "side_by_side" not in _program_text(consts, ("reduced_visibility",))
 
 
+def test_program_text_leaves_out_rules_that_cannot_fire_or_do_not_matter():
+    from sensemaking.reasoning.situations import _fact_names, _program_text
+
+    consts = tuple(sorted(situation_constants().items()))
+    rv = _program_text(consts, ("reduced_visibility",),
+                       _fact_names("now(3). in_corridor(1,3). state(1,3,visible). area(1,3,200)."))
+    assert "hidden_by" not in rv and "area_permille" in rv and "#show warn/2." in rv
+    # without state/3 no warn rule can fire, so neither can the info rules
+    assert "reduced_visibility" not in _program_text(consts, ("reduced_visibility",),
+                                                      _fact_names("now(3). area(1,3,9)."))
+    ov = _program_text(consts, ("overtaking",),
+                       _fact_names("now(3). frame_ms(100). vehicle(1). vehicle(2). ra(1,2,3,before,after)."))
+    assert "closer(A,B,F) :-" in ov and "touching" not in ov and "ia(" not in ov
+    # not facts only: nothing is left out
+    assert _fact_names("a :- b.") is None and _fact_names("{ a }.") is None
+    assert _fact_names('lane("x y"). occurs_at(starts(3),5).') >= {"lane", "occurs_at", "starts"}
+    assert sit("in_corridor(1,10). state(1,10,visible). area(1,10,160).", "reduced_visibility") == [
+        "info(reduced_visibility,(1,),area_permille,160)", "warn(reduced_visibility,(1,))"]
+
+
 def test_constants_and_defaults():
     c = situation_constants()
     assert set(c) == {"ov_ms", "he_lead_ms", "rv_area", "ss_area", "ss_ms", "bl_ms", "ev_ms"}

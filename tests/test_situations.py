@@ -333,3 +333,31 @@ def test_without_image_size_corridor_situations_are_skipped():
     notes = {w.situation: w.details["skipped"] for w in warnings if not w.objects}
     assert notes["HIDDEN_ENTITY"] == "needs the image size (for the ego corridor)"
     assert {k[1] for k in kinds(warnings)} == {"OVERTAKING"}
+
+
+@pytest.mark.parametrize("name", sorted(SCENES))
+def test_leaving_out_rules_that_cannot_matter_changes_no_answer(name, monkeypatch):
+    """solve_window grounds only the rules that can fire with the facts at hand and that warn/info
+    depend on; on every fact set of a scene (all facts of the window, every situation) the
+    answers equal those of the whole program, and rules were left out somewhere."""
+    import sensemaking.reasoning.online as online
+    from sensemaking.reasoning import situations
+
+    calls: list[tuple[str, list[Situation]]] = []
+    monkeypatch.setattr(online, "solve_window",
+                        lambda facts, parts, consts=None: calls.append((facts, list(parts))) or [])
+    objs, ctx = SCENES[name]
+    mon = SituationMonitor(SituationConfig(prefilter=False), ctx, 10.0, SIZE)
+    for r in build_results(objs, noise_px=1.0 if name == "noisy" else 0.0):
+        mon.update(r)
+    consts = tuple(sorted(situations.situation_constants().items()))
+    names = tuple(s.value for s in mon._checked)
+    pruned = 0
+    for facts, parts in calls[::3]:
+        got = situations.solve_window(facts, parts)
+        with monkeypatch.context() as m:
+            m.setattr(situations, "_fact_names", lambda facts: None)
+            assert situations.solve_window(facts, parts) == got
+        pruned += len(situations._program_text(consts, names, situations._fact_names(facts))) < \
+            len(situations._program_text(consts, names))
+    assert pruned > 0

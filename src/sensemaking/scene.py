@@ -478,7 +478,7 @@ class SceneRecorder:
     def reset(self) -> None:
         """Forget everything recorded."""
         self._frames: list[int] = []
-        self._parts: list[tuple[np.ndarray, ...]] = []
+        self._parts: list[tuple[Any, ...]] = []  # (frame, rows, columns...)
         self._events: list[Event] = []
 
     def __len__(self) -> int:
@@ -494,13 +494,13 @@ class SceneRecorder:
         n = len(tr)
         if n:
             d = tr.data
+            # copies (np.array copies); the frame column is made in scene()
             self._parts.append((
-                np.full(n, f, dtype=np.int64), tr.tracker_id.copy(), tr.class_id.copy(), tr.xyxy.copy(),
-                tr.confidence.copy(),
-                np.asarray(d.get("state", np.zeros(n)), dtype=np.int8).copy(),
-                np.asarray(d.get("occluder", np.full(n, -1)), dtype=np.int64).copy(),
-                np.asarray(d.get("visibility", np.zeros(n)), dtype=np.int8).copy(),
-                np.asarray(d.get("hidden_frames", np.zeros(n)), dtype=np.int64).copy(),
+                f, n, np.array(tr.tracker_id), np.array(tr.class_id), np.array(tr.xyxy), np.array(tr.confidence),
+                np.array(d["state"], dtype=np.int8) if "state" in d else np.zeros(n, np.int8),
+                np.array(d["occluder"], dtype=np.int64) if "occluder" in d else np.full(n, -1, np.int64),
+                np.array(d["visibility"], dtype=np.int8) if "visibility" in d else np.zeros(n, np.int8),
+                np.array(d["hidden_frames"], dtype=np.int64) if "hidden_frames" in d else np.zeros(n, np.int64),
             ))
         self._events.extend(result.events)
 
@@ -508,8 +508,9 @@ class SceneRecorder:
         """The scene recorded so far."""
         tracks: dict[int, Track] = {}
         if self._parts:
-            cols = [np.concatenate(c) for c in zip(*self._parts)]
-            frame, tid, cid, xyxy, conf, state, occ, vis, hid = cols
+            fs, ns, *cols = zip(*self._parts)
+            frame = np.repeat(np.asarray(fs, dtype=np.int64), ns)
+            tid, cid, xyxy, conf, state, occ, vis, hid = (np.concatenate(c) for c in cols)
             order = np.lexsort((frame, tid))
             tids = tid[order]
             cuts = np.flatnonzero(np.diff(tids)) + 1

@@ -289,7 +289,8 @@ def _targets_section(summary: RunSummary) -> list[str]:
              "for time); negative means missed by that much.", "",
              "| Benchmark | target | met | margin | numbers |", "|---|---|---|---:|---|"]
     for c in checks:
-        lines.append(f"| {c.benchmark} | {c.target} | {'yes' if c.met else '**no**'} | {c.margin:+.3g} | {c.detail} |")
+        margin = f"{c.margin:+.0f}" if c.target.startswith("ID switches") else f"{c.margin:+.2f}"
+        lines.append(f"| {c.benchmark} | {c.target} | {'yes' if c.met else '**no**'} | {margin} | {c.detail} |")
     return lines
 
 

@@ -22,7 +22,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from sensemaking.reasoning.context import Corridor
     from sensemaking.scene import Scene
 
-__all__ = ["AnticipationConfig", "Anticipation", "fit_motion", "anticipate", "anticipate_scene",
+__all__ = ["AnticipationConfig", "Anticipation", "fit_motion", "anticipate", "anticipate_fits", "anticipate_scene",
            "reappearance_errors", "ReappearanceError"]
 
 
@@ -121,12 +121,13 @@ def fit_motion(frames: np.ndarray, xyxy: np.ndarray, points: int = 5,
 
 
 def _extrapolate(box: np.ndarray, vel: np.ndarray, dt: np.ndarray) -> np.ndarray:
-    """(H, 4) boxes ``box + vel * dt`` with widths and heights kept >= 1 px."""
-    b = box[None, :] + vel[None, :] * dt[:, None]
-    cx, cy = (b[:, 0] + b[:, 2]) / 2, (b[:, 1] + b[:, 3]) / 2
-    hw = np.maximum(b[:, 2] - b[:, 0], 1.0) / 2
-    hh = np.maximum(b[:, 3] - b[:, 1], 1.0) / 2
-    return np.stack([cx - hw, cy - hh, cx + hw, cy + hh], axis=1)
+    """(..., H, 4) boxes ``box + vel * dt`` with widths and heights kept >= 1 px, for ``box`` and
+    ``vel`` (..., 4) and ``dt`` (..., H) (several boxes at once: the same values one by one)."""
+    b = box[..., None, :] + vel[..., None, :] * dt[..., None]
+    cx, cy = (b[..., 0] + b[..., 2]) / 2, (b[..., 1] + b[..., 3]) / 2
+    hw = np.maximum(b[..., 2] - b[..., 0], 1.0) / 2
+    hh = np.maximum(b[..., 3] - b[..., 1], 1.0) / 2
+    return np.stack([cx - hw, cy - hh, cx + hw, cy + hh], axis=-1)
 
 
 def _coverage_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -135,6 +136,42 @@ def _coverage_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     h = np.clip(np.minimum(a[:, 3], b[:, 3]) - np.maximum(a[:, 1], b[:, 1]), 0, None)
     area = (a[:, 2] - a[:, 0]) * (a[:, 3] - a[:, 1])
     return w * h / np.maximum(area, 1e-9)
+
+
+#: frames ahead that anticipate_fits checks one by one before the whole horizon
+_STEPWISE = 12
+
+
+def _box_at(last: int, box: list[float], vel: list[float], frame: int) -> list[float]:
+    """One row of :func:`_extrapolate`: ``box + vel * (frame - last)``, sides kept >= 1 px."""
+    dt = float(frame) - last
+    x1, y1, x2, y2 = (b + v * dt for b, v in zip(box, vel))
+    cx, cy = (x1 + x2) / 2, (y1 + y2) / 2
+    hw, hh = x2 - x1, y2 - y1
+    hw = (hw if hw >= 1.0 else 1.0) / 2
+    hh = (hh if hh >= 1.0 else 1.0) / 2
+    return [cx - hw, cy - hh, cx + hw, cy + hh]
+
+
+def _coverage(a: list[float], b: list[float]) -> float:
+    """One row of :func:`_coverage_rows`."""
+    w = (a[2] if a[2] < b[2] else b[2]) - (a[0] if a[0] > b[0] else b[0])
+    h = (a[3] if a[3] < b[3] else b[3]) - (a[1] if a[1] > b[1] else b[1])
+    area = (a[2] - a[0]) * (a[3] - a[1])
+    return (w if w > 0 else 0.0) * (h if h > 0 else 0.0) / (area if area >= 1e-9 else 1e-9)
+
+
+def _first_uncovered(t_last: int, t_box: list[float], t_vel: list[float], o_last: int, o_box: list[float],
+                     o_vel: list[float], now: int, steps: int,
+                     coverage: float) -> tuple[int, list[float], bool] | None:
+    """``(k, box, overdue)`` for the first of the frames ``now + 1 .. now + steps`` at which the
+    extrapolated object is less than ``coverage`` covered, or None if there is none."""
+    overdue = _coverage(_box_at(t_last, t_box, t_vel, now), _box_at(o_last, o_box, o_vel, now)) < coverage
+    for k in range(1, steps + 1):
+        tb = _box_at(t_last, t_box, t_vel, now + k)
+        if _coverage(tb, _box_at(o_last, o_box, o_vel, now + k)) < coverage:
+            return k, tb, overdue and k == 1
+    return None
 
 
 def anticipate(hidden_frames: np.ndarray, hidden_xyxy: np.ndarray, occluder_frames: np.ndarray,
@@ -158,36 +195,56 @@ def anticipate(hidden_frames: np.ndarray, hidden_xyxy: np.ndarray, occluder_fram
         An :class:`Anticipation`, or None when the object does not come out from behind the
         occluder within the horizon (they move together, or either history is empty).
     """
-    from sensemaking.reasoning.context import Corridor
-
     c = config or AnticipationConfig()
     if len(hidden_frames) == 0 or len(occluder_frames) == 0:
         return None
     span = c.velocity_span_s * fps
-    t_last, t_box, t_vel = fit_motion(hidden_frames, hidden_xyxy, c.velocity_points, span)
-    o_last, o_box, o_vel = fit_motion(occluder_frames, occluder_xyxy, c.velocity_points, span)
+    return anticipate_fits(fit_motion(hidden_frames, hidden_xyxy, c.velocity_points, span),
+                           fit_motion(occluder_frames, occluder_xyxy, c.velocity_points, span), now, fps=fps,
+                           track=track, occluder=occluder, image_size=image_size, corridor=corridor, config=c)
+
+
+def anticipate_fits(hidden_fit: tuple[int, np.ndarray, np.ndarray], occluder_fit: tuple[int, np.ndarray, np.ndarray],
+                    now: int, *, fps: float, track: int = -1, occluder: int = -1,
+                    image_size: tuple[int, int] | None = None, corridor: Corridor | None = None,
+                    config: AnticipationConfig | None = None) -> Anticipation | None:
+    """:func:`anticipate` from the :func:`fit_motion` results of the hidden object and the occluder
+    (fitted with ``config.velocity_points`` and a span of ``config.velocity_span_s * fps``
+    frames), e.g. a fit kept while the object stays hidden."""
+    from sensemaking.reasoning.context import Corridor
+
+    c = config or AnticipationConfig()
+    t_last, t_box, t_vel = hidden_fit
+    o_last, o_box, o_vel = occluder_fit
     horizon = max(1, int(round(c.horizon_s * fps)))
-    future = np.arange(now, now + horizon + 1, dtype=np.float64)  # now, now+1, ..., now+H
-    tb = _extrapolate(t_box, t_vel, future - t_last)
-    ob = _extrapolate(o_box, o_vel, future - o_last)
-    cov = _coverage_rows(tb, ob)
-    out = np.flatnonzero(cov[1:] < c.reappear_coverage)
-    if out.size == 0:
-        return None
-    k = int(out[0]) + 1
-    overdue = bool(cov[0] < c.reappear_coverage) and k == 1
-    box = tb[k]
-    pos = (float((box[0] + box[2]) / 2), float(box[3]))
+    # most objects come out within a few frames: look frame by frame first (the same float
+    # operations as the arrays below), then at the whole horizon at once
+    found = _first_uncovered(t_last, t_box.tolist(), t_vel.tolist(), o_last, o_box.tolist(), o_vel.tolist(), now,
+                             min(horizon, _STEPWISE), c.reappear_coverage)
+    if found is not None:
+        k, box, overdue = found
+    else:
+        future = np.arange(now, now + horizon + 1, dtype=np.float64)  # now, now+1, ..., now+H
+        tb, ob = _extrapolate(np.stack([t_box, o_box]), np.stack([t_vel, o_vel]),
+                              np.stack([future - t_last, future - o_last]))
+        cov = _coverage_rows(tb, ob)
+        out = np.flatnonzero(cov[1:] < c.reappear_coverage)
+        if out.size == 0:
+            return None
+        k = int(out[0]) + 1
+        overdue = bool(cov[0] < c.reappear_coverage) and k == 1
+        box = tb[k].tolist()
+    pos = ((box[0] + box[2]) / 2, box[3])
     in_corridor, in_image = False, True
     if image_size is not None:
         corr = corridor or Corridor()
-        in_corridor = bool(corr.contains_boxes(box[None, :], image_size)[0])
+        in_corridor = corr.contains_rows([box], image_size)[0]
         cx, cy = (box[0] + box[2]) / 2, (box[1] + box[3]) / 2
         in_image = bool(0 <= cx <= image_size[0] and 0 <= cy <= image_size[1])
         in_corridor = in_corridor and in_image
     return Anticipation(
         track=int(track), occluder=int(occluder), frame=int(now), reappear_frame=int(now + k),
-        box=(float(box[0]), float(box[1]), float(box[2]), float(box[3])), position=pos,
+        box=(box[0], box[1], box[2], box[3]), position=pos,
         lead_frames=k, lead_s=k / float(fps), in_corridor=in_corridor, in_image=in_image, overdue=overdue,
     )
 

@@ -1,15 +1,17 @@
 """Online detection of safety-critical situations: ``SituationMonitor.update(result) -> warnings``.
 
 Per frame the monitor condenses the tracker's :class:`~sensemaking.results.FrameResult` into a
-small snapshot, computed once in numpy and kept for the last ``window`` frames: states and
+small snapshot, computed once (in plain Python over the few rows: numpy's per-call cost would
+dominate; same float operations) and kept for the last ``window`` frames: states and
 occluders, which boxes stand in the ego corridor, qualitative motion of visible boxes,
 rectangle relations of near pairs involving a vehicle, events, lanes and ground labels, and the
 anticipated reappearance of hidden tracks. From the snapshots it finds the *candidates* of each
 situation -- the objects for which the trigger facts of its rules are present, a necessary
 condition of the rule bodies -- and, only when there are any, grounds ``situations.lp`` on a
 fresh clingo Control with the facts of those objects (on most frames nothing is grounded at
-all). History is never re-grounded. With ``SituationConfig(prefilter=False)`` every situation
-is grounded every frame with every fact of the window; the warnings are the same.
+all; :func:`~sensemaking.reasoning.situations.solve_window` leaves out the rules that cannot fire
+with those facts). History is never re-grounded. With ``SituationConfig(prefilter=False)``
+every situation is grounded every frame with every fact of the window; the warnings are the same.
 
 A warning is returned when its situation starts to hold; :attr:`SituationMonitor.active`
 lists every situation holding at the current frame.
@@ -28,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from sensemaking.classes import PEOPLE, VEHICLES, class_name
-from sensemaking.reasoning.anticipation import Anticipation, anticipate
+from sensemaking.reasoning.anticipation import Anticipation, anticipate_fits, fit_motion
 from sensemaking.reasoning.context import SceneContext, asp_name
 from sensemaking.reasoning.relations import INVERSE, IA_RELATIONS, MOTION_KINDS, motion_rows, near_pair_codes
 from sensemaking.reasoning.situations import (
@@ -60,7 +62,7 @@ def _lane_term(lane_id: int | str) -> str:
     return '"' + str(lane_id).replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
-@dataclass
+@dataclass(slots=True)
 class _Frame:
     """One frame of the window: everything the situation rules may use, before rendering."""
 
@@ -137,6 +139,8 @@ class SituationMonitor:
         self._last_frame: int | None = None
         self._anticip: dict[int, Anticipation] = {}
         self._features: dict[int, tuple[float, float, float]] = {}  # speed px/s, vx px/s, growth 1/s
+        # fit_motion of hidden tracks, with (history length, last visible frame) it was made from
+        self._fits: dict[int, tuple[tuple[int, int], tuple[int, np.ndarray, np.ndarray]]] = {}
         self.active: list[Warning] = []
         self.stats: dict[str, float] = {"frames": 0, "solver_calls": 0, "ms": 0.0}
 
@@ -320,7 +324,7 @@ class SituationMonitor:
                 fr.motion[t] = tuple(compress(MOTION_KINDS, row))
             self._features[t] = (speed[k], vx[k], growth[k])
 
-    def _anticipate(self, t: int, o: int, f: int, boxes: dict[int, np.ndarray]) -> Anticipation | None:
+    def _anticipate(self, t: int, o: int, f: int, boxes: dict[int, list[float]]) -> Anticipation | None:
         h = self._hist.get(t)
         if not h:
             return None
@@ -329,11 +333,20 @@ class SituationMonitor:
             oh.append((f, boxes[o]))  # the occluder's box now (a prediction if not visible)
         if not oh:
             return None
-        return anticipate(
-            np.array([p[0] for p in h]), np.array([p[1] for p in h]),
-            np.array([p[0] for p in oh]), np.array([p[1] for p in oh]), f,
+        ap = self.config.anticipation
+        points, span = ap.velocity_points, ap.velocity_span_s * self.fps
+        # the hidden track's history does not change while it stays hidden: fit it once
+        key = (len(h), h[-1][0])
+        fit = self._fits.get(t)
+        if fit is None or fit[0] != key:
+            last = list(h)[-points:]  # fit_motion uses the latest `points` boxes only
+            fit = self._fits[t] = (key, fit_motion(np.array([p[0] for p in last]), np.array([p[1] for p in last]),
+                                                   points, span))
+        oh = oh[-points:]
+        return anticipate_fits(
+            fit[1], fit_motion(np.array([p[0] for p in oh]), np.array([p[1] for p in oh]), points, span), f,
             fps=self.fps, track=t, occluder=o, image_size=self.image_size,
-            corridor=self.context.corridor, config=self.config.anticipation,
+            corridor=self.context.corridor, config=ap,
         )
 
     def _within(self, ms_name: str) -> list[_Frame]:
@@ -351,48 +364,55 @@ class SituationMonitor:
         out: dict[Situation, Any] = {}
         # HIDDEN_ENTITY: hidden participant with an anticipated reappearance in the corridor
         # within he_lead_ms
-        out[Situation.HIDDEN_ENTITY] = {
-            (t, a.occluder) for t, a in self._anticip.items()
-            if a.in_corridor and (cls.get(t) in VEHICLES or cls.get(t) in PEOPLE)
-            and (a.reappear_frame - now.frame) * self._frame_ms <= c["he_lead_ms"]}
-        # REDUCED_VISIBILITY: in the corridor and large and visible, or hiding someone
-        occluders = set(now.hidden_by.values())
-        out[Situation.REDUCED_VISIBILITY] = {
-            t for t in now.in_corr
-            if t in occluders or (now.state.get(t) == TrackState.VISIBLE and now.area[t] >= c["rv_area"])}
-        # SUDDEN_STOP: a vehicle in the corridor, large enough, stopping now, or looming now after
-        # keeping its distance within ss_ms
-        sudden = set()
-        for t in now.in_corr:
-            m = now.motion.get(t, ())
-            if cls.get(t) not in VEHICLES or now.area[t] < c["ss_area"]:
-                continue
-            if "stopping" in m or ("looming" in m and any(
-                    fr.frame < now.frame and "keeping_distance" in fr.motion.get(t, ()) for fr in self._within("ss_ms"))):
-                sudden.add(t)
-        out[Situation.SUDDEN_STOP] = sudden
+        if self._anticip:
+            out[Situation.HIDDEN_ENTITY] = {
+                (t, a.occluder) for t, a in self._anticip.items()
+                if a.in_corridor and (cls.get(t) in VEHICLES or cls.get(t) in PEOPLE)
+                and (a.reappear_frame - now.frame) * self._frame_ms <= c["he_lead_ms"]}
+        if now.in_corr:
+            # REDUCED_VISIBILITY: in the corridor and large and visible, or hiding someone
+            occluders = set(now.hidden_by.values())
+            out[Situation.REDUCED_VISIBILITY] = {
+                t for t in now.in_corr
+                if t in occluders or (now.state.get(t) == TrackState.VISIBLE and now.area[t] >= c["rv_area"])}
+            # SUDDEN_STOP: a vehicle in the corridor, large enough, stopping now, or looming now
+            # after keeping its distance within ss_ms
+            sudden = set()
+            for t in now.in_corr:
+                m = now.motion.get(t, ())
+                if not m or cls.get(t) not in VEHICLES or now.area[t] < c["ss_area"]:
+                    continue
+                if "stopping" in m or ("looming" in m and any(
+                        fr.frame < now.frame and "keeping_distance" in fr.motion.get(t, ())
+                        for fr in self._within("ss_ms"))):
+                    sudden.add(t)
+            out[Situation.SUDDEN_STOP] = sudden
         # BLOCKED_LANE: on a lane and stopped now
-        out[Situation.BLOCKED_LANE] = {t for t in now.on_lane if "stopped" in now.motion.get(t, ())}
+        if now.on_lane:
+            out[Situation.BLOCKED_LANE] = {t for t in now.on_lane if "stopped" in now.motion.get(t, ())}
         # OVERTAKING: a vehicle pair side by side now, B not approaching, whose depth order
         # flipped within ov_ms
-        flipped = {(a, b) for (b, a) in now.closer
-                   if now.ra[(a, b) if a < b else (b, a)][0] in _LATERAL_CODES
-                   and "approaching" not in now.motion.get(b, ())}
-        if flipped:
-            earlier: set[tuple[int, int]] = set()
-            for fr in self._within("ov_ms"):
-                if fr.frame < now.frame:
-                    earlier |= fr.closer
-            out[Situation.OVERTAKING] = flipped & earlier
+        if now.closer:
+            flipped = {(a, b) for (b, a) in now.closer
+                       if now.ra[(a, b) if a < b else (b, a)][0] in _LATERAL_CODES
+                       and "approaching" not in now.motion.get(b, ())}
+            if flipped:
+                earlier: set[tuple[int, int]] = set()
+                for fr in self._within("ov_ms"):
+                    if fr.frame < now.frame:
+                        earlier |= fr.closer
+                out[Situation.OVERTAKING] = flipped & earlier
         # EXITING_VEHICLE: a person started within ev_ms (after the first frame), and a vehicle
         # stood still in the window
-        start = self._seq_start if self._seq_start is not None else now.frame
-        persons = {(p, f0) for fr in self._frames for p, f0 in fr.person_starts
-                   if f0 > start and (now.frame - f0) * self._frame_ms <= c["ev_ms"]}
-        if persons:
-            parked = {t for fr in self._frames for t, m in fr.motion.items() if "stopped" in m and cls.get(t) in VEHICLES}
-            if parked:
-                out[Situation.EXITING_VEHICLE] = (persons, parked)
+        if any(fr.person_starts for fr in self._frames):
+            start = self._seq_start if self._seq_start is not None else now.frame
+            persons = {(p, f0) for fr in self._frames for p, f0 in fr.person_starts
+                       if f0 > start and (now.frame - f0) * self._frame_ms <= c["ev_ms"]}
+            if persons:
+                parked = {t for fr in self._frames for t, m in fr.motion.items()
+                          if "stopped" in m and cls.get(t) in VEHICLES}
+                if parked:
+                    out[Situation.EXITING_VEHICLE] = (persons, parked)
         return out
 
     # -- rendering facts ------------------------------------------------------------------------
@@ -511,7 +531,7 @@ class SituationMonitor:
         if f % self._window:
             return
         for t in [t for t, last in self._last_live.items() if f - last > self._window]:
-            for d in (self._hist, self._class, self._last_live):
+            for d in (self._hist, self._class, self._last_live, self._fits):
                 d.pop(t, None)
         for key in [k for k, last in self._last_held.items() if f - last > self._rearm]:
             del self._last_held[key]

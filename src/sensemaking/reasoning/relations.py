@@ -279,21 +279,26 @@ def near_pair_codes(boxes: list[list[float]], config: RelationConfig,
                 continue
             b0, b1, b2, b3 = boxes[j]
             wb, hb = b2 - b0, b3 - b1
-            if max(b0 - a2, a0 - b2) > near * max(wa, wb) or max(b1 - a3, a1 - b3) > near * max(ha, hb):
+            # the gap on each axis (np.maximum of the two one-sided gaps) against near * larger size
+            g, h = b0 - a2, a0 - b2
+            if (g if g > h else h) > near * (wa if wa > wb else wb):
                 continue
-            t = max(tol_px, tol_rel * min(wa, wb))
-            code_x = table[_sign3(a0 - b0, t) * 27 + _sign3(a2 - b2, t) * 9 + _sign3(a2 - b0, t) * 3
-                           + _sign3(a0 - b2, t)]
-            t = max(tol_px, tol_rel * min(ha, hb))
-            code_y = table[_sign3(a1 - b1, t) * 27 + _sign3(a3 - b3, t) * 9 + _sign3(a3 - b1, t) * 3
-                           + _sign3(a1 - b3, t)]
+            g, h = b1 - a3, a1 - b3
+            if (g if g > h else h) > near * (ha if ha > hb else hb):
+                continue
+            # per axis: the four end-point differences as 0 / 1 / 2 (below -tol / within / above tol)
+            t = tol_rel * (wa if wa < wb else wb)
+            t = tol_px if tol_px >= t else t
+            d0, d1, d2, d3 = a0 - b0, a2 - b2, a2 - b0, a0 - b2
+            code_x = table[(2 if d0 > t else 0 if d0 < -t else 1) * 27 + (2 if d1 > t else 0 if d1 < -t else 1) * 9
+                           + (2 if d2 > t else 0 if d2 < -t else 1) * 3 + (2 if d3 > t else 0 if d3 < -t else 1)]
+            t = tol_rel * (ha if ha < hb else hb)
+            t = tol_px if tol_px >= t else t
+            d0, d1, d2, d3 = a1 - b1, a3 - b3, a3 - b1, a1 - b3
+            code_y = table[(2 if d0 > t else 0 if d0 < -t else 1) * 27 + (2 if d1 > t else 0 if d1 < -t else 1) * 9
+                           + (2 if d2 > t else 0 if d2 < -t else 1) * 3 + (2 if d3 > t else 0 if d3 < -t else 1)]
             out.append((i, j, code_x, code_y))
     return out
-
-
-def _sign3(d: float, tol: float) -> int:
-    """0 / 1 / 2 where ``d`` is below ``-tol`` / within / above ``tol`` (as in :func:`_codes`)."""
-    return 2 if d > tol else 0 if d < -tol else 1
 
 
 # -- motion -------------------------------------------------------------------------------------

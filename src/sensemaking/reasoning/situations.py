@@ -19,6 +19,7 @@ EXITING_VEHICLE     person, vehicle  a person appears touching a vehicle that st
 from __future__ import annotations
 
 import logging
+import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from enum import Enum
@@ -229,16 +230,134 @@ def _value(sym: clingo.Symbol) -> Any:
     return str(sym)
 
 
+class _Names(clingo_ast.Transformer):
+    """Collects the predicate names of the symbolic atoms under a node."""
+
+    def __init__(self) -> None:
+        self.names: set[str] = set()
+        self.unknown = False
+
+    def visit_SymbolicAtom(self, node: Any) -> Any:  # noqa: N802 - clingo's visitor naming
+        self.names.update(_atom_names(node))
+        return node
+
+
+def _atom_names(node: Any) -> set[str]:
+    """Predicate names of a SymbolicAtom (several for a pool ``p(a;b)``, none if unknown)."""
+    term = node.symbol
+    if term.ast_type == clingo_ast.ASTType.Function:
+        return {term.name}
+    if term.ast_type == clingo_ast.ASTType.SymbolicTerm and term.symbol.type == clingo.SymbolType.Function:
+        return {term.symbol.name}
+    if term.ast_type == clingo_ast.ASTType.Pool:
+        return {a.name for a in term.arguments if a.ast_type == clingo_ast.ASTType.Function}
+    return set()
+
+
+@dataclass(frozen=True)
+class _Stmt:
+    """One statement of a program part with the predicate names it defines and uses.
+
+    ``heads`` is None for statements that are kept whatever the facts (directives, and rules
+    that are not plain ``atom :- body``)."""
+
+    text: str
+    heads: frozenset[str] | None
+    required: frozenset[str]  # positive body literals: the rule has no instance without them
+    uses: frozenset[str]  # every predicate in the body
+    negated: frozenset[str]  # predicates under default negation in the body
+
+
+def _stmt(stmt: Any) -> _Stmt:
+    text = str(stmt)
+    if stmt.ast_type != clingo_ast.ASTType.Rule or stmt.head.ast_type != clingo_ast.ASTType.Literal \
+            or stmt.head.atom.ast_type != clingo_ast.ASTType.SymbolicAtom or stmt.head.sign:
+        return _Stmt(text, None, frozenset(), frozenset(), frozenset())
+    heads = _atom_names(stmt.head.atom)
+    required, negated = set(), set()
+    uses = _Names()
+    for lit in stmt.body:
+        uses(lit)
+        if lit.ast_type == clingo_ast.ASTType.Literal and lit.atom.ast_type == clingo_ast.ASTType.SymbolicAtom:
+            (negated if lit.sign else required).update(_atom_names(lit.atom))
+        else:
+            sub = _Names()
+            sub(lit)
+            if "not " in str(lit):
+                negated.update(sub.names)  # negation inside an aggregate or condition
+    if not heads:
+        return _Stmt(text, None, frozenset(), frozenset(), frozenset())
+    return _Stmt(text, frozenset(heads), frozenset(required), frozenset(uses.names), frozenset(negated))
+
+
 @lru_cache(maxsize=64)
-def _program_text(constants: tuple[tuple[str, int], ...], names: tuple[str, ...]) -> str:
-    """Base plus the parts ``names`` (and relations.lp when they use it) as one program text for
-    ``#program base``, the constants substituted: clingo parses it in one call, cheaper than
-    adding the statements one by one (grounding base and the parts together is the same)."""
+def _statements(constants: tuple[tuple[str, int], ...], names: tuple[str, ...]) -> tuple[_Stmt, ...]:
+    """Base plus the parts ``names`` (and relations.lp when they use it), constants substituted."""
     parts = _program(constants)
     stmts = [stmt for name in ("base",) + names for stmt in parts.get(name, [])]
     if _USES_RELATIONS.intersection(names):
         stmts += parts["relations"]
-    return "".join(f"{stmt}\n" for stmt in stmts if stmt.ast_type != clingo_ast.ASTType.Program)
+    return tuple(_stmt(stmt) for stmt in stmts if stmt.ast_type != clingo_ast.ASTType.Program)
+
+
+def _program_text(constants: tuple[tuple[str, int], ...], names: tuple[str, ...],
+                  present: frozenset[str] | None = None) -> str:
+    """The program text of :func:`_pruned`."""
+    return _pruned(constants, names, present)[0]
+
+
+@lru_cache(maxsize=256)
+def _pruned(constants: tuple[tuple[str, int], ...], names: tuple[str, ...],
+            present: frozenset[str] | None = None) -> tuple[str, frozenset[str] | None]:
+    """Base plus the parts ``names`` (and relations.lp when they use it) as one program text for
+    ``#program base``, the constants substituted: clingo parses it in one call, cheaper than
+    adding the statements one by one (grounding base and the parts together is the same).
+
+    With ``present``, the names of the predicates the facts may contain, rules that cannot
+    matter are left out, so that clingo grounds less; the answer on warn/2 and info/4 is the
+    same: (1) a rule with a positive body literal whose predicate has no atoms (not among the
+    facts, no rule left for it) has no ground instance; (2) rules whose heads warn/2 and info/4
+    do not depend on form a top part of the program that the rest does not use -- dropped only
+    when that part is stratified by construction (negation only of predicates without rule
+    bodies, no constraints or other statements), so it extends every answer set of the rest.
+    Also returns the predicate names the program left uses (None if nothing was left out):
+    facts of other predicates change no answer either."""
+    stmts = _statements(constants, names)
+    if present is not None and all(s.heads is not None or s.text.startswith("#show") for s in stmts):
+        avail = set(present)
+        while True:  # (1) rules that can have instances, to a fixpoint
+            live = [s for s in stmts if s.heads is None or s.required <= avail]
+            grown = set(present).union(*(s.heads for s in live if s.heads is not None))
+            if grown == avail:
+                break
+            avail = grown
+        needed = {"warn", "info"}
+        while True:  # (2) rules warn/info depend on
+            keep = [s for s in live if s.heads is None or s.heads & needed]
+            grown = needed.union(*(s.uses for s in keep))
+            if grown == needed:
+                break
+            needed = grown
+        with_body = set().union(*(s.heads for s in live if s.heads is not None and s.uses))
+        if all(not (s.negated & with_body) for s in live if s not in keep):
+            stmts = tuple(keep)
+        else:
+            stmts = tuple(live)
+        used = frozenset({"warn", "info"}.union(*(s.uses | s.heads for s in stmts if s.heads is not None)))
+        return "".join(f"{s.text}\n" for s in stmts), used
+    return "".join(f"{s.text}\n" for s in stmts), None
+
+
+#: one fact on a line, its predicate name (no "." inside, so not several facts)
+_FACT_LINE = re.compile(r"([a-z_][A-Za-z0-9_']*)\([^.]*\)\.")
+
+
+def _fact_names(facts: str) -> frozenset[str] | None:
+    """Names of the predicates of ``facts`` (over-approximated by every lower-case identifier in
+    it), or None when the text is not made of facts only."""
+    if ":-" in facts or "#" in facts or "{" in facts or ";" in facts or "%" in facts:
+        return None
+    return frozenset(re.findall(r"(?<![A-Za-z0-9_'\"])[a-z_][A-Za-z0-9_']*", facts))
 
 
 def solve_window(facts: str, situations: Iterable[Situation | str],
@@ -251,7 +370,11 @@ def solve_window(facts: str, situations: Iterable[Situation | str],
         return []
     consts = tuple(sorted(situation_constants(constants).items()))
     ctl = clingo.Control(["--warn=none"])
-    ctl.add("base", [], _program_text(consts, tuple(s.value for s in parts_wanted)) + facts)
+    program, used = _pruned(consts, tuple(s.value for s in parts_wanted), _fact_names(facts))
+    if used is not None:  # drop the lines holding one fact of a predicate the program does not use
+        facts = "".join(f"{line}\n" for line in facts.splitlines()
+                        if (m := _FACT_LINE.fullmatch(line)) is None or m.group(1) in used)
+    ctl.add("base", [], program + facts)
     ctl.ground([("base", [])])
     warns: dict[tuple[Situation, tuple[int, ...]], dict[str, list[Any]]] = {}
     infos: list[clingo.Symbol] = []
