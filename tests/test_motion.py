@@ -286,3 +286,35 @@ def test_predict_of_100_tracks_is_cheap():
     bank.add(cxcywh_to_xyxy(np.column_stack([rng.uniform(0, 1200, (100, 2)), rng.uniform(10, 100, (100, 2))])))
     per_call = min(timeit.repeat(bank.predict, number=200, repeat=5)) / 200
     assert per_call < 1e-3  # budget is 0.2 ms; generous here so loaded CI machines pass
+
+
+# trusted fast paths: bit-identical to the checked, general ones -----------------------------
+@SETTINGS
+@given(bank=bank_with_history(), seed=st.integers(0, 2**32 - 1))
+def test_trusted_update_equals_checked_update(bank, seed):
+    rng = np.random.default_rng(seed)
+    rows = rng.permutation(len(bank))[: int(rng.integers(1, len(bank) + 1))]
+    truth = bank.xyxy()[rows] + rng.normal(0.0, 5.0, (rows.size, 4))
+    truth[:, 2:] = np.maximum(truth[:, 2:], truth[:, :2] + rng.uniform(0.1, 5.0, (rows.size, 2)))
+    checked, trusted = bank.copy(), bank.copy()
+    checked.update(rows, truth)
+    trusted._update_trusted(rows.astype(np.int64), truth)
+    _assert_same(_state(checked), _state(trusted))
+
+
+@SETTINGS
+@given(bank=bank_with_history())
+def test_single_step_predict_equals_general_formula(bank):
+    # predict(1) takes a shortcut; per-track steps of ones take the general formulas
+    fast, general = bank.copy(), bank.copy()
+    np.testing.assert_array_equal(fast.predict(1), general.predict(np.ones(len(bank), dtype=np.int64)))
+    _assert_same(_state(fast), _state(general))
+
+
+def test_single_step_predict_clamps_like_general_formula():
+    bank = KalmanBank(KalmanConfig(min_size=4.0))
+    bank.add(np.array([[0, 0, 10, 10.0], [0, 0, 5, 5.0]]), velocity=np.array([1.0, -1.0, -3.0, -2.0]))
+    fast, general = bank.copy(), bank.copy()
+    for _ in range(3):
+        np.testing.assert_array_equal(fast.predict(1), general.predict(np.ones(2, dtype=np.int64)))
+    _assert_same(_state(fast), _state(general))

@@ -72,6 +72,14 @@ class KalmanConfig:
                 raise ValueError(f"KalmanConfig.{name} must be finite and > 0, got {value!r}")
 
 
+# columns of the (T, 20) state array: the coordinate-velocity pairs (x, pv) and (v, vv) each
+# sit 8 columns apart, so predict's ``x += v`` and ``pv += vv`` are one addition
+_X, _PV, _V, _VV, _PP = slice(0, 4), slice(4, 8), slice(8, 12), slice(12, 16), slice(16, 20)
+_COLUMNS = 20
+# the noise scale of cx, cy, w, h is w, h, w, h (see :meth:`KalmanBank._scale`)
+_WHWH = np.array([2, 3, 2, 3], dtype=np.intp)
+
+
 def _to_cxcywh(xyxy: np.ndarray) -> np.ndarray:
     x = np.asarray(xyxy, dtype=np.float64)
     if x.ndim != 2 or x.shape[1] != 4:
@@ -95,15 +103,21 @@ class KalmanBank:
     (pixels, pixels/frame). Rows are addressed by position 0..T-1; :meth:`remove` compacts them.
     """
 
-    __slots__ = ("config", "_x", "_v", "_pp", "_pv", "_vv")
+    __slots__ = ("config", "_s", "_x", "_v", "_pp", "_pv", "_vv")
 
     def __init__(self, config: KalmanConfig | None = None) -> None:
         self.config = config if config is not None else KalmanConfig()
-        self._x = np.zeros((0, 4))   # (T, 4) cx, cy, w, h
-        self._v = np.zeros((0, 4))   # (T, 4) their velocities
-        self._pp = np.zeros((0, 4))  # (T, 4) variance of each coordinate
-        self._pv = np.zeros((0, 4))  # (T, 4) covariance coordinate-velocity
-        self._vv = np.zeros((0, 4))  # (T, 4) variance of each velocity
+        self._bind(np.zeros((0, _COLUMNS)))
+
+    def _bind(self, state: np.ndarray) -> None:
+        """Hold the (T, 20) state array and its column views: one array, so that a row
+        gather, scatter, append or delete is one numpy call for all five quantities."""
+        self._s = state
+        self._x = state[:, _X]    # (T, 4) cx, cy, w, h
+        self._pv = state[:, _PV]  # (T, 4) covariance coordinate-velocity
+        self._v = state[:, _V]    # (T, 4) their velocities
+        self._vv = state[:, _VV]  # (T, 4) variance of each velocity
+        self._pp = state[:, _PP]  # (T, 4) variance of each coordinate
 
     def __len__(self) -> int:
         return int(self._x.shape[0])
@@ -172,14 +186,15 @@ class KalmanBank:
         cfg = self.config
         s = self._scale(z)
         start = len(self)
-        self._x = np.concatenate([self._x, z])
         v0 = np.zeros_like(z) if velocity is None else np.broadcast_to(np.asarray(velocity, float), z.shape)
         if not np.all(np.isfinite(v0)):
             raise ValueError("KalmanBank.add: velocities must be finite")
-        self._v = np.concatenate([self._v, v0])
-        self._pp = np.concatenate([self._pp, (cfg.init_position_std * s) ** 2])
-        self._pv = np.concatenate([self._pv, np.zeros_like(z)])
-        self._vv = np.concatenate([self._vv, (cfg.init_velocity_std * s) ** 2])
+        new = np.zeros((z.shape[0], _COLUMNS))
+        new[:, _X] = z
+        new[:, _V] = v0
+        new[:, _PP] = (cfg.init_position_std * s) ** 2
+        new[:, _VV] = (cfg.init_velocity_std * s) ** 2
+        self._bind(np.concatenate([self._s, new]))
         return np.arange(start, start + z.shape[0], dtype=np.intp)
 
     def predict(self, steps: int | np.ndarray = 1) -> np.ndarray:
@@ -188,20 +203,36 @@ class KalmanBank:
         Process noise is that of ``steps`` single-frame predictions, scaled by the box size
         before the call. Returns (T, 4) predicted boxes ``x1, y1, x2, y2``.
         """
+        if type(steps) is int and steps == 1:
+            return self._predict_one()
         n = self._steps(steps)
         if isinstance(n, int) and n == 0:
             return _to_xyxy(self._x)
         cfg = self.config
-        s2 = self._scale(self._x) ** 2
+        s2 = self._x[:, _WHWH] ** 2
         qp = cfg.position_std**2 * s2
         qv = cfg.velocity_std**2 * s2
         # sum_{k<n} F^k Q F^kT with F^k = [[1, k], [0, 1]] and Q = diag(qp, qv)
         n2 = n * n
-        pv, vv = self._pv, self._vv
-        self._pp = self._pp + 2.0 * n * pv + n2 * vv + n * qp + ((n - 1) * n * (2 * n - 1) / 6.0) * qv
-        self._pv = pv + n * vv + (n * (n - 1) / 2.0) * qv
-        self._vv = vv + n * qv
-        self._x = self._x + n * self._v
+        pp, pv, vv = self._pp, self._pv, self._vv
+        # in place, each from the old values (pp before pv before vv)
+        pp[...] = pp + 2.0 * n * pv + n2 * vv + n * qp + ((n - 1) * n * (2 * n - 1) / 6.0) * qv
+        pv[...] = pv + n * vv + (n * (n - 1) / 2.0) * qv
+        vv[...] = vv + n * qv
+        self._x[...] = self._x + n * self._v
+        self._clamp_size(self._x, self._v)
+        return _to_xyxy(self._x)
+
+    def _predict_one(self) -> np.ndarray:
+        """``predict(1)`` in fewer numpy calls: the general formulas at ``n = 1``, term by term
+        the same floating-point operations (the terms ``0 * qv`` vanish exactly)."""
+        cfg = self.config
+        st = self._s
+        s2 = st[:, _WHWH] ** 2
+        pp = self._pp
+        pp[...] = pp + 2.0 * self._pv + self._vv + cfg.position_std**2 * s2
+        st[:, :8] += st[:, 8:16]  # x += v and pv += vv (the old vv) in one call
+        self._vv[...] = self._vv + cfg.velocity_std**2 * s2
         self._clamp_size(self._x, self._v)
         return _to_xyxy(self._x)
 
@@ -217,30 +248,37 @@ class KalmanBank:
             raise ValueError("update: row indices must be distinct")
         if not np.all(np.isfinite(z)):
             raise ValueError("update: boxes must be finite")
-        x, v = self._x[idx], self._v[idx]
-        pp, pv, vv = self._pp[idx], self._pv[idx], self._vv[idx]
-        r = (self.config.measurement_std * self._scale(x)) ** 2
+        self._correct(idx, z)
+
+    def _update_trusted(self, index: np.ndarray, xyxy: np.ndarray) -> None:
+        """:meth:`update` without its input checks, for callers that guarantee them (the
+        tracker): ``index`` a (K,) int array of distinct rows in range, K >= 1, and ``xyxy``
+        (K, 4) finite float boxes. Same arithmetic, so the same result."""
+        self._correct(index, _to_cxcywh(xyxy))
+
+    def _correct(self, idx: np.ndarray, z: np.ndarray) -> None:
+        """The Kalman correction of rows ``idx`` by measurements ``z`` (K, 4) ``cx, cy, w, h``."""
+        rows = self._s[idx]  # (K, 20) copy, written back at the end
+        x, v = rows[:, _X], rows[:, _V]
+        pp, pv, vv = rows[:, _PP], rows[:, _PV], rows[:, _VV]
+        r = (self.config.measurement_std * x[:, _WHWH]) ** 2
         inv = 1.0 / (pp + r)
         innovation = z - x
-        x = x + (pp * inv) * innovation
-        v = v + (pv * inv) * innovation
+        x[...] = x + (pp * inv) * innovation
+        v[...] = v + (pv * inv) * innovation
         self._clamp_size(x, v)
-        self._x[idx] = x
-        self._v[idx] = v
-        self._pp[idx] = pp * r * inv
-        self._pv[idx] = pv * r * inv
-        self._vv[idx] = vv - pv * pv * inv
+        # in place, each from the old values (vv needs the old pv)
+        vv[...] = vv - pv * pv * inv
+        pp[...] = pp * r * inv
+        pv[...] = pv * r * inv
+        self._s[idx] = rows
 
     def remove(self, index: np.ndarray) -> None:
         """Drop rows ``index`` (int array or (T,) bool mask); the others keep their order."""
         idx = self._rows(index)
         if idx.size == 0:
             return
-        self._x = np.delete(self._x, idx, axis=0)
-        self._v = np.delete(self._v, idx, axis=0)
-        self._pp = np.delete(self._pp, idx, axis=0)
-        self._pv = np.delete(self._pv, idx, axis=0)
-        self._vv = np.delete(self._vv, idx, axis=0)
+        self._bind(np.delete(self._s, idx, axis=0))
 
     def xyxy(self) -> np.ndarray:
         """(T, 4) current state as boxes ``x1, y1, x2, y2`` (pixels)."""
@@ -275,8 +313,7 @@ class KalmanBank:
     def copy(self) -> KalmanBank:
         """An independent copy (same config object)."""
         out = KalmanBank(self.config)
-        out._x, out._v = self._x.copy(), self._v.copy()
-        out._pp, out._pv, out._vv = self._pp.copy(), self._pv.copy(), self._vv.copy()
+        out._bind(self._s.copy())
         return out
 
 

@@ -578,7 +578,7 @@ class Tracker:
         if matched:
             rows = np.array([index[t] for t in matched], dtype=np.int64)
             cols = np.array(list(matched.values()), dtype=np.int64)
-            self._kf.update(rows, dets.xyxy[cols])
+            self._kf._update_trusted(rows, dets.xyxy[cols])  # distinct rows in range, gated boxes
             self._unseen[rows] = 0
             self._state[rows] = TrackState.VISIBLE
             self._hits[rows] += 1
