@@ -527,3 +527,14 @@ def test_quantize_rounds_as_np_round():
     ref = (np.round(np.minimum(np.maximum(x, 0.0), 1.0) * levels + 1e-9) * 1000 // levels).astype(np.int64)
     assert np.array_equal(t._quantize(x), ref)
     assert np.array_equal(np.rint(x * 7), np.round(x * 7))
+
+
+@pytest.mark.parametrize("n", [0, 1, 7])
+def test_int_columns_equals_np_stack(n):
+    from sensemaking.tracker import _int_columns
+
+    rng = np.random.default_rng(n)
+    cols = [rng.integers(-5, 50, n), rng.integers(0, 9, n).astype(np.intp), rng.integers(0, 1000, n)]
+    out, ref = _int_columns(*cols), np.stack(cols, axis=1).astype(np.int64)
+    assert out.dtype == ref.dtype and out.shape == ref.shape and out.flags.c_contiguous
+    np.testing.assert_array_equal(out, ref)

@@ -408,7 +408,7 @@ class Tracker:
         in_front = np.where(bottom[None, :] > bottom[:, None], covered, 0.0)
         lik, qlik = self._gate(pred, dets, plain, uncertain, extra)
         ti, dj = np.nonzero(lik > 0)
-        cand = np.stack([ti, dj, qlik[ti, dj]], axis=1) if ti.size else np.zeros((0, 3), np.int64)
+        cand = _int_columns(ti, dj, qlik[ti, dj]) if ti.size else np.zeros((0, 3), np.int64)
         cand_exact = lik[ti, dj]
         at_all, outside_all = self._borders(boxes[:nb], area[:nb])
         at_border, outside, det_border = at_all[:n], outside_all[:n], at_all[n:]
@@ -422,11 +422,11 @@ class Tracker:
             # an occluder is visible: measure coverage with its detection, not its prediction
             dcov = in_front[:n, n:]
             back, dj = np.nonzero(dcov >= c.hide_cover)
-            covers = np.stack([dj, back], axis=1)
+            covers = _int_columns(dj, back)
             covers_exact = dcov[back, dj]
             if (self._occluder >= 0).any():
                 back, dj = np.nonzero((dcov >= c.keep_cover) & (self._occluder >= 0)[:, None])
-                keeps = np.stack([dj, back], axis=1)
+                keeps = _int_columns(dj, back)
         det_overlapped = np.zeros(nd, dtype=bool)
         if nd > 1:
             det_overlapped = in_front[n:, n:].max(axis=1) >= c.partial_cover
@@ -443,7 +443,7 @@ class Tracker:
             uncertain=(self._hits <= 1) & active,
             det_conf=det_conf_fact, det_class=dets.class_id, det_border=det_border & start_ok,
             det_overlapped=det_overlapped, cand=cand, covers=covers, keeps_covering=keeps,
-            hidden_by=np.stack([self._id[hid], self._occluder[hid]], axis=1) if hid.size else np.zeros((0, 2), np.int64),
+            hidden_by=_int_columns(self._id[hid], self._occluder[hid]) if hid.size else np.zeros((0, 2), np.int64),
             emerges=emerges,
             visibility=self._vis, first_frame=self._frames_seen == 1, cand_exact=cand_exact,
             covers_exact=covers_exact,
@@ -474,7 +474,7 @@ class Tracker:
         # (hidden track, detection): a candidate that touches the widened occluder box
         touch = (lik[tracks] > 0) & (intersection(boxes, dets.xyxy) > 0)
         h, d = np.nonzero(touch)
-        return np.stack([d, tracks[h]], axis=1).astype(np.int64)
+        return _int_columns(d, tracks[h])
 
     def _abduce(self, pred: np.ndarray, dets: Detections) -> tuple[Answer, bool]:
         if len(pred) == 0 and len(dets) == 0:
@@ -687,6 +687,15 @@ class Tracker:
             data={"state": self._state[keep], "occluder": self._occluder[keep],
                   "visibility": self._vis[keep], "hidden_frames": self._unseen[keep]},
         )
+
+
+def _int_columns(*cols: np.ndarray) -> np.ndarray:
+    """``np.stack(cols, axis=1).astype(np.int64)`` for 1-d integer arrays of one length (an
+    empty array and one assignment per column: fewer Python layers than np.stack)."""
+    out = np.empty((len(cols[0]), len(cols)), dtype=np.int64)
+    for i, col in enumerate(cols):
+        out[:, i] = col
+    return out
 
 
 def _widen(boxes: np.ndarray, factor: np.ndarray) -> np.ndarray:
