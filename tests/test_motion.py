@@ -305,7 +305,7 @@ def test_trusted_update_equals_checked_update(bank, seed):
 @SETTINGS
 @given(bank=bank_with_history())
 def test_single_step_predict_equals_general_formula(bank):
-    # predict(1) takes a shortcut; per-track steps of ones take the general formulas
+    # a scalar step and per-track steps of ones give the same state, bit for bit
     fast, general = bank.copy(), bank.copy()
     np.testing.assert_array_equal(fast.predict(1), general.predict(np.ones(len(bank), dtype=np.int64)))
     _assert_same(_state(fast), _state(general))

@@ -13,14 +13,14 @@ import numpy as np
 import pytest
 
 from sensemaking.abduction.problem import VISIBILITY_VALUES, FrameProblem
-from sensemaking.abduction.settle import DEFAULT_CONSTANTS, settle
-from sensemaking.abduction.solver import Answer, load_encoding
+from sensemaking.abduction.settle import settle
+from sensemaking.abduction.solver import Answer, encoding_constants, load_encoding
 from sensemaking.synthetic import make_scene, occlusion_suite
 from sensemaking.tracker import Tracker, TrackerConfig, _renumber_detections
 
 ENCODING = load_encoding()
 #: the constants the tracker gives the solver (confidence gates applied in numpy)
-CONSTANTS = {**DEFAULT_CONSTANTS, "iou_assign": 300, "iou_resume": 100, "conf_assign": 0, "conf_start": 1}
+CONSTANTS = {**encoding_constants(), "iou_assign": 300, "iou_resume": 100, "conf_assign": 0, "conf_start": 1}
 
 
 def optimal(problem: FrameProblem, consts: dict[str, int]) -> list[tuple[int, frozenset[str]]]:

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["iou", "intersection", "coverage", "xywh_to_xyxy", "xyxy_to_xywh", "xyxy_to_cxcywh",
-           "cxcywh_to_xyxy", "clip_to_image"]
+__all__ = ["iou", "intersection", "coverage", "box_area", "safe_ratio", "iou_from_intersection", "xywh_to_xyxy",
+           "xyxy_to_xywh", "xyxy_to_cxcywh", "cxcywh_to_xyxy", "clip_to_image"]
 
 
 def intersection(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -18,29 +18,36 @@ def intersection(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.maximum(w, 0.0) * np.maximum(h, 0.0)
 
 
-def _area(x: np.ndarray) -> np.ndarray:
+def box_area(x: np.ndarray) -> np.ndarray:
+    """(N,) areas of (N, 4) ``xyxy`` boxes (0 for inverted boxes)."""
     return np.maximum(x[:, 2] - x[:, 0], 0.0) * np.maximum(x[:, 3] - x[:, 1], 0.0)
+
+
+def safe_ratio(num: np.ndarray, den: np.ndarray) -> np.ndarray:
+    """``num / den`` elementwise, 0 where ``den`` is not positive (broadcasting as ``/``)."""
+    positive = den > 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(positive, num / np.where(positive, den, 1.0), 0.0)
+
+
+def iou_from_intersection(inter: np.ndarray, area_a: np.ndarray, area_b: np.ndarray) -> np.ndarray:
+    """:func:`iou` from the (N, M) :func:`intersection` and the areas (N,), (M,) of the boxes
+    (for callers that computed them already)."""
+    return safe_ratio(inter, area_a[:, None] + area_b[None, :] - inter)
 
 
 def iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """(N, M) intersection over union in [0, 1]; 0 where the union is empty."""
     a = np.asarray(a, dtype=np.float64).reshape(-1, 4)
     b = np.asarray(b, dtype=np.float64).reshape(-1, 4)
-    inter = intersection(a, b)
-    union = _area(a)[:, None] + _area(b)[None, :] - inter
-    with np.errstate(divide="ignore", invalid="ignore"):
-        out = np.where(union > 0, inter / np.where(union > 0, union, 1.0), 0.0)
-    return out
+    return iou_from_intersection(intersection(a, b), box_area(a), box_area(b))
 
 
 def coverage(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """(N, M) fraction of each box of ``a`` covered by each box of ``b`` (intersection / area of a)."""
     a = np.asarray(a, dtype=np.float64).reshape(-1, 4)
     b = np.asarray(b, dtype=np.float64).reshape(-1, 4)
-    inter = intersection(a, b)
-    area = _area(a)[:, None]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(area > 0, inter / np.where(area > 0, area, 1.0), 0.0)
+    return safe_ratio(intersection(a, b), box_area(a)[:, None])
 
 
 def xywh_to_xyxy(xywh: np.ndarray) -> np.ndarray:

@@ -72,11 +72,11 @@ class KalmanConfig:
                 raise ValueError(f"KalmanConfig.{name} must be finite and > 0, got {value!r}")
 
 
-# columns of the (T, 20) state array: the coordinate-velocity pairs (x, pv) and (v, vv) each
-# sit 8 columns apart, so predict's ``x += v`` and ``pv += vv`` are one addition
+# columns of the (T, 20) state array (one array: a row gather, scatter, append or delete is one
+# numpy call for all five quantities)
 _X, _PV, _V, _VV, _PP = slice(0, 4), slice(4, 8), slice(8, 12), slice(12, 16), slice(16, 20)
 _COLUMNS = 20
-# the noise scale of cx, cy, w, h is w, h, w, h (see :meth:`KalmanBank._scale`)
+# the noise scale of cx, cy, w, h is w, h, w, h (:meth:`KalmanBank._scale`)
 _WHWH = np.array([2, 3, 2, 3], dtype=np.intp)
 
 
@@ -126,12 +126,10 @@ class KalmanBank:
         return f"KalmanBank(n={len(self)})"
 
     # helpers ---------------------------------------------------------------------------
-    def _scale(self, x: np.ndarray) -> np.ndarray:
-        """(K, 4) noise scale per coordinate: w, h, w, h (pixels)."""
-        s = np.empty_like(x)
-        s[:, 0::2] = x[:, 2:3]
-        s[:, 1::2] = x[:, 3:4]
-        return s
+    @staticmethod
+    def _scale(x: np.ndarray) -> np.ndarray:
+        """(K, 4) noise scale per coordinate of ``cx, cy, w, h`` rows: w, h, w, h (pixels)."""
+        return x[:, _WHWH]
 
     def _steps(self, steps: int | np.ndarray) -> np.ndarray | int:
         if isinstance(steps, (int, np.integer)) and not isinstance(steps, bool):
@@ -203,13 +201,11 @@ class KalmanBank:
         Process noise is that of ``steps`` single-frame predictions, scaled by the box size
         before the call. Returns (T, 4) predicted boxes ``x1, y1, x2, y2``.
         """
-        if type(steps) is int and steps == 1:
-            return self._predict_one()
         n = self._steps(steps)
         if isinstance(n, int) and n == 0:
             return _to_xyxy(self._x)
         cfg = self.config
-        s2 = self._x[:, _WHWH] ** 2
+        s2 = self._scale(self._x) ** 2
         qp = cfg.position_std**2 * s2
         qv = cfg.velocity_std**2 * s2
         # sum_{k<n} F^k Q F^kT with F^k = [[1, k], [0, 1]] and Q = diag(qp, qv)
@@ -220,19 +216,6 @@ class KalmanBank:
         pv[...] = pv + n * vv + (n * (n - 1) / 2.0) * qv
         vv[...] = vv + n * qv
         self._x[...] = self._x + n * self._v
-        self._clamp_size(self._x, self._v)
-        return _to_xyxy(self._x)
-
-    def _predict_one(self) -> np.ndarray:
-        """``predict(1)`` in fewer numpy calls: the general formulas at ``n = 1``, term by term
-        the same floating-point operations (the terms ``0 * qv`` vanish exactly)."""
-        cfg = self.config
-        st = self._s
-        s2 = st[:, _WHWH] ** 2
-        pp = self._pp
-        pp[...] = pp + 2.0 * self._pv + self._vv + cfg.position_std**2 * s2
-        st[:, :8] += st[:, 8:16]  # x += v and pv += vv (the old vv) in one call
-        self._vv[...] = self._vv + cfg.velocity_std**2 * s2
         self._clamp_size(self._x, self._v)
         return _to_xyxy(self._x)
 
@@ -261,7 +244,7 @@ class KalmanBank:
         rows = self._s[idx]  # (K, 20) copy, written back at the end
         x, v = rows[:, _X], rows[:, _V]
         pp, pv, vv = rows[:, _PP], rows[:, _PV], rows[:, _VV]
-        r = (self.config.measurement_std * x[:, _WHWH]) ** 2
+        r = (self.config.measurement_std * self._scale(x)) ** 2
         inv = 1.0 / (pp + r)
         innovation = z - x
         x[...] = x + (pp * inv) * innovation

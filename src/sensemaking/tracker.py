@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import logging
 import time
+from functools import lru_cache
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
@@ -20,7 +21,7 @@ from sensemaking.abduction.problem import VISIBILITY_VALUES, FrameProblem
 from sensemaking.abduction.settle import settle
 from sensemaking.abduction.solver import AbductionSolver, Answer
 from sensemaking.detections import Detections
-from sensemaking.geometry import _area, intersection, iou
+from sensemaking.geometry import box_area, intersection, iou, iou_from_intersection, safe_ratio
 from sensemaking.motion import KalmanBank, KalmanConfig
 from sensemaking.results import Event, FrameResult, TrackState
 
@@ -213,10 +214,8 @@ class Tracker:
         self.reset()
 
     def _quantize(self, x: np.ndarray, rounding=np.rint) -> np.ndarray:
-        """Values in [0, 1] -> integers 0..1000 on a grid of ``likelihood_levels`` steps
-        (``np.rint``: what ``np.round`` calls for 0 decimals, without its Python layers)."""
-        levels = self.config.likelihood_levels
-        return (rounding(np.minimum(np.maximum(x, 0.0), 1.0) * levels + 1e-9) * 1000 // levels).astype(np.int64)
+        """Values in [0, 1] -> integers 0..1000 on a grid of ``likelihood_levels`` steps."""
+        return _quantize(x, self.config.likelihood_levels, rounding)
 
     # -- state ------------------------------------------------------------------------------
     def reset(self) -> None:
@@ -335,46 +334,27 @@ class Tracker:
         ok &= q >= np.where(unseen, resume, assign)[:, None]
         return np.where(ok, lik, 0.0), q
 
-    def _thresholds(self, *iou: float) -> list[int]:
-        """IoU thresholds on the solver's grid, rounded down (cached: asked every frame)."""
-        key = (self.config.likelihood_levels, *iou)
-        cache = self.__dict__.setdefault("_threshold_cache", {})
-        if key not in cache:
-            cache[key] = self._quantize(np.array(iou), np.floor).tolist()
-        return cache[key]
+    def _thresholds(self, *iou: float) -> tuple[int, ...]:
+        """IoU thresholds on the solver's grid, rounded down."""
+        return _floored_grid(self.config.likelihood_levels, iou)
 
     def _scaled_confidence(self, conf: np.ndarray) -> np.ndarray:
         if self.config.confidence_sigmoid:
             conf = 1.0 / (1.0 + np.exp(-conf))
         return self._quantize(conf)
 
-    def _image_limits(self) -> tuple[float, np.ndarray, np.ndarray]:
-        """``border_margin``, ``(w, h)`` and ``(w - margin, h - margin)`` as arrays (cached: asked
-        every frame; needs ``image_size``)."""
-        key = (self.config.image_size, self.config.border_margin)
-        cache = self.__dict__.setdefault("_limits_cache", {})
-        if key not in cache:
-            (w, h), m = key
-            cache[key] = (m, np.array([w, h], dtype=np.float64), np.array([w - m, h - m], dtype=np.float64))
-        return cache[key]
-
     def _borders(self, boxes: np.ndarray, area: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(at the border, mostly outside) for (N, 4) boxes; all False without an image size.
-        ``area``: ``geometry._area(boxes)`` if the caller has it already."""
+        ``area``: ``geometry.box_area(boxes)`` if the caller has it already."""
         n = len(boxes)
         if self.config.image_size is None or n == 0:
             return np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
-        m, size, far = self._image_limits()
+        m, image, far = _image_limits(self.config.image_size, self.config.border_margin)
         # x1 <= m or y1 <= m or x2 >= w - m or y2 >= h - m
         near = (boxes[:, :2] <= m) | (boxes[:, 2:] >= far)  # (N, 2): x side, y side
         at = near[:, 0] | near[:, 1]
-        # geometry.coverage(boxes, image) for one image box, in the same arithmetic: per axis
-        # max(min(x2, w) - max(x1, 0), 0), their product over the box's area
-        side = np.maximum(np.minimum(boxes[:, 2:], size) - np.maximum(boxes[:, :2], 0.0), 0.0)
-        inter = side[:, 0] * side[:, 1]
-        area = _area(boxes) if area is None else area
-        positive = area > 0  # no division by zero below: area is replaced by 1 where it is 0
-        inside = np.where(positive, inter / np.where(positive, area, 1.0), 0.0)
+        area = box_area(boxes) if area is None else area
+        inside = safe_ratio(intersection(boxes, image)[:, 0], area)  # geometry.coverage(boxes, image)
         return at, inside < 0.05  # (almost) nothing left in view; detections may stick out far
 
     def _problem(self, pred: np.ndarray, dets: Detections) -> FrameProblem:
@@ -382,33 +362,28 @@ class Tracker:
         n, nd, dxy = len(pred), len(dets), dets.xyxy
         nb = n + nd
         # one intersection of every box (predictions, then detections, then the uncertain
-        # tracks' extra boxes, see _uncertain) with the predictions and detections:
-        # geometry.iou and geometry.coverage of its blocks, in the same (elementwise) arithmetic
+        # tracks' extra boxes, see _uncertain) with the predictions and detections, from which
+        # the iou and coverage of its blocks follow
         uncertain = self._uncertain(pred) if n and nd else None
         if uncertain is not None:
             boxes = np.concatenate([pred, dxy] + [b for _, b in uncertain[1]])
         else:
             boxes = pred if n else dxy
         inter = intersection(boxes, boxes[:nb])
-        area = _area(boxes)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            col = area[:nb, None]
-            positive = col > 0
-            covered = np.where(positive, inter[:nb] / np.where(positive, col, 1.0), 0.0)  # i covered by j
-            plain = extra = None
-            if n and nd:
-                # iou of every box with the detections (rows n..nb, detections with themselves,
-                # are not used)
-                union = area[:, None] + area[None, n:nb] - inter[:, n:nb]
-                positive = union > 0
-                fit = np.where(positive, inter[:, n:nb] / np.where(positive, union, 1.0), 0.0)
-                plain, extra = fit[:n], fit[nb:]
+        area = box_area(boxes)
+        covered = safe_ratio(inter[:nb], area[:nb, None])  # geometry.coverage: i covered by j
+        plain = extra = None
+        if n and nd:
+            # iou of every box with the detections (rows n..nb, detections with themselves,
+            # are not used)
+            fit = iou_from_intersection(inter[:, n:nb], area, area[n:nb])
+            plain, extra = fit[:n], fit[nb:]
         # coverage by boxes in front only (bottom lower in the image; never a box by itself)
         bottom = boxes[:nb, 3]
         in_front = np.where(bottom[None, :] > bottom[:, None], covered, 0.0)
         lik, qlik = self._gate(pred, dets, plain, uncertain, extra)
         ti, dj = np.nonzero(lik > 0)
-        cand = _int_columns(ti, dj, qlik[ti, dj]) if ti.size else np.zeros((0, 3), np.int64)
+        cand = _int_columns(ti, dj, qlik[ti, dj])
         cand_exact = lik[ti, dj]
         at_all, outside_all = self._borders(boxes[:nb], area[:nb])
         at_border, outside, det_border = at_all[:n], outside_all[:n], at_all[n:]
@@ -443,7 +418,7 @@ class Tracker:
             uncertain=(self._hits <= 1) & active,
             det_conf=det_conf_fact, det_class=dets.class_id, det_border=det_border & start_ok,
             det_overlapped=det_overlapped, cand=cand, covers=covers, keeps_covering=keeps,
-            hidden_by=_int_columns(self._id[hid], self._occluder[hid]) if hid.size else np.zeros((0, 2), np.int64),
+            hidden_by=_int_columns(self._id[hid], self._occluder[hid]),
             emerges=emerges,
             visibility=self._vis, first_frame=self._frames_seen == 1, cand_exact=cand_exact,
             covers_exact=covers_exact,
@@ -687,6 +662,26 @@ class Tracker:
             data={"state": self._state[keep], "occluder": self._occluder[keep],
                   "visibility": self._vis[keep], "hidden_frames": self._unseen[keep]},
         )
+
+
+def _quantize(x: np.ndarray, levels: int, rounding=np.rint) -> np.ndarray:
+    """Values in [0, 1] -> integers 0..1000 on a grid of ``levels`` steps (``np.rint``: what
+    ``np.round`` calls for 0 decimals, without its Python layers)."""
+    return (rounding(np.minimum(np.maximum(x, 0.0), 1.0) * levels + 1e-9) * 1000 // levels).astype(np.int64)
+
+
+@lru_cache(maxsize=16)
+def _floored_grid(levels: int, iou: tuple[float, ...]) -> tuple[int, ...]:
+    """IoU thresholds on the solver's grid of ``levels`` steps, rounded down (asked every frame)."""
+    return tuple(_quantize(np.array(iou), levels, np.floor).tolist())
+
+
+@lru_cache(maxsize=16)
+def _image_limits(image_size: tuple[int, int], margin: float) -> tuple[float, np.ndarray, np.ndarray]:
+    """``margin``, the image as a (1, 4) box and ``(w - margin, h - margin)`` (asked every frame;
+    shared arrays: not to be modified)."""
+    w, h = image_size
+    return margin, np.array([[0.0, 0.0, w, h]]), np.array([w - margin, h - margin], dtype=np.float64)
 
 
 def _int_columns(*cols: np.ndarray) -> np.ndarray:

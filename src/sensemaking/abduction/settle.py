@@ -28,16 +28,9 @@ from functools import cached_property
 import numpy as np
 
 from sensemaking.abduction.problem import VISIBILITY_VALUES, FrameProblem
-from sensemaking.abduction.solver import Answer
+from sensemaking.abduction.solver import Answer, encoding_constants
 
-__all__ = ["settle", "DEFAULT_CONSTANTS"]
-
-#: the encoding's ``#const`` defaults (tracking.lp); the solver's constants override them
-DEFAULT_CONSTANTS: dict[str, int] = {
-    "iou_assign": 300, "iou_resume": 100, "conf_assign": 0, "conf_start": 500,
-    "cost_enters": 100, "cost_appears": 400, "cost_leaves": 100, "cost_lost": 600, "cost_dropped": 0,
-    "cost_hides": 50, "cost_missing": 250, "cost_unseen": 20, "cost_ignore": 600,
-}
+__all__ = ["settle"]
 
 _FV, _PO, _FO = VISIBILITY_VALUES  # fully_visible, partially_occluded, fully_occluded
 
@@ -49,6 +42,8 @@ def settle(problem: FrameProblem, constants: Mapping[str, int] | None = None,
            max_branches: int = 2048, whole: bool = False, tracks: np.ndarray | None = None,
            dets: np.ndarray | None = None) -> tuple[Answer, np.ndarray, np.ndarray]:
     """Settle every component of ``problem`` whose optimum is unique and small to enumerate.
+
+    ``constants`` override the ``#const`` values of ``tracking.lp`` (the solver's constants).
 
     ``tracks``, ``dets``: masks of the objects to consider (default all): the same as settling
     ``problem.subset(tracks, dets)``, but the answer keeps ``problem``'s detection numbering.
@@ -62,7 +57,7 @@ def settle(problem: FrameProblem, constants: Mapping[str, int] | None = None,
         (the answer for the settled objects, in ``problem``'s detection numbering; mask of the
         considered tracks left to the solver; mask of the considered detections left to it)
     """
-    k = {**DEFAULT_CONSTANTS, **(constants or {})}
+    k = {**encoding_constants(), **(constants or {})}  # tracking.lp's #const, overridden
     nt, nd = problem.n_tracks, problem.n_dets
     answer = Answer(cost=0, optimal=True)
     t_rest = np.ones(nt, dtype=bool) if tracks is None else tracks.copy()
@@ -144,11 +139,10 @@ class _Context:
         self.dborder = p.det_border.tolist()
         self.doverlapped = p.det_overlapped.tolist()
         self.first_frame = bool(p.first_frame)
-        self.hidden0: dict[int, int] = {}
+        self.hidden0: dict[int, int] = {}  # track id -> (first) occluder
+        self.n_hidden0: dict[int, int] = {}  # track id -> number of occluders
         for t, o in p.hidden_by.tolist():
             self.hidden0.setdefault(t, o)
-        self.n_hidden0 = {}
-        for t, _ in p.hidden_by.tolist():
             self.n_hidden0[t] = self.n_hidden0.get(t, 0) + 1
         self.cand: dict[int, list[tuple[int, int]]] = {}
         for t, d, lik in cand:

@@ -17,11 +17,11 @@ from functools import lru_cache
 from importlib import resources
 
 import clingo
-from clingo.ast import ProgramBuilder, parse_string
+from clingo.ast import ASTType, ProgramBuilder, parse_string
 
 from sensemaking.abduction.problem import FrameProblem
 
-__all__ = ["Answer", "AbductionSolver", "load_encoding"]
+__all__ = ["Answer", "AbductionSolver", "load_encoding", "encoding_constants"]
 
 log = logging.getLogger(__name__)
 
@@ -59,6 +59,17 @@ def _term(text: str) -> tuple[str, tuple[int | str, ...]]:
 def load_encoding(name: str = "tracking.lp") -> str:
     """Text of an encoding shipped as package data in ``sensemaking/abduction/encodings``."""
     return resources.files("sensemaking.abduction").joinpath("encodings", name).read_text(encoding="utf-8")
+
+
+def encoding_constants(encoding: str | None = None) -> dict[str, int]:
+    """The ``#const`` defaults of an encoding's text (default: the packaged ``tracking.lp``)."""
+    return dict(_constants(encoding if encoding is not None else load_encoding()))
+
+
+@lru_cache(maxsize=8)
+def _constants(encoding: str) -> tuple[tuple[str, int], ...]:
+    return tuple((stmt.name, int(stmt.value.symbol.number)) for stmt in _parsed(encoding)
+                 if stmt.ast_type == ASTType.Definition)
 
 
 @dataclass

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from sensemaking.benchmark.peers import DISPLAY_NAMES
+from sensemaking.benchmark.peers import DISPLAY_NAMES, PEERS
 from sensemaking.benchmark.runner import SELECT_BY, BenchmarkRun, RunSummary, TrackerRun
 from sensemaking.io.atomic import atomic_write
 
@@ -230,7 +230,6 @@ class TargetCheck:
 MOTA_SLACK = 0.005
 #: our time per frame may be at most this multiple of the fastest peer's
 TIME_FACTOR = 2.0
-_PEER_KEYS = ("sort", "bytetrack", "ocsort")
 
 
 def check_targets(b: BenchmarkRun) -> list[TargetCheck]:
@@ -250,7 +249,7 @@ def check_targets(b: BenchmarkRun) -> list[TargetCheck]:
             a, o = _get(abl.metrics, key), _get(m, key)
             out.append(TargetCheck(name, f"{key}: with abduction > without", o > a, 100 * (o - a),
                                    f"{_pct(o)} vs {_pct(a)}"))
-    peers = {k: b.chosen(k) for k in _PEER_KEYS}
+    peers = {k: b.chosen(k) for k in PEERS}
     peers = {k: r for k, r in peers.items() if r is not None and r.error is None and r.metrics}
     if not peers:
         return out

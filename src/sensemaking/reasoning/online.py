@@ -32,7 +32,7 @@ import numpy as np
 from sensemaking.classes import PEOPLE, VEHICLES, class_name
 from sensemaking.reasoning.anticipation import Anticipation, anticipate_fits, fit_motion
 from sensemaking.reasoning.context import SceneContext, asp_name
-from sensemaking.reasoning.relations import INVERSE, IA_RELATIONS, MOTION_KINDS, motion_rows, near_pair_codes
+from sensemaking.reasoning.relations import IA_RELATIONS, MOTION_KINDS, inverse_codes, motion_rows, near_pair_codes
 from sensemaking.reasoning.situations import (
     SituationMatch, Situation, SituationConfig, Warning, situation_constants, solve_window,
 )
@@ -48,7 +48,7 @@ BOTTOM_LOWER: frozenset[str] = frozenset({"after", "met_by", "overlapped_by", "c
 #: by relation code: the code is in BOTTOM_LOWER
 _BL: list[bool] = [r in BOTTOM_LOWER for r in IA_RELATIONS]
 #: by relation code: the code of the converse relation
-_INV: list[int] = [IA_RELATIONS.index(INVERSE[r]) for r in IA_RELATIONS]
+_INV: list[int] = inverse_codes(np.arange(len(IA_RELATIONS))).tolist()
 #: x relations of boxes side by side (``lateral/1`` of relations.lp; closed under the converse)
 _LATERAL_CODES = frozenset(IA_RELATIONS.index(r) for r in
                            ("before", "after", "meets", "met_by", "overlaps", "overlapped_by"))

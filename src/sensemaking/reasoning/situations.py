@@ -235,7 +235,6 @@ class _Names(clingo_ast.Transformer):
 
     def __init__(self) -> None:
         self.names: set[str] = set()
-        self.unknown = False
 
     def visit_SymbolicAtom(self, node: Any) -> Any:  # noqa: N802 - clingo's visitor naming
         self.names.update(_atom_names(node))
