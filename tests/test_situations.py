@@ -6,13 +6,14 @@ from __future__ import annotations
 import json
 import logging
 
+import clingo
 import numpy as np
 import pytest
 from test_scene_helpers import CAR, CYC, PED, TRUCK, Obj, build_results, cyclist_behind_turning_car, linear, piecewise
 
 from sensemaking.reasoning.context import Lane, LaneMap, SceneContext
 from sensemaking.reasoning.online import SituationMonitor
-from sensemaking.reasoning.situations import ALL_SITUATIONS, Situation, SituationConfig, Warning
+from sensemaking.reasoning.situations import ALL_SITUATIONS, Situation, SituationConfig, Warning, answer_of_grounded
 
 SIZE = (1242, 375)
 
@@ -105,10 +106,11 @@ def test_overtaking_not_for_oncoming_traffic():
     assert only(run([Obj(1, CAR, a), Obj(2, CAR, b)]), "OVERTAKING") == []
 
 
-@pytest.mark.parametrize("name", ["oncoming", "overtaking", "hidden_late"])
-def test_prefilter_calls_the_solver_only_when_the_situation_holds(name):
-    # OVERTAKING and HIDDEN_ENTITY candidates already pass every condition of their rules that
-    # holds at the current frame alone (side by side, B not approaching, lead within he_lead_ms)
+@pytest.mark.parametrize("name", ["oncoming", "overtaking", "hidden_late", "reduced", "stop"])
+def test_the_solver_is_called_only_when_a_situation_starts_to_hold(name):
+    # OVERTAKING, HIDDEN_ENTITY, REDUCED_VISIBILITY and SUDDEN_STOP candidates already pass every
+    # condition of their rules (side by side, B not approaching, lead within he_lead_ms, ...), and
+    # one held at the previous frame is still held without asking the solver
     a = linear(range(30), box(500, 290, 120, 80))
     b = piecewise([(0, box(650, 260, 90, 60)), (29, box(690, 330, 150, 100))])  # near, oncoming
     objs, config = {
@@ -116,12 +118,39 @@ def test_prefilter_calls_the_solver_only_when_the_situation_holds(name):
         "overtaking": (overtaking(), SituationConfig(situations={"OVERTAKING"})),
         "hidden_late": (cyclist_behind_turning_car(),
                         SituationConfig(situations={"HIDDEN_ENTITY"}, constants={"he_lead_ms": 1000})),
+        "reduced": (cyclist_behind_turning_car(), SituationConfig(situations={"REDUCED_VISIBILITY"})),
+        "stop": (stopping_car(2), SituationConfig(situations={"SUDDEN_STOP"})),
     }[name]
     mon = SituationMonitor(config, fps=10.0, image_size=SIZE)
+    before: set = set()
+    starts = 0
     for r in build_results(objs):
         calls = mon.stats["solver_calls"]
         mon.update(r)
-        assert mon.stats["solver_calls"] == calls + bool(mon.active)
+        made = mon.stats["solver_calls"] - calls
+        now = {(w.situation, w.objects) for w in mon.active}  # reading it may ask the solver
+        assert made == bool(now - before)
+        starts += bool(now - before)
+        before = now
+    assert (starts > 0) == (name != "oncoming")
+
+
+def test_active_is_the_solvers_answer_on_frames_without_a_call():
+    # a long REDUCED_VISIBILITY: after its start the solver is asked only when active is read,
+    # and the warnings of active are those of that frame
+    mon = SituationMonitor(SituationConfig(situations={"REDUCED_VISIBILITY"}), fps=10.0, image_size=SIZE)
+    full = SituationMonitor(SituationConfig(situations={"REDUCED_VISIBILITY"}, prefilter=False), fps=10.0,
+                            image_size=SIZE)
+    held = 0
+    for r in build_results(cyclist_behind_turning_car()):
+        mon.update(r)
+        full.update(r)
+        calls = mon.stats["solver_calls"]
+        got = [w.to_json() for w in mon.active]
+        assert got == [w.to_json() for w in full.active]
+        assert all(w["frame"] == r.frame for w in got)
+        held += bool(got) and mon.stats["solver_calls"] > calls
+    assert held > 3
 
 
 # -- HIDDEN_ENTITY --------------------------------------------------------------------------------
@@ -361,3 +390,25 @@ def test_leaving_out_rules_that_cannot_matter_changes_no_answer(name, monkeypatc
         pruned += len(situations._program_text(consts, names, situations._fact_names(facts))) < \
             len(situations._program_text(consts, names))
     assert pruned > 0
+
+
+# -- reading the answer of a grounded program ---------------------------------------------------
+def _grounded(program: str) -> clingo.Control:
+    ctl = clingo.Control(["--warn=none"])
+    ctl.add("base", [], program)
+    ctl.ground([("base", [])])
+    return ctl
+
+
+@pytest.mark.parametrize("program, expected", [
+    # stratified: grounding decides everything, the facts are the answer
+    ("p(1). p(2). q(X) :- p(X), not r(X). r(2).", ["q(1)"]),
+    # a choice leaves atoms open: the solver decides (first answer set: some subset)
+    ("{ q(1) }. :- not q(1).", ["q(1)"]),
+    # no answer set at all
+    ("q(1). :- q(1).", []),
+    ("p(1). q(X) :- p(X). :- q(1), not s. s :- not t. t :- not s.", ["q(1)"]),
+])
+def test_answer_of_grounded_is_the_first_answer_set(program, expected):
+    got = sorted(str(s) for s in answer_of_grounded(_grounded(program), [("q", 1)]))
+    assert got == expected

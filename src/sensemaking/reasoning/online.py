@@ -7,14 +7,18 @@ occluders, which boxes stand in the ego corridor, qualitative motion of visible 
 rectangle relations of near pairs involving a vehicle, events, lanes and ground labels, and the
 anticipated reappearance of hidden tracks. From the snapshots it finds the *candidates* of each
 situation -- the objects for which the trigger facts of its rules are present, a necessary
-condition of the rule bodies -- and, only when there are any, grounds ``situations.lp`` on a
-fresh clingo Control with the facts of those objects (on most frames nothing is grounded at
-all; :func:`~sensemaking.reasoning.situations.solve_window` leaves out the rules that cannot fire
-with those facts). History is never re-grounded. With ``SituationConfig(prefilter=False)``
+condition of the rule bodies -- and, only when there are new ones, grounds ``situations.lp`` on a
+fresh clingo Control with the facts of those objects
+(:func:`~sensemaking.reasoning.situations.solve_window` leaves out the rules that cannot fire with
+those facts). History is never re-grounded. For OVERTAKING, HIDDEN_ENTITY, REDUCED_VISIBILITY and
+SUDDEN_STOP the candidates are exactly the objects the rules hold for (every condition of the
+rule body is checked), so a candidate held at the previous frame is still held without asking the
+solver: on most frames nothing is grounded at all. With ``SituationConfig(prefilter=False)``
 every situation is grounded every frame with every fact of the window; the warnings are the same.
 
 A warning is returned when its situation starts to hold; :attr:`SituationMonitor.active`
-lists every situation holding at the current frame.
+lists every situation holding at the current frame (reading it asks the solver about the frame
+if :meth:`SituationMonitor.update` did not).
 """
 
 from __future__ import annotations
@@ -54,6 +58,12 @@ _LATERAL_CODES = frozenset(IA_RELATIONS.index(r) for r in
                            ("before", "after", "meets", "met_by", "overlaps", "overlapped_by"))
 _K = {k: i for i, k in enumerate(MOTION_KINDS)}
 _VISIBLE, _HIDDEN = int(TrackState.VISIBLE), int(TrackState.HIDDEN)
+
+
+#: situations whose candidates (SituationMonitor._candidates) are exactly the objects their rules
+#: hold for: every condition of the rule body is checked there. BLOCKED_LANE (how long on the lane,
+#: off the road) and EXITING_VEHICLE (touching) are only prefiltered.
+_EXACT: frozenset[str] = frozenset({"OVERTAKING", "HIDDEN_ENTITY", "REDUCED_VISIBILITY", "SUDDEN_STOP"})
 
 
 def _lane_term(lane_id: int | str) -> str:
@@ -141,7 +151,9 @@ class SituationMonitor:
         self._features: dict[int, tuple[float, float, float]] = {}  # speed px/s, vx px/s, growth 1/s
         # fit_motion of hidden tracks, with (history length, last visible frame) it was made from
         self._fits: dict[int, tuple[tuple[int, int], tuple[int, np.ndarray, np.ndarray]]] = {}
-        self.active: list[Warning] = []
+        self._active: list[Warning] | None = []  # None: not solved yet at this frame (see active)
+        self._pending: tuple[int, dict[Situation, Any] | None, list[Situation]] | None = None
+        self._held: set[tuple[str, tuple[int, ...]]] = set()  # held at the last frame, exact situations
         self.stats: dict[str, float] = {"frames": 0, "solver_calls": 0, "ms": 0.0}
 
     @property
@@ -172,29 +184,68 @@ class SituationMonitor:
         self._observe(result)
         if self.config.prefilter:
             cands = {s: c for s, c in self._candidates().items() if c and s in self._checked}
-            parts = [s for s in self._checked if s in cands]
-            facts = self._render(cands) if parts else ""
+            held, fresh = self._continuing(cands)
+            parts = [s for s in self._checked if s in fresh]
         else:
-            parts = list(self._checked)
-            facts = self._render(None)
-        detections: list[SituationMatch] = []
-        if parts:
-            detections = solve_window(facts, parts, self.config.constants)
-            self.stats["solver_calls"] += 1
-        held: list[Warning] = []
-        for d in detections:
-            w = self._warning(f, d)
-            held.append(w)
+            cands, held, fresh, parts = None, [], None, list(self._checked)
+        found = [self._warning(f, d) for d in self._solve(fresh, parts)]
+        if held:  # the solver saw only the fresh candidates: active asks it about all, if read
+            self._active = None
+            self._pending = (f, cands, [s for s in self._checked if s in cands])
+        else:
+            self._active = found
+        for w in found:
             key = (w.situation, w.objects)
             last = self._last_held.get(key)
             if last is None or f - last > self._rearm:
                 new.append(w)
+            held.append(key)
+        self._held = {k for k in held if k[0] in _EXACT} if cands is not None else set()
+        for key in held:
             self._last_held[key] = f
-        self.active = held
         self._forget(f)
         self.stats["frames"] += 1
         self.stats["ms"] += (time.perf_counter() - t0) * 1000.0
         return new
+
+    def _continuing(self, cands: dict[Situation, Any]) -> tuple[list[tuple[str, tuple[int, ...]]], dict[Situation, Any]]:
+        """Split the candidates into those held at the previous frame by a situation whose
+        candidates are exactly the objects its rules hold for (:data:`_EXACT`: they still hold,
+        the solver would say so; returned as warning keys) and the rest, to ask the solver about."""
+        held: list[tuple[str, tuple[int, ...]]] = []
+        fresh: dict[Situation, Any] = {}
+        for s, c in cands.items():
+            if s.name not in _EXACT or not self._held:
+                fresh[s] = c
+                continue
+            rest = set()
+            for o in c:
+                key = (s.name, o if isinstance(o, tuple) else (o,))
+                if key in self._held:
+                    held.append(key)
+                else:
+                    rest.add(o)
+            if rest:
+                fresh[s] = rest
+        return held, fresh
+
+    def _solve(self, cands: dict[Situation, Any] | None, parts: list[Situation]) -> list[SituationMatch]:
+        """The solver's answer for the current frame (no call when no part has candidates)."""
+        if not parts:
+            return []
+        self.stats["solver_calls"] += 1
+        return solve_window(self._render(cands), parts, self.config.constants)
+
+    @property
+    def active(self) -> list[Warning]:
+        """Every situation holding at the current frame, as warnings of this frame. On frames
+        where every candidate continues from the previous frame :meth:`update` skips the solver;
+        reading this asks it then (same answer as solving in :meth:`update`)."""
+        if self._active is None:
+            f, cands, parts = self._pending
+            self._active = [self._warning(f, d) for d in self._solve(cands, parts)]
+            self._pending = None
+        return list(self._active)
 
     def run(self, results: Iterable[FrameResult]) -> list[Warning]:
         """Every warning over a sequence of frame results (after :meth:`reset`)."""

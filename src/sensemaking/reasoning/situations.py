@@ -2,7 +2,8 @@
 
 The rules live in ``encodings/situations.lp`` (one ``#program`` part per situation, parameters as
 ``#const``); :class:`~sensemaking.reasoning.online.SituationMonitor` builds a small fact set from
-the last few frames and calls :func:`solve_window` on a fresh clingo Control each frame.
+the last few frames and calls :func:`solve_window` on a fresh clingo Control on the frames where
+a situation may start.
 
 =================== ================ =====================================================
 situation           objects          holds when
@@ -359,6 +360,24 @@ def _fact_names(facts: str) -> frozenset[str] | None:
     return frozenset(re.findall(r"(?<![A-Za-z0-9_'\"])[a-z_][A-Za-z0-9_']*", facts))
 
 
+def answer_of_grounded(ctl: clingo.Control, signatures: Iterable[tuple[str, int]]) -> list[clingo.Symbol]:
+    """The atoms of ``signatures`` (name, arity) in the first answer set of a grounded Control;
+    empty when there is none. For a stratified program, such as situations.lp, grounding alone
+    decides every atom: when every atom left is a fact and grounding found no conflict, the facts
+    are the one answer set and the solver is not run (it costs about as much as grounding);
+    otherwise the solver is run."""
+    if not ctl.is_conflicting and all(a.is_fact for a in ctl.symbolic_atoms):
+        return [a.symbol for sig in signatures for a in ctl.symbolic_atoms.by_signature(*sig)]
+    wanted = set(signatures)
+    found: list[clingo.Symbol] = []
+
+    def on_model(model: clingo.Model) -> None:
+        found[:] = [s for s in model.symbols(atoms=True) if (s.name, len(s.arguments)) in wanted]
+
+    ctl.solve(on_model=on_model)
+    return found
+
+
 def solve_window(facts: str, situations: Iterable[Situation | str],
                  constants: Mapping[str, int] | None = None) -> list[SituationMatch]:
     """Ground base plus the parts of ``situations`` with ``facts`` on a fresh Control and return
@@ -377,19 +396,11 @@ def solve_window(facts: str, situations: Iterable[Situation | str],
     ctl.ground([("base", [])])
     warns: dict[tuple[Situation, tuple[int, ...]], dict[str, list[Any]]] = {}
     infos: list[clingo.Symbol] = []
-
-    def on_model(model: clingo.Model) -> None:
-        warns.clear()
-        infos.clear()
-        for sym in model.symbols(shown=True):
-            if sym.name == "warn":
-                s = Situation(sym.arguments[0].name)
-                objs = tuple(a.number for a in sym.arguments[1].arguments)
-                warns[(s, objs)] = {}
-            elif sym.name == "info":
-                infos.append(sym)
-
-    ctl.solve(on_model=on_model)
+    for sym in answer_of_grounded(ctl, (("warn", 2), ("info", 4))):
+        if sym.name == "warn":
+            warns[(Situation(sym.arguments[0].name), tuple(a.number for a in sym.arguments[1].arguments))] = {}
+        else:
+            infos.append(sym)
     for sym in infos:
         key = (Situation(sym.arguments[0].name), tuple(a.number for a in sym.arguments[1].arguments))
         if key in warns:
