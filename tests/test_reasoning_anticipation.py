@@ -7,7 +7,7 @@ import pytest
 from test_scene_helpers import CAR, CYC, Obj, build_results, build_scene, cyclist_behind_turning_car, linear
 
 from sensemaking.reasoning.anticipation import (
-    AnticipationConfig, anticipate, anticipate_fits, anticipate_scene, fit_motion, reappearance_errors,
+    AnticipationConfig, anticipate, anticipate_fits, anticipate_scene, fit_motion, fit_motion_rows, reappearance_errors,
 )
 from sensemaking.reasoning.context import Corridor
 from sensemaking.reasoning.online import SituationMonitor
@@ -170,3 +170,16 @@ def test_stepwise_look_ahead_equals_the_whole_horizon_at_once(monkeypatch):
         with monkeypatch.context() as mp:
             mp.setattr(anticipation, "_STEPWISE", 0)  # arrays only
             assert anticipate(hf, hx, of, ox, now, fps=10.0, image_size=size) == got
+
+
+def test_fit_motion_rows_gives_the_values_of_fit_motion():
+    rng = np.random.default_rng(7)
+    for _ in range(2000):
+        k = int(rng.integers(1, 12))
+        frames = np.sort(rng.choice(200, k, replace=False)) + 1000
+        boxes = rng.uniform(0, 1200, (k, 4))
+        boxes[:, 2:] += boxes[:, :2]
+        points = int(rng.integers(1, 11))
+        span = float(rng.uniform(3, 30)) if rng.random() < 0.7 else None
+        last, box, vel = fit_motion(frames, boxes, points, span)
+        assert fit_motion_rows(frames.tolist(), boxes.tolist(), points, span) == (last, box.tolist(), vel.tolist())

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from sensemaking.reasoning.relations import (
     IA_RELATIONS, INVERSE, MOTION_KINDS, MotionThresholds, RelationConfig, classify_motion, interval_relation_masks,
-    interval_relations, inverse_codes, motion_facts, motion_features, motion_rows, near_pair_codes, near_pairs, order_pairs, pair_relations,
+    interval_relations, inverse_codes, motion_facts, motion_features, motion_row, near_pair_codes, near_pairs, order_pairs, pair_relations,
     rectangle_relations, relation_facts, track_motion,
 )
 
@@ -204,7 +204,7 @@ def test_near_pair_codes_equals_pair_relations_on_random_boxes():
                                                      zip(pairs.tolist(), codes.tolist())]
 
 
-def test_motion_rows_equals_motion_features_and_classify_motion():
+def test_motion_row_equals_motion_features_and_classify_motion():
     rng = np.random.default_rng(3)
     th = MotionThresholds()
     for _ in range(2000):
@@ -215,8 +215,10 @@ def test_motion_rows_equals_motion_features_and_classify_motion():
         dt = rng.choice([0.1, 0.2, 0.3], n)
         before = np.where(rng.random(n) < 0.3, np.nan, rng.uniform(0, 80, n))
         feats = motion_features(prev, cur, dt)
-        kinds, speed, vx, growth = motion_rows(prev.tolist(), cur.tolist(), dt.tolist(), before.tolist(), th)
-        assert kinds == [tuple(r) for r in classify_motion(feats, before, th).tolist()]
-        assert speed == feats.speed.tolist() and vx == feats.vx.tolist() and growth == feats.growth.tolist()
+        rows = [motion_row(p, c, d, b, th) for p, c, d, b in zip(prev.tolist(), cur.tolist(), dt.tolist(),
+                                                                  before.tolist())]
+        assert [r[0] for r in rows] == [tuple(r) for r in classify_motion(feats, before, th).tolist()]
+        assert [r[1] for r in rows] == feats.speed.tolist() and [r[2] for r in rows] == feats.vx.tolist()
+        assert [r[3] for r in rows] == feats.growth.tolist()
     with pytest.raises(ValueError):
-        motion_rows([[0, 0, 1, 1]], [[0, 0, 1, 1]], [0.0], [np.nan], th)
+        motion_row([0, 0, 1, 1], [0, 0, 1, 1], 0.0, np.nan, th)

@@ -412,3 +412,44 @@ def _grounded(program: str) -> clingo.Control:
 def test_answer_of_grounded_is_the_first_answer_set(program, expected):
     got = sorted(str(s) for s in answer_of_grounded(_grounded(program), [("q", 1)]))
     assert got == expected
+
+
+def _stmts(program: str) -> list:
+    from clingo import ast as clingo_ast
+
+    from sensemaking.reasoning.situations import _stmt
+
+    out: list = []
+    clingo_ast.parse_string(program, lambda s: out.append(s) if s.ast_type != clingo_ast.ASTType.Program else None)
+    return [_stmt(s) for s in out]
+
+
+@pytest.mark.parametrize("program, stratified", [
+    ("p(1). q(X) :- p(X), not r(X). r(X) :- p(X), X > 1. #show q/1.", True),
+    ("p :- not q. q :- not p.", False),            # negative cycle
+    ("p(1). q :- p(X), not q.", False),             # through itself
+    ("p(1). n(N) :- N = #count { X: p(X) }.", True),  # aggregate over a lower stratum
+    ("p(1). p(N+1) :- p(N), N < 3, N = #max { X: p(X) }.", False),  # aggregate in a cycle
+    ("p(1). :- p(1).", False),                      # constraint
+    ("{ p(1) }.", False),                           # choice
+])
+def test_stratified_programs_are_recognised(program, stratified):
+    from sensemaking.reasoning.situations import _stratified
+
+    assert _stratified(_stmts(program)) is stratified
+
+
+def test_every_situation_part_is_stratified_so_grounding_decides_it():
+    from sensemaking.reasoning import situations
+
+    consts = tuple(sorted(situations.situation_constants().items()))
+    for s in Situation:
+        assert situations._pruned(consts, (s.value,))[2]
+    assert situations._pruned(consts, tuple(s.value for s in Situation))[2]
+
+
+def test_answer_of_grounded_for_a_stratified_program_reads_the_facts():
+    ctl = _grounded("p(1). p(2). q(X) :- p(X), not r(X). r(2).")
+    assert sorted(str(s) for s in answer_of_grounded(ctl, [("q", 1)], stratified=True)) == ["q(1)"]
+    # atoms left open (a choice, wrongly declared stratified) still go to the solver
+    assert [str(s) for s in answer_of_grounded(_grounded("{ q(1) }. :- not q(1)."), [("q", 1)], True)] == ["q(1)"]

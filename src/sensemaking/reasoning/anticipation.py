@@ -120,6 +120,36 @@ def fit_motion(frames: np.ndarray, xyxy: np.ndarray, points: int = 5,
     return last, box, vel
 
 
+def fit_motion_rows(frames: list[int], boxes: list[list[float]], points: int = 5,
+                    span: float | None = None) -> tuple[int, list[float], list[float]]:
+    """:func:`fit_motion` in plain Python for a few boxes given as lists, returning lists: for the
+    per-frame monitor, where numpy's per-call cost dominates. The same float operations in the
+    same order as numpy's for fewer than 8 boxes (numpy sums shorter vectors one element after
+    the other), so the same values; more boxes go through :func:`fit_motion`."""
+    f = [float(v) for v in frames[-points:]]
+    x = boxes[-points:]
+    if not f:
+        raise ValueError("fit_motion needs at least one box")
+    if len(f) >= 8:
+        last, box_a, vel_a = fit_motion(np.array(f), np.array(x, dtype=np.float64), points, span)
+        return last, box_a.tolist(), vel_a.tolist()
+    if span is not None:
+        keep = [i for i, v in enumerate(f) if v >= f[-1] - span]
+        f, x = [f[i] for i in keep], [x[i] for i in keep]
+    last = int(f[-1])
+    n = len(f)
+    if n < 2:
+        return last, [float(v) for v in x[-1]], [0.0, 0.0, 0.0, 0.0]
+    t = [v - f[-1] for v in f]
+    tm = sum(t) / n
+    xm = [sum(b[j] for b in x) / n for j in range(4)]
+    dt = [v - tm for v in t]
+    denom = sum(d * d for d in dt)
+    vel = [sum(d * (b[j] - xm[j]) for d, b in zip(dt, x)) / denom for j in range(4)]
+    box = [m + v * (0.0 - tm) for m, v in zip(xm, vel)]
+    return last, box, vel
+
+
 def _extrapolate(box: np.ndarray, vel: np.ndarray, dt: np.ndarray) -> np.ndarray:
     """(..., H, 4) boxes ``box + vel * dt`` with widths and heights kept >= 1 px, for ``box`` and
     ``vel`` (..., 4) and ``dt`` (..., H) (several boxes at once: the same values one by one)."""
@@ -159,6 +189,10 @@ def _coverage(a: list[float], b: list[float]) -> float:
     h = (a[3] if a[3] < b[3] else b[3]) - (a[1] if a[1] > b[1] else b[1])
     area = (a[2] - a[0]) * (a[3] - a[1])
     return (w if w > 0 else 0.0) * (h if h > 0 else 0.0) / (area if area >= 1e-9 else 1e-9)
+
+
+def _floats(v: Any) -> list[float]:
+    return v.tolist() if isinstance(v, np.ndarray) else [float(x) for x in v]
 
 
 def _first_uncovered(t_last: int, t_box: list[float], t_vel: list[float], o_last: int, o_box: list[float],
@@ -204,13 +238,14 @@ def anticipate(hidden_frames: np.ndarray, hidden_xyxy: np.ndarray, occluder_fram
                            track=track, occluder=occluder, image_size=image_size, corridor=corridor, config=c)
 
 
-def anticipate_fits(hidden_fit: tuple[int, np.ndarray, np.ndarray], occluder_fit: tuple[int, np.ndarray, np.ndarray],
+def anticipate_fits(hidden_fit: tuple[int, Any, Any], occluder_fit: tuple[int, Any, Any],
                     now: int, *, fps: float, track: int = -1, occluder: int = -1,
                     image_size: tuple[int, int] | None = None, corridor: Corridor | None = None,
                     config: AnticipationConfig | None = None) -> Anticipation | None:
     """:func:`anticipate` from the :func:`fit_motion` results of the hidden object and the occluder
     (fitted with ``config.velocity_points`` and a span of ``config.velocity_span_s * fps``
-    frames), e.g. a fit kept while the object stays hidden."""
+    frames), e.g. a fit kept while the object stays hidden; or from :func:`fit_motion_rows`
+    (boxes and velocities as lists)."""
     from sensemaking.reasoning.context import Corridor
 
     c = config or AnticipationConfig()
@@ -219,13 +254,13 @@ def anticipate_fits(hidden_fit: tuple[int, np.ndarray, np.ndarray], occluder_fit
     horizon = max(1, int(round(c.horizon_s * fps)))
     # most objects come out within a few frames: look frame by frame first (the same float
     # operations as the arrays below), then at the whole horizon at once
-    found = _first_uncovered(t_last, t_box.tolist(), t_vel.tolist(), o_last, o_box.tolist(), o_vel.tolist(), now,
+    found = _first_uncovered(t_last, _floats(t_box), _floats(t_vel), o_last, _floats(o_box), _floats(o_vel), now,
                              min(horizon, _STEPWISE), c.reappear_coverage)
     if found is not None:
         k, box, overdue = found
     else:
         future = np.arange(now, now + horizon + 1, dtype=np.float64)  # now, now+1, ..., now+H
-        tb, ob = _extrapolate(np.stack([t_box, o_box]), np.stack([t_vel, o_vel]),
+        tb, ob = _extrapolate(np.array([t_box, o_box], dtype=np.float64), np.array([t_vel, o_vel], dtype=np.float64),
                               np.stack([future - t_last, future - o_last]))
         cov = _coverage_rows(tb, ob)
         out = np.flatnonzero(cov[1:] < c.reappear_coverage)

@@ -34,9 +34,9 @@ from typing import Any
 import numpy as np
 
 from sensemaking.classes import PEOPLE, VEHICLES, class_name
-from sensemaking.reasoning.anticipation import Anticipation, anticipate_fits, fit_motion
+from sensemaking.reasoning.anticipation import Anticipation, anticipate_fits, fit_motion_rows
 from sensemaking.reasoning.context import SceneContext, asp_name
-from sensemaking.reasoning.relations import IA_RELATIONS, MOTION_KINDS, inverse_codes, motion_rows, near_pair_codes
+from sensemaking.reasoning.relations import IA_RELATIONS, MOTION_KINDS, inverse_codes, motion_row, near_pair_codes
 from sensemaking.reasoning.situations import (
     SituationMatch, Situation, SituationConfig, Warning, situation_constants, solve_window,
 )
@@ -82,7 +82,7 @@ class _Frame:
     hidden_by: dict[int, int] = field(default_factory=dict)  # hidden track -> occluder
     in_corr: set[int] = field(default_factory=set)
     area: dict[int, int] = field(default_factory=dict)  # in-corridor tracks: permille of the image
-    motion: dict[int, tuple[str, ...]] = field(default_factory=dict)
+    motion: dict[int, tuple[str, ...]] = field(default_factory=dict)  # filled when asked: _kinds
     ra: dict[tuple[int, int], tuple[int, int]] = field(default_factory=dict)  # (a < b) -> (x, y) codes
     closer: set[tuple[int, int]] = field(default_factory=set)  # (nearer, farther) vehicle pairs
     events: list[Event] = field(default_factory=list)
@@ -133,7 +133,9 @@ class SituationMonitor:
                     self._skipped[s] = "needs the image size (for the ego corridor)"
         self._checked = [s for s in self._enabled if s not in self._skipped]
         ap = self.config.anticipation
-        self._hist_len = max(2 * self._lag + 1, ap.velocity_points) + 1
+        # visible boxes kept per track: motion is asked for any frame of the window, against a box
+        # up to 2 lag frames before, whose speed needs another 2 lag
+        self._hist_len = max(self._window + 4 * self._lag, ap.velocity_points) + 1
         self.reset()
 
     # -- state ----------------------------------------------------------------------------------
@@ -148,7 +150,7 @@ class SituationMonitor:
         self._seq_start: int | None = None
         self._last_frame: int | None = None
         self._anticip: dict[int, Anticipation] = {}
-        self._features: dict[int, tuple[float, float, float]] = {}  # speed px/s, vx px/s, growth 1/s
+        self._person_started: int | None = None  # the last frame with a person's track start
         # fit_motion of hidden tracks, with (history length, last visible frame) it was made from
         self._fits: dict[int, tuple[tuple[int, int], tuple[int, np.ndarray, np.ndarray]]] = {}
         self._active: list[Warning] | None = []  # None: not solved yet at this frame (see active)
@@ -263,7 +265,6 @@ class SituationMonitor:
         fr = _Frame(f, events=list(result.events))
         self._frames.append(fr)
         self._anticip = {}
-        self._features = {}
         tr = result.tracks
         n = len(tr)
         if n == 0:
@@ -279,15 +280,13 @@ class SituationMonitor:
         fr.state = dict(zip(ids, states))
         self._class.update(zip(ids, cls))
         self._last_live.update(dict.fromkeys(ids, f))
-        visible = []
         hist, hist_len = self._hist, self._hist_len
         for i, (t, s) in enumerate(zip(ids, states)):
             if s == _VISIBLE:
                 h = hist.get(t)
                 if h is None:
                     h = hist[t] = deque(maxlen=hist_len)
-                h.append([f, boxes[i], np.nan])
-                visible.append(i)
+                h.append([f, boxes[i], None])
             elif s == _HIDDEN and occl[i] >= 0:
                 fr.hidden_by[t] = occl[i]
 
@@ -301,11 +300,11 @@ class SituationMonitor:
                     fr.in_corr.add(ids[i])
                     fr.area[ids[i]] = round((x2 - x1) * (y2 - y1) * k)
 
-        if visible:
-            self._motion(fr, ids, visible, boxes)
         if fr.events:
             fr.person_starts = [(e.args[0], e.frame) for e in fr.events
                                 if e.name == "starts" and e.args and self._class.get(e.args[0]) in PEOPLE]
+            if fr.person_starts:
+                self._person_started = f
 
         # anticipation of hidden tracks
         if fr.hidden_by:
@@ -347,33 +346,66 @@ class SituationMonitor:
                 if s is not None:
                     fr.surface[ids[i]] = asp_name(s)
 
-    def _motion(self, fr: _Frame, ids: list[int], visible: list[int], boxes: list[list[float]]) -> None:
-        """Qualitative motion of the ``visible`` rows with a box ``lag`` to ``2 lag`` frames before."""
-        f, lag = fr.frame, self._lag
-        rows, prev = [], []
-        for i in visible:
-            h = self._hist[ids[i]]
-            k = len(h) - 1 - lag
-            if k >= 0 and h[k][0] == f - lag:  # seen every frame: the box lag frames before
-                prev.append(h[k])
-                rows.append(i)
-                continue
-            cand = next((e for e in reversed(h) if e[0] <= f - lag), None)
-            if cand is not None and f - cand[0] <= 2 * lag:
-                prev.append(cand)
-                rows.append(i)
-        if not rows:
-            return
-        fps = self.fps
-        kinds, speed, vx, growth = motion_rows([e[1] for e in prev], [boxes[i] for i in rows],
-                                               [(f - e[0]) / fps for e in prev], [e[2] for e in prev],
-                                               self.config.motion)
-        for k, (i, row) in enumerate(zip(rows, kinds)):
-            t = ids[i]
-            self._hist[t][-1][2] = speed[k]
-            if any(row):
-                fr.motion[t] = tuple(compress(MOTION_KINDS, row))
-            self._features[t] = (speed[k], vx[k], growth[k])
+    # -- qualitative motion, computed when a rule needs it ------------------------------------------
+    def _prev_entry(self, h: deque[list[Any]], k: int) -> int | None:
+        """Index of the box ``lag`` frames before entry ``k`` of a history, else of the latest
+        earlier one if at most ``2 lag`` frames before, else None."""
+        f, lag = h[k][0], self._lag
+        j = k - lag
+        if j >= 0 and h[j][0] == f - lag:  # seen every frame: the box lag frames before
+            return j
+        for j in range(k - 1, -1, -1):
+            if h[j][0] <= f - lag:
+                return j if f - h[j][0] <= 2 * lag else None
+        return None
+
+    def _motion_row(self, h: deque[list[Any]], k: int) -> tuple[tuple[bool, ...], float, float, float] | None:
+        """:func:`~sensemaking.reasoning.relations.motion_row` of entry ``k`` against its previous box (kinds, speed px/s, vx px/s,
+        growth 1/s), or None without one; keeps the speed in the entry."""
+        j = self._prev_entry(h, k)
+        if j is None:
+            h[k][2] = np.nan
+            return None
+        before = h[j][2]
+        if before is None:  # the speed there, for `stopping`
+            before = self._motion_row(h, j)
+            before = np.nan if before is None else before[1]
+        row = motion_row(h[j][1], h[k][1], (h[k][0] - h[j][0]) / self.fps, before, self.config.motion)
+        h[k][2] = row[1]
+        return row
+
+    def _entry(self, t: int, frame: int) -> tuple[deque[list[Any]], int] | None:
+        """The history of ``t`` and the index of its box at ``frame`` (None if not visible then)."""
+        h = self._hist.get(t)
+        if h:
+            for k in range(len(h) - 1, -1, -1):
+                g = h[k][0]
+                if g == frame:
+                    return h, k
+                if g < frame:
+                    break
+        return None
+
+    def _kinds(self, fr: _Frame, t: int) -> tuple[str, ...]:
+        """Qualitative motion of ``t`` at window frame ``fr`` (:data:`MOTION_KINDS` that hold;
+        empty when not visible then or without a box ``lag`` to ``2 lag`` frames before)."""
+        m = fr.motion.get(t)
+        if m is None:
+            m = ()
+            at = self._entry(t, fr.frame)
+            if at is not None:
+                row = self._motion_row(*at)
+                if row is not None:
+                    m = tuple(compress(MOTION_KINDS, row[0]))
+            fr.motion[t] = m
+        return m
+
+    def _features(self, t: int) -> tuple[float, float, float]:
+        """Centre speed (px/s), horizontal speed (px/s) and growth (1/s) of ``t`` now (zeros
+        when unknown)."""
+        at = self._entry(t, self._frames[-1].frame)
+        row = self._motion_row(*at) if at is not None else None
+        return (0.0, 0.0, 0.0) if row is None else (row[1], row[2], row[3])
 
     def _anticipate(self, t: int, o: int, f: int, boxes: dict[int, list[float]]) -> Anticipation | None:
         h = self._hist.get(t)
@@ -391,11 +423,10 @@ class SituationMonitor:
         fit = self._fits.get(t)
         if fit is None or fit[0] != key:
             last = list(h)[-points:]  # fit_motion uses the latest `points` boxes only
-            fit = self._fits[t] = (key, fit_motion(np.array([p[0] for p in last]), np.array([p[1] for p in last]),
-                                                   points, span))
+            fit = self._fits[t] = (key, fit_motion_rows([p[0] for p in last], [p[1] for p in last], points, span))
         oh = oh[-points:]
         return anticipate_fits(
-            fit[1], fit_motion(np.array([p[0] for p in oh]), np.array([p[1] for p in oh]), points, span), f,
+            fit[1], fit_motion_rows([p[0] for p in oh], [p[1] for p in oh], points, span), f,
             fps=self.fps, track=t, occluder=o, image_size=self.image_size,
             corridor=self.context.corridor, config=ap,
         )
@@ -430,38 +461,37 @@ class SituationMonitor:
             # after keeping its distance within ss_ms
             sudden = set()
             for t in now.in_corr:
-                m = now.motion.get(t, ())
-                if not m or cls.get(t) not in VEHICLES or now.area[t] < c["ss_area"]:
+                if cls.get(t) not in VEHICLES or now.area[t] < c["ss_area"]:
                     continue
+                m = self._kinds(now, t)
                 if "stopping" in m or ("looming" in m and any(
-                        fr.frame < now.frame and "keeping_distance" in fr.motion.get(t, ())
+                        fr.frame < now.frame and "keeping_distance" in self._kinds(fr, t)
                         for fr in self._within("ss_ms"))):
                     sudden.add(t)
             out[Situation.SUDDEN_STOP] = sudden
         # BLOCKED_LANE: on a lane and stopped now
         if now.on_lane:
-            out[Situation.BLOCKED_LANE] = {t for t in now.on_lane if "stopped" in now.motion.get(t, ())}
+            out[Situation.BLOCKED_LANE] = {t for t in now.on_lane if "stopped" in self._kinds(now, t)}
         # OVERTAKING: a vehicle pair side by side now, B not approaching, whose depth order
         # flipped within ov_ms
         if now.closer:
-            flipped = {(a, b) for (b, a) in now.closer
-                       if now.ra[(a, b) if a < b else (b, a)][0] in _LATERAL_CODES
-                       and "approaching" not in now.motion.get(b, ())}
+            flipped = {(a, b) for (b, a) in now.closer if now.ra[(a, b) if a < b else (b, a)][0] in _LATERAL_CODES}
             if flipped:
                 earlier: set[tuple[int, int]] = set()
                 for fr in self._within("ov_ms"):
                     if fr.frame < now.frame:
                         earlier |= fr.closer
-                out[Situation.OVERTAKING] = flipped & earlier
+                out[Situation.OVERTAKING] = {(a, b) for a, b in flipped & earlier
+                                             if "approaching" not in self._kinds(now, b)}
         # EXITING_VEHICLE: a person started within ev_ms (after the first frame), and a vehicle
         # stood still in the window
-        if any(fr.person_starts for fr in self._frames):
+        if self._person_started is not None and self._person_started >= self._frames[0].frame:
             start = self._seq_start if self._seq_start is not None else now.frame
             persons = {(p, f0) for fr in self._frames for p, f0 in fr.person_starts
                        if f0 > start and (now.frame - f0) * self._frame_ms <= c["ev_ms"]}
             if persons:
-                parked = {t for fr in self._frames for t, m in fr.motion.items()
-                          if "stopped" in m and cls.get(t) in VEHICLES}
+                parked = {t for fr in self._frames for t in fr.ids
+                          if cls.get(t) in VEHICLES and "stopped" in self._kinds(fr, t)}
                 if parked:
                     out[Situation.EXITING_VEHICLE] = (persons, parked)
         return out
@@ -483,7 +513,7 @@ class SituationMonitor:
                 add(f"ra({key[0]},{key[1]},{fr.frame},{IA_RELATIONS[c[0]]},{IA_RELATIONS[c[1]]}).")
 
         def motion(fr: _Frame, t: int, kinds: Iterable[str] | None = None) -> None:
-            for k in fr.motion.get(t, ()):
+            for k in self._kinds(fr, t):
                 if kinds is None or k in kinds:
                     add(f"motion({t},{fr.frame},{k}).")
 
@@ -497,7 +527,7 @@ class SituationMonitor:
                     add(f"hidden_by({t},{o},{f}).")
                 for t in fr.in_corr:
                     add(f"in_corridor({t},{f}).")
-                for t in fr.motion:
+                for t in fr.ids:
                     motion(fr, t)
                 for a, b in fr.ra:
                     ra(fr, a, b)
@@ -620,7 +650,7 @@ class SituationMonitor:
             msg = f"{desc(o)} in front of the ego vehicle reduces visibility" + (f" ({'; '.join(parts)})" if parts else "")
         elif s is Situation.SUDDEN_STOP:
             (v,) = objs
-            sp, vx, g = self._features.get(v, (0.0, 0.0, 0.0))
+            sp, vx, g = self._features(v)
             details.update({"speed_px_s": round(sp, 1), "vx_px_s": round(vx, 1), "growth_per_s": round(g, 3)})
             if "stopping" in info.get("cause", []):
                 msg = f"{desc(v)} in front of the ego vehicle stops suddenly"

@@ -26,7 +26,7 @@ __all__ = [
     "IA_RELATIONS", "INVERSE", "MOTION_KINDS", "RelationConfig", "MotionThresholds", "MotionFeatures",
     "interval_relation_masks", "interval_relations", "rectangle_relations", "inverse_codes", "relation_name",
     "near_pairs", "pair_relations", "order_pairs", "motion_features", "classify_motion", "track_motion", "relation_facts",
-    "motion_facts", "near_pair_codes", "motion_rows",
+    "motion_facts", "near_pair_codes", "motion_row",
 ]
 
 #: the 13 Allen relations; the index is the relation's integer code
@@ -411,39 +411,36 @@ def classify_motion(now: MotionFeatures, speed_before: np.ndarray | None = None,
     return out
 
 
-def motion_rows(prev: list[list[float]], cur: list[list[float]], dt: list[float], speed_before: list[float],
-                thresholds: MotionThresholds) -> tuple[list[tuple[bool, ...]], list[float], list[float], list[float]]:
-    """Plain-Python :func:`motion_features` + :func:`classify_motion` for a few boxes.
+def motion_row(prev: list[float], cur: list[float], dt: float, speed_before: float,
+               thresholds: MotionThresholds) -> tuple[tuple[bool, ...], float, float, float]:
+    """Plain-Python :func:`motion_features` + :func:`classify_motion` for one box: for the
+    per-frame monitor, where numpy's per-call cost dominates. The same float operations (the
+    speed through ``np.hypot``, as math.hypot may differ in the last bit), so the same values.
 
     Args:
-        prev, cur: N boxes ``[x1, y1, x2, y2]`` each (Python floats). dt: N seconds (> 0).
-        speed_before: N centre speeds before (px/s, NaN where unknown). thresholds: see its class.
+        prev, cur: boxes ``[x1, y1, x2, y2]`` (Python floats). dt: seconds between them (> 0).
+        speed_before: centre speed before (px/s, NaN where unknown). thresholds: see its class.
 
     Returns:
-        ``kinds`` (N rows of 8 bools, columns :data:`MOTION_KINDS`), ``speed``, ``vx`` and
-        ``growth`` (N floats each): the same values as the numpy functions (the same float
-        operations; the speed through ``np.hypot``, as math.hypot may differ in the last bit).
+        ``kinds`` (8 bools, columns :data:`MOTION_KINDS`), ``speed`` (px/s), ``vx`` (px/s) and
+        ``growth`` (1/s).
     """
+    if not dt > 0:
+        raise ValueError("dt must be positive")
     t = thresholds
-    g, gl, bp, lat, st, mv = t.growth_s, t.looming_s, t.bottom_px_s, t.lateral_px_s, t.stopped_px_s, t.moving_px_s
-    vxs, vys, vbs, grs = [], [], [], []
-    for p, c, d in zip(prev, cur, dt):
-        if not d > 0:
-            raise ValueError("dt must be positive")
-        vxs.append(((c[0] + c[2]) - (p[0] + p[2])) / 2 / d)
-        vys.append(((c[1] + c[3]) - (p[1] + p[3])) / 2 / d)
-        vbs.append((c[3] - p[3]) / d)
-        hp = max(p[3] - p[1], 1e-6)
-        hc = max(c[3] - c[1], 1e-6)
-        grs.append((hc - hp) / (0.5 * (hp + hc)) / d)
-    speed = np.hypot(vxs, vys).tolist() if vxs else []
-    kinds = []
-    for vx, vb, gr, sp, before in zip(vxs, vbs, grs, speed, speed_before):
-        approaching = gr >= g and vb >= bp
-        stopped = sp < st and abs(gr) < g
-        kinds.append((approaching, gr <= -g and vb <= -bp, vx <= -lat, vx >= lat, stopped,
-                      stopped and before >= mv, approaching and gr >= gl, abs(gr) < g))
-    return kinds, speed, vxs, grs
+    g = t.growth_s
+    vx = ((cur[0] + cur[2]) - (prev[0] + prev[2])) / 2 / dt
+    vy = ((cur[1] + cur[3]) - (prev[1] + prev[3])) / 2 / dt
+    vb = (cur[3] - prev[3]) / dt
+    hp = max(prev[3] - prev[1], 1e-6)
+    hc = max(cur[3] - cur[1], 1e-6)
+    gr = (hc - hp) / (0.5 * (hp + hc)) / dt
+    sp = float(np.hypot(vx, vy))
+    approaching = gr >= g and vb >= t.bottom_px_s
+    stopped = sp < t.stopped_px_s and abs(gr) < g
+    kinds = (approaching, gr <= -g and vb <= -t.bottom_px_s, vx <= -t.lateral_px_s, vx >= t.lateral_px_s, stopped,
+             stopped and speed_before >= t.moving_px_s, approaching and gr >= t.looming_s, abs(gr) < g)
+    return kinds, sp, vx, gr
 
 
 def track_motion(frames: np.ndarray, xyxy: np.ndarray, fps: float,

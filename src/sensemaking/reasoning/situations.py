@@ -266,6 +266,7 @@ class _Stmt:
     required: frozenset[str]  # positive body literals: the rule has no instance without them
     uses: frozenset[str]  # every predicate in the body
     negated: frozenset[str]  # predicates under default negation in the body
+    strict: frozenset[str] = frozenset()  # ... and those inside aggregates and conditions
 
 
 def _stmt(stmt: Any) -> _Stmt:
@@ -274,7 +275,7 @@ def _stmt(stmt: Any) -> _Stmt:
             or stmt.head.atom.ast_type != clingo_ast.ASTType.SymbolicAtom or stmt.head.sign:
         return _Stmt(text, None, frozenset(), frozenset(), frozenset())
     heads = _atom_names(stmt.head.atom)
-    required, negated = set(), set()
+    required, negated, strict = set(), set(), set()
     uses = _Names()
     for lit in stmt.body:
         uses(lit)
@@ -283,11 +284,13 @@ def _stmt(stmt: Any) -> _Stmt:
         else:
             sub = _Names()
             sub(lit)
+            strict.update(sub.names)
             if "not " in str(lit):
                 negated.update(sub.names)  # negation inside an aggregate or condition
     if not heads:
         return _Stmt(text, None, frozenset(), frozenset(), frozenset())
-    return _Stmt(text, frozenset(heads), frozenset(required), frozenset(uses.names), frozenset(negated))
+    return _Stmt(text, frozenset(heads), frozenset(required), frozenset(uses.names), frozenset(negated),
+                 frozenset(negated | strict))
 
 
 @lru_cache(maxsize=64)
@@ -300,6 +303,36 @@ def _statements(constants: tuple[tuple[str, int], ...], names: tuple[str, ...]) 
     return tuple(_stmt(stmt) for stmt in stmts if stmt.ast_type != clingo_ast.ASTType.Program)
 
 
+def _stratified(stmts: Iterable[_Stmt]) -> bool:
+    """True when ``stmts`` are plain rules ``atom :- body`` (and #show) without a cycle through
+    negation or an aggregate in their predicate dependencies: a stratified normal program, with
+    exactly one answer set, which grounding computes (every derived atom a fact)."""
+    edges: dict[str, dict[str, bool]] = {}  # head -> {body predicate: through negation/aggregate}
+    for s in stmts:
+        if s.heads is None:
+            if s.text.startswith("#show"):
+                continue
+            return False
+        strict = s.strict
+        for h in s.heads:
+            out = edges.setdefault(h, {})
+            for p in s.uses:
+                out[p] = out.get(p, False) or p in strict
+
+    def reaches(a: str, b: str) -> bool:
+        seen, todo = {a}, [a]
+        while todo:
+            for q in edges.get(todo.pop(), {}):
+                if q == b:
+                    return True
+                if q not in seen:
+                    seen.add(q)
+                    todo.append(q)
+        return False
+
+    return not any(strict and (p == h or reaches(p, h)) for h, out in edges.items() for p, strict in out.items())
+
+
 def _program_text(constants: tuple[tuple[str, int], ...], names: tuple[str, ...],
                   present: frozenset[str] | None = None) -> str:
     """The program text of :func:`_pruned`."""
@@ -308,7 +341,7 @@ def _program_text(constants: tuple[tuple[str, int], ...], names: tuple[str, ...]
 
 @lru_cache(maxsize=256)
 def _pruned(constants: tuple[tuple[str, int], ...], names: tuple[str, ...],
-            present: frozenset[str] | None = None) -> tuple[str, frozenset[str] | None]:
+            present: frozenset[str] | None = None) -> tuple[str, frozenset[str] | None, bool]:
     """Base plus the parts ``names`` (and relations.lp when they use it) as one program text for
     ``#program base``, the constants substituted: clingo parses it in one call, cheaper than
     adding the statements one by one (grounding base and the parts together is the same).
@@ -321,7 +354,8 @@ def _pruned(constants: tuple[tuple[str, int], ...], names: tuple[str, ...],
     when that part is stratified by construction (negation only of predicates without rule
     bodies, no constraints or other statements), so it extends every answer set of the rest.
     Also returns the predicate names the program left uses (None if nothing was left out):
-    facts of other predicates change no answer either."""
+    facts of other predicates change no answer either; and whether it is stratified
+    (:func:`_stratified`), for :func:`answer_of_grounded`."""
     stmts = _statements(constants, names)
     if present is not None and all(s.heads is not None or s.text.startswith("#show") for s in stmts):
         avail = set(present)
@@ -344,8 +378,8 @@ def _pruned(constants: tuple[tuple[str, int], ...], names: tuple[str, ...],
         else:
             stmts = tuple(live)
         used = frozenset({"warn", "info"}.union(*(s.uses | s.heads for s in stmts if s.heads is not None)))
-        return "".join(f"{s.text}\n" for s in stmts), used
-    return "".join(f"{s.text}\n" for s in stmts), None
+        return "".join(f"{s.text}\n" for s in stmts), used, _stratified(stmts)
+    return "".join(f"{s.text}\n" for s in stmts), None, _stratified(stmts)
 
 
 #: one fact on a line, its predicate name (no "." inside, so not several facts)
@@ -360,13 +394,20 @@ def _fact_names(facts: str) -> frozenset[str] | None:
     return frozenset(re.findall(r"(?<![A-Za-z0-9_'\"])[a-z_][A-Za-z0-9_']*", facts))
 
 
-def answer_of_grounded(ctl: clingo.Control, signatures: Iterable[tuple[str, int]]) -> list[clingo.Symbol]:
+def answer_of_grounded(ctl: clingo.Control, signatures: Iterable[tuple[str, int]],
+                       stratified: bool = False) -> list[clingo.Symbol]:
     """The atoms of ``signatures`` (name, arity) in the first answer set of a grounded Control;
-    empty when there is none. For a stratified program, such as situations.lp, grounding alone
-    decides every atom: when every atom left is a fact and grounding found no conflict, the facts
-    are the one answer set and the solver is not run (it costs about as much as grounding);
-    otherwise the solver is run."""
-    if not ctl.is_conflicting and all(a.is_fact for a in ctl.symbolic_atoms):
+    empty when there is none. When grounding decided the answer, the solver is not run (it costs
+    about as much as grounding): when every atom left is a fact and grounding found no conflict,
+    the facts are the one answer set; for a program known to be stratified (``stratified``, see
+    :func:`_stratified`: such as situations.lp), whose one answer set grounding computes, it
+    suffices that the atoms of ``signatures`` are facts. Otherwise the solver is run."""
+    signatures = list(signatures)
+    if stratified:
+        atoms = [a for sig in signatures for a in ctl.symbolic_atoms.by_signature(*sig)]
+        if all(a.is_fact for a in atoms):
+            return [a.symbol for a in atoms]
+    elif not ctl.is_conflicting and all(a.is_fact for a in ctl.symbolic_atoms):
         return [a.symbol for sig in signatures for a in ctl.symbolic_atoms.by_signature(*sig)]
     wanted = set(signatures)
     found: list[clingo.Symbol] = []
@@ -388,7 +429,7 @@ def solve_window(facts: str, situations: Iterable[Situation | str],
         return []
     consts = tuple(sorted(situation_constants(constants).items()))
     ctl = clingo.Control(["--warn=none"])
-    program, used = _pruned(consts, tuple(s.value for s in parts_wanted), _fact_names(facts))
+    program, used, stratified = _pruned(consts, tuple(s.value for s in parts_wanted), _fact_names(facts))
     if used is not None:  # drop the lines holding one fact of a predicate the program does not use
         facts = "".join(f"{line}\n" for line in facts.splitlines()
                         if (m := _FACT_LINE.fullmatch(line)) is None or m.group(1) in used)
@@ -396,7 +437,7 @@ def solve_window(facts: str, situations: Iterable[Situation | str],
     ctl.ground([("base", [])])
     warns: dict[tuple[Situation, tuple[int, ...]], dict[str, list[Any]]] = {}
     infos: list[clingo.Symbol] = []
-    for sym in answer_of_grounded(ctl, (("warn", 2), ("info", 4))):
+    for sym in answer_of_grounded(ctl, (("warn", 2), ("info", 4)), stratified):
         if sym.name == "warn":
             warns[(Situation(sym.arguments[0].name), tuple(a.number for a in sym.arguments[1].arguments))] = {}
         else:
