@@ -272,15 +272,43 @@ def test_inherit_motion_keeps_ids_in_a_convoy_seen_from_a_turning_camera(abducti
     assert switches(False) > 0  # standing-still predictions: each car takes the track of the one ahead
 
 
-def test_scene_velocity_needs_two_established_tracks():
+def test_scene_velocity_from_the_established_tracks_one_is_enough():
     t = Tracker(TrackerConfig())
-    for f in range(5):
+    for f in range(2):
         t.update(frame(walker(f, v=10.0)), frame=f)
-    np.testing.assert_array_equal(t._scene_velocity(), np.zeros(4))  # one track: no scene motion
+    np.testing.assert_array_equal(t._scene_velocity(), np.zeros(4))  # not established yet
+    for f in range(2, 5):
+        t.update(frame(walker(f, v=10.0)), frame=f)
+    assert abs(t._scene_velocity()[0] - 10.0) < 1.0  # one established track: its motion
     t2 = Tracker(TrackerConfig())
     for f in range(5):
         t2.update(frame(walker(f, v=10.0), walker(f, x0=600, v=10.0)), frame=f)
     assert abs(t2._scene_velocity()[0] - 10.0) < 1.0 and t2._scene_velocity()[2:].tolist() == [0.0, 0.0]
+    t3 = Tracker(TrackerConfig(inherit_motion=False))
+    for f in range(5):
+        t3.update(frame(walker(f, v=10.0)), frame=f)
+    np.testing.assert_array_equal(t3._scene_velocity(), np.zeros(4))
+
+
+@pytest.mark.parametrize("abduction", [True, False])
+def test_a_convoy_led_by_one_tracked_car_keeps_its_ids(abduction):
+    """KITTI 0007 frames 38-50: one tracked car leads a convoy into view, the cars behind move
+    45 px a frame, more than their gaps: a follower predicted at rest took the detection of the
+    car behind it, every frame, until the scene's motion was known from two tracks."""
+    def boxes(f: int) -> list[tuple]:
+        lead = [(45 * f, 190, 45 * f + 120, 250)]  # big and near: its boxes overlap
+        return lead + [(45 * f - 50 * k, 200, 45 * f - 50 * k + 60, 240) for k in range(1, 4) if f >= 6 + k]
+
+    t = Tracker(TrackerConfig(fps=10, abduction=abduction, iou_assign=0.2, iou_resume=0.2))
+    owner: dict[int, int] = {}  # source row (car) -> track id
+    n = 0
+    for f in range(16):
+        b = boxes(f)
+        r = t.update(frame(*b, cls=CAR, rows=np.arange(len(b))), frame=f)
+        for tid, row in zip(ids(r), r.tracks.source_row.tolist()):
+            n += owner.get(row, tid) != tid
+            owner[row] = tid
+    assert n == 0 and len(owner) == 4
 
 
 # ---- class-aware matching -------------------------------------------------------------------

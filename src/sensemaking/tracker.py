@@ -92,10 +92,11 @@ class TrackerConfig:
         border_margin: distance to the image border (pixels) counted as "at the border".
         class_aware: only match detections of the track's class.
         inherit_motion: a new track's first prediction moves with the median image velocity of
-            the established tracks (seen ``min_hits`` + 2 times or more, visible now): with a
-            moving camera every object shifts with it, and a new object predicted to stand still
-            loses its id to the object behind it (convoys, turning ego vehicle). False: start
-            at rest, as SORT does.
+            the established tracks (seen ``min_hits`` + 2 times or more, visible now; one is
+            enough): with a moving camera every object shifts with it, and a new object predicted
+            to stand still loses its id to the object behind it (convoys, turning ego vehicle).
+            Its own fit at rest counts as well, so an object that does not share the motion is
+            still found. False: start at rest, as SORT does.
         confidence_sigmoid: map detector scores through a sigmoid for the costs (for detectors
             that give logits, e.g. PointRCNN). Thresholds stay in the detector's own units.
         likelihood_levels: resolution of likelihoods and confidences in the solver's objective
@@ -633,12 +634,14 @@ class Tracker:
 
     def _scene_velocity(self) -> np.ndarray:
         """(4,) prior velocity of new tracks (pixels per frame): the median ``cx, cy`` velocity of
-        the established visible tracks, 0 without ``inherit_motion`` or fewer than two of them."""
+        the established visible tracks, 0 without ``inherit_motion`` or without any of them. One
+        established track is enough: a lone car leading a convoy into view is the only motion
+        known, and the fit at rest still counts for the new tracks (see ``_uncertain``)."""
         prior = np.zeros(4)
-        if not self.config.inherit_motion or len(self._id) < 2:
+        if not self.config.inherit_motion or len(self._id) == 0:
             return prior
         settled = (self._unseen == 0) & (self._hits >= self.config.min_hits + 2)
-        if settled.sum() >= 2:
+        if settled.any():
             prior[:2] = np.median(self._kf.velocity()[settled, :2], axis=0)
         return prior
 
