@@ -244,6 +244,7 @@ class SituationMonitor:
         where every candidate continues from the previous frame :meth:`update` skips the solver;
         reading this asks it then (same answer as solving in :meth:`update`)."""
         if self._active is None:
+            assert self._pending is not None
             f, cands, parts = self._pending
             self._active = [self._warning(f, d) for d in self._solve(cands, parts)]
             self._pending = None
