@@ -256,6 +256,31 @@ def test_jobs_run_benchmarks_in_worker_processes(fake_data: Path, tmp_path: Path
     assert two.machine["jobs"] == 2
 
 
+def test_repeat_keeps_the_results_and_the_fastest_times(fake_data: Path, tmp_path: Path,
+                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    names = _trackers_under_test()[:1]
+    one = runner.run(data=fake_data, output=tmp_path / "a", only=["mot15"], trackers=names)
+    sizes: list[int] = []
+    real = runner.run_sequence
+
+    def timed(tracker, seq, frames=None):  # every run reports slower frames than the run before
+        tracks, seconds = real(tracker, seq, frames)
+        sizes.append(seconds.size)
+        return tracks, np.full_like(seconds, 0.01 * len(sizes))
+
+    monkeypatch.setattr(runner, "run_sequence", timed)
+    three = runner.run(data=fake_data, output=tmp_path / "b", only=["mot15"], trackers=names, repeat=3)
+    run1, run3 = one.benchmarks[0].chosen(names[0]), three.benchmarks[0].chosen(names[0])
+    assert run1.metrics == run3.metrics
+    n_seq = len(three.benchmarks[0].sequences)
+    assert n_seq >= 1 and len(sizes) == 3 * n_seq
+    # the first run of each sequence (calls 1, 4, 7, ...) was its fastest: its times count
+    assert run3.update_seconds == pytest.approx(sum(0.01 * (3 * i + 1) * sizes[3 * i] for i in range(n_seq)))
+    assert three.machine["repeat"] == 3
+    with pytest.raises(InputError):
+        runner.run(data=fake_data, output=tmp_path / "c", only=["mot15"], trackers=names, repeat=0)
+
+
 def test_ours_adapter_filters_states() -> None:
     if not _tracker_available():
         pytest.skip("our tracker is not importable yet")

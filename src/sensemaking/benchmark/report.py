@@ -339,9 +339,14 @@ def render_markdown(summary: RunSummary, json_name: str = "benchmarks.json") -> 
         "KITTI tables add MOTA, ID sw. and Frag. under the **old KITTI devkit** rule (a switch counts "
         "only when the object was tracked in the previous frame), which is the rule behind the paper's "
         "KITTI numbers.")
+    repeat = int(summary.machine.get("repeat", 1) or 1)
     add("- **ms/frame** is the mean wall time of one `update` call of the tracker (association only: "
         "no file reading or writing, no format conversion), measured with `time.perf_counter` in this "
-        "run; **time ÷ ours** divides it by ours with abduction on the same benchmark in the same run.")
+        "run; **time ÷ ours** divides it by ours with abduction on the same benchmark in the same run. "
+        "The trackers take turns sequence by sequence"
+        + (f", and each runs every sequence {repeat} times: the fastest run's times count (the results "
+           "are the same in every run), so that a slow spell of a shared machine does not decide a ratio."
+           if repeat > 1 else "."))
     add("- **Ours** uses one named parameter set per dataset family (`TrackerConfig.for_dataset(\"kitti\")`, "
         "`TrackerConfig.for_dataset(\"motchallenge\")`), with the frame rate and image size of each "
         "sequence; *without abduction* is the same tracker with `abduction=False` (Hungarian IoU "

@@ -34,6 +34,9 @@ def register(subparsers: Any) -> None:
     p.add_argument("--jobs", metavar="N", type=int, default=1,
                    help="benchmarks to run at once in worker processes (default 1; every tracker of a "
                    "benchmark still runs in one process, so its time ratios stay comparable)")
+    p.add_argument("--repeat", metavar="N", type=int, default=3,
+                   help="runs of every tracker on every sequence; the per-frame times of the fastest count "
+                   "(default 3: a busy machine's slow spells inflate single runs; results are the same)")
     p.add_argument("--list", action="store_true", help="list the benchmarks found and what is missing, then stop")
     p.set_defaults(func=run)
 
@@ -54,6 +57,8 @@ def _command_line(args: argparse.Namespace) -> str:
         parts += ["--json", args.json]
     if args.jobs != 1:
         parts += ["--jobs", str(args.jobs)]
+    if args.repeat != 3:
+        parts += ["--repeat", str(args.repeat)]
     return shlex.join(parts)
 
 
@@ -77,7 +82,7 @@ def run(args: argparse.Namespace) -> int:
             print(msg, file=sys.stderr, flush=True)
 
     summary = runner.run(data=args.data, output=args.output, only=only, trackers=args.trackers,
-                         progress=progress, command=_command_line(args), jobs=args.jobs)
+                         progress=progress, command=_command_line(args), jobs=args.jobs, repeat=args.repeat)
     if args.docs:
         md, js = report.write_report(summary, args.docs, args.json)
         progress(f"wrote {md} and {js}")
