@@ -479,9 +479,7 @@ def run_benchmark(bench: Benchmark, trackers: SequenceABC[str], output_dir: Path
             except MissingExtraError:
                 raise
             except Exception as exc:
-                log.exception("%s: %s (%s) failed", spec.name, name, pass_name)
-                failed[key] = TrackerRun(tracker=name, variant=pass_name, min_score=min_score,
-                                         error=f"{type(exc).__name__}: {exc}")
+                failed[key] = _failed_run(spec.name, name, pass_name, min_score, exc, "tracking")
     for name, pass_name, min_score in passes:
         key = (name, pass_name)
         if key not in failed:
@@ -496,9 +494,7 @@ def run_benchmark(bench: Benchmark, trackers: SequenceABC[str], output_dir: Path
             except MissingExtraError:
                 raise
             except Exception as exc:
-                log.exception("%s: evaluating %s (%s) failed", spec.name, name, pass_name)
-                failed[key] = TrackerRun(tracker=name, variant=pass_name, min_score=min_score,
-                                         error=f"{type(exc).__name__}: {exc}")
+                failed[key] = _failed_run(spec.name, name, pass_name, min_score, exc, "evaluating")
         if key in failed:
             result.runs.setdefault(name, []).append(failed[key])
             say(f"[{spec.name}] {_label(name, pass_name)}: FAILED {failed[key].error}")
@@ -511,6 +507,13 @@ def run_benchmark(bench: Benchmark, trackers: SequenceABC[str], output_dir: Path
                 f"MOTA {100 * m.get('MOTA', np.nan):5.1f}  IDF1 {100 * m.get('IDF1', np.nan):5.1f}  "
                 f"IDSW {m.get('IDSW', np.nan):.0f}")
     return result
+
+
+def _failed_run(bench: str, name: str, pass_name: str, min_score: float | None, exc: Exception,
+                step: str) -> TrackerRun:
+    """A run that failed at ``step`` (logged with its traceback), for the report."""
+    log.exception("%s: %s %s (%s) failed", bench, step, name, pass_name)
+    return TrackerRun(tracker=name, variant=pass_name, min_score=min_score, error=f"{type(exc).__name__}: {exc}")
 
 
 def _config_json(cfg: Any) -> dict[str, Any]:
