@@ -281,6 +281,29 @@ def test_repeat_keeps_the_results_and_the_fastest_times(fake_data: Path, tmp_pat
         runner.run(data=fake_data, output=tmp_path / "c", only=["mot15"], trackers=names, repeat=0)
 
 
+def test_a_failing_tracker_is_reported_and_the_others_run(
+        fake_data: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    real = runner._make_tracker
+    made: list[str] = []
+
+    def flaky(name, variant, spec, seq, min_score):
+        made.append(name)
+        if name == "ours-noabd":
+            raise RuntimeError("boom")
+        return real(name, variant, spec, seq, min_score)
+
+    monkeypatch.setattr(runner, "_make_tracker", flaky)
+    lines: list[str] = []
+    summary = runner.run(data=fake_data, output=tmp_path / "out", only=["mot15"], trackers="ours,ours-noabd",
+                         progress=lines.append)
+    bench = summary.benchmarks[0]
+    assert bench.chosen("ours-noabd").error == "RuntimeError: boom"
+    assert made.count("ours-noabd") == 1 and made.count("ours") == len(bench.sequences)
+    assert bench.chosen("ours").error is None and bench.chosen("ours").metrics
+    assert summary.errors == ["mot15/ours-noabd/config: RuntimeError: boom"]
+    assert any("FAILED" in line for line in lines)
+
+
 def test_ours_adapter_filters_states() -> None:
     if not _tracker_available():
         pytest.skip("our tracker is not importable yet")
