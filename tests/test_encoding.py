@@ -240,6 +240,26 @@ def test_a_young_track_does_not_take_the_detection_of_the_confirmed_track_it_ove
     assert "occurs(hides_behind(1,2))" in solve(facts, consts={"cost_dropped": 600})
 
 
+def test_a_halted_track_does_not_take_the_detection_of_a_visible_track_for_the_price_of_hiding_it():
+    # track 1 is visible and its prediction fits d(0) (550); track 2 was unseen and its widened
+    # prediction fits d(0) a little better (610); track 3 in front covers track 1, so track 1
+    # could hide behind it (cost_hides 50). Seeing track 2 again is a change too (cost_resumes):
+    # the swap must gain more than both ends of the round trip
+    facts = (track(1) + track(2, halted=True) + track(3) + det(0) + det(1)
+             + "cand(1,d(0),550). cand(2,d(0),610). cand(3,d(1),900). covers(d(1),1).")
+    assert solve(facts) == ["assign(1,d(0))", "assign(3,d(1))", "ignore_trk(2)"]
+    assert cost(facts) == 450 + (1000 + 20) + 100
+    swapped = solve(facts, consts={"cost_resumes": 0})
+    assert "resume(2,d(0))" in swapped and "occurs(hides_behind(1,3))" in swapped
+    # a clearly better fit still wins
+    assert "resume(2,d(0))" in solve(facts.replace("cand(2,d(0),610)", "cand(2,d(0),800)"))
+
+
+def test_resuming_costs_cost_resumes():
+    facts = track(1, halted=True) + det(0) + "cand(1,d(0),900)."
+    assert cost(facts, consts={"cost_resumes": 70}) == 100 + 70
+
+
 FRONT_BACK = track(1) + track(2) + det(0) + "cand(2,d(0),900)."  # 1 behind, 2 in front and seen
 
 

@@ -88,7 +88,8 @@ def random_problem(rng: np.random.Generator) -> FrameProblem:
     )
 
 
-@pytest.mark.parametrize("costs", [{}, {"cost_unseen": 0, "cost_hides": 0, "cost_leaves": 600, "cost_dropped": 600}])
+@pytest.mark.parametrize("costs", [{}, {"cost_unseen": 0, "cost_hides": 0, "cost_leaves": 600, "cost_dropped": 600,
+                                      "cost_resumes": 0}, {"cost_resumes": 170}])
 def test_settled_components_are_the_unique_optimum_on_random_problems(costs):
     consts = {**CONSTANTS, **costs}
     rng = np.random.default_rng(3)

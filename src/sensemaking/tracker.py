@@ -46,6 +46,15 @@ class AbductionCosts:
     missing: int = 250  #: missing_detections. Higher: tracks end instead of waiting.
     unseen: int = 20  #: per frame a track stays missing. Higher: missing tracks end sooner.
     ignore: int = 600  #: ignoring a detection, times its confidence. Higher: more tracks from weak detections.
+    #: a hidden or missing track seen again (unhides_from_behind or reappears). An unseen track's
+    #: prediction is widened, so it fits a detection better than its drifted box deserves; hiding
+    #: a visible track costs only ``hides``, and without this cost an unseen track took the
+    #: detection of a visible track whose own prediction fits it whenever its widened fit was 0.05
+    #: IoU better. Higher: a visible track keeps its detection unless the unseen one fits it
+    #: clearly better (by (hides + resumes) / 1000 IoU). Keep it below ``enters`` + 1000 x
+    #: ``iou_resume``, else an unseen track at the border loses a weakly fitting detection to a new
+    #: track entering there (a new id).
+    resumes: int = 100
 
     def __post_init__(self) -> None:
         for name, value in asdict(self).items():
@@ -174,10 +183,11 @@ class TrackerConfig:
         family = family.lower()
         if family == "kitti":
             base = cls(fps=10.0, image_size=(1242, 375), iou_assign=0.2, iou_resume=0.2, min_hits=3,
-                       confirm_confidence=0.99, start_confidence=0.8, min_confidence=0.65)
+                       confirm_confidence=0.99, start_confidence=0.8, min_confidence=0.65,
+                       costs=AbductionCosts(resumes=200))
         elif family in ("mot", "mot17", "mot15", "motchallenge"):
             base = cls(fps=30.0, iou_resume=0.2, min_hits=2, start_confidence=0.7, min_confidence=0.6,
-                       costs=AbductionCosts(leaves=300))
+                       costs=AbductionCosts(leaves=300, resumes=200))
         else:
             raise ValueError(f"unknown dataset family {family!r} (kitti or mot)")
         return replace(base, **changes)
@@ -211,6 +221,7 @@ class Tracker:
             "cost_leaves": c.costs.leaves, "cost_lost": c.costs.lost, "cost_dropped": c.costs.dropped,
             "cost_hides": c.costs.hides, "cost_missing": c.costs.missing,
             "cost_unseen": c.costs.unseen, "cost_ignore": c.costs.ignore,
+            "cost_resumes": c.costs.resumes,
         })
         self.reset()
 

@@ -204,7 +204,8 @@ class _Context:
                         continue
                 elif tid in self.hidden0 and (d, t) not in self.emerges:
                     continue
-                ok.append((d, lik))
+                # a halted track's match costs the resume event too: searched as a lower likelihood
+                ok.append((d, lik if self.active[t] else lik - k["cost_resumes"]))
             allowed[t] = ok
         # costs that do not depend on the choice: each object's own, computed once
         fixed_t = {t: _cheapest(self._unmatched(t, self.tid[t], self.hidden0.get(self.tid[t]), {}, set()))[:2]
@@ -312,6 +313,7 @@ class _Context:
                     unhides = False
                 else:
                     ans.resume[tid] = d
+                    cost += k["cost_resumes"]
                     unhides = h0 is not None
                     if unhides:
                         ans.events.append(("unhides_from_behind", (tid, h0)))
