@@ -227,7 +227,8 @@ def test_run_end_to_end_writes_tables(fake_data: Path, tmp_path: Path) -> None:
         assert set(bench["trackers"]["ours"]["variants"]) == {"visible", "predicted"}
     assert data["paper_table2"]["kitti-cars"]["rows"]["with abduction"]["MOTA"] == 50.5
     if HAVE_TRACKERS and _tracker_available():
-        assert "## Targets" in md and md.count("| kitti-rrc-car | ") == 8  # 3 vs ablation, 5 vs peers
+        assert "## Targets" in md and md.count("| kitti-rrc-car | ") == 9  # 4 vs ablation, 5 vs peers
+        assert "The whole run took" in md
 
 
 def test_cli_list_and_run(fake_data: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -359,4 +360,13 @@ def test_check_targets_states_each_gap_with_its_size() -> None:
     assert not idsw.met and idsw.margin == -1 and "ByteTrack" in idsw.detail
     time = checks["time per frame: at most 2x the fastest peer"]
     assert not time.met and time.margin == pytest.approx(-1.0)
+    cut = checks["cuts ID switches at least 3x (with vs without abduction)"]  # KITTI cars only
+    assert datasets.SPECS[0].class_name == "car" and not cut.met and cut.margin == pytest.approx(-1.0)
+    m["ours"]["IDSW"] = 6
+    cut = {c.target: c for c in report.check_targets(_fake_run(m, {"ours": 3.0, "ours-noabd": 1.0, "sort": 1.0,
+                                                                    "bytetrack": 2.0}))}[cut.target]
+    assert cut.met and "6 vs 20 (3.3x)" in cut.detail
+    mot = runner.BenchmarkRun(next(s for s in datasets.SPECS if s.family == "motchallenge"), ["x"], 100, [])
+    mot.runs = _fake_run(m, {"ours": 3.0, "ours-noabd": 1.0, "sort": 1.0, "bytetrack": 2.0}).runs
+    assert not any(c.target.startswith("cuts") for c in report.check_targets(mot))
     assert report.check_targets(_fake_run({"sort": m["sort"]}, {"sort": 1.0})) == []
