@@ -566,3 +566,34 @@ def test_int_columns_equals_np_stack(n):
     out, ref = _int_columns(*cols), np.stack(cols, axis=1).astype(np.int64)
     assert out.dtype == ref.dtype and out.shape == ref.shape and out.flags.c_contiguous
     np.testing.assert_array_equal(out, ref)
+
+
+@pytest.mark.parametrize("abduction", [True, False])
+def test_a_young_track_does_not_run_away_on_the_jitter_of_its_second_box(abduction):
+    """MOT17-05 frames 375-383: a small far pedestrian standing nearly still; its second box is
+    4 px (a quarter of its width) off the first. Taking that difference as its velocity
+    (two-point initialisation) carried the prediction a box width away during a 2-frame gap,
+    and the returning detection started a new id. ``velocity_prior`` weighs the first
+    displacement against how fast objects plausibly move, so the track waits near its boxes."""
+    def same_id(config: TrackerConfig) -> bool:
+        t = Tracker(config)
+        small = lambda x: (x, 200.0, x + 16.0, 240.0)
+        first = ids(t.update(frame(small(400.0)), frame=0))
+        t.update(frame(small(404.0)), frame=1)  # detector jitter, not motion
+        for f in (2, 3):
+            t.update(frame(), frame=f)  # missed
+        return ids(t.update(frame(small(400.0)), frame=4)) == first
+
+    config = TrackerConfig(fps=30, abduction=abduction)
+    assert config.velocity_prior == 3.0 and config.kalman_config.init_velocity_std == pytest.approx(0.1)
+    assert same_id(config)
+    assert not same_id(config.replace(velocity_prior=None))  # the per-frame 1.0: two-point velocity
+
+
+def test_velocity_prior_is_per_second_and_validated():
+    assert TrackerConfig(fps=10, velocity_prior=3.0).kalman_config.init_velocity_std == pytest.approx(0.3)
+    config = TrackerConfig(velocity_prior=None)
+    assert config.kalman_config is config.kalman
+    for bad in (0.0, -1.0, float("nan")):
+        with pytest.raises(ValueError):
+            TrackerConfig(velocity_prior=bad)

@@ -117,6 +117,15 @@ class TrackerConfig:
             solver. Exact (same answers); off only to check that.
         max_solve_ms: per-frame budget for grounding + solving (milliseconds). Past it the best
             answer found so far is used (or Hungarian matching if none) and counted. None: no limit.
+        velocity_prior: std of a new track's velocity before its detections show it, in box sizes
+            per second (width for x, height for y); sets ``kalman.init_velocity_std`` to
+            ``velocity_prior / fps``, so one value fits every frame rate. The velocity after the
+            second detection is the Bayesian compromise of this prior (mean: rest, or the scene's
+            motion with ``inherit_motion``) and the difference of two jittery boxes, weighted by
+            their variances. Set it near the spread of true velocities: lower trusts a young
+            track's first displacement less (no runaway predictions from detector jitter on
+            small boxes), but lets fast objects lag for a few frames (id loss after a gap).
+            None: use ``kalman.init_velocity_std`` (per frame) as given.
         costs: :class:`AbductionCosts`.
         kalman: :class:`~sensemaking.motion.KalmanConfig`.
     """
@@ -145,6 +154,7 @@ class TrackerConfig:
     likelihood_levels: int = 40
     decompose: bool = True
     max_solve_ms: float | None = None
+    velocity_prior: float | None = 3.0
     costs: AbductionCosts = field(default_factory=AbductionCosts)
     kalman: KalmanConfig = field(default_factory=KalmanConfig)
 
@@ -161,6 +171,8 @@ class TrackerConfig:
             raise ValueError("min_hits must be at least 1")
         if self.image_size is not None and (self.image_size[0] <= 0 or self.image_size[1] <= 0):
             raise ValueError(f"image_size must be positive, got {self.image_size}")
+        if self.velocity_prior is not None and not (np.isfinite(self.velocity_prior) and self.velocity_prior > 0):
+            raise ValueError(f"velocity_prior must be finite and > 0, got {self.velocity_prior!r}")
 
     @property
     def max_hidden_frames(self) -> int:
@@ -169,6 +181,13 @@ class TrackerConfig:
     @property
     def max_missing_frames(self) -> int:
         return max(1, int(round(self.max_missing_s * self.fps)))
+
+    @property
+    def kalman_config(self) -> KalmanConfig:
+        """``kalman`` with ``velocity_prior`` (if set) as its per-frame ``init_velocity_std``."""
+        if self.velocity_prior is None:
+            return self.kalman
+        return replace(self.kalman, init_velocity_std=self.velocity_prior / self.fps)
 
     def replace(self, **changes: Any) -> TrackerConfig:
         """A copy with some parameters changed."""
@@ -232,7 +251,7 @@ class Tracker:
     # -- state ------------------------------------------------------------------------------
     def reset(self) -> None:
         """Forget every track; the next update is a first frame. Ids start again at 1."""
-        self._kf = KalmanBank(self.config.kalman)
+        self._kf = KalmanBank(self.config.kalman_config)
         self._id = np.zeros(0, dtype=np.int64)
         self._cls = np.zeros(0, dtype=np.int64)
         self._state = np.zeros(0, dtype=np.int64)  # TrackState
