@@ -55,6 +55,8 @@ class KalmanConfig:
             predicted to within a pixel after a few frames; DeepSORT's 10 x velocity_std
             (1/16) instead takes tens of frames to learn a fast object's speed. The cost:
             the first velocity carries about sqrt(2) x the detector noise.
+            The tracker sets it from ``TrackerConfig.velocity_prior`` (box sizes per second,
+            divided by the frame rate) unless that is None.
     """
 
     position_std: float = 1 / 20
