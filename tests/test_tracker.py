@@ -566,3 +566,22 @@ def test_int_columns_equals_np_stack(n):
     out, ref = _int_columns(*cols), np.stack(cols, axis=1).astype(np.int64)
     assert out.dtype == ref.dtype and out.shape == ref.shape and out.flags.c_contiguous
     np.testing.assert_array_equal(out, ref)
+
+
+def test_trivial_frames_get_the_general_answer(monkeypatch):
+    """Tracker._trivial (no tracks, only weak detections) answers as the general path does."""
+    rng = np.random.default_rng(11)
+    t = Tracker(image_size=(400, 400), start_confidence=0.6)
+    general = Tracker(image_size=(400, 400), start_confidence=0.6)
+    monkeypatch.setattr(general, "_trivial", lambda pred, dets: None)
+    hits = 0
+    for _ in range(100):
+        n = int(rng.integers(0, 6))
+        xy = rng.uniform(-50, 400, (n, 2))
+        dets = Detections(np.concatenate([xy, xy + rng.uniform(5, 80, (n, 2))], axis=1),
+                          confidence=rng.uniform(0.0, 0.7, n), class_id=rng.integers(0, 2, n))
+        fast = t._trivial(np.zeros((0, 4)), dets)
+        hits += fast is not None
+        ref, _ = general._abduce(np.zeros((0, 4)), dets)
+        assert (fast or t._abduce(np.zeros((0, 4)), dets)[0]) == ref
+    assert hits > 20
