@@ -585,3 +585,18 @@ def test_trivial_frames_get_the_general_answer(monkeypatch):
         ref, _ = general._abduce(np.zeros((0, 4)), dets)
         assert (fast or t._abduce(np.zeros((0, 4)), dets)[0]) == ref
     assert hits > 20
+
+
+def test_output_without_tracks_has_the_columns_of_the_general_output():
+    """Tracker._output's shortcut for no tracks: the dtypes, shapes and keys of the general path."""
+    t = Tracker(image_size=(400, 400))
+    general = t.update(frame((10, 10, 50, 100)), frame=0).tracks
+    assert len(general) == 1
+    t.reset()
+    empty = t.update(frame(), frame=0).tracks
+    for name in ("xyxy", "confidence", "class_id", "tracker_id", "frame", "source_row"):
+        a, b = getattr(empty, name), getattr(general, name)
+        assert a.dtype == b.dtype and a.shape == (0,) + b.shape[1:], name
+    assert empty.data.keys() == general.data.keys()
+    for key, col in empty.data.items():
+        assert col.dtype == general.data[key].dtype and col.shape == (0,), key

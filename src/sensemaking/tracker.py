@@ -671,7 +671,9 @@ class Tracker:
     def _output(self, dets: Detections, observed: dict[int, int], frame: int) -> Detections:
         """Every live confirmed track: its detection's box if observed, else the prediction."""
         n = len(self._id)
-        boxes = self._kf.xyxy() if n else np.zeros((0, 4))
+        if n == 0:
+            return _no_tracks()  # most frames of sparse sequences
+        boxes = self._kf.xyxy()
         rows = np.full(n, -1, dtype=np.int64)
         if observed:
             pos = {int(t): i for i, t in enumerate(self._id.tolist())}
@@ -688,6 +690,18 @@ class Tracker:
             data={"state": self._state[keep], "occluder": self._occluder[keep],
                   "visibility": self._vis[keep], "hidden_frames": self._unseen[keep]},
         )
+
+
+def _no_tracks() -> Detections:
+    """:meth:`Tracker._output` without tracks: empty columns of its dtypes (fresh arrays)."""
+    def empty(dtype: type) -> np.ndarray:
+        return np.empty(0, dtype=dtype)
+
+    return Detections.trusted(
+        xyxy=np.empty((0, 4)), confidence=empty(np.float64), class_id=empty(np.int64),
+        tracker_id=empty(np.int64), frame=empty(np.int64), source_row=empty(np.int64),
+        data={"state": empty(np.int64), "occluder": empty(np.int64), "visibility": empty(np.int64),
+              "hidden_frames": empty(np.int64)})
 
 
 def _quantize(x: np.ndarray, levels: int, rounding=np.rint) -> np.ndarray:
