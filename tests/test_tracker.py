@@ -597,3 +597,37 @@ def test_velocity_prior_is_per_second_and_validated():
     for bad in (0.0, -1.0, float("nan")):
         with pytest.raises(ValueError):
             TrackerConfig(velocity_prior=bad)
+
+
+def test_trivial_frames_get_the_general_answer(monkeypatch):
+    """Tracker._trivial (no tracks, only weak detections) answers as the general path does."""
+    rng = np.random.default_rng(11)
+    t = Tracker(image_size=(400, 400), start_confidence=0.6)
+    general = Tracker(image_size=(400, 400), start_confidence=0.6)
+    monkeypatch.setattr(general, "_trivial", lambda pred, dets: None)
+    hits = 0
+    for _ in range(100):
+        n = int(rng.integers(0, 6))
+        xy = rng.uniform(-50, 400, (n, 2))
+        dets = Detections(np.concatenate([xy, xy + rng.uniform(5, 80, (n, 2))], axis=1),
+                          confidence=rng.uniform(0.0, 0.7, n), class_id=rng.integers(0, 2, n))
+        fast = t._trivial(np.zeros((0, 4)), dets)
+        hits += fast is not None
+        ref, _ = general._abduce(np.zeros((0, 4)), dets)
+        assert (fast or t._abduce(np.zeros((0, 4)), dets)[0]) == ref
+    assert hits > 20
+
+
+def test_output_without_tracks_has_the_columns_of_the_general_output():
+    """Tracker._output's shortcut for no tracks: the dtypes, shapes and keys of the general path."""
+    t = Tracker(image_size=(400, 400))
+    general = t.update(frame((10, 10, 50, 100)), frame=0).tracks
+    assert len(general) == 1
+    t.reset()
+    empty = t.update(frame(), frame=0).tracks
+    for name in ("xyxy", "confidence", "class_id", "tracker_id", "frame", "source_row"):
+        a, b = getattr(empty, name), getattr(general, name)
+        assert a.dtype == b.dtype and a.shape == (0,) + b.shape[1:], name
+    assert empty.data.keys() == general.data.keys()
+    for key, col in empty.data.items():
+        assert col.dtype == general.data[key].dtype and col.shape == (0,), key

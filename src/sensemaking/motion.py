@@ -210,9 +210,12 @@ class KalmanBank:
         s2 = self._scale(self._x) ** 2
         qp = cfg.position_std**2 * s2
         qv = cfg.velocity_std**2 * s2
+        pp, pv, vv = self._pp, self._pv, self._vv
+        if isinstance(n, int) and n == 1:
+            self._predict_one(qp, qv)
+            return _to_xyxy(self._x)
         # sum_{k<n} F^k Q F^kT with F^k = [[1, k], [0, 1]] and Q = diag(qp, qv)
         n2 = n * n
-        pp, pv, vv = self._pp, self._pv, self._vv
         # in place, each from the old values (pp before pv before vv)
         pp[...] = pp + 2.0 * n * pv + n2 * vv + n * qp + ((n - 1) * n * (2 * n - 1) / 6.0) * qv
         pv[...] = pv + n * vv + (n * (n - 1) / 2.0) * qv
@@ -220,6 +223,21 @@ class KalmanBank:
         self._x[...] = self._x + n * self._v
         self._clamp_size(self._x, self._v)
         return _to_xyxy(self._x)
+
+    def _predict_one(self, qp: np.ndarray, qv: np.ndarray) -> None:
+        """:meth:`predict`'s update at ``n = 1`` (the tracker's every frame), in place: the same
+        sums without the products by 1 and the terms ``0.0 * qv`` (adding +0.0 changes no
+        value here: the variances are positive and ``pv`` >= 0)."""
+        pp, pv, vv = self._pp, self._pv, self._vv
+        acc = 2.0 * pv
+        acc += pp  # pp + 2 pv (addition is commutative, also in floating point)
+        acc += vv
+        acc += qp
+        pp[...] = acc
+        pv += vv
+        vv += qv
+        self._x += self._v
+        self._clamp_size(self._x, self._v)
 
     def update(self, index: np.ndarray, xyxy: np.ndarray) -> None:
         """Correct rows ``index`` (K,) with measured boxes ``xyxy`` (K, 4) pixels (rows must be distinct)."""

@@ -287,7 +287,7 @@ class Tracker:
                 frame = int(dets.frame[0])
             else:
                 frame = 0 if self._last_frame is None else self._last_frame + 1
-        if len(dets) and np.any(dets.frame != frame):
+        if len(dets) and (dets.frame != frame).any():
             dets = dets.with_(frame=np.full(len(dets), frame))
         if self._last_frame is not None and frame <= self._last_frame:
             raise ValueError(f"frames must increase: got frame {frame} after {self._last_frame}")
@@ -380,12 +380,15 @@ class Tracker:
         n = len(boxes)
         if self.config.image_size is None or n == 0:
             return np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
-        m, image, far = _image_limits(self.config.image_size, self.config.border_margin)
+        m, size, far = _image_limits(self.config.image_size, self.config.border_margin)
         # x1 <= m or y1 <= m or x2 >= w - m or y2 >= h - m
         near = (boxes[:, :2] <= m) | (boxes[:, 2:] >= far)  # (N, 2): x side, y side
         at = near[:, 0] | near[:, 1]
         area = box_area(boxes) if area is None else area
-        inside = safe_ratio(intersection(boxes, image)[:, 0], area)  # geometry.coverage(boxes, image)
+        # geometry.coverage(boxes, image): intersection with the image (0, 0, w, h), per side
+        extent = np.minimum(boxes[:, 2:], size) - np.maximum(boxes[:, :2], 0.0)
+        np.maximum(extent, 0.0, out=extent)
+        inside = safe_ratio(extent[:, 0] * extent[:, 1], area)
         return at, inside < 0.05  # (almost) nothing left in view; detections may stick out far
 
     def _problem(self, pred: np.ndarray, dets: Detections) -> FrameProblem:
@@ -483,8 +486,9 @@ class Tracker:
         return _int_columns(d, tracks[h])
 
     def _abduce(self, pred: np.ndarray, dets: Detections) -> tuple[Answer, bool]:
-        if len(pred) == 0 and len(dets) == 0:
-            return Answer(), False  # nothing to explain (most frames of sparse sequences)
+        trivial = self._trivial(pred, dets)
+        if trivial is not None:
+            return trivial, False
         problem = self._problem(pred, dets)
         # Exact decomposition: isolated pairs have a forced optimum (see isolated_pairs), so
         # only the rest goes to the solver -- on most frames of real sequences, nothing.
@@ -527,6 +531,14 @@ class Tracker:
         if answer.timed_out:
             self.stats["timed_out"] += 1
         return answer, answer.timed_out
+
+    def _trivial(self, pred: np.ndarray, dets: Detections) -> Answer | None:
+        """The answer of a frame without tracks whose detections are all too weak to start one
+        (every detection a forced ignore, see ``FrameProblem.forced_ignores``), else None: such
+        frames are common on sparse sequences, and the general path gives the same answer."""
+        if len(pred) or (dets.confidence >= self.config.start_confidence).any():
+            return None
+        return Answer(ignore_det=list(range(len(dets))))  # nothing to explain if no detection either
 
     def _solver_solve(self, problem: FrameProblem) -> Answer | None:
         return self._solver.solve(problem, budget_ms=self.config.max_solve_ms)
@@ -678,7 +690,9 @@ class Tracker:
     def _output(self, dets: Detections, observed: dict[int, int], frame: int) -> Detections:
         """Every live confirmed track: its detection's box if observed, else the prediction."""
         n = len(self._id)
-        boxes = self._kf.xyxy() if n else np.zeros((0, 4))
+        if n == 0:
+            return _no_tracks()  # most frames of sparse sequences
+        boxes = self._kf.xyxy()
         rows = np.full(n, -1, dtype=np.int64)
         if observed:
             pos = {int(t): i for i, t in enumerate(self._id.tolist())}
@@ -697,6 +711,18 @@ class Tracker:
         )
 
 
+def _no_tracks() -> Detections:
+    """:meth:`Tracker._output` without tracks: empty columns of its dtypes (fresh arrays)."""
+    def empty(dtype: type) -> np.ndarray:
+        return np.empty(0, dtype=dtype)
+
+    return Detections.trusted(
+        xyxy=np.empty((0, 4)), confidence=empty(np.float64), class_id=empty(np.int64),
+        tracker_id=empty(np.int64), frame=empty(np.int64), source_row=empty(np.int64),
+        data={"state": empty(np.int64), "occluder": empty(np.int64), "visibility": empty(np.int64),
+              "hidden_frames": empty(np.int64)})
+
+
 def _quantize(x: np.ndarray, levels: int, rounding=np.rint) -> np.ndarray:
     """Values in [0, 1] -> integers 0..1000 on a grid of ``levels`` steps (``np.rint``: what
     ``np.round`` calls for 0 decimals, without its Python layers)."""
@@ -711,10 +737,10 @@ def _floored_grid(levels: int, iou: tuple[float, ...]) -> tuple[int, ...]:
 
 @lru_cache(maxsize=16)
 def _image_limits(image_size: tuple[int, int], margin: float) -> tuple[float, np.ndarray, np.ndarray]:
-    """``margin``, the image as a (1, 4) box and ``(w - margin, h - margin)`` (asked every frame;
-    shared arrays: not to be modified)."""
+    """``margin``, ``(w, h)`` and ``(w - margin, h - margin)`` (asked every frame; shared arrays:
+    not to be modified)."""
     w, h = image_size
-    return margin, np.array([[0.0, 0.0, w, h]]), np.array([w - margin, h - margin], dtype=np.float64)
+    return margin, np.array([w, h], dtype=np.float64), np.array([w - margin, h - margin], dtype=np.float64)
 
 
 def _int_columns(*cols: np.ndarray) -> np.ndarray:
