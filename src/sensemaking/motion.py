@@ -176,8 +176,8 @@ class KalmanBank:
         """Start tracks at boxes ``xyxy`` (K, 4) pixels. Returns their row indices (K,).
 
         ``velocity``: (K, 4) or (4,) prior velocity of ``cx, cy, w, h`` in pixels per frame
-        (default 0). Its uncertainty stays ``init_velocity_std``: the second detection still
-        sets the velocity; the prior only moves the first prediction.
+        (default 0), with the uncertainty ``init_velocity_std``: it moves the first prediction,
+        and the second detection corrects it in proportion to that uncertainty.
         """
         z = _to_cxcywh(xyxy)
         if not np.all(np.isfinite(z)):
@@ -210,12 +210,12 @@ class KalmanBank:
         s2 = self._scale(self._x) ** 2
         qp = cfg.position_std**2 * s2
         qv = cfg.velocity_std**2 * s2
-        pp, pv, vv = self._pp, self._pv, self._vv
         if isinstance(n, int) and n == 1:
             self._predict_one(qp, qv)
             return _to_xyxy(self._x)
         # sum_{k<n} F^k Q F^kT with F^k = [[1, k], [0, 1]] and Q = diag(qp, qv)
         n2 = n * n
+        pp, pv, vv = self._pp, self._pv, self._vv
         # in place, each from the old values (pp before pv before vv)
         pp[...] = pp + 2.0 * n * pv + n2 * vv + n * qp + ((n - 1) * n * (2 * n - 1) / 6.0) * qv
         pv[...] = pv + n * vv + (n * (n - 1) / 2.0) * qv

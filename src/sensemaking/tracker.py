@@ -380,15 +380,12 @@ class Tracker:
         n = len(boxes)
         if self.config.image_size is None or n == 0:
             return np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
-        m, size, far = _image_limits(self.config.image_size, self.config.border_margin)
+        m, image, far = _image_limits(self.config.image_size, self.config.border_margin)
         # x1 <= m or y1 <= m or x2 >= w - m or y2 >= h - m
         near = (boxes[:, :2] <= m) | (boxes[:, 2:] >= far)  # (N, 2): x side, y side
         at = near[:, 0] | near[:, 1]
         area = box_area(boxes) if area is None else area
-        # geometry.coverage(boxes, image): intersection with the image (0, 0, w, h), per side
-        extent = np.minimum(boxes[:, 2:], size) - np.maximum(boxes[:, :2], 0.0)
-        np.maximum(extent, 0.0, out=extent)
-        inside = safe_ratio(extent[:, 0] * extent[:, 1], area)
+        inside = safe_ratio(intersection(boxes, image)[:, 0], area)  # geometry.coverage(boxes, image)
         return at, inside < 0.05  # (almost) nothing left in view; detections may stick out far
 
     def _problem(self, pred: np.ndarray, dets: Detections) -> FrameProblem:
@@ -737,10 +734,10 @@ def _floored_grid(levels: int, iou: tuple[float, ...]) -> tuple[int, ...]:
 
 @lru_cache(maxsize=16)
 def _image_limits(image_size: tuple[int, int], margin: float) -> tuple[float, np.ndarray, np.ndarray]:
-    """``margin``, ``(w, h)`` and ``(w - margin, h - margin)`` (asked every frame; shared arrays:
-    not to be modified)."""
+    """``margin``, the image as a (1, 4) box and ``(w - margin, h - margin)`` (asked every frame;
+    shared arrays: not to be modified)."""
     w, h = image_size
-    return margin, np.array([w, h], dtype=np.float64), np.array([w - margin, h - margin], dtype=np.float64)
+    return margin, np.array([[0.0, 0.0, w, h]]), np.array([w - margin, h - margin], dtype=np.float64)
 
 
 def _int_columns(*cols: np.ndarray) -> np.ndarray:

@@ -217,6 +217,7 @@ class TargetCheck:
             negative: missed by that much); percentage points for scores, counts for ID switches,
             a factor for times.
         detail: the numbers behind it.
+        unit: the margin's unit: ``"points"``, ``"count"`` or ``"factor"``.
     """
 
     benchmark: str
@@ -224,6 +225,7 @@ class TargetCheck:
     met: bool
     margin: float
     detail: str
+    unit: str = "points"
 
 
 #: MOTA may trail the best peer by this much (fraction, 0.5 points)
@@ -259,7 +261,7 @@ def check_targets(b: BenchmarkRun) -> list[TargetCheck]:
             factor = a / o if o > 0 else float("inf")
             out.append(TargetCheck(name, f"cuts ID switches at least {IDSW_CUT:g}x (with vs without abduction)",
                                    factor >= IDSW_CUT, factor - IDSW_CUT,
-                                   f"{_int(o)} vs {_int(a)} ({factor:.1f}x)"))
+                                   f"{_int(o)} vs {_int(a)} ({factor:.1f}x)", "factor"))
     peers = {k: b.chosen(k) for k in PEERS}
     peers = {k: r for k, r in peers.items() if r is not None and r.error is None and r.metrics}
     if not peers:
@@ -276,7 +278,7 @@ def check_targets(b: BenchmarkRun) -> list[TargetCheck]:
     fewest = min(peers, key=lambda k: _get(peers[k].metrics, "IDSW"))
     o, p = _get(m, "IDSW"), _get(peers[fewest].metrics, "IDSW")
     out.append(TargetCheck(name, "ID switches: fewer than any peer", o < p, p - o,
-                           f"{_int(o)} vs {DISPLAY_NAMES[fewest]} {_int(p)}"))
+                           f"{_int(o)} vs {DISPLAY_NAMES[fewest]} {_int(p)}", "count"))
     timed = {k: r for k, r in peers.items() if r.frames}
     if timed and ours.frames:
         fastest = min(timed, key=lambda k: timed[k].ms_per_frame)
@@ -284,7 +286,7 @@ def check_targets(b: BenchmarkRun) -> list[TargetCheck]:
         out.append(TargetCheck(name, "time per frame: at most 2x the fastest peer", factor <= TIME_FACTOR,
                                TIME_FACTOR - factor,
                                f"{ours.ms_per_frame:.2f} vs {DISPLAY_NAMES[fastest]} "
-                               f"{timed[fastest].ms_per_frame:.2f} ms ({factor:.1f}x)"))
+                               f"{timed[fastest].ms_per_frame:.2f} ms ({factor:.1f}x)", "factor"))
     return out
 
 
@@ -299,7 +301,7 @@ def _targets_section(summary: RunSummary) -> list[str]:
              "for time); negative means missed by that much.", "",
              "| Benchmark | target | met | margin | numbers |", "|---|---|---|---:|---|"]
     for c in checks:
-        margin = f"{c.margin:+.0f}" if c.target.startswith("ID switches") else f"{c.margin:+.2f}"
+        margin = f"{c.margin:+.0f}" if c.unit == "count" else f"{c.margin:+.2f}"
         lines.append(f"| {c.benchmark} | {c.target} | {'yes' if c.met else '**no**'} | {margin} | {c.detail} |")
     minutes = summary.total_seconds / 60
     lines += ["", f"The whole run took {minutes:.1f} min: {'within' if minutes < RUN_MINUTES else '**over**'} the "

@@ -56,7 +56,6 @@ _INV: list[int] = inverse_codes(np.arange(len(IA_RELATIONS))).tolist()
 #: x relations of boxes side by side (``lateral/1`` of relations.lp; closed under the converse)
 _LATERAL_CODES = frozenset(IA_RELATIONS.index(r) for r in
                            ("before", "after", "meets", "met_by", "overlaps", "overlapped_by"))
-_K = {k: i for i, k in enumerate(MOTION_KINDS)}
 _VISIBLE, _HIDDEN = int(TrackState.VISIBLE), int(TrackState.HIDDEN)
 
 
@@ -142,7 +141,8 @@ class SituationMonitor:
     def reset(self) -> None:
         """Forget all history; the next update starts a new sequence."""
         self._frames: deque[_Frame] = deque(maxlen=self._window)
-        # visible frames of each track: [frame, box, centre speed px/s there (NaN if unknown)]
+        # visible frames of each track: [frame, box, centre speed px/s there (None: not computed
+        # yet, NaN: no box lag to 2 lag frames before), see _motion_row]
         self._hist: dict[int, deque[list[Any]]] = {}
         self._class: dict[int, int] = {}
         self._last_live: dict[int, int] = {}
@@ -152,7 +152,7 @@ class SituationMonitor:
         self._anticip: dict[int, Anticipation] = {}
         self._person_started: int | None = None  # the last frame with a person's track start
         # fit_motion of hidden tracks, with (history length, last visible frame) it was made from
-        self._fits: dict[int, tuple[tuple[int, int], tuple[int, np.ndarray, np.ndarray]]] = {}
+        self._fits: dict[int, tuple[tuple[int, int], tuple[int, list[float], list[float]]]] = {}
         self._active: list[Warning] | None = []  # None: not solved yet at this frame (see active)
         self._pending: tuple[int, dict[Situation, Any] | None, list[Situation]] | None = None
         self._held: set[tuple[str, tuple[int, ...]]] = set()  # held at the last frame, exact situations
@@ -361,8 +361,9 @@ class SituationMonitor:
         return None
 
     def _motion_row(self, h: deque[list[Any]], k: int) -> tuple[tuple[bool, ...], float, float, float] | None:
-        """:func:`~sensemaking.reasoning.relations.motion_row` of entry ``k`` against its previous box (kinds, speed px/s, vx px/s,
-        growth 1/s), or None without one; keeps the speed in the entry."""
+        """:func:`~sensemaking.reasoning.relations.motion_row` of entry ``k`` against its previous
+        box (kinds, speed px/s, vx px/s, growth 1/s), or None without one; keeps the speed in the
+        entry."""
         j = self._prev_entry(h, k)
         if j is None:
             h[k][2] = np.nan
