@@ -154,24 +154,6 @@ def test_anticipate_fits_equals_anticipate_on_random_histories():
                                                                                    image_size=size)
 
 
-def test_stepwise_look_ahead_equals_the_whole_horizon_at_once(monkeypatch):
-    from sensemaking.reasoning import anticipation
-
-    rng = np.random.default_rng(12)
-    for it in range(400):
-        k, m = int(rng.integers(1, 6)), int(rng.integers(1, 6))
-        hf, of = np.sort(rng.choice(20, k, replace=False)), np.sort(rng.choice(22, m, replace=False))
-        hx = np.stack([rng.uniform(300, 900, k), rng.uniform(150, 200, k)], 1)
-        hx = np.concatenate([hx, hx + rng.uniform(20, 150, (k, 2))], 1)
-        ox = hx[:1].repeat(m, 0) + rng.normal(0, 15, (m, 4)) + [-60, -10, 60, 10]
-        now = int(max(hf.max(), of.max())) + int(rng.integers(0, 3))
-        size = None if it % 3 == 0 else (1242, 375)
-        got = anticipate(hf, hx, of, ox, now, fps=10.0, image_size=size)
-        with monkeypatch.context() as mp:
-            mp.setattr(anticipation, "_STEPWISE", 0)  # arrays only
-            assert anticipate(hf, hx, of, ox, now, fps=10.0, image_size=size) == got
-
-
 def test_fit_motion_rows_gives_the_values_of_fit_motion():
     rng = np.random.default_rng(7)
     for _ in range(2000):
@@ -183,3 +165,38 @@ def test_fit_motion_rows_gives_the_values_of_fit_motion():
         span = float(rng.uniform(3, 30)) if rng.random() < 0.7 else None
         last, box, vel = fit_motion(frames, boxes, points, span)
         assert fit_motion_rows(frames.tolist(), boxes.tolist(), points, span) == (last, box.tolist(), vel.tolist())
+
+
+def test_first_uncovered_is_the_frame_by_frame_look_ahead():
+    # the look-ahead with _box_at and _coverage written out finds what composing them finds:
+    # early and late reappearances, none at all, boxes shrinking to the 1 px clamp
+    from sensemaking.reasoning.anticipation import _box_at, _coverage, _first_uncovered
+
+    def plain(t_fit, o_fit, now, steps, cov):
+        overdue = _coverage(_box_at(*t_fit, now), _box_at(*o_fit, now)) < cov
+        for k in range(1, steps + 1):
+            tb = _box_at(*t_fit, now + k)
+            if _coverage(tb, _box_at(*o_fit, now + k)) < cov:
+                return k, tb, overdue and k == 1
+        return None
+
+    rng = np.random.default_rng(5)
+    found = late = 0
+    for it in range(3000):
+        tb = rng.uniform(300, 700, 2).tolist()
+        tb = tb + [tb[0] + rng.uniform(0.5, 80), tb[1] + rng.uniform(0.5, 80)]
+        ob = [tb[0] - rng.uniform(0, 60), tb[1] - rng.uniform(0, 60), tb[2] + rng.uniform(-20, 60),
+              tb[3] + rng.uniform(-20, 60)]
+        scale = [0.0, 0.05, 1.0, 4.0][it % 4]
+        tv = (rng.normal(0, scale, 4)).tolist()
+        ov = (np.asarray(tv) + rng.normal(0, scale / 4 + 0.01, 4)).tolist()
+        if it % 7 == 0:  # the object shrinks to a point: the clamp to 1 px
+            tv = [0.5, 0.5, -0.5, -0.5]
+        now, t_last, o_last = 100, 100 - int(rng.integers(0, 5)), 100 - int(rng.integers(0, 2))
+        cov = float(rng.choice([0.5, 0.6, 0.9]))
+        steps = int(rng.integers(1, 160))
+        want = plain((t_last, tb, tv), (o_last, ob, ov), now, steps, cov)
+        assert _first_uncovered(t_last, tb, tv, o_last, ob, ov, now, steps, cov) == want
+        found += want is not None
+        late += want is not None and want[0] > 12
+    assert found > 500 and late > 100 and 3000 - found > 500

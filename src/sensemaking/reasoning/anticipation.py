@@ -140,42 +140,32 @@ def fit_motion_rows(frames: list[int], boxes: list[list[float]], points: int = 5
     n = len(f)
     if n < 2:
         return last, [float(v) for v in x[-1]], [0.0, 0.0, 0.0, 0.0]
+    # the sums are written out: one addition after the other from 0.0, like numpy below 8 terms
+    # (the builtin sum() compensates rounding from Python 3.12 on)
     t = [v - f[-1] for v in f]
-    tm = sum(t) / n
-    xm = [sum(b[j] for b in x) / n for j in range(4)]
-    dt = [v - tm for v in t]
-    denom = sum(d * d for d in dt)
-    vel = [sum(d * (b[j] - xm[j]) for d, b in zip(dt, x)) / denom for j in range(4)]
-    box = [m + v * (0.0 - tm) for m, v in zip(xm, vel)]
-    return last, box, vel
-
-
-def _extrapolate(box: np.ndarray, vel: np.ndarray, dt: np.ndarray) -> np.ndarray:
-    """(..., H, 4) boxes ``box + vel * dt`` with widths and heights kept >= 1 px, for ``box`` and
-    ``vel`` (..., 4) and ``dt`` (..., H) (several boxes at once: the same values one by one)."""
-    b = box[..., None, :] + vel[..., None, :] * dt[..., None]
-    cx, cy = (b[..., 0] + b[..., 2]) / 2, (b[..., 1] + b[..., 3]) / 2
-    hw = np.maximum(b[..., 2] - b[..., 0], 1.0) / 2
-    hh = np.maximum(b[..., 3] - b[..., 1], 1.0) / 2
-    return np.stack([cx - hw, cy - hh, cx + hw, cy + hh], axis=-1)
-
-
-def _coverage_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """(H,) fraction of each box ``a[k]`` covered by ``b[k]``."""
-    w = np.clip(np.minimum(a[:, 2], b[:, 2]) - np.maximum(a[:, 0], b[:, 0]), 0, None)
-    h = np.clip(np.minimum(a[:, 3], b[:, 3]) - np.maximum(a[:, 1], b[:, 1]), 0, None)
-    area = (a[:, 2] - a[:, 0]) * (a[:, 3] - a[:, 1])
-    return w * h / np.maximum(area, 1e-9)
-
-
-#: frames ahead that anticipate_fits checks one by one before the whole horizon
-_STEPWISE = 12
+    tm = 0.0
+    for v in t:
+        tm += v
+    tm /= n
+    s0 = s1 = s2 = s3 = 0.0
+    for b in x:
+        s0, s1, s2, s3 = s0 + b[0], s1 + b[1], s2 + b[2], s3 + b[3]
+    m0, m1, m2, m3 = s0 / n, s1 / n, s2 / n, s3 / n
+    denom = s0 = s1 = s2 = s3 = 0.0
+    for v, b in zip(t, x):
+        d = v - tm
+        denom += d * d
+        s0, s1, s2, s3 = s0 + d * (b[0] - m0), s1 + d * (b[1] - m1), s2 + d * (b[2] - m2), s3 + d * (b[3] - m3)
+    vel = [s0 / denom, s1 / denom, s2 / denom, s3 / denom]
+    back = 0.0 - tm
+    return last, [m0 + vel[0] * back, m1 + vel[1] * back, m2 + vel[2] * back, m3 + vel[3] * back], vel
 
 
 def _box_at(last: int, box: list[float], vel: list[float], frame: int) -> list[float]:
-    """One row of :func:`_extrapolate`: ``box + vel * (frame - last)``, sides kept >= 1 px."""
+    """The box ``box + vel * (frame - last)`` (pixels; ``vel`` per frame) about the same centre
+    with each side kept >= 1 px."""
     dt = float(frame) - last
-    x1, y1, x2, y2 = (b + v * dt for b, v in zip(box, vel))
+    x1, y1, x2, y2 = box[0] + vel[0] * dt, box[1] + vel[1] * dt, box[2] + vel[2] * dt, box[3] + vel[3] * dt
     cx, cy = (x1 + x2) / 2, (y1 + y2) / 2
     hw, hh = x2 - x1, y2 - y1
     hw = (hw if hw >= 1.0 else 1.0) / 2
@@ -184,7 +174,7 @@ def _box_at(last: int, box: list[float], vel: list[float], frame: int) -> list[f
 
 
 def _coverage(a: list[float], b: list[float]) -> float:
-    """One row of :func:`_coverage_rows`."""
+    """Fraction of box ``a`` covered by box ``b``."""
     w = (a[2] if a[2] < b[2] else b[2]) - (a[0] if a[0] > b[0] else b[0])
     h = (a[3] if a[3] < b[3] else b[3]) - (a[1] if a[1] > b[1] else b[1])
     area = (a[2] - a[0]) * (a[3] - a[1])
@@ -201,10 +191,29 @@ def _first_uncovered(t_last: int, t_box: list[float], t_vel: list[float], o_last
     """``(k, box, overdue)`` for the first of the frames ``now + 1 .. now + steps`` at which the
     extrapolated object is less than ``coverage`` covered, or None if there is none."""
     overdue = _coverage(_box_at(t_last, t_box, t_vel, now), _box_at(o_last, o_box, o_vel, now)) < coverage
+    # _box_at and _coverage written out (the same float operations): this loop is the monitor's
+    # hot spot while objects are hidden
+    a0, a1, a2, a3 = t_box
+    u0, u1, u2, u3 = t_vel
+    b0, b1, b2, b3 = o_box
+    v0, v1, v2, v3 = o_vel
     for k in range(1, steps + 1):
-        tb = _box_at(t_last, t_box, t_vel, now + k)
-        if _coverage(tb, _box_at(o_last, o_box, o_vel, now + k)) < coverage:
-            return k, tb, overdue and k == 1
+        f = float(now + k)
+        dt = f - t_last
+        x1, y1, x2, y2 = a0 + u0 * dt, a1 + u1 * dt, a2 + u2 * dt, a3 + u3 * dt
+        cx, cy, w, h = (x1 + x2) / 2, (y1 + y2) / 2, x2 - x1, y2 - y1
+        w, h = (w if w >= 1.0 else 1.0) / 2, (h if h >= 1.0 else 1.0) / 2
+        p0, p1, p2, p3 = cx - w, cy - h, cx + w, cy + h
+        dt = f - o_last
+        x1, y1, x2, y2 = b0 + v0 * dt, b1 + v1 * dt, b2 + v2 * dt, b3 + v3 * dt
+        cx, cy, w, h = (x1 + x2) / 2, (y1 + y2) / 2, x2 - x1, y2 - y1
+        w, h = (w if w >= 1.0 else 1.0) / 2, (h if h >= 1.0 else 1.0) / 2
+        q0, q1, q2, q3 = cx - w, cy - h, cx + w, cy + h
+        w = (p2 if p2 < q2 else q2) - (p0 if p0 > q0 else q0)
+        h = (p3 if p3 < q3 else q3) - (p1 if p1 > q1 else q1)
+        area = (p2 - p0) * (p3 - p1)
+        if (w if w > 0 else 0.0) * (h if h > 0 else 0.0) / (area if area >= 1e-9 else 1e-9) < coverage:
+            return k, [p0, p1, p2, p3], overdue and k == 1
     return None
 
 
@@ -252,23 +261,11 @@ def anticipate_fits(hidden_fit: tuple[int, Any, Any], occluder_fit: tuple[int, A
     t_last, t_box, t_vel = hidden_fit
     o_last, o_box, o_vel = occluder_fit
     horizon = max(1, int(round(c.horizon_s * fps)))
-    # most objects come out within a few frames: look frame by frame first (the same float
-    # operations as the arrays below), then at the whole horizon at once
     found = _first_uncovered(t_last, _floats(t_box), _floats(t_vel), o_last, _floats(o_box), _floats(o_vel), now,
-                             min(horizon, _STEPWISE), c.reappear_coverage)
-    if found is not None:
-        k, box, overdue = found
-    else:
-        future = np.arange(now, now + horizon + 1, dtype=np.float64)  # now, now+1, ..., now+H
-        tb, ob = _extrapolate(np.array([t_box, o_box], dtype=np.float64), np.array([t_vel, o_vel], dtype=np.float64),
-                              np.stack([future - t_last, future - o_last]))
-        cov = _coverage_rows(tb, ob)
-        out = np.flatnonzero(cov[1:] < c.reappear_coverage)
-        if out.size == 0:
-            return None
-        k = int(out[0]) + 1
-        overdue = bool(cov[0] < c.reappear_coverage) and k == 1
-        box = tb[k].tolist()
+                             horizon, c.reappear_coverage)
+    if found is None:
+        return None
+    k, box, overdue = found
     pos = ((box[0] + box[2]) / 2, box[3])
     in_corridor, in_image = False, True
     if image_size is not None:
