@@ -40,7 +40,7 @@ import json
 import logging
 import re
 from bisect import bisect_right
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
 from os import PathLike
@@ -179,22 +179,31 @@ class Corridor:
     def contains_rows(self, boxes: list[list[float]], image_size: tuple[int, int]) -> list[bool]:
         """Plain-Python :meth:`contains_boxes` for a few boxes ``[x1, y1, x2, y2]`` (Python floats):
         the same result (np.interp's arithmetic over the same profile), without numpy's per-call cost."""
+        return self.row_test(image_size)(boxes)
+
+    def row_test(self, image_size: tuple[int, int]) -> Callable[[list[list[float]]], list[bool]]:
+        """:meth:`contains_rows` for one image size, the corridor's profile bound once (for a
+        caller that tests every frame)."""
         ys, xl, xr = _profile_lists(self.points, self.normalized, (int(image_size[0]), int(image_size[1])))
         lo, hi, last, m = ys[0], ys[-1], len(ys) - 1, self.min_overlap
-        out = []
-        for x1, _, x2, y in boxes:
-            if y < lo or y > hi or y != y:
-                out.append(False)
-                continue
-            j = bisect_right(ys, y) - 1
-            if j >= last or ys[j] == y:  # np.interp returns the vertex value there
-                left, right = xl[j], xr[j]
-            else:
-                dy = ys[j + 1] - ys[j]
-                left = (xl[j + 1] - xl[j]) / dy * (y - ys[j]) + xl[j]
-                right = (xr[j + 1] - xr[j]) / dy * (y - ys[j]) + xr[j]
-            out.append((min(x2, right) - max(x1, left)) / max(x2 - x1, 1e-9) >= m)
-        return out
+
+        def contains(boxes: list[list[float]]) -> list[bool]:
+            out = []
+            for x1, _, x2, y in boxes:
+                if y < lo or y > hi or y != y:
+                    out.append(False)
+                    continue
+                j = bisect_right(ys, y) - 1
+                if j >= last or ys[j] == y:  # np.interp returns the vertex value there
+                    left, right = xl[j], xr[j]
+                else:
+                    dy = ys[j + 1] - ys[j]
+                    left = (xl[j + 1] - xl[j]) / dy * (y - ys[j]) + xl[j]
+                    right = (xr[j + 1] - xr[j]) / dy * (y - ys[j]) + xr[j]
+                out.append((min(x2, right) - max(x1, left)) / max(x2 - x1, 1e-9) >= m)
+            return out
+
+        return contains
 
     def contains_points(self, points: np.ndarray, image_size: tuple[int, int]) -> np.ndarray:
         """(N,) bool: points ``(x, y)`` in pixels lie inside the corridor."""

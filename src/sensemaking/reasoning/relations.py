@@ -17,6 +17,7 @@ All of it is computed in numpy and handed to clingo as facts, and only for pairs
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -377,7 +378,9 @@ def motion_features(prev: np.ndarray, cur: np.ndarray, dt: float | np.ndarray) -
     hc = np.maximum(c[:, 3] - c[:, 1], 1e-6)
     growth = (hc - hp) / (0.5 * (hp + hc)) / dt
     vx, vy = v[:, 0], v[:, 1]
-    return MotionFeatures(vx, vy, vbottom, growth, np.hypot(vx, vy))
+    # sqrt(vx² + vy²), not hypot: IEEE square roots are exact-rounded in numpy and math alike,
+    # so motion_row gets the same value (hypot's last bit differs between implementations)
+    return MotionFeatures(vx, vy, vbottom, growth, np.sqrt(vx * vx + vy * vy))
 
 
 def classify_motion(now: MotionFeatures, speed_before: np.ndarray | None = None,
@@ -415,7 +418,7 @@ def motion_row(prev: list[float], cur: list[float], dt: float, speed_before: flo
                thresholds: MotionThresholds) -> tuple[tuple[bool, ...], float, float, float]:
     """Plain-Python :func:`motion_features` + :func:`classify_motion` for one box: for the
     per-frame monitor, where numpy's per-call cost dominates. The same float operations (the
-    speed through ``np.hypot``, as math.hypot may differ in the last bit), so the same values.
+    speed as ``sqrt(vx * vx + vy * vy)``), so the same values.
 
     Args:
         prev, cur: boxes ``[x1, y1, x2, y2]`` (Python floats). dt: seconds between them (> 0).
@@ -435,7 +438,7 @@ def motion_row(prev: list[float], cur: list[float], dt: float, speed_before: flo
     hp = max(prev[3] - prev[1], 1e-6)
     hc = max(cur[3] - cur[1], 1e-6)
     gr = (hc - hp) / (0.5 * (hp + hc)) / dt
-    sp = float(np.hypot(vx, vy))
+    sp = math.sqrt(vx * vx + vy * vy)
     approaching = gr >= g and vb >= t.bottom_px_s
     stopped = sp < t.stopped_px_s and abs(gr) < g
     kinds = (approaching, gr <= -g and vb <= -t.bottom_px_s, vx <= -t.lateral_px_s, vx >= t.lateral_px_s, stopped,
