@@ -83,3 +83,32 @@ def test_prefilter_is_exact_on_kitti_ground_truth():
     b = [w.to_json() for r in results for w in full.update(r)]
     assert a == b and len(a) > 1
     assert fast.stats["solver_calls"] < full.stats["solver_calls"] / 3
+
+
+@pytest.mark.integration
+@pytest.mark.skipif(not (KITTI / "detections" / "rrc" / "car" / "0001.txt").exists(),
+                    reason="needs ../shared/data/kitti with RRC detections")
+def test_answers_from_the_snapshot_equal_grounding_everything_on_the_trackers_kitti_output():
+    """KITTI 0000 and 0001 tracked from RRC detections (cars overtaking, hidden behind others,
+    ahead, braking): the warnings and the active situations of every frame, details included,
+    are those of grounding every situation with every fact of the window; the solver is asked
+    on no frame."""
+    from sensemaking.detections import Detections
+    from sensemaking.io.kitti import read_kitti_detections
+    from sensemaking.tracker import Tracker, TrackerConfig
+
+    size = (1242, 375)
+    seen: set[str] = set()
+    for seq in ("0000", "0001"):
+        by_frame = dict(read_kitti_detections(KITTI / "detections" / "rrc" / "car" / f"{seq}.txt").frames())
+        tracker = Tracker(TrackerConfig.for_dataset("kitti", fps=10.0, image_size=size))
+        fast = SituationMonitor(SituationConfig(), fps=10.0, image_size=size)
+        full = SituationMonitor(SituationConfig(prefilter=False), fps=10.0, image_size=size)
+        for f in range(max(by_frame) + 1):
+            r = tracker.update(by_frame.get(f, Detections.empty()), frame=f)
+            assert [w.to_json() for w in fast.update(r)] == [w.to_json() for w in full.update(r)]
+            active = [w.to_json() for w in fast.active]
+            assert active == [w.to_json() for w in full.active]
+            seen |= {w["situation"] for w in active}
+        assert fast.stats["solver_calls"] == 0
+    assert {"OVERTAKING", "HIDDEN_ENTITY", "REDUCED_VISIBILITY", "SUDDEN_STOP"} <= seen

@@ -7,18 +7,21 @@ occluders, which boxes stand in the ego corridor, qualitative motion of visible 
 rectangle relations of near pairs involving a vehicle, events, lanes and ground labels, and the
 anticipated reappearance of hidden tracks. From the snapshots it finds the *candidates* of each
 situation -- the objects for which the trigger facts of its rules are present, a necessary
-condition of the rule bodies -- and, only when there are new ones, grounds ``situations.lp`` on a
-fresh clingo Control with the facts of those objects
+condition of the rule bodies.
+
+For OVERTAKING, HIDDEN_ENTITY, REDUCED_VISIBILITY and SUDDEN_STOP the candidate test checks
+every condition of the rule body, so the candidates are exactly the objects the rules of
+situations.lp hold for, and the monitor reads the answer, details included (``info/4``), off
+the snapshot: no solver call, as the tracker settles the frames whose optimum is evident without
+one. BLOCKED_LANE and EXITING_VEHICLE are only prefiltered: when they have candidates,
+``situations.lp`` is grounded on a fresh clingo Control with the facts of those objects
 (:func:`~sensemaking.reasoning.situations.solve_window` leaves out the rules that cannot fire with
-those facts). History is never re-grounded. For OVERTAKING, HIDDEN_ENTITY, REDUCED_VISIBILITY and
-SUDDEN_STOP the candidates are exactly the objects the rules hold for (every condition of the
-rule body is checked), so a candidate held at the previous frame is still held without asking the
-solver: on most frames nothing is grounded at all. With ``SituationConfig(prefilter=False)``
-every situation is grounded every frame with every fact of the window; the warnings are the same.
+those facts). With ``SituationConfig(prefilter=False)`` every situation is grounded every frame
+with every fact of the window -- the reference the fast path is tested against: the warnings
+and the active situations are the same.
 
 A warning is returned when its situation starts to hold; :attr:`SituationMonitor.active`
-lists every situation holding at the current frame (reading it asks the solver about the frame
-if :meth:`SituationMonitor.update` did not).
+lists every situation holding at the current frame.
 """
 
 from __future__ import annotations
@@ -60,9 +63,16 @@ _VISIBLE, _HIDDEN = int(TrackState.VISIBLE), int(TrackState.HIDDEN)
 
 
 #: situations whose candidates (SituationMonitor._candidates) are exactly the objects their rules
-#: hold for: every condition of the rule body is checked there. BLOCKED_LANE (how long on the lane,
-#: off the road) and EXITING_VEHICLE (touching) are only prefiltered.
+#: hold for: every condition of the rule body is checked there, so the monitor answers them
+#: itself (SituationMonitor._decided). BLOCKED_LANE (how long on the lane, off the road) and
+#: EXITING_VEHICLE (touching) are only prefiltered: the solver answers them.
 _EXACT: frozenset[str] = frozenset({"OVERTAKING", "HIDDEN_ENTITY", "REDUCED_VISIBILITY", "SUDDEN_STOP"})
+_ORDER: dict[Situation, int] = {s: i for i, s in enumerate(Situation)}
+
+
+def _match_order(d: SituationMatch) -> tuple[int, tuple[int, ...]]:
+    """Sort key of matches as solve_window sorts them: by situation, then objects."""
+    return _ORDER[d.situation], d.objects
 
 
 def _lane_term(lane_id: int | str) -> str:
@@ -131,6 +141,9 @@ class SituationMonitor:
                 if s in self._enabled:
                     self._skipped[s] = "needs the image size (for the ego corridor)"
         self._checked = [s for s in self._enabled if s not in self._skipped]
+        self._in_corridor = None if self.image_size is None else self.context.corridor.row_test(self.image_size)
+        self._decide = [s for s in self._checked if s.name in _EXACT]  # answered from the snapshot
+        self._ask = [s for s in self._checked if s.name not in _EXACT]  # answered by the solver
         ap = self.config.anticipation
         # visible boxes kept per track: motion is asked for any frame of the window, against a box
         # up to 2 lag frames before, whose speed needs another 2 lag
@@ -153,9 +166,10 @@ class SituationMonitor:
         self._person_started: int | None = None  # the last frame with a person's track start
         # fit_motion of hidden tracks, with (history length, last visible frame) it was made from
         self._fits: dict[int, tuple[tuple[int, int], tuple[int, list[float], list[float]]]] = {}
-        self._active: list[Warning] | None = []  # None: not solved yet at this frame (see active)
-        self._pending: tuple[int, dict[Situation, Any] | None, list[Situation]] | None = None
-        self._held: set[tuple[str, tuple[int, ...]]] = set()  # held at the last frame, exact situations
+        # the last frame at which vehicle a stood nearer than vehicle b, by (a, b)
+        self._closer_last: dict[tuple[int, int], int] = {}
+        self._found: list[SituationMatch] = []  # what holds at the current frame
+        self._active: list[Warning] | None = []  # its warnings, made when read (None: not yet)
         self.stats: dict[str, float] = {"frames": 0, "solver_calls": 0, "ms": 0.0}
 
     @property
@@ -185,51 +199,25 @@ class SituationMonitor:
         self._last_frame = f
         self._observe(result)
         if self.config.prefilter:
-            cands = {s: c for s, c in self._candidates().items() if c and s in self._checked}
-            held, fresh = self._continuing(cands)
-            parts = [s for s in self._checked if s in fresh]
+            cands = self._candidates()
+            found = self._decided(cands)
+            parts = [s for s in self._ask if cands.get(s)]
+            if parts:
+                found += self._solve({s: cands[s] for s in parts}, parts)
+                found.sort(key=_match_order)
         else:
-            cands, held, fresh, parts = None, [], None, list(self._checked)
-        found = [self._warning(f, d) for d in self._solve(fresh, parts)]
-        if held:  # the solver saw only the fresh candidates: active asks it about all, if read
-            self._active = None
-            self._pending = (f, cands, [s for s in self._checked if s in cands])
-        else:
-            self._active = found
-        for w in found:
-            key = (w.situation, w.objects)
+            found = self._solve(None, self._checked)
+        self._found, self._active = found, None
+        for d in found:
+            key = (d.situation.name, d.objects)
             last = self._last_held.get(key)
             if last is None or f - last > self._rearm:
-                new.append(w)
-            held.append(key)
-        self._held = {k for k in held if k[0] in _EXACT} if cands is not None else set()
-        for key in held:
+                new.append(self._warning(f, d))
             self._last_held[key] = f
         self._forget(f)
         self.stats["frames"] += 1
         self.stats["ms"] += (time.perf_counter() - t0) * 1000.0
         return new
-
-    def _continuing(self, cands: dict[Situation, Any]) -> tuple[list[tuple[str, tuple[int, ...]]], dict[Situation, Any]]:
-        """Split the candidates into those held at the previous frame by a situation whose
-        candidates are exactly the objects its rules hold for (:data:`_EXACT`: they still hold,
-        the solver would say so; returned as warning keys) and the rest, to ask the solver about."""
-        held: list[tuple[str, tuple[int, ...]]] = []
-        fresh: dict[Situation, Any] = {}
-        for s, c in cands.items():
-            if s.name not in _EXACT or not self._held:
-                fresh[s] = c
-                continue
-            rest = set()
-            for o in c:
-                key = (s.name, o if isinstance(o, tuple) else (o,))
-                if key in self._held:
-                    held.append(key)
-                else:
-                    rest.add(o)
-            if rest:
-                fresh[s] = rest
-        return held, fresh
 
     def _solve(self, cands: dict[Situation, Any] | None, parts: list[Situation]) -> list[SituationMatch]:
         """The solver's answer for the current frame (no call when no part has candidates)."""
@@ -240,14 +228,9 @@ class SituationMonitor:
 
     @property
     def active(self) -> list[Warning]:
-        """Every situation holding at the current frame, as warnings of this frame. On frames
-        where every candidate continues from the previous frame :meth:`update` skips the solver;
-        reading this asks it then (same answer as solving in :meth:`update`)."""
+        """Every situation holding at the current frame, as warnings of this frame."""
         if self._active is None:
-            assert self._pending is not None
-            f, cands, parts = self._pending
-            self._active = [self._warning(f, d) for d in self._solve(cands, parts)]
-            self._pending = None
+            self._active = [self._warning(self._last_frame, d) for d in self._found]  # type: ignore[arg-type]
         return list(self._active)
 
     def run(self, results: Iterable[FrameResult]) -> list[Warning]:
@@ -292,10 +275,10 @@ class SituationMonitor:
                 fr.hidden_by[t] = occl[i]
 
         # corridor and area (permille of the image, np.rint: round half to even)
-        if self.image_size is not None:
-            W, H = self.image_size
+        if self._in_corridor is not None:
+            W, H = self.image_size  # type: ignore[misc]
             k = 1000.0 / (W * H)
-            for i, inside in enumerate(self.context.corridor.contains_rows(boxes, self.image_size)):
+            for i, inside in enumerate(self._in_corridor(boxes)):
                 if inside:
                     x1, y1, x2, y2 = boxes[i]
                     fr.in_corr.add(ids[i])
@@ -321,7 +304,7 @@ class SituationMonitor:
             rel = [i for i, c in enumerate(cls) if is_veh[i] or c in PEOPLE]
             if len(rel) >= 2:
                 veh = [is_veh[i] for i in rel]
-                ra, closer = fr.ra, fr.closer
+                ra, closer, last = fr.ra, fr.closer, self._closer_last
                 for i, j, cx, cy in near_pair_codes([boxes[i] for i in rel], self.config.relations, veh):
                     ta, tb = ids[rel[i]], ids[rel[j]]
                     if ta > tb:
@@ -330,8 +313,10 @@ class SituationMonitor:
                     if veh[i] and veh[j]:
                         if _BL[cy]:  # ta nearer than tb
                             closer.add((ta, tb))
+                            last[(ta, tb)] = f
                         elif _BL[_INV[cy]]:
                             closer.add((tb, ta))
+                            last[(tb, ta)] = f
 
         # lanes and segmentation
         lanes = self.context.lanes.lanes_at(f) if self.context.lanes else ()
@@ -413,13 +398,14 @@ class SituationMonitor:
         h = self._hist.get(t)
         if not h:
             return None
-        oh = list(self._hist.get(o, ()))
+        ap = self.config.anticipation
+        points, span = ap.velocity_points, ap.velocity_span_s * self.fps
+        ho = self._hist.get(o)
+        oh = [ho[i] for i in range(max(0, len(ho) - points), len(ho))] if ho else []  # fit_motion's
         if o in boxes and (not oh or oh[-1][0] != f):
             oh.append((f, boxes[o]))  # the occluder's box now (a prediction if not visible)
         if not oh:
             return None
-        ap = self.config.anticipation
-        points, span = ap.velocity_points, ap.velocity_span_s * self.fps
         # the hidden track's history does not change while it stays hidden: fit it once
         key = (len(h), h[-1][0])
         fit = self._fits.get(t)
@@ -441,7 +427,8 @@ class SituationMonitor:
     # -- candidates (trigger facts present) -------------------------------------------------------
     def _candidates(self) -> dict[Situation, Any]:
         """Per situation, the objects whose trigger facts are present now: a necessary condition
-        of the situation's rules (see situations.lp), so grounding only these is exact."""
+        of the situation's rules (see situations.lp), so grounding only these is exact; for the
+        situations of :data:`_EXACT` every condition of the rule body is checked here."""
         now = self._frames[-1]
         c = self._consts
         cls = self._class
@@ -458,33 +445,45 @@ class SituationMonitor:
             occluders = set(now.hidden_by.values())
             out[Situation.REDUCED_VISIBILITY] = {
                 t for t in now.in_corr
-                if t in occluders or (now.state.get(t) == TrackState.VISIBLE and now.area[t] >= c["rv_area"])}
+                if t in occluders or (now.state.get(t) == _VISIBLE and now.area[t] >= c["rv_area"])}
             # SUDDEN_STOP: a vehicle in the corridor, large enough, stopping now, or looming now
-            # after keeping its distance within ss_ms
-            sudden = set()
+            # after keeping its distance within ss_ms; by vehicle, the causes (sudden/2)
+            sudden: dict[int, list[str]] = {}
+            before: list[_Frame] | None = None  # the window frames of kept_distance/1
             for t in now.in_corr:
                 if cls.get(t) not in VEHICLES or now.area[t] < c["ss_area"]:
                     continue
                 m = self._kinds(now, t)
-                if "stopping" in m or ("looming" in m and any(
-                        fr.frame < now.frame and "keeping_distance" in self._kinds(fr, t)
-                        for fr in self._within("ss_ms"))):
-                    sudden.add(t)
+                causes = []
+                if "looming" in m:
+                    if before is None:
+                        before = [fr for fr in self._within("ss_ms") if fr.frame < now.frame]
+                    for fr in before:
+                        k = fr.motion.get(t)
+                        if "keeping_distance" in (self._kinds(fr, t) if k is None else k):
+                            causes.append("looming")
+                            break
+                if "stopping" in m:
+                    causes.append("stopping")
+                if causes:
+                    sudden[t] = causes
             out[Situation.SUDDEN_STOP] = sudden
         # BLOCKED_LANE: on a lane and stopped now
         if now.on_lane:
             out[Situation.BLOCKED_LANE] = {t for t in now.on_lane if "stopped" in self._kinds(now, t)}
         # OVERTAKING: a vehicle pair side by side now, B not approaching, whose depth order
-        # flipped within ov_ms
+        # flipped within ov_ms (A nearer at a window frame at most ov_ms ago: the last such frame,
+        # the nearer_until of info/4, by pair; A is not nearer now, B is)
         if now.closer:
-            flipped = {(a, b) for (b, a) in now.closer if now.ra[(a, b) if a < b else (b, a)][0] in _LATERAL_CODES}
-            if flipped:
-                earlier: set[tuple[int, int]] = set()
-                for fr in self._within("ov_ms"):
-                    if fr.frame < now.frame:
-                        earlier |= fr.closer
-                out[Situation.OVERTAKING] = {(a, b) for a, b in flipped & earlier
-                                             if "approaching" not in self._kinds(now, b)}
+            first, last = self._frames[0].frame, self._closer_last
+            over: dict[tuple[int, int], int] = {}
+            for b, a in now.closer:
+                g = last.get((a, b))
+                if g is not None and g >= first and (now.frame - g) * self._frame_ms <= c["ov_ms"] \
+                        and now.ra[(a, b) if a < b else (b, a)][0] in _LATERAL_CODES \
+                        and "approaching" not in self._kinds(now, b):
+                    over[(a, b)] = g
+            out[Situation.OVERTAKING] = over
         # EXITING_VEHICLE: a person started within ev_ms (after the first frame), and a vehicle
         # stood still in the window
         if self._person_started is not None and self._person_started >= self._frames[0].frame:
@@ -498,9 +497,35 @@ class SituationMonitor:
                     out[Situation.EXITING_VEHICLE] = (persons, parked)
         return out
 
+    def _decided(self, cands: dict[Situation, Any]) -> list[SituationMatch]:
+        """The answer for the situations of :data:`_EXACT` (their candidates are exactly the objects
+        their rules hold for), with the details of their ``info/4`` rules, in the solver's order."""
+        now = self._frames[-1]
+        out: list[SituationMatch] = []
+        for s in self._decide:
+            c = cands.get(s)
+            if not c:
+                continue
+            if s is Situation.OVERTAKING:
+                out += [SituationMatch(s, ab, {"nearer_until": [g]}) for ab, g in sorted(c.items())]
+            elif s is Situation.HIDDEN_ENTITY:
+                out += [SituationMatch(s, to, {"reappear_frame": [self._anticip[to[0]].reappear_frame]})
+                        for to in sorted(c)]
+            elif s is Situation.REDUCED_VISIBILITY:
+                for o in sorted(c):
+                    info: dict[str, list[Any]] = {"area_permille": [now.area[o]]}
+                    hides = [t for t, occ in now.hidden_by.items() if occ == o]
+                    if hides:
+                        info["hides"] = sorted(hides, key=str)  # as solve_window sorts values
+                    out.append(SituationMatch(s, (o,), info))
+            else:  # SUDDEN_STOP
+                out += [SituationMatch(s, (v,), {"cause": causes}) for v, causes in sorted(c.items())]
+        return out
+
     # -- rendering facts ------------------------------------------------------------------------
     def _render(self, cands: dict[Situation, Any] | None) -> str:
-        """Facts for the candidates of each situation, or (``None``) every fact of the window."""
+        """Facts for the candidates of BLOCKED_LANE and EXITING_VEHICLE, or (``None``) every fact of
+        the window."""
         now = self._frames[-1]
         n = now.frame
         out: list[str] = [f"now({n}).", f"frame_ms({self._frame_ms}).", f"seq_start({self._seq_start})."]
@@ -546,25 +571,7 @@ class SituationMonitor:
                 add(f"lane({term}).")
             for t, a in self._anticip.items():
                 self._anticipation_facts(a, add)
-        else:
-            for t, o in cands.get(Situation.HIDDEN_ENTITY, ()):
-                tracks.add(t)
-                add(f"hidden_by({t},{o},{n}).")
-                self._anticipation_facts(self._anticip[t], add)
-            for o in cands.get(Situation.REDUCED_VISIBILITY, ()):
-                tracks.add(o)
-                add(f"in_corridor({o},{n}).")
-                add(f"state({o},{n},{_STATE_NAMES[now.state[o]]}).")
-                add(f"area({o},{n},{now.area[o]}).")
-                for t, occ in now.hidden_by.items():
-                    if occ == o:
-                        add(f"hidden_by({t},{o},{n}).")
-            for v in cands.get(Situation.SUDDEN_STOP, ()):
-                tracks.add(v)
-                add(f"in_corridor({v},{n}).")
-                add(f"area({v},{n},{now.area[v]}).")
-                for fr in self._within("ss_ms"):
-                    motion(fr, v, ("stopping", "looming", "keeping_distance"))
+        else:  # the situations that are only prefiltered (the rest is decided without facts)
             for t in cands.get(Situation.BLOCKED_LANE, ()):
                 tracks.add(t)
                 for term in now.lanes:
@@ -575,11 +582,6 @@ class SituationMonitor:
                     add(f"surface({t},{n},{now.surface[t]}).")
                 for fr in self._within("bl_ms"):
                     motion(fr, t, ("stopped",))
-            for a, b in cands.get(Situation.OVERTAKING, ()):
-                tracks.update((a, b))
-                for fr in self._within("ov_ms"):
-                    ra(fr, a, b)
-                motion(now, b, ("approaching",))
             if Situation.EXITING_VEHICLE in cands:
                 persons, parked = cands[Situation.EXITING_VEHICLE]
                 for p, f0 in persons:
@@ -618,6 +620,8 @@ class SituationMonitor:
                 d.pop(t, None)
         for key in [k for k, last in self._last_held.items() if f - last > self._rearm]:
             del self._last_held[key]
+        for pair in [p for p, last in self._closer_last.items() if f - last > self._window]:
+            del self._closer_last[pair]
 
     # -- warnings -------------------------------------------------------------------------------
     def _describe(self, t: int) -> str:

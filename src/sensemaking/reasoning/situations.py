@@ -1,9 +1,10 @@
 """Safety-critical situations (Table 3 of the paper) as ASP rules, and the warnings they raise.
 
 The rules live in ``encodings/situations.lp`` (one ``#program`` part per situation, parameters as
-``#const``); :class:`~sensemaking.reasoning.online.SituationMonitor` builds a small fact set from
-the last few frames and calls :func:`solve_window` on a fresh clingo Control on the frames where
-a situation may start.
+``#const``); :class:`~sensemaking.reasoning.online.SituationMonitor` keeps a snapshot of the
+last few frames, answers the four situations whose rule bodies it checks completely from it, and
+calls :func:`solve_window` on a fresh clingo Control with the facts of the candidates of the
+other two (or, with ``prefilter=False``, of everything, every frame).
 
 =================== ================ =====================================================
 situation           objects          holds when
@@ -185,8 +186,11 @@ class SituationConfig:
             the duration parameters (``*_ms``).
         rearm_s: a warning is issued when its situation starts; it is issued again only after
             the situation has not held for this long (seconds).
-        prefilter: skip the solver for a situation whose trigger facts are absent (a necessary
-            condition of its rules; results are the same, only faster).
+        prefilter: True: the monitor answers OVERTAKING, HIDDEN_ENTITY, REDUCED_VISIBILITY and
+            SUDDEN_STOP from its snapshot (it checks every condition of their rules) and grounds
+            BLOCKED_LANE and EXITING_VEHICLE only for the objects whose trigger facts are present.
+            False: every situation is grounded every frame with every fact of the window (the
+            reference; the same results, many times slower).
         motion, relations, anticipation: see their classes.
     """
 
