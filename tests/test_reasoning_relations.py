@@ -202,6 +202,7 @@ def test_near_pair_codes_equals_pair_relations_on_random_boxes():
         assert near_pair_codes(xy.tolist(), cfg, wanted) == expected
         assert near_pair_codes(xy.tolist(), cfg) == [(i, j, cx, cy) for (i, j), (cx, cy) in
                                                      zip(pairs.tolist(), codes.tolist())]
+        assert near_pair_codes(xy.tolist(), cfg, wanted, x=False) == [(i, j, -1, cy) for i, j, _, cy in expected]
 
 
 def test_motion_row_equals_motion_features_and_classify_motion():

@@ -30,7 +30,6 @@ import logging
 import time
 from collections import deque
 from collections.abc import Iterable
-from dataclasses import dataclass, field
 from itertools import compress
 from typing import Any
 
@@ -60,6 +59,8 @@ _INV: list[int] = inverse_codes(np.arange(len(IA_RELATIONS))).tolist()
 _LATERAL_CODES = frozenset(IA_RELATIONS.index(r) for r in
                            ("before", "after", "meets", "met_by", "overlaps", "overlapped_by"))
 _VISIBLE, _HIDDEN = int(TrackState.VISIBLE), int(TrackState.HIDDEN)
+#: class ids of the near-pair relations: True for a vehicle, False for a person
+_ROLE: dict[int, bool] = {**dict.fromkeys(PEOPLE, False), **dict.fromkeys(VEHICLES, True)}
 
 
 #: situations whose candidates (SituationMonitor._candidates) are exactly the objects their rules
@@ -81,24 +82,30 @@ def _lane_term(lane_id: int | str) -> str:
     return '"' + str(lane_id).replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
-@dataclass(slots=True)
 class _Frame:
-    """One frame of the window: everything the situation rules may use, before rendering."""
+    """One frame of the window: everything the situation rules may use, before rendering (a
+    plain class: made every frame, and literals are cheaper than dataclass factories)."""
 
-    frame: int
-    ids: list[int] = field(default_factory=list)
-    state: dict[int, int] = field(default_factory=dict)
-    hidden_by: dict[int, int] = field(default_factory=dict)  # hidden track -> occluder
-    in_corr: set[int] = field(default_factory=set)
-    area: dict[int, int] = field(default_factory=dict)  # in-corridor tracks: permille of the image
-    motion: dict[int, tuple[str, ...]] = field(default_factory=dict)  # filled when asked: _kinds
-    ra: dict[tuple[int, int], tuple[int, int]] = field(default_factory=dict)  # (a < b) -> (x, y) codes
-    closer: set[tuple[int, int]] = field(default_factory=set)  # (nearer, farther) vehicle pairs
-    events: list[Event] = field(default_factory=list)
-    person_starts: list[tuple[int, int]] = field(default_factory=list)  # (person, event frame)
-    lanes: list[str] = field(default_factory=list)  # lane terms in force
-    on_lane: dict[int, list[str]] = field(default_factory=dict)
-    surface: dict[int, str] = field(default_factory=dict)
+    __slots__ = ("frame", "events", "ids", "state", "hidden_by", "in_corr", "area", "motion", "ra", "rel",
+                 "closer", "person_starts", "lanes", "on_lane", "surface")
+
+    def __init__(self, frame: int, events: list[Event] | None = None) -> None:
+        self.frame = frame
+        self.events: list[Event] = [] if events is None else events
+        self.ids: list[int] = []
+        self.state: dict[int, int] = {}
+        self.hidden_by: dict[int, int] = {}  # hidden track -> occluder
+        self.in_corr: set[int] = set()
+        self.area: dict[int, int] = {}  # in-corridor tracks: permille of the image
+        self.motion: dict[int, tuple[str, ...]] = {}  # filled when asked: _kinds
+        # (a < b) -> (x, y) codes; None until asked (SituationMonitor._relations), from:
+        self.ra: dict[tuple[int, int], tuple[int, int]] | None = None
+        self.rel: tuple[list[int], list[list[float]], list[bool]] | None = None  # ids, boxes, vehicle?
+        self.closer: set[tuple[int, int]] = set()  # (nearer, farther) vehicle pairs
+        self.person_starts: list[tuple[int, int]] = []  # (person, event frame)
+        self.lanes: list[str] = []  # lane terms in force
+        self.on_lane: dict[int, list[str]] = {}
+        self.surface: dict[int, str] = {}
 
 
 class SituationMonitor:
@@ -246,14 +253,15 @@ class SituationMonitor:
         # plain Python over the rows: a frame has a few tracks, and numpy's per-call cost would
         # dominate (the helpers do the same float operations as their numpy counterparts)
         f = int(result.frame)
-        fr = _Frame(f, events=list(result.events))
+        fr = _Frame(f, list(result.events))
         self._frames.append(fr)
-        self._anticip = {}
+        if self._anticip:
+            self._anticip = {}
         tr = result.tracks
-        n = len(tr)
+        ids = tr.tracker_id.tolist()
+        n = len(ids)
         if n == 0:
             return
-        ids = tr.tracker_id.tolist()
         cls = tr.class_id.tolist()
         data = tr.data
         states = np.asarray(data["state"], dtype=np.int64).tolist() if "state" in data else [0] * n
@@ -298,19 +306,18 @@ class SituationMonitor:
                 if a is not None:
                     self._anticip[t] = a
 
-        # relations of near pairs involving a vehicle (vehicle/vehicle and person/vehicle)
-        is_veh = [c in VEHICLES for c in cls]
-        if any(is_veh):
-            rel = [i for i, c in enumerate(cls) if is_veh[i] or c in PEOPLE]
-            if len(rel) >= 2:
-                veh = [is_veh[i] for i in rel]
-                ra, closer, last = fr.ra, fr.closer, self._closer_last
-                for i, j, cx, cy in near_pair_codes([boxes[i] for i in rel], self.config.relations, veh):
-                    ta, tb = ids[rel[i]], ids[rel[j]]
-                    if ta > tb:
-                        ta, tb, cx, cy = tb, ta, _INV[cx], _INV[cy]
-                    ra[(ta, tb)] = (cx, cy)
+        # relations of near pairs involving a vehicle (vehicle/vehicle and person/vehicle): kept
+        # for _relations; the depth order of vehicle pairs (the y relation) is needed every frame
+        rel = [i for i, c in enumerate(cls) if c in _ROLE]
+        if len(rel) >= 2:
+            veh = [_ROLE[cls[i]] for i in rel]
+            if True in veh:
+                rel_ids, rel_boxes = [ids[i] for i in rel], [boxes[i] for i in rel]
+                fr.rel = (rel_ids, rel_boxes, veh)
+                closer, last = fr.closer, self._closer_last
+                for i, j, _, cy in near_pair_codes(rel_boxes, self.config.relations, veh, x=False):
                     if veh[i] and veh[j]:
+                        ta, tb = rel_ids[i], rel_ids[j]
                         if _BL[cy]:  # ta nearer than tb
                             closer.add((ta, tb))
                             last[(ta, tb)] = f
@@ -331,6 +338,18 @@ class SituationMonitor:
             for i, s in enumerate(self.context.segmentation.surface_under(f, xyxy, self.image_size)):
                 if s is not None:
                     fr.surface[ids[i]] = asp_name(s)
+
+    def _relations(self, fr: _Frame) -> dict[tuple[int, int], tuple[int, int]]:
+        """Rectangle relations (x, y codes) of the near pairs involving a vehicle at window frame
+        ``fr``, by ``(a, b)`` with ``a < b`` (computed when a rule first needs them)."""
+        if fr.ra is None:
+            fr.ra = {}
+            if fr.rel is not None:
+                ids, boxes, veh = fr.rel
+                for i, j, cx, cy in near_pair_codes(boxes, self.config.relations, veh):
+                    ta, tb = ids[i], ids[j]
+                    fr.ra[(ta, tb) if ta < tb else (tb, ta)] = (cx, cy) if ta < tb else (_INV[cx], _INV[cy])
+        return fr.ra
 
     # -- qualitative motion, computed when a rule needs it ------------------------------------------
     def _prev_entry(self, h: deque[list[Any]], k: int) -> int | None:
@@ -480,7 +499,7 @@ class SituationMonitor:
             for b, a in now.closer:
                 g = last.get((a, b))
                 if g is not None and g >= first and (now.frame - g) * self._frame_ms <= c["ov_ms"] \
-                        and now.ra[(a, b) if a < b else (b, a)][0] in _LATERAL_CODES \
+                        and self._relations(now)[(a, b) if a < b else (b, a)][0] in _LATERAL_CODES \
                         and "approaching" not in self._kinds(now, b):
                     over[(a, b)] = g
             out[Situation.OVERTAKING] = over
@@ -535,7 +554,7 @@ class SituationMonitor:
 
         def ra(fr: _Frame, a: int, b: int) -> None:
             key = (a, b) if a < b else (b, a)
-            c = fr.ra.get(key)
+            c = self._relations(fr).get(key)
             if c is not None:
                 add(f"ra({key[0]},{key[1]},{fr.frame},{IA_RELATIONS[c[0]]},{IA_RELATIONS[c[1]]}).")
 
@@ -556,7 +575,7 @@ class SituationMonitor:
                     add(f"in_corridor({t},{f}).")
                 for t in fr.ids:
                     motion(fr, t)
-                for a, b in fr.ra:
+                for a, b in self._relations(fr):
                     ra(fr, a, b)
                 for e in fr.events:
                     add(f"occurs_at({e.name}({','.join(map(str, e.args))}),{e.frame}).")

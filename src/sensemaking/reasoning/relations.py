@@ -253,13 +253,14 @@ def pair_relations(xyxy: np.ndarray, config: RelationConfig | None = None,
 
 
 def near_pair_codes(boxes: list[list[float]], config: RelationConfig,
-                    wanted: list[bool] | None = None) -> list[tuple[int, int, int, int]]:
+                    wanted: list[bool] | None = None, x: bool = True) -> list[tuple[int, int, int, int]]:
     """Plain-Python :func:`pair_relations` for a few boxes (faster than numpy below ~20 boxes).
 
     Args:
         boxes: N boxes ``[x1, y1, x2, y2]`` (Python floats, e.g. ``xyxy.tolist()``).
         config: :class:`RelationConfig`.
         wanted: only pairs with ``wanted[i] or wanted[j]`` (default: all pairs).
+        x: False: the y relation only (x code -1), for a caller that needs only that.
 
     Returns:
         ``(i, j, x code, y code)`` for the near pairs ``i < j`` in the order of :func:`near_pairs`;
@@ -288,11 +289,13 @@ def near_pair_codes(boxes: list[list[float]], config: RelationConfig,
             if (g if g > h else h) > near * (ha if ha > hb else hb):
                 continue
             # per axis: the four end-point differences as 0 / 1 / 2 (below -tol / within / above tol)
-            t = tol_rel * (wa if wa < wb else wb)
-            t = tol_px if tol_px >= t else t
-            d0, d1, d2, d3 = a0 - b0, a2 - b2, a2 - b0, a0 - b2
-            code_x = table[(2 if d0 > t else 0 if d0 < -t else 1) * 27 + (2 if d1 > t else 0 if d1 < -t else 1) * 9
-                           + (2 if d2 > t else 0 if d2 < -t else 1) * 3 + (2 if d3 > t else 0 if d3 < -t else 1)]
+            code_x = -1
+            if x:
+                t = tol_rel * (wa if wa < wb else wb)
+                t = tol_px if tol_px >= t else t
+                d0, d1, d2, d3 = a0 - b0, a2 - b2, a2 - b0, a0 - b2
+                code_x = table[(2 if d0 > t else 0 if d0 < -t else 1) * 27 + (2 if d1 > t else 0 if d1 < -t else 1) * 9
+                               + (2 if d2 > t else 0 if d2 < -t else 1) * 3 + (2 if d3 > t else 0 if d3 < -t else 1)]
             t = tol_rel * (ha if ha < hb else hb)
             t = tol_px if tol_px >= t else t
             d0, d1, d2, d3 = a1 - b1, a3 - b3, a3 - b1, a1 - b3
