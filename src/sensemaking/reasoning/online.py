@@ -373,11 +373,13 @@ class SituationMonitor:
             h[k][2] = np.nan
             return None
         before = h[j][2]
-        if before is None:  # the speed there, for `stopping`
-            before = self._motion_row(h, j)
-            before = np.nan if before is None else before[1]
-        row = motion_row(h[j][1], h[k][1], (h[k][0] - h[j][0]) / self.fps, before, self.config.motion)
+        t = self.config.motion
+        row = motion_row(h[j][1], h[k][1], (h[k][0] - h[j][0]) / self.fps, np.nan if before is None else before, t)
         h[k][2] = row[1]
+        if before is None and row[0][4]:  # stopped: `stopping` needs the speed there, not known yet
+            prev = self._motion_row(h, j)
+            if prev is not None and prev[1] >= t.moving_px_s:  # motion_row's stopping
+                row = (row[0][:5] + (True,) + row[0][6:], row[1], row[2], row[3])
         return row
 
     def _entry(self, t: int, frame: int) -> tuple[deque[list[Any]], int] | None:
