@@ -314,16 +314,18 @@ class SituationMonitor:
             if True in veh:
                 rel_ids, rel_boxes = [ids[i] for i in rel], [boxes[i] for i in rel]
                 fr.rel = (rel_ids, rel_boxes, veh)
+                if False in veh:  # people too: the depth order is of vehicle pairs
+                    rel_ids = [t for t, v in zip(rel_ids, veh) if v]
+                    rel_boxes = [b for b, v in zip(rel_boxes, veh) if v]
                 closer, last = fr.closer, self._closer_last
-                for i, j, _, cy in near_pair_codes(rel_boxes, self.config.relations, veh, x=False):
-                    if veh[i] and veh[j]:
-                        ta, tb = rel_ids[i], rel_ids[j]
-                        if _BL[cy]:  # ta nearer than tb
-                            closer.add((ta, tb))
-                            last[(ta, tb)] = f
-                        elif _BL[_INV[cy]]:
-                            closer.add((tb, ta))
-                            last[(tb, ta)] = f
+                for i, j, _, cy in near_pair_codes(rel_boxes, self.config.relations, x=False):
+                    ta, tb = rel_ids[i], rel_ids[j]
+                    if _BL[cy]:  # ta nearer than tb
+                        closer.add((ta, tb))
+                        last[(ta, tb)] = f
+                    elif _BL[_INV[cy]]:
+                        closer.add((tb, ta))
+                        last[(tb, ta)] = f
 
         # lanes and segmentation
         lanes = self.context.lanes.lanes_at(f) if self.context.lanes else ()
