@@ -38,7 +38,9 @@ import numpy as np
 from sensemaking.classes import PEOPLE, VEHICLES, class_name
 from sensemaking.reasoning.anticipation import Anticipation, anticipate_fits, fit_motion_rows
 from sensemaking.reasoning.context import SceneContext, asp_name
-from sensemaking.reasoning.relations import IA_RELATIONS, MOTION_KINDS, inverse_codes, motion_row, near_pair_codes
+from sensemaking.reasoning.relations import (
+    BOTTOM_LOWER, IA_RELATIONS, MOTION_KINDS, inverse_codes, motion_row, near_depth_order, near_pair_codes,
+)
 from sensemaking.reasoning.situations import (
     SituationMatch, Situation, SituationConfig, Warning, situation_constants, solve_window,
 )
@@ -49,10 +51,6 @@ __all__ = ["SituationMonitor", "BOTTOM_LOWER"]
 log = logging.getLogger(__name__)
 
 _STATE_NAMES = tuple(s.name.lower() for s in TrackState)
-#: y relations that put A's bottom lower than B's (``bottom_lower/1`` of relations.lp)
-BOTTOM_LOWER: frozenset[str] = frozenset({"after", "met_by", "overlapped_by", "contains", "started_by"})
-#: by relation code: the code is in BOTTOM_LOWER
-_BL: list[bool] = [r in BOTTOM_LOWER for r in IA_RELATIONS]
 #: by relation code: the code of the converse relation
 _INV: list[int] = inverse_codes(np.arange(len(IA_RELATIONS))).tolist()
 #: x relations of boxes side by side (``lateral/1`` of relations.lp; closed under the converse)
@@ -318,14 +316,10 @@ class SituationMonitor:
                     rel_ids = [t for t, v in zip(rel_ids, veh) if v]
                     rel_boxes = [b for b, v in zip(rel_boxes, veh) if v]
                 closer, last = fr.closer, self._closer_last
-                for i, j, _, cy in near_pair_codes(rel_boxes, self.config.relations, x=False):
-                    ta, tb = rel_ids[i], rel_ids[j]
-                    if _BL[cy]:  # ta nearer than tb
-                        closer.add((ta, tb))
-                        last[(ta, tb)] = f
-                    elif _BL[_INV[cy]]:
-                        closer.add((tb, ta))
-                        last[(tb, ta)] = f
+                for i, j in near_depth_order(rel_boxes, self.config.relations):
+                    pair = (rel_ids[i], rel_ids[j])  # (nearer, farther)
+                    closer.add(pair)
+                    last[pair] = f
 
         # lanes and segmentation
         lanes = self.context.lanes.lanes_at(f) if self.context.lanes else ()

@@ -27,7 +27,7 @@ __all__ = [
     "IA_RELATIONS", "INVERSE", "MOTION_KINDS", "RelationConfig", "MotionThresholds", "MotionFeatures",
     "interval_relation_masks", "interval_relations", "rectangle_relations", "inverse_codes", "relation_name",
     "near_pairs", "pair_relations", "order_pairs", "motion_features", "classify_motion", "track_motion", "relation_facts",
-    "motion_facts", "near_pair_codes", "motion_row",
+    "motion_facts", "near_pair_codes", "near_depth_order", "motion_row", "BOTTOM_LOWER",
 ]
 
 #: the 13 Allen relations; the index is the relation's integer code
@@ -253,14 +253,13 @@ def pair_relations(xyxy: np.ndarray, config: RelationConfig | None = None,
 
 
 def near_pair_codes(boxes: list[list[float]], config: RelationConfig,
-                    wanted: list[bool] | None = None, x: bool = True) -> list[tuple[int, int, int, int]]:
+                    wanted: list[bool] | None = None) -> list[tuple[int, int, int, int]]:
     """Plain-Python :func:`pair_relations` for a few boxes (faster than numpy below ~20 boxes).
 
     Args:
         boxes: N boxes ``[x1, y1, x2, y2]`` (Python floats, e.g. ``xyxy.tolist()``).
         config: :class:`RelationConfig`.
         wanted: only pairs with ``wanted[i] or wanted[j]`` (default: all pairs).
-        x: False: the y relation only (x code -1), for a caller that needs only that.
 
     Returns:
         ``(i, j, x code, y code)`` for the near pairs ``i < j`` in the order of :func:`near_pairs`;
@@ -289,19 +288,65 @@ def near_pair_codes(boxes: list[list[float]], config: RelationConfig,
             if (g if g > h else h) > near * (ha if ha > hb else hb):
                 continue
             # per axis: the four end-point differences as 0 / 1 / 2 (below -tol / within / above tol)
-            code_x = -1
-            if x:
-                t = tol_rel * (wa if wa < wb else wb)
-                t = tol_px if tol_px >= t else t
-                d0, d1, d2, d3 = a0 - b0, a2 - b2, a2 - b0, a0 - b2
-                code_x = table[(2 if d0 > t else 0 if d0 < -t else 1) * 27 + (2 if d1 > t else 0 if d1 < -t else 1) * 9
-                               + (2 if d2 > t else 0 if d2 < -t else 1) * 3 + (2 if d3 > t else 0 if d3 < -t else 1)]
+            t = tol_rel * (wa if wa < wb else wb)
+            t = tol_px if tol_px >= t else t
+            d0, d1, d2, d3 = a0 - b0, a2 - b2, a2 - b0, a0 - b2
+            code_x = table[(2 if d0 > t else 0 if d0 < -t else 1) * 27 + (2 if d1 > t else 0 if d1 < -t else 1) * 9
+                           + (2 if d2 > t else 0 if d2 < -t else 1) * 3 + (2 if d3 > t else 0 if d3 < -t else 1)]
             t = tol_rel * (ha if ha < hb else hb)
             t = tol_px if tol_px >= t else t
             d0, d1, d2, d3 = a1 - b1, a3 - b3, a3 - b1, a1 - b3
             code_y = table[(2 if d0 > t else 0 if d0 < -t else 1) * 27 + (2 if d1 > t else 0 if d1 < -t else 1) * 9
                            + (2 if d2 > t else 0 if d2 < -t else 1) * 3 + (2 if d3 > t else 0 if d3 < -t else 1)]
             out.append((i, j, code_x, code_y))
+    return out
+
+
+#: y relations that put A's bottom edge lower in the image than B's, i.e. A nearer the camera
+#: (``bottom_lower/1`` of relations.lp)
+BOTTOM_LOWER: frozenset[str] = frozenset({"after", "met_by", "overlapped_by", "contains", "started_by"})
+_BOTTOM_LOWER_CODES: list[bool] = [r in BOTTOM_LOWER for r in IA_RELATIONS]
+_INVERSE_LIST: list[int] = _INVERSE_CODE.tolist()
+
+
+def near_depth_order(boxes: list[list[float]], config: RelationConfig) -> list[tuple[int, int]]:
+    """``(nearer, farther)`` index pairs of the near boxes whose y relation puts one bottom lower:
+    ``(i, j)`` where :func:`near_pair_codes` gives a y code in :data:`BOTTOM_LOWER`, ``(j, i)``
+    where its converse is, in the same order; the depth order of ``closer/3`` in relations.lp.
+
+    Where both heights are >= 0 and the bottoms lie apart by more than the tolerance, every such
+    relation is one of BOTTOM_LOWER or its converse (after, met_by, overlapped_by, contains,
+    started_by all end later), so the code is not needed; otherwise it is computed."""
+    n = len(boxes)
+    out: list[tuple[int, int]] = []
+    near, tol_px, tol_rel = config.near, config.tol_px, config.tol_rel
+    table, lower, inverse = _CODE_LIST, _BOTTOM_LOWER_CODES, _INVERSE_LIST
+    for i in range(n - 1):
+        a0, a1, a2, a3 = boxes[i]
+        wa, ha = a2 - a0, a3 - a1
+        for j in range(i + 1, n):
+            b0, b1, b2, b3 = boxes[j]
+            wb, hb = b2 - b0, b3 - b1
+            # near_pair_codes' gap test, written out in this per-frame loop (a test keeps the two equal)
+            g, h = b0 - a2, a0 - b2
+            if (g if g > h else h) > near * (wa if wa > wb else wb):
+                continue
+            g, h = b1 - a3, a1 - b3
+            if (g if g > h else h) > near * (ha if ha > hb else hb):
+                continue
+            t = tol_rel * (ha if ha < hb else hb)
+            t = tol_px if tol_px >= t else t
+            d1 = a3 - b3
+            if ha >= 0 and hb >= 0 and (d1 > t or d1 < -t):
+                out.append((i, j) if d1 > t else (j, i))
+                continue
+            d0, d2, d3 = a1 - b1, a3 - b1, a1 - b3
+            code = table[(2 if d0 > t else 0 if d0 < -t else 1) * 27 + (2 if d1 > t else 0 if d1 < -t else 1) * 9
+                         + (2 if d2 > t else 0 if d2 < -t else 1) * 3 + (2 if d3 > t else 0 if d3 < -t else 1)]
+            if lower[code]:
+                out.append((i, j))
+            elif lower[inverse[code]]:
+                out.append((j, i))
     return out
 
 
