@@ -186,6 +186,10 @@ class Corridor:
         caller that tests every frame)."""
         ys, xl, xr = _profile_lists(self.points, self.normalized, (int(image_size[0]), int(image_size[1])))
         lo, hi, last, m = ys[0], ys[-1], len(ys) - 1, self.min_overlap
+        # per segment between vertex rows: its first row, x extent there and slopes, so that
+        # left = slope * (y - row) + x is np.interp's arithmetic, in its order
+        segs = [(ys[j], xl[j], xr[j], (xl[j + 1] - xl[j]) / (ys[j + 1] - ys[j]), (xr[j + 1] - xr[j]) / (ys[j + 1] - ys[j]))
+                for j in range(last)]
 
         def contains(boxes: list[list[float]]) -> list[bool]:
             out = []
@@ -193,14 +197,14 @@ class Corridor:
                 if y < lo or y > hi or y != y:
                     out.append(False)
                     continue
-                j = bisect_right(ys, y) - 1
+                j = (0 if y < hi else last) if last == 1 else bisect_right(ys, y) - 1
                 if j >= last or ys[j] == y:  # np.interp returns the vertex value there
                     left, right = xl[j], xr[j]
                 else:
-                    dy = ys[j + 1] - ys[j]
-                    left = (xl[j + 1] - xl[j]) / dy * (y - ys[j]) + xl[j]
-                    right = (xr[j + 1] - xr[j]) / dy * (y - ys[j]) + xr[j]
-                out.append((min(x2, right) - max(x1, left)) / max(x2 - x1, 1e-9) >= m)
+                    y0, l0, r0, sl, sr = segs[j]
+                    left, right = sl * (y - y0) + l0, sr * (y - y0) + r0
+                w = x2 - x1
+                out.append(((right if right < x2 else x2) - (left if left > x1 else x1)) / (1e-9 if 1e-9 > w else w) >= m)
             return out
 
         return contains
