@@ -203,7 +203,7 @@ class TrackerConfig:
         if family == "kitti":
             base = cls(fps=10.0, image_size=(1242, 375), iou_assign=0.2, iou_resume=0.2, min_hits=3,
                        confirm_confidence=0.99, start_confidence=0.8, min_confidence=0.65,
-                       costs=AbductionCosts(resumes=200))
+                       costs=AbductionCosts(resumes=200), kalman=KalmanConfig(velocity_std=1 / 10))
         elif family in ("mot", "mot17", "mot15", "motchallenge"):
             base = cls(fps=30.0, iou_resume=0.2, min_hits=2, start_confidence=0.7, min_confidence=0.6,
                        costs=AbductionCosts(leaves=300, resumes=200))
