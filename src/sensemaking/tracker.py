@@ -206,7 +206,7 @@ class TrackerConfig:
                        costs=AbductionCosts(resumes=200), kalman=KalmanConfig(velocity_std=1 / 10))
         elif family in ("mot", "mot17", "mot15", "motchallenge"):
             base = cls(fps=30.0, iou_resume=0.2, min_hits=2, start_confidence=0.7, min_confidence=0.6,
-                       costs=AbductionCosts(leaves=300, resumes=200))
+                       costs=AbductionCosts(leaves=300, resumes=200), kalman=KalmanConfig(measurement_std=1 / 17))
         else:
             raise ValueError(f"unknown dataset family {family!r} (kitti or mot)")
         return replace(base, **changes)
