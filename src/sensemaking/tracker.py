@@ -236,11 +236,8 @@ class Tracker:
             # weak to start a track get confidence 0 in the facts, all others at least 1
             "conf_assign": 0,
             "conf_start": 1,
-            "cost_enters": c.costs.enters, "cost_appears": c.costs.appears,
-            "cost_leaves": c.costs.leaves, "cost_lost": c.costs.lost, "cost_dropped": c.costs.dropped,
-            "cost_hides": c.costs.hides, "cost_missing": c.costs.missing,
-            "cost_unseen": c.costs.unseen, "cost_ignore": c.costs.ignore,
-            "cost_resumes": c.costs.resumes,
+            # every event cost is tracking.lp's #const cost_<name>
+            **{f"cost_{name}": value for name, value in asdict(c.costs).items()},
         })
         self.reset()
 

@@ -369,13 +369,13 @@ class SituationMonitor:
             h[k][2] = np.nan
             return None
         before = h[j][2]
-        t = self.config.motion
-        row = motion_row(h[j][1], h[k][1], (h[k][0] - h[j][0]) / self.fps, np.nan if before is None else before, t)
-        h[k][2] = row[1]
+        dt = (h[k][0] - h[j][0]) / self.fps
+        row = motion_row(h[j][1], h[k][1], dt, np.nan if before is None else before, self.config.motion)
         if before is None and row[0][4]:  # stopped: `stopping` needs the speed there, not known yet
             prev = self._motion_row(h, j)
-            if prev is not None and prev[1] >= t.moving_px_s:  # motion_row's stopping
-                row = (row[0][:5] + (True,) + row[0][6:], row[1], row[2], row[3])
+            if prev is not None:
+                row = motion_row(h[j][1], h[k][1], dt, prev[1], self.config.motion)
+        h[k][2] = row[1]
         return row
 
     def _entry(self, t: int, frame: int) -> tuple[deque[list[Any]], int] | None:
@@ -475,11 +475,8 @@ class SituationMonitor:
                 if "looming" in m:
                     if before is None:
                         before = [fr for fr in self._within("ss_ms") if fr.frame < now.frame]
-                    for fr in before:
-                        k = fr.motion.get(t)
-                        if "keeping_distance" in (self._kinds(fr, t) if k is None else k):
-                            causes.append("looming")
-                            break
+                    if any("keeping_distance" in self._kinds(fr, t) for fr in before):
+                        causes.append("looming")
                 if "stopping" in m:
                     causes.append("stopping")
                 if causes:

@@ -254,52 +254,13 @@ def pair_relations(xyxy: np.ndarray, config: RelationConfig | None = None,
 
 def near_pair_codes(boxes: list[list[float]], config: RelationConfig,
                     wanted: list[bool] | None = None) -> list[tuple[int, int, int, int]]:
-    """Plain-Python :func:`pair_relations` for a few boxes (faster than numpy below ~20 boxes).
-
-    Args:
-        boxes: N boxes ``[x1, y1, x2, y2]`` (Python floats, e.g. ``xyxy.tolist()``).
-        config: :class:`RelationConfig`.
-        wanted: only pairs with ``wanted[i] or wanted[j]`` (default: all pairs).
-
-    Returns:
-        ``(i, j, x code, y code)`` for the near pairs ``i < j`` in the order of :func:`near_pairs`;
-        the same pairs and codes as :func:`pair_relations` (the same float operations).
-    """
-    n = len(boxes)
-    out: list[tuple[int, int, int, int]] = []
-    if n < 2:
-        return out
-    near, tol_px, tol_rel = config.near, config.tol_px, config.tol_rel
-    table = _CODE_LIST
-    for i in range(n - 1):
-        a0, a1, a2, a3 = boxes[i]
-        wa, ha = a2 - a0, a3 - a1
-        wi = True if wanted is None else wanted[i]
-        for j in range(i + 1, n):
-            if not (wi or wanted[j]):  # type: ignore[index]
-                continue
-            b0, b1, b2, b3 = boxes[j]
-            wb, hb = b2 - b0, b3 - b1
-            # the gap on each axis (np.maximum of the two one-sided gaps) against near * larger size
-            g, h = b0 - a2, a0 - b2
-            if (g if g > h else h) > near * (wa if wa > wb else wb):
-                continue
-            g, h = b1 - a3, a1 - b3
-            if (g if g > h else h) > near * (ha if ha > hb else hb):
-                continue
-            # per axis: the four end-point differences as 0 / 1 / 2 (below -tol / within / above tol)
-            t = tol_rel * (wa if wa < wb else wb)
-            t = tol_px if tol_px >= t else t
-            d0, d1, d2, d3 = a0 - b0, a2 - b2, a2 - b0, a0 - b2
-            code_x = table[(2 if d0 > t else 0 if d0 < -t else 1) * 27 + (2 if d1 > t else 0 if d1 < -t else 1) * 9
-                           + (2 if d2 > t else 0 if d2 < -t else 1) * 3 + (2 if d3 > t else 0 if d3 < -t else 1)]
-            t = tol_rel * (ha if ha < hb else hb)
-            t = tol_px if tol_px >= t else t
-            d0, d1, d2, d3 = a1 - b1, a3 - b3, a3 - b1, a1 - b3
-            code_y = table[(2 if d0 > t else 0 if d0 < -t else 1) * 27 + (2 if d1 > t else 0 if d1 < -t else 1) * 9
-                           + (2 if d2 > t else 0 if d2 < -t else 1) * 3 + (2 if d3 > t else 0 if d3 < -t else 1)]
-            out.append((i, j, code_x, code_y))
-    return out
+    """:func:`pair_relations` of a few boxes given as lists, as ``(i, j, x code, y code)`` for the
+    near pairs ``i < j`` in the order of :func:`near_pairs`, only those with ``wanted[i] or
+    wanted[j]`` (default: all pairs). The per-frame monitor needs only the depth order
+    (:func:`near_depth_order`); the full relations are asked for rarely."""
+    pairs, codes = pair_relations(np.asarray(boxes, dtype=np.float64).reshape(-1, 4), config)
+    return [(i, j, cx, cy) for (i, j), (cx, cy) in zip(pairs.tolist(), codes.tolist())
+            if wanted is None or wanted[i] or wanted[j]]
 
 
 #: y relations that put A's bottom edge lower in the image than B's, i.e. A nearer the camera
@@ -327,7 +288,7 @@ def near_depth_order(boxes: list[list[float]], config: RelationConfig) -> list[t
         for j in range(i + 1, n):
             b0, b1, b2, b3 = boxes[j]
             wb, hb = b2 - b0, b3 - b1
-            # near_pair_codes' gap test, written out in this per-frame loop (a test keeps the two equal)
+            # near_pairs' gap test in plain Python: this loop runs every frame (a test keeps the two equal)
             g, h = b0 - a2, a0 - b2
             if (g if g > h else h) > near * (wa if wa > wb else wb):
                 continue
