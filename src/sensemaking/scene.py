@@ -531,17 +531,18 @@ class SceneRecorder:
         tracks: dict[int, Track] = {}
         if self._rows:
             frame = np.repeat(np.asarray(self._row_frames, dtype=np.int64), self._row_counts)
-            tid, cid, xyxy, conf, state, occ, vis, hid = (c[:self._rows] for c in self._cols.values())
+            col = {k: c[:self._rows] for k, c in self._cols.items()}
+            tid = col["tracker_id"]
             order = np.lexsort((frame, tid))
             tids = tid[order]
             cuts = np.flatnonzero(np.diff(tids)) + 1
             for chunk in np.split(order, cuts):
                 t = int(tid[chunk[0]])
-                classes, counts = np.unique(cid[chunk], return_counts=True)
+                classes, counts = np.unique(col["class_id"][chunk], return_counts=True)
                 tracks[t] = Track(
-                    id=t, class_id=int(classes[np.argmax(counts)]), frames=frame[chunk], xyxy=xyxy[chunk],
-                    confidence=conf[chunk], state=state[chunk], occluder=occ[chunk], visibility=vis[chunk],
-                    hidden_frames=hid[chunk],
+                    id=t, class_id=int(classes[np.argmax(counts)]), frames=frame[chunk], xyxy=col["xyxy"][chunk],
+                    confidence=col["confidence"][chunk], state=col["state"][chunk], occluder=col["occluder"][chunk],
+                    visibility=col["visibility"][chunk], hidden_frames=col["hidden_frames"][chunk],
                 )
         return Scene(tracks, self._events, self._frames, fps=self.fps, image_size=self.image_size,
                      metadata=self.metadata)

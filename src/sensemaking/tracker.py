@@ -695,26 +695,31 @@ class Tracker:
             boxes[idx] = dets.xyxy[cols]
             rows[idx] = dets.source_row[cols]
         keep = self._confirmed
-        # the columns have the validated dtypes and shapes already: no validation every frame
-        return Detections.trusted(
-            xyxy=boxes[keep], confidence=self._conf[keep], class_id=self._cls[keep], tracker_id=self._id[keep],
-            frame=np.full(int(keep.sum()), frame, dtype=np.int64), source_row=rows[keep],
-            # boolean indexing copies: the columns never alias the tracker's state
-            data={"state": self._state[keep], "occluder": self._occluder[keep],
-                  "visibility": self._vis[keep], "hidden_frames": self._unseen[keep]},
-        )
+        # boolean indexing copies: the columns never alias the tracker's state
+        return _track_output(boxes[keep], self._conf[keep], self._cls[keep], self._id[keep],
+                             np.full(int(keep.sum()), frame, dtype=np.int64), rows[keep], self._state[keep],
+                             self._occluder[keep], self._vis[keep], self._unseen[keep])
+
+
+def _track_output(xyxy: np.ndarray, confidence: np.ndarray, class_id: np.ndarray, tracker_id: np.ndarray,
+                  frame: np.ndarray, source_row: np.ndarray, state: np.ndarray, occluder: np.ndarray,
+                  visibility: np.ndarray, hidden_frames: np.ndarray) -> Detections:
+    """The columns of :meth:`Tracker._output` (N rows; ``xyxy`` (N, 4) float pixels, the rest (N,)),
+    which have the validated dtypes and shapes already: no validation every frame."""
+    return Detections.trusted(
+        xyxy=xyxy, confidence=confidence, class_id=class_id, tracker_id=tracker_id, frame=frame,
+        source_row=source_row,
+        data={"state": state, "occluder": occluder, "visibility": visibility, "hidden_frames": hidden_frames},
+    )
 
 
 def _no_tracks() -> Detections:
     """:meth:`Tracker._output` without tracks: empty columns of its dtypes (fresh arrays)."""
-    def empty(dtype: type) -> np.ndarray:
-        return np.empty(0, dtype=dtype)
+    def ints() -> np.ndarray:
+        return np.empty(0, dtype=np.int64)
 
-    return Detections.trusted(
-        xyxy=np.empty((0, 4)), confidence=empty(np.float64), class_id=empty(np.int64),
-        tracker_id=empty(np.int64), frame=empty(np.int64), source_row=empty(np.int64),
-        data={"state": empty(np.int64), "occluder": empty(np.int64), "visibility": empty(np.int64),
-              "hidden_frames": empty(np.int64)})
+    return _track_output(np.empty((0, 4)), np.empty(0), ints(), ints(), ints(), ints(), ints(), ints(), ints(),
+                         ints())
 
 
 def _quantize(x: np.ndarray, levels: int, rounding=np.rint) -> np.ndarray:

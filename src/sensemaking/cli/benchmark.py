@@ -8,6 +8,8 @@ import sys
 from typing import Any
 
 DEFAULT_DOCS = "docs/BENCHMARKS.md"
+#: runs of every tracker on every sequence (the fastest counts)
+DEFAULT_REPEAT = 3
 
 
 def register(subparsers: Any) -> None:
@@ -34,9 +36,9 @@ def register(subparsers: Any) -> None:
     p.add_argument("--jobs", metavar="N", type=int, default=1,
                    help="benchmarks to run at once in worker processes (default 1; every tracker of a "
                    "benchmark still runs in one process, so its time ratios stay comparable)")
-    p.add_argument("--repeat", metavar="N", type=int, default=3,
+    p.add_argument("--repeat", metavar="N", type=int, default=DEFAULT_REPEAT,
                    help="runs of every tracker on every sequence; the per-frame times of the fastest count "
-                   "(default 3: a busy machine's slow spells inflate single runs; results are the same)")
+                   f"(default {DEFAULT_REPEAT}: a busy machine's slow spells inflate single runs; results are the same)")
     p.add_argument("--list", action="store_true", help="list the benchmarks found and what is missing, then stop")
     p.set_defaults(func=run)
 
@@ -57,7 +59,7 @@ def _command_line(args: argparse.Namespace) -> str:
         parts += ["--json", args.json]
     if args.jobs != 1:
         parts += ["--jobs", str(args.jobs)]
-    if args.repeat != 3:
+    if args.repeat != DEFAULT_REPEAT:
         parts += ["--repeat", str(args.repeat)]
     return shlex.join(parts)
 

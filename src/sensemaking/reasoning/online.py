@@ -39,7 +39,7 @@ from sensemaking.classes import PEOPLE, VEHICLES, class_name
 from sensemaking.reasoning.anticipation import Anticipation, anticipate_fits, fit_motion_rows
 from sensemaking.reasoning.context import SceneContext, asp_name
 from sensemaking.reasoning.relations import (
-    BOTTOM_LOWER, IA_RELATIONS, MOTION_KINDS, inverse_codes, motion_row, near_depth_order, near_pair_codes,
+    BOTTOM_LOWER, IA_RELATIONS, INVERSE_CODES, MOTION_KINDS, motion_row, near_depth_order, near_pair_codes,
 )
 from sensemaking.reasoning.situations import (
     SituationMatch, Situation, SituationConfig, Warning, situation_constants, solve_window,
@@ -51,8 +51,6 @@ __all__ = ["SituationMonitor", "BOTTOM_LOWER"]
 log = logging.getLogger(__name__)
 
 _STATE_NAMES = tuple(s.name.lower() for s in TrackState)
-#: by relation code: the code of the converse relation
-_INV: list[int] = inverse_codes(np.arange(len(IA_RELATIONS))).tolist()
 #: x relations of boxes side by side (``lateral/1`` of relations.lp; closed under the converse)
 _LATERAL_CODES = frozenset(IA_RELATIONS.index(r) for r in
                            ("before", "after", "meets", "met_by", "overlaps", "overlapped_by"))
@@ -344,7 +342,7 @@ class SituationMonitor:
                 ids, boxes, veh = fr.rel
                 for i, j, cx, cy in near_pair_codes(boxes, self.config.relations, veh):
                     ta, tb = ids[i], ids[j]
-                    fr.ra[(ta, tb) if ta < tb else (tb, ta)] = (cx, cy) if ta < tb else (_INV[cx], _INV[cy])
+                    fr.ra[(ta, tb) if ta < tb else (tb, ta)] = (cx, cy) if ta < tb else (INVERSE_CODES[cx], INVERSE_CODES[cy])
         return fr.ra
 
     # -- qualitative motion, computed when a rule needs it ------------------------------------------

@@ -27,7 +27,7 @@ __all__ = [
     "IA_RELATIONS", "INVERSE", "MOTION_KINDS", "RelationConfig", "MotionThresholds", "MotionFeatures",
     "interval_relation_masks", "interval_relations", "rectangle_relations", "inverse_codes", "relation_name",
     "near_pairs", "pair_relations", "order_pairs", "motion_features", "classify_motion", "track_motion", "relation_facts",
-    "motion_facts", "near_pair_codes", "near_depth_order", "motion_row", "BOTTOM_LOWER",
+    "motion_facts", "near_pair_codes", "near_depth_order", "motion_row", "BOTTOM_LOWER", "INVERSE_CODES",
 ]
 
 #: the 13 Allen relations; the index is the relation's integer code
@@ -44,6 +44,8 @@ INVERSE: dict[str, str] = {
     "meets": "met_by", "met_by": "meets", "equal": "equal",
 }
 _INVERSE_CODE = np.array([_CODE[INVERSE[r]] for r in IA_RELATIONS], dtype=np.int8)
+#: by relation code: the code of the converse relation (a list, for plain-Python loops)
+INVERSE_CODES: list[int] = _INVERSE_CODE.tolist()
 
 #: qualitative motion kinds, the column order of :func:`classify_motion`
 MOTION_KINDS: tuple[str, ...] = (
@@ -267,7 +269,6 @@ def near_pair_codes(boxes: list[list[float]], config: RelationConfig,
 #: (``bottom_lower/1`` of relations.lp)
 BOTTOM_LOWER: frozenset[str] = frozenset({"after", "met_by", "overlapped_by", "contains", "started_by"})
 _BOTTOM_LOWER_CODES: list[bool] = [r in BOTTOM_LOWER for r in IA_RELATIONS]
-_INVERSE_LIST: list[int] = _INVERSE_CODE.tolist()
 
 
 def near_depth_order(boxes: list[list[float]], config: RelationConfig) -> list[tuple[int, int]]:
@@ -281,7 +282,7 @@ def near_depth_order(boxes: list[list[float]], config: RelationConfig) -> list[t
     n = len(boxes)
     out: list[tuple[int, int]] = []
     near, tol_px, tol_rel = config.near, config.tol_px, config.tol_rel
-    table, lower, inverse = _CODE_LIST, _BOTTOM_LOWER_CODES, _INVERSE_LIST
+    table, lower, inverse = _CODE_LIST, _BOTTOM_LOWER_CODES, INVERSE_CODES
     for i in range(n - 1):
         a0, a1, a2, a3 = boxes[i]
         wa, ha = a2 - a0, a3 - a1
