@@ -171,6 +171,8 @@ class SituationMonitor:
         self._fits: dict[int, tuple[tuple[int, int], tuple[int, list[float], list[float]]]] = {}
         # the last frame at which vehicle a stood nearer than vehicle b, by (a, b)
         self._closer_last: dict[tuple[int, int], int] = {}
+        # by track, for _kept_distance: (frame checked up to, last frame keeping its distance)
+        self._kept: dict[int, tuple[int, int | None]] = {}
         self._found: list[SituationMatch] = []  # what holds at the current frame
         self._active: list[Warning] | None = []  # its warnings, made when read (None: not yet)
         self.stats: dict[str, float] = {"frames": 0, "solver_calls": 0, "ms": 0.0}
@@ -254,6 +256,8 @@ class SituationMonitor:
         if self._anticip:
             self._anticip = {}
         tr = result.tracks
+        if tr.tracker_id is None or tr.class_id is None:
+            raise ValueError(f"frame {f}: the tracks of a frame result need tracker_id and class_id")
         ids = tr.tracker_id.tolist()
         n = len(ids)
         if n == 0:
@@ -418,7 +422,7 @@ class SituationMonitor:
         ho = self._hist.get(o)
         oh = [ho[i] for i in range(max(0, len(ho) - points), len(ho))] if ho else []  # fit_motion's
         if o in boxes and (not oh or oh[-1][0] != f):
-            oh.append((f, boxes[o]))  # the occluder's box now (a prediction if not visible)
+            oh.append([f, boxes[o]])  # the occluder's box now (a prediction if not visible)
         if not oh:
             return None
         # the hidden track's history does not change while it stays hidden: fit it once
@@ -434,9 +438,26 @@ class SituationMonitor:
             corridor=self.context.corridor, config=ap,
         )
 
+    def _kept_distance(self, t: int) -> bool:
+        """``kept_distance(t)`` of situations.lp: ``t`` was keeping its distance at a window frame
+        before now, at most ``ss_ms`` before. A frame asked about is not asked again (its motion
+        does not change): by track, the frame checked up to and the last such frame."""
+        now, first = self._frames[-1].frame, self._frames[0].frame
+        reach, ms = self._consts["ss_ms"], self._frame_ms
+        checked, last = self._kept.get(t, (first - 1, None))
+        for fr in reversed(self._frames):  # newest first: the first found is the last
+            g = fr.frame
+            if g <= checked or (now - g) * ms > reach:
+                break
+            if g < now and "keeping_distance" in self._kinds(fr, t):
+                last = g
+                break
+        self._kept[t] = (now - 1, last)
+        return last is not None and last >= first and (now - last) * ms <= reach
+
     def _within(self, ms_name: str) -> list[_Frame]:
         """Window frames at most ``#const ms_name`` milliseconds before now (now included)."""
-        now, reach = self._last_frame, self._consts[ms_name]
+        now, reach = self._frames[-1].frame, self._consts[ms_name]
         return [fr for fr in self._frames if (now - fr.frame) * self._frame_ms <= reach]
 
     # -- candidates (trigger facts present) -------------------------------------------------------
@@ -464,17 +485,13 @@ class SituationMonitor:
             # SUDDEN_STOP: a vehicle in the corridor, large enough, stopping now, or looming now
             # after keeping its distance within ss_ms; by vehicle, the causes (sudden/2)
             sudden: dict[int, list[str]] = {}
-            before: list[_Frame] | None = None  # the window frames of kept_distance/1
             for t in now.in_corr:
                 if cls.get(t) not in VEHICLES or now.area[t] < c["ss_area"]:
                     continue
                 m = self._kinds(now, t)
                 causes = []
-                if "looming" in m:
-                    if before is None:
-                        before = [fr for fr in self._within("ss_ms") if fr.frame < now.frame]
-                    if any("keeping_distance" in self._kinds(fr, t) for fr in before):
-                        causes.append("looming")
+                if "looming" in m and self._kept_distance(t):
+                    causes.append("looming")
                 if "stopping" in m:
                     causes.append("stopping")
                 if causes:
@@ -575,14 +592,14 @@ class SituationMonitor:
                 for t, lanes in fr.on_lane.items():
                     for term in lanes:
                         add(f"on_lane({t},{term},{f}).")
-                for t, s in fr.surface.items():
-                    add(f"surface({t},{f},{s}).")
+                for t, surf in fr.surface.items():
+                    add(f"surface({t},{f},{surf}).")
             for t, a in now.area.items():
                 add(f"area({t},{n},{a}).")
             for term in now.lanes:
                 add(f"lane({term}).")
-            for t, a in self._anticip.items():
-                self._anticipation_facts(a, add)
+            for ant in self._anticip.values():
+                self._anticipation_facts(ant, add)
         else:  # the situations that are only prefiltered (the rest is decided without facts)
             for t in cands.get(Situation.BLOCKED_LANE, ()):
                 tracks.add(t)
@@ -628,7 +645,7 @@ class SituationMonitor:
         if f % self._window:
             return
         for t in [t for t, last in self._last_live.items() if f - last > self._window]:
-            for d in (self._hist, self._class, self._last_live, self._fits):
+            for d in (self._hist, self._class, self._last_live, self._fits, self._kept):
                 d.pop(t, None)
         for key in [k for k, last in self._last_held.items() if f - last > self._rearm]:
             del self._last_held[key]
@@ -651,12 +668,12 @@ class SituationMonitor:
             msg = f"{desc(a)} is overtaking {desc(b)}"
         elif s is Situation.HIDDEN_ENTITY:
             t, o = objs
-            a = self._anticip[t]
-            details["anticipation"] = a.to_json()
-            details["lead_frames"], details["lead_s"] = a.lead_frames, round(a.lead_s, 3)
+            ant = self._anticip[t]
+            details["anticipation"] = ant.to_json()
+            details["lead_frames"], details["lead_s"] = ant.lead_frames, round(ant.lead_s, 3)
             msg = (f"{desc(t)} is hidden behind {desc(o)} and may reappear in front of the ego vehicle "
-                   f"at frame {a.reappear_frame} (in {a.lead_frames} frames, {a.lead_s:.1f} s) at "
-                   f"x={a.position[0]:.0f}, y={a.position[1]:.0f} px")
+                   f"at frame {ant.reappear_frame} (in {ant.lead_frames} frames, {ant.lead_s:.1f} s) at "
+                   f"x={ant.position[0]:.0f}, y={ant.position[1]:.0f} px")
         elif s is Situation.REDUCED_VISIBILITY:
             (o,) = objs
             parts = []
@@ -667,20 +684,20 @@ class SituationMonitor:
                 parts.append("it hides " + ", ".join(desc(h) for h in hides))
             msg = f"{desc(o)} in front of the ego vehicle reduces visibility" + (f" ({'; '.join(parts)})" if parts else "")
         elif s is Situation.SUDDEN_STOP:
-            (v,) = objs
-            sp, vx, g = self._features(v)
+            (veh,) = objs
+            sp, vx, g = self._features(veh)
             details.update({"speed_px_s": round(sp, 1), "vx_px_s": round(vx, 1), "growth_per_s": round(g, 3)})
             if "stopping" in info.get("cause", []):
-                msg = f"{desc(v)} in front of the ego vehicle stops suddenly"
+                msg = f"{desc(veh)} in front of the ego vehicle stops suddenly"
             else:
                 details["ttc_s"] = round(1.0 / g, 2) if g > 0 else None
                 ttc = f" (time to contact about {1.0 / g:.1f} s)" if g > 0 else ""
-                msg = f"{desc(v)} in front of the ego vehicle brakes: the ego vehicle closes in fast{ttc}"
+                msg = f"{desc(veh)} in front of the ego vehicle brakes: the ego vehicle closes in fast{ttc}"
         elif s is Situation.BLOCKED_LANE:
             (t,) = objs
             lanes = info.get("lane", [])
             msg = f"lane {', '.join(str(x) for x in lanes) or '?'} is blocked by {desc(t)}, standing still"
         else:  # EXITING_VEHICLE
-            p, v = objs
-            msg = f"{desc(p)} appeared next to {desc(v)}, which stands still: a person may be getting out"
+            p, veh = objs
+            msg = f"{desc(p)} appeared next to {desc(veh)}, which stands still: a person may be getting out"
         return Warning(f, s.name, tuple(int(o) for o in objs), msg, details)
