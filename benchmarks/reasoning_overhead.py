@@ -1,16 +1,20 @@
 """Overhead of online reasoning on KITTI: tracker alone vs tracker + SituationMonitor.
 
 Runs :class:`sensemaking.tracker.Tracker` on the KITTI car sequences (RRC detections in
-``../shared/data/kitti``) per sequence without and with a
-:class:`sensemaking.reasoning.online.SituationMonitor` (and a :class:`~sensemaking.scene.SceneRecorder`)
-fed every frame result, and prints per-frame times and their ratio measured in this one run,
-and whether the ratio is within the budget of at most 1.20 (reasoning adds at most 20 %). The two
-conditions alternate sequence by sequence, in turn first and second; the fastest of ``--repeat``
-runs of each counts, and the ratio of the whole runs is also printed repeat by repeat.
-``--gt`` also times the monitor on the ground-truth tracks (all objects of every class, no
-tracker needed).
+``../shared/data/kitti``) without and with a :class:`sensemaking.reasoning.online.SituationMonitor`
+(and a :class:`~sensemaking.scene.SceneRecorder`) fed every frame result, and prints CPU time per
+frame and their ratio measured in this one run, and whether the ratio is within the budget of at
+most 1.20 (reasoning adds at most 20 %).
 
-    python benchmarks/reasoning_overhead.py [--data ../shared/data/kitti] [--seqs 0000 0001 ...]
+The two conditions run in lockstep: two trackers take the same frames, and they alternate every
+``--chunk`` frames, in turn first and second. The machine here is shared: whole runs of the same
+tracker differ by up to 25 %, and alternating whole sequences left +-10 % between two identical
+conditions; alternating every 10 frames leaves +-2 % (``--control`` runs that A/A comparison).
+The verdict takes the median of ``--repeat`` repeats. ``--gt`` also times the monitor on the
+ground-truth tracks (all objects of every class, no tracker needed). The first line says which
+of the monitor's modules are compiled (setup.py: mypyc; pure Python is about twice as slow).
+
+    python benchmarks/reasoning_overhead.py [--data ../shared/data/kitti] [--seqs 0000 0001 ...] [--control]
 """
 
 from __future__ import annotations
@@ -55,8 +59,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--data", type=Path, default=DEFAULT_DATA, help="KITTI folder (training/, detections/)")
     ap.add_argument("--seqs", nargs="*", default=None, help="sequence names (default: all with RRC car detections)")
     ap.add_argument("--gt", action="store_true", help="also time the monitor on ground-truth tracks")
-    ap.add_argument("--repeat", type=int, default=3,
-                    help="runs per sequence and condition; the fastest counts (default 3)")
+    ap.add_argument("--repeat", type=int, default=5,
+                    help="runs of each sequence in each condition; the verdict takes the median repeat (default 5)")
+    ap.add_argument("--chunk", type=int, default=10,
+                    help="frames per turn: the two conditions alternate this often (default 10)")
+    ap.add_argument("--control", action="store_true",
+                    help="A/A control: the second condition is the tracker alone too (the method's noise)")
     args = ap.parse_args(argv)
 
     try:
@@ -75,91 +83,93 @@ def main(argv: list[str] | None = None) -> int:
         return _fail(f"no RRC car detections in {det_dir}")
     info = read_kitti_seqinfo(args.data / "training" / "seqinfo.csv")
     seqs = args.seqs or sorted(p.stem for p in det_dir.glob("*.txt"))
-    tot = {"frames": 0, "base": 0.0, "with": 0.0, "monitor": 0.0, "base_cpu": 0.0, "with_cpu": 0.0,
-           "calls": 0, "warnings": 0}
-    print(f"times per frame in ms, fastest of {max(1, args.repeat)} runs, wall clock (CPU time in parentheses: "
-          "steadier on a busy machine; the monitor and recorder inside the loop: wall clock only, as reading "
-          "the CPU clock is a system call, too costly to make twice a frame)")
-    print(f"{'seq':>5} {'frames':>6} {'tracker':>14} {'tracker+reasoning':>18} {'monitor':>13} {'ratio':>12} "
-          f"{'solver calls':>12} {'warnings':>8}")
+    tot = {"frames": 0, "monitor": 0.0, "base_cpu": 0.0, "with_cpu": 0.0, "calls": 0, "warnings": 0}
+    chunk, repeat = max(1, args.chunk), max(1, args.repeat)
+    from sensemaking.reasoning import compiled
+
+    status = compiled()
+    n_compiled = sum(status.values())
+    print(f"monitor modules compiled (mypyc): {n_compiled} of {len(status)}"
+          + ("" if n_compiled == len(status) else f"; pure Python: {', '.join(k for k, v in status.items() if not v)}"))
+    second = "tracker alone again (--control)" if args.control else "tracker + reasoning"
+    print(f"CPU time per frame in ms over {repeat} repeats; the two conditions run in lockstep on the same "
+          f"frames, alternating every {chunk} frames (in turn first and second), so that a slow spell of the "
+          f"machine hits both alike; the monitor and recorder inside the loop: wall clock")
+    print(f"{'seq':>5} {'frames':>6} {'tracker':>8} {'with':>8} {'monitor':>8} {'ratio':>6} {'solver calls':>12} "
+          f"{'warnings':>8}")
     from sensemaking.detections import Detections
 
     clock, cpu = time.perf_counter, time.process_time
-    paired = [[0.0, 0.0] for _ in range(max(1, args.repeat))]  # CPU s of each repeat: alone, with
+    per_repeat = [[0.0, 0.0] for _ in range(repeat)]  # CPU s of each repeat over all sequences: alone, with
     for seq in seqs:
         si = info[seq]
         size = (si.width, si.height)
         dets = read_kitti_detections(det_dir / f"{seq}.txt")
         by_frame = dict(dets.frames())
-        frames = range(si.length)
-        inputs = [by_frame.get(f, Detections.empty()) for f in frames]
+        n = si.length
+        inputs = [by_frame.get(f, Detections.empty()) for f in range(n)]
         config = TrackerConfig.for_dataset("kitti", fps=si.fps, image_size=size)
         # warm-up (imports, encodings, caches) on the first frames
         warm = Tracker(config)
         mon = SituationMonitor(fps=si.fps, image_size=size)
-        for f, d in list(zip(frames, inputs))[:5]:
+        for f, d in list(enumerate(inputs))[:5]:
             mon.update(warm.update(d, frame=f))
-
-        def tracker_alone() -> tuple[float, float]:
-            tracker = Tracker(config)
-            t0, c0 = clock(), cpu()
-            for f, d in zip(frames, inputs):
-                tracker.update(d, frame=f)
-            return clock() - t0, cpu() - c0
-
-        def with_reasoning() -> tuple[float, float, float, SituationMonitor, int]:
-            tracker = Tracker(config)
+        alone = with_ = t_mon = 0.0
+        for k in range(repeat):
+            base_tracker, tracker = Tracker(config), Tracker(config)
             mon = SituationMonitor(fps=si.fps, image_size=size)
             rec = SceneRecorder(fps=si.fps, image_size=size)
             n_warn = 0
-            tm = 0.0
-            t0, c0 = clock(), cpu()
-            for f, d in zip(frames, inputs):
-                r = tracker.update(d, frame=f)
-                t1 = clock()  # perf_counter: process_time is a system call here (0.65 us vs 0.05 us a read)
-                rec.add(r)
-                n_warn += len(mon.update(r))
-                tm += clock() - t1
-            return clock() - t0, cpu() - c0, tm, mon, n_warn
-
-        base = base_cpu = full = full_cpu = t_mon = float("inf")
-        for k in range(max(1, args.repeat)):
-            # the two conditions alternate, first one then the other (a slow spell or a drift
-            # of the machine hits both alike); the fastest run of each counts
-            for condition in ((0, 1) if k % 2 == 0 else (1, 0)):
-                if condition == 0:
-                    wall, cpu_s = tracker_alone()
-                    base, base_cpu = min(base, wall), min(base_cpu, cpu_s)
-                else:
-                    wall, cpu_s, tm, mon, n_warn = with_reasoning()
-                    full, full_cpu = min(full, wall), min(full_cpu, cpu_s)
-                    t_mon = min(t_mon, tm)
-                paired[k][condition] += cpu_s
-        n = len(frames)
-        print(f"{seq:>5} {n:>6} {1000 * base / n:>6.2f} ({1000 * base_cpu / n:>5.2f}) "
-              f"{1000 * full / n:>9.2f} ({1000 * full_cpu / n:>5.2f}) {1000 * t_mon / n:>13.2f} "
-              f"{full / base:>5.3f} ({full_cpu / max(base_cpu, 1e-9):>4.2f}) {int(mon.stats['solver_calls']):>12} "
+            a = w = 0.0
+            for c, lo in enumerate(range(0, n, chunk)):
+                block = range(lo, min(n, lo + chunk))
+                for condition in ((0, 1) if (c + k) % 2 == 0 else (1, 0)):
+                    if condition == 0 or args.control:
+                        tr = base_tracker if condition == 0 else tracker
+                        c0 = cpu()
+                        for f in block:
+                            tr.update(inputs[f], frame=f)
+                        dt = cpu() - c0
+                    else:
+                        c0 = cpu()
+                        for f in block:
+                            r = tracker.update(inputs[f], frame=f)
+                            t1 = clock()  # perf_counter: process_time is a system call (0.65 us vs 0.05 us)
+                            rec.add(r)
+                            n_warn += len(mon.update(r))
+                            t_mon += clock() - t1
+                        dt = cpu() - c0
+                    if condition == 0:
+                        a += dt
+                    else:
+                        w += dt
+            alone, with_ = alone + a, with_ + w
+            per_repeat[k][0] += a
+            per_repeat[k][1] += w
+        frames = n * repeat
+        print(f"{seq:>5} {n:>6} {1000 * alone / frames:>8.3f} {1000 * with_ / frames:>8.3f} "
+              f"{1000 * t_mon / frames:>8.3f} {with_ / max(alone, 1e-9):>6.3f} {int(mon.stats['solver_calls']):>12} "
               f"{n_warn:>8}")
-        for k, v in (("frames", n), ("base", base), ("with", full), ("monitor", t_mon), ("base_cpu", base_cpu),
-                     ("with_cpu", full_cpu), ("calls", int(mon.stats["solver_calls"])),
-                     ("warnings", n_warn)):
-            tot[k] += v
-    n = max(tot["frames"], 1)
-    ratio = tot["with"] / max(tot["base"], 1e-9)
-    ratio_cpu = tot["with_cpu"] / max(tot["base_cpu"], 1e-9)
-    print(f"{'all':>5} {tot['frames']:>6} {1000 * tot['base'] / n:>6.2f} ({1000 * tot['base_cpu'] / n:>5.2f}) "
-          f"{1000 * tot['with'] / n:>9.2f} ({1000 * tot['with_cpu'] / n:>5.2f}) {1000 * tot['monitor'] / n:>13.2f} "
-          f"{ratio:>5.3f} ({ratio_cpu:>4.2f}) {tot['calls']:>12} {tot['warnings']:>8}")
-    print(f"ratio (tracker + reasoning) / tracker = {ratio:.3f} wall, {ratio_cpu:.3f} CPU: reasoning adds "
-          f"{100 * (ratio - 1):+.1f} % wall, {100 * (ratio_cpu - 1):+.1f} % CPU; the monitor and "
-          f"recorder alone take {100 * tot['monitor'] / max(tot['base'], 1e-9):.1f} % of the tracker's time (wall)")
-    ratios = [w / max(b, 1e-9) for b, w in paired]
-    print(f"whole runs over all sequences, repeat by repeat, with / without reasoning (CPU): "
-          f"{', '.join(f'{r:.3f}' for r in ratios)}; median {statistics.median(ratios):.3f}")
-    verdict = {True: "WITHIN", False: "OVER"}
-    print(f"budget: ratio <= {BUDGET:.2f} (reasoning adds at most {100 * (BUDGET - 1):.0f} %): "
-          f"{verdict[ratio_cpu <= BUDGET]} budget by CPU time ({ratio_cpu:.3f}), "
-          f"{verdict[ratio <= BUDGET]} budget by wall clock ({ratio:.3f}); CPU time is the steadier on a busy machine")
+        for key, v in (("frames", frames), ("base_cpu", alone), ("with_cpu", with_), ("monitor", t_mon),
+                       ("calls", int(mon.stats["solver_calls"])), ("warnings", n_warn)):
+            tot[key] += v
+    n_all = max(tot["frames"], 1)
+    ratio = tot["with_cpu"] / max(tot["base_cpu"], 1e-9)
+    print(f"{'all':>5} {tot['frames'] // repeat:>6} {1000 * tot['base_cpu'] / n_all:>8.3f} "
+          f"{1000 * tot['with_cpu'] / n_all:>8.3f} {1000 * tot['monitor'] / n_all:>8.3f} {ratio:>6.3f} "
+          f"{tot['calls']:>12} {tot['warnings']:>8}")
+    ratios = sorted(w / max(a, 1e-9) for a, w in per_repeat)
+    median = statistics.median(ratios)
+    print(f"ratio (tracker + reasoning) / tracker = {ratio:.3f} CPU over all repeats ({second} / tracker alone): "
+          f"adds {100 * (ratio - 1):+.1f} %; the monitor and recorder alone take "
+          f"{100 * tot['monitor'] / max(tot['base_cpu'], 1e-9):.1f} % of the tracker's time")
+    print(f"repeat by repeat: {', '.join(f'{r:.3f}' for r in ratios)} (sorted); median {median:.3f}")
+    if args.control:
+        print("control run: both conditions are the tracker alone; the spread above is the noise of the method")
+    else:
+        verdict = "WITHIN" if median <= BUDGET else "OVER"
+        print(f"budget: ratio <= {BUDGET:.2f} (reasoning adds at most {100 * (BUDGET - 1):.0f} %): {verdict} budget "
+              f"by the median repeat ({median:.3f})")
 
     if args.gt:
         print("\nmonitor on ground-truth tracks (all classes):")
