@@ -39,7 +39,6 @@ from __future__ import annotations
 import json
 import logging
 import re
-from bisect import bisect_right
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -50,6 +49,7 @@ from typing import Any
 import numpy as np
 
 from sensemaking.errors import InputError
+from sensemaking.reasoning.relations import profile_row_test
 
 __all__ = [
     "Corridor", "Lane", "LaneMap", "Segmentation", "SceneContext", "CITYSCAPES_LABELS",
@@ -185,29 +185,7 @@ class Corridor:
         """:meth:`contains_rows` for one image size, the corridor's profile bound once (for a
         caller that tests every frame)."""
         ys, xl, xr = _profile_lists(self.points, self.normalized, (int(image_size[0]), int(image_size[1])))
-        lo, hi, last, m = ys[0], ys[-1], len(ys) - 1, self.min_overlap
-        # per segment between vertex rows: its first row, x extent there and slopes, so that
-        # left = slope * (y - row) + x is np.interp's arithmetic, in its order
-        segs = [(ys[j], xl[j], xr[j], (xl[j + 1] - xl[j]) / (ys[j + 1] - ys[j]), (xr[j + 1] - xr[j]) / (ys[j + 1] - ys[j]))
-                for j in range(last)]
-
-        def contains(boxes: list[list[float]]) -> list[bool]:
-            out = []
-            for x1, _, x2, y in boxes:
-                if y < lo or y > hi or y != y:
-                    out.append(False)
-                    continue
-                j = (0 if y < hi else last) if last == 1 else bisect_right(ys, y) - 1
-                if j >= last or ys[j] == y:  # np.interp returns the vertex value there
-                    left, right = xl[j], xr[j]
-                else:
-                    y0, l0, r0, sl, sr = segs[j]
-                    left, right = sl * (y - y0) + l0, sr * (y - y0) + r0
-                w = x2 - x1
-                out.append(((right if right < x2 else x2) - (left if left > x1 else x1)) / (1e-9 if 1e-9 > w else w) >= m)
-            return out
-
-        return contains
+        return profile_row_test(ys, xl, xr, self.min_overlap)
 
     def contains_points(self, points: np.ndarray, image_size: tuple[int, int]) -> np.ndarray:
         """(N,) bool: points ``(x, y)`` in pixels lie inside the corridor."""

@@ -18,6 +18,8 @@ All of it is computed in numpy and handed to clingo as facts, and only for pairs
 from __future__ import annotations
 
 import math
+from bisect import bisect_right
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -27,7 +29,7 @@ __all__ = [
     "IA_RELATIONS", "INVERSE", "MOTION_KINDS", "RelationConfig", "MotionThresholds", "MotionFeatures",
     "interval_relation_masks", "interval_relations", "rectangle_relations", "inverse_codes", "relation_name",
     "near_pairs", "pair_relations", "order_pairs", "motion_features", "classify_motion", "track_motion", "relation_facts",
-    "motion_facts", "near_pair_codes", "near_depth_order", "motion_row", "BOTTOM_LOWER", "INVERSE_CODES",
+    "motion_facts", "near_pair_codes", "near_depth_order", "motion_row", "profile_row_test", "BOTTOM_LOWER", "INVERSE_CODES",
 ]
 
 #: the 13 Allen relations; the index is the relation's integer code
@@ -310,6 +312,38 @@ def near_depth_order(boxes: list[list[float]], config: RelationConfig) -> list[t
             elif lower[inverse[code]]:
                 out.append((j, i))
     return out
+
+
+def profile_row_test(ys: list[float], xl: list[float], xr: list[float],
+                     min_overlap: float) -> Callable[[list[list[float]]], list[bool]]:
+    """The test behind :meth:`~sensemaking.reasoning.context.Corridor.row_test`: boxes
+    ``[x1, y1, x2, y2]`` (Python floats) whose bottom edge lies at least ``min_overlap`` (fraction)
+    inside a region given by its horizontal extent ``[xl[k], xr[k]]`` at increasing rows ``ys[k]``
+    (pixels, at least two rows), linear in between, as ``np.interp`` gives it (the same
+    arithmetic, in its order). Here, with the per-frame helpers that setup.py compiles."""
+    lo, hi, last, m = ys[0], ys[-1], len(ys) - 1, min_overlap
+    # per segment between vertex rows: its first row, x extent there and slopes, so that
+    # left = slope * (y - row) + x is np.interp's arithmetic, in its order
+    segs = [(ys[j], xl[j], xr[j], (xl[j + 1] - xl[j]) / (ys[j + 1] - ys[j]), (xr[j + 1] - xr[j]) / (ys[j + 1] - ys[j]))
+            for j in range(last)]
+
+    def contains(boxes: list[list[float]]) -> list[bool]:
+        out = []
+        for x1, _, x2, y in boxes:
+            if y < lo or y > hi or y != y:
+                out.append(False)
+                continue
+            j = (0 if y < hi else last) if last == 1 else bisect_right(ys, y) - 1
+            if j >= last or ys[j] == y:  # np.interp returns the vertex value there
+                left, right = xl[j], xr[j]
+            else:
+                y0, l0, r0, sl, sr = segs[j]
+                left, right = sl * (y - y0) + l0, sr * (y - y0) + r0
+            w = x2 - x1
+            out.append(((right if right < x2 else x2) - (left if left > x1 else x1)) / (1e-9 if 1e-9 > w else w) >= m)
+        return out
+
+    return contains
 
 
 # -- motion -------------------------------------------------------------------------------------
