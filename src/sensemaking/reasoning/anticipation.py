@@ -11,11 +11,12 @@ about, while the object is still hidden, with the lead time in frames and second
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from sensemaking.reasoning.relations import rebuild_args
 from sensemaking.results import TrackState
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -42,6 +43,9 @@ class AnticipationConfig:
     horizon_s: float = 5.0
     velocity_points: int = 5
     velocity_span_s: float = 1.0
+
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+        return rebuild_args(self)
 
     def __post_init__(self) -> None:
         if not 0 < self.reappear_coverage <= 1:
@@ -77,6 +81,9 @@ class Anticipation:
     in_corridor: bool
     in_image: bool
     overdue: bool = False
+
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+        return rebuild_args(self)
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -328,8 +335,11 @@ class ReappearanceError:
     predicted_position: tuple[float, float]
     actual_position: tuple[float, float]
 
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+        return rebuild_args(self)
+
     def to_json(self) -> dict[str, Any]:
-        return {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.__dict__.items()}
+        return {f.name: (list(v) if isinstance(v, tuple) else v) for f in fields(self) for v in [getattr(self, f.name)]}
 
 
 def reappearance_errors(scene: Scene, *, corridor: Corridor | None = None,

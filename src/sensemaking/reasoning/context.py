@@ -49,7 +49,7 @@ from typing import Any
 import numpy as np
 
 from sensemaking.errors import InputError
-from sensemaking.reasoning.relations import profile_row_test
+from sensemaking.reasoning.relations import ProfileRowTest
 
 __all__ = [
     "Corridor", "Lane", "LaneMap", "Segmentation", "SceneContext", "CITYSCAPES_LABELS",
@@ -185,7 +185,7 @@ class Corridor:
         """:meth:`contains_rows` for one image size, the corridor's profile bound once (for a
         caller that tests every frame)."""
         ys, xl, xr = _profile_lists(self.points, self.normalized, (int(image_size[0]), int(image_size[1])))
-        return profile_row_test(ys, xl, xr, self.min_overlap)
+        return ProfileRowTest(ys, xl, xr, self.min_overlap)
 
     def contains_points(self, points: np.ndarray, image_size: tuple[int, int]) -> np.ndarray:
         """(N,) bool: points ``(x, y)`` in pixels lie inside the corridor."""

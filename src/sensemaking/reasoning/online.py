@@ -85,7 +85,7 @@ class _Frame:
     __slots__ = ("frame", "events", "ids", "state", "hidden_by", "in_corr", "area", "motion", "ra", "rel",
                  "closer", "person_starts", "lanes", "on_lane", "surface")
 
-    def __init__(self, frame: int, events: list[Event] | None = None) -> None:
+    def __init__(self, frame: int = -1, events: list[Event] | None = None) -> None:  # defaults: copy makes it empty first
         self.frame = frame
         self.events: list[Event] = [] if events is None else events
         self.ids: list[int] = []

@@ -19,9 +19,9 @@ from __future__ import annotations
 
 import math
 from bisect import bisect_right
-from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from functools import lru_cache
+from typing import Any
 
 import numpy as np
 
@@ -29,7 +29,7 @@ __all__ = [
     "IA_RELATIONS", "INVERSE", "MOTION_KINDS", "RelationConfig", "MotionThresholds", "MotionFeatures",
     "interval_relation_masks", "interval_relations", "rectangle_relations", "inverse_codes", "relation_name",
     "near_pairs", "pair_relations", "order_pairs", "motion_features", "classify_motion", "track_motion", "relation_facts",
-    "motion_facts", "near_pair_codes", "near_depth_order", "motion_row", "profile_row_test", "BOTTOM_LOWER", "INVERSE_CODES",
+    "motion_facts", "near_pair_codes", "near_depth_order", "motion_row", "ProfileRowTest", "BOTTOM_LOWER", "INVERSE_CODES",
 ]
 
 #: the 13 Allen relations; the index is the relation's integer code
@@ -182,6 +182,13 @@ def relation_name(code: int) -> str:
     return IA_RELATIONS[int(code)]
 
 
+def rebuild_args(record: Any) -> tuple[Any, tuple[Any, ...]]:
+    """``__reduce__`` of the frozen dataclasses in the modules that setup.py compiles: rebuilt
+    from their field values. Compiled, their instances have no ``__dict__`` and the default
+    restore assigns to frozen fields, so pickle and copy would fail without it."""
+    return type(record), tuple(getattr(record, f.name) for f in fields(record))
+
+
 @dataclass(frozen=True)
 class RelationConfig:
     """Which pairs get relations, and the tolerance of ``meets`` / ``equal``.
@@ -196,6 +203,9 @@ class RelationConfig:
     near: float = 0.5
     tol_px: float = 3.0
     tol_rel: float = 0.05
+
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+        return rebuild_args(self)
 
     def __post_init__(self) -> None:
         if self.near < 0 or self.tol_px < 0 or self.tol_rel < 0:
@@ -314,20 +324,26 @@ def near_depth_order(boxes: list[list[float]], config: RelationConfig) -> list[t
     return out
 
 
-def profile_row_test(ys: list[float], xl: list[float], xr: list[float],
-                     min_overlap: float) -> Callable[[list[list[float]]], list[bool]]:
-    """The test behind :meth:`~sensemaking.reasoning.context.Corridor.row_test`: boxes
-    ``[x1, y1, x2, y2]`` (Python floats) whose bottom edge lies at least ``min_overlap`` (fraction)
-    inside a region given by its horizontal extent ``[xl[k], xr[k]]`` at increasing rows ``ys[k]``
-    (pixels, at least two rows), linear in between, as ``np.interp`` gives it (the same
-    arithmetic, in its order). Here, with the per-frame helpers that setup.py compiles."""
-    lo, hi, last, m = ys[0], ys[-1], len(ys) - 1, min_overlap
-    # per segment between vertex rows: its first row, x extent there and slopes, so that
-    # left = slope * (y - row) + x is np.interp's arithmetic, in its order
-    segs = [(ys[j], xl[j], xr[j], (xl[j + 1] - xl[j]) / (ys[j + 1] - ys[j]), (xr[j + 1] - xr[j]) / (ys[j + 1] - ys[j]))
-            for j in range(last)]
+class ProfileRowTest:
+    """The test behind :meth:`~sensemaking.reasoning.context.Corridor.row_test`, called with boxes
+    ``[x1, y1, x2, y2]`` (Python floats): which have their bottom edge at least ``min_overlap``
+    (fraction) inside a region given by its horizontal extent ``[xl[k], xr[k]]`` at increasing
+    rows ``ys[k]`` (pixels, at least two rows), linear in between, as ``np.interp`` gives it (the
+    same arithmetic, in its order). Here, with the per-frame helpers that setup.py compiles."""
 
-    def contains(boxes: list[list[float]]) -> list[bool]:
+    def __init__(self, ys: list[float], xl: list[float], xr: list[float], min_overlap: float) -> None:
+        self.ys, self.xl, self.xr, self.min_overlap = ys, xl, xr, min_overlap
+        # per segment between vertex rows: its first row, x extent there and slopes, so that
+        # left = slope * (y - row) + x is np.interp's arithmetic, in its order
+        self.segs = [(ys[j], xl[j], xr[j], (xl[j + 1] - xl[j]) / (ys[j + 1] - ys[j]),
+                      (xr[j + 1] - xr[j]) / (ys[j + 1] - ys[j])) for j in range(len(ys) - 1)]
+
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:  # compiled: see rebuild_args
+        return type(self), (self.ys, self.xl, self.xr, self.min_overlap)
+
+    def __call__(self, boxes: list[list[float]]) -> list[bool]:
+        ys, xl, xr, segs, m = self.ys, self.xl, self.xr, self.segs, self.min_overlap
+        lo, hi, last = ys[0], ys[-1], len(ys) - 1
         out = []
         for x1, _, x2, y in boxes:
             if y < lo or y > hi or y != y:
@@ -342,8 +358,6 @@ def profile_row_test(ys: list[float], xl: list[float], xr: list[float],
             w = x2 - x1
             out.append(((right if right < x2 else x2) - (left if left > x1 else x1)) / (1e-9 if 1e-9 > w else w) >= m)
         return out
-
-    return contains
 
 
 # -- motion -------------------------------------------------------------------------------------
@@ -375,6 +389,9 @@ class MotionThresholds:
     moving_px_s: float = 40.0
     looming_s: float = 0.5
 
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+        return rebuild_args(self)
+
     def __post_init__(self) -> None:
         if self.lag_s <= 0:
             raise ValueError("lag_s must be positive")
@@ -405,6 +422,9 @@ class MotionFeatures:
     vbottom: np.ndarray
     growth: np.ndarray
     speed: np.ndarray
+
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+        return rebuild_args(self)
 
 
 def motion_features(prev: np.ndarray, cur: np.ndarray, dt: float | np.ndarray) -> MotionFeatures:
