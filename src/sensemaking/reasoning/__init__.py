@@ -37,5 +37,5 @@ def compiled() -> dict[str, bool]:
     without mypyc or a C compiler at install time (``pip install -v`` shows why).
     """
     suffixes = tuple(importlib.machinery.EXTENSION_SUFFIXES)
-    return {name: str(getattr(importlib.import_module(name), "__file__", "") or "").endswith(suffixes)
+    return {name: (getattr(importlib.import_module(name), "__file__", None) or "").endswith(suffixes)
             for name in COMPILED}

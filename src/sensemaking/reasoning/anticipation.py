@@ -339,7 +339,8 @@ class ReappearanceError:
         return rebuild_args(self)
 
     def to_json(self) -> dict[str, Any]:
-        return {f.name: (list(v) if isinstance(v, tuple) else v) for f in fields(self) for v in [getattr(self, f.name)]}
+        values = {f.name: getattr(self, f.name) for f in fields(self)}
+        return {k: list(v) if isinstance(v, tuple) else v for k, v in values.items()}
 
 
 def reappearance_errors(scene: Scene, *, corridor: Corridor | None = None,
