@@ -8,11 +8,7 @@ STAMP  := $(VENV)/.installed
 
 .PHONY: setup demo test bench benchmark clean
 
-# setup.py compiles these with mypyc (in place, beside their sources): rebuild when they change
-COMPILED := src/sensemaking/reasoning/online.py src/sensemaking/reasoning/relations.py \
-            src/sensemaking/reasoning/anticipation.py
-
-$(STAMP): pyproject.toml setup.py $(COMPILED)
+$(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
 	$(BIN)/pip install --quiet -e '.[dev,viz,benchmark]'
@@ -35,4 +31,3 @@ benchmark: $(STAMP)
 
 clean:
 	rm -rf $(VENV) demo-output build *.egg-info src/*.egg-info
-	find src -name '*.so' -delete

@@ -11,8 +11,7 @@ The two conditions run in lockstep: two trackers take the same frames, and they 
 tracker differ by up to 25 %, and alternating whole sequences left +-10 % between two identical
 conditions; alternating every 10 frames leaves +-2 % (``--control`` runs that A/A comparison).
 The verdict takes the median of ``--repeat`` repeats. ``--gt`` also times the monitor on the
-ground-truth tracks (all objects of every class, no tracker needed). The first line says which
-of the monitor's modules are compiled (setup.py: mypyc; pure Python is about twice as slow).
+ground-truth tracks (all objects of every class, no tracker needed).
 
     python benchmarks/reasoning_overhead.py [--data ../shared/data/kitti] [--seqs 0000 0001 ...] [--control]
 """
@@ -85,12 +84,6 @@ def main(argv: list[str] | None = None) -> int:
     seqs = args.seqs or sorted(p.stem for p in det_dir.glob("*.txt"))
     tot = {"frames": 0, "monitor": 0.0, "calls": 0, "warnings": 0}
     chunk, repeat = max(1, args.chunk), max(1, args.repeat)
-    from sensemaking.reasoning import compiled
-
-    status = compiled()
-    n_compiled = sum(status.values())
-    print(f"monitor modules compiled (mypyc): {n_compiled} of {len(status)}"
-          + ("" if n_compiled == len(status) else f"; pure Python: {', '.join(k for k, v in status.items() if not v)}"))
     second = "tracker alone again (--control)" if args.control else "tracker + reasoning"
     print(f"CPU time per frame in ms over {repeat} repeats; the two conditions run in lockstep on the same "
           f"frames, alternating every {chunk} frames (in turn first and second), so that a slow spell of the "

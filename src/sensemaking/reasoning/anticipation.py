@@ -16,7 +16,6 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from sensemaking.reasoning.relations import rebuild_args
 from sensemaking.results import TrackState
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -44,8 +43,6 @@ class AnticipationConfig:
     velocity_points: int = 5
     velocity_span_s: float = 1.0
 
-    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
-        return rebuild_args(self)
 
     def __post_init__(self) -> None:
         if not 0 < self.reappear_coverage <= 1:
@@ -82,8 +79,6 @@ class Anticipation:
     in_image: bool
     overdue: bool = False
 
-    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
-        return rebuild_args(self)
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -335,8 +330,6 @@ class ReappearanceError:
     predicted_position: tuple[float, float]
     actual_position: tuple[float, float]
 
-    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
-        return rebuild_args(self)
 
     def to_json(self) -> dict[str, Any]:
         values = {f.name: getattr(self, f.name) for f in fields(self)}

@@ -182,13 +182,6 @@ def relation_name(code: int) -> str:
     return IA_RELATIONS[int(code)]
 
 
-def rebuild_args(record: Any) -> tuple[Any, tuple[Any, ...]]:
-    """``__reduce__`` of the frozen dataclasses in the modules that setup.py compiles: rebuilt
-    from their field values. Compiled, their instances have no ``__dict__`` and the default
-    restore assigns to frozen fields, so pickle and copy would fail without it."""
-    return type(record), tuple(getattr(record, f.name) for f in fields(record))
-
-
 @dataclass(frozen=True)
 class RelationConfig:
     """Which pairs get relations, and the tolerance of ``meets`` / ``equal``.
@@ -204,8 +197,6 @@ class RelationConfig:
     tol_px: float = 3.0
     tol_rel: float = 0.05
 
-    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
-        return rebuild_args(self)
 
     def __post_init__(self) -> None:
         if self.near < 0 or self.tol_px < 0 or self.tol_rel < 0:
@@ -338,8 +329,6 @@ class ProfileRowTest:
         self.segs = [(ys[j], xl[j], xr[j], (xl[j + 1] - xl[j]) / (ys[j + 1] - ys[j]),
                       (xr[j + 1] - xr[j]) / (ys[j + 1] - ys[j])) for j in range(len(ys) - 1)]
 
-    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:  # compiled: see rebuild_args
-        return type(self), (self.ys, self.xl, self.xr, self.min_overlap)
 
     def __call__(self, boxes: list[list[float]]) -> list[bool]:
         ys, xl, xr, segs, m = self.ys, self.xl, self.xr, self.segs, self.min_overlap
@@ -389,8 +378,6 @@ class MotionThresholds:
     moving_px_s: float = 40.0
     looming_s: float = 0.5
 
-    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
-        return rebuild_args(self)
 
     def __post_init__(self) -> None:
         if self.lag_s <= 0:
@@ -423,8 +410,6 @@ class MotionFeatures:
     growth: np.ndarray
     speed: np.ndarray
 
-    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
-        return rebuild_args(self)
 
 
 def motion_features(prev: np.ndarray, cur: np.ndarray, dt: float | np.ndarray) -> MotionFeatures:
