@@ -67,7 +67,8 @@ def main(argv: list[str] | None = None) -> int:
             path.parent.mkdir(parents=True, exist_ok=True)
             path.write_text("\n".join(lines) + "\n")
             if args.compare is not None:
-                other = (args.compare / bench.name / f"{seq.name}.txt").read_text().splitlines()
+                other = [line for line in (args.compare / bench.name / f"{seq.name}.txt").read_text().splitlines()
+                         if line]
                 first = next((i for i, (a, b) in enumerate(zip(lines, other)) if a != b), None)
                 if first is None and len(lines) != len(other):
                     first = min(len(lines), len(other))

@@ -383,7 +383,7 @@ def test_no_model_in_time_falls_back_to_hungarian_and_is_counted(monkeypatch):
 # ---- gating is only an optimisation ---------------------------------------------------------
 def _gated_and_ungated(t: Tracker, dets: Detections):
     """This frame's problem as the tracker gates it, and with every same-class pair of IoU > 0."""
-    pred = t._kf.copy().predict(1) if len(t._kf) else np.zeros((0, 4))
+    pred = t._tracks.kf.copy().predict(1) if len(t._tracks.kf) else np.zeros((0, 4))
     gated = t._problem(pred, dets)
     config = t.config
     t.config = config.replace(iou_assign=0.0, iou_resume=0.0)  # the solver keeps its thresholds
@@ -502,7 +502,7 @@ def test_components_keep_the_frames_optimum_on_a_dense_scene():
     whole = ComponentSolver(t._solver.solver, decompose=False)
     split = 0
     for f, dets in scene.frames():
-        pred = t._kf.copy().predict(1) if len(t._kf) else np.zeros((0, 4))
+        pred = t._tracks.kf.copy().predict(1) if len(t._tracks.kf) else np.zeros((0, 4))
         problem = t._problem(pred, dets)
         assert t._solver.solve(problem).cost == whole.solve(problem).cost, f"frame {f}"
         split += len(problem.components()) > 1

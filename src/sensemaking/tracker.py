@@ -24,8 +24,9 @@ from sensemaking.abduction.problem import VISIBILITY_VALUES, FrameProblem
 from sensemaking.abduction.solver import AbductionSolver, Answer, Det, read_encoding
 from sensemaking.detections import Detections
 from sensemaking.geometry import box_area, intersection, iou, iou_from_intersection, safe_ratio
-from sensemaking.motion import KalmanBank, KalmanConfig
+from sensemaking.motion import KalmanConfig
 from sensemaking.results import Event, FrameResult, TrackState
+from sensemaking.track_table import TrackTable
 
 __all__ = ["TrackerConfig", "Tracker", "FrameResult", "Event", "TrackState"]
 
@@ -223,8 +224,6 @@ class TrackerConfig:
 
 _HIDDEN = int(TrackState.HIDDEN)  # as a plain int: numpy compares it faster than the enum
 
-#: per-track state, one array each, parallel to the Kalman bank's rows
-_TRACK_COLUMNS = ("_id", "_cls", "_state", "_occluder", "_vis", "_unseen", "_hits", "_conf", "_confirmed")
 
 
 class Tracker:
@@ -274,16 +273,7 @@ class Tracker:
     # -- state ------------------------------------------------------------------------------
     def reset(self) -> None:
         """Forget every track; the next update is a first frame. Ids start again at 1."""
-        self._kf = KalmanBank(self.config.kalman_config)
-        self._id = np.zeros(0, dtype=np.int64)
-        self._cls = np.zeros(0, dtype=np.int64)
-        self._state = np.zeros(0, dtype=np.int64)  # TrackState
-        self._occluder = np.zeros(0, dtype=np.int64)  # id of the hiding track, -1 if none
-        self._vis = np.zeros(0, dtype=np.int64)  # index into VISIBILITY_VALUES
-        self._unseen = np.zeros(0, dtype=np.int64)  # frames since last matched
-        self._hits = np.zeros(0, dtype=np.int64)
-        self._conf = np.zeros(0, dtype=np.float64)
-        self._confirmed = np.zeros(0, dtype=bool)
+        self._tracks = TrackTable(self.config.kalman_config)
         self._pending: dict[int, Event] = {}  # start events of tentative tracks
         self._next_id = 1
         self._frames_seen = 0
@@ -293,7 +283,7 @@ class Tracker:
     @property
     def n_tracks(self) -> int:
         """Live tracks (visible, hidden and missing, confirmed or not)."""
-        return int(self._id.shape[0])
+        return int(self._tracks.id.shape[0])
 
     # -- the loop ---------------------------------------------------------------------------
     def update(self, detections: Any, frame: int | None = None) -> FrameResult:
@@ -318,7 +308,7 @@ class Tracker:
         self._frames_seen += 1
         self.stats["frames"] += 1
 
-        pred = self._kf.predict(1) if len(self._kf) else np.zeros((0, 4))
+        pred = self._tracks.kf.predict(1) if len(self._tracks) else np.zeros((0, 4))
         t0 = time.perf_counter()
         if self.config.abduction:
             answer, timed_out = self._abduce(pred, dets)
@@ -341,18 +331,18 @@ class Tracker:
         fit counts for them, as ``(rows, boxes)`` parts: their widened predictions and, for
         young tracks, the prediction at rest and its widening."""
         c = self.config
-        young = self._hits <= 1
-        unseen = (self._unseen > 0) | young
+        young = self._tracks.hits <= 1
+        unseen = (self._tracks.unseen > 0) | young
         parts: list[tuple[np.ndarray, np.ndarray]] = []
         if unseen.any():
-            grow = np.minimum(1.0 + c.resume_growth * self._unseen, 2.0)
+            grow = np.minimum(1.0 + c.resume_growth * self._tracks.unseen, 2.0)
             grow = np.where(young, np.maximum(grow, c.new_track_growth), grow)
             # the widened box admits far matches; an exact fit to the plain prediction still wins
             parts.append((unseen, _widen(pred[unseen], grow[unseen])))
             if c.inherit_motion and young.any():
                 # a young track moved with the scene's motion (inherit_motion); in case its own
                 # motion differs, a fit at rest counts as well
-                v = self._kf.velocity()[young, :2]
+                v = self._tracks.kf.velocity()[young, :2]
                 rest = pred[young] - np.concatenate([v, v], axis=1)
                 parts += [(young, rest), (young, _widen(rest, grow[young]))]
         return unseen, parts
@@ -379,7 +369,7 @@ class Tracker:
                 start += len(boxes)
         ok = dets.confidence[None, :] >= c.min_confidence
         if c.class_aware:
-            ok = ok & (self._cls[:, None] == dets.class_id[None, :])
+            ok = ok & (self._tracks.cls[:, None] == dets.class_id[None, :])
         resume, assign = self._thresholds(c.iou_resume, c.iou_assign)
         # gate on the solver's likelihood grid against its (floored) thresholds, so that the gate
         # admits exactly the pairs the encoding's constraints allow (gating is only an
@@ -453,52 +443,52 @@ class Tracker:
             back, dj = np.nonzero(dcov >= c.hide_cover)
             covers = _int_columns(dj, back)
             covers_exact = dcov[back, dj]
-            if (self._occluder >= 0).any():
-                back, dj = np.nonzero((dcov >= c.keep_cover) & (self._occluder >= 0)[:, None])
+            if (self._tracks.occluder >= 0).any():
+                back, dj = np.nonzero((dcov >= c.keep_cover) & (self._tracks.occluder >= 0)[:, None])
                 keeps = _int_columns(dj, back)
         det_overlapped = np.zeros(nd, dtype=bool)
         if nd > 1:
             det_overlapped = in_front[n:, n:].max(axis=1) >= c.partial_cover
         expired = self._expired()
-        hid = np.flatnonzero((self._state == _HIDDEN) & (self._occluder >= 0))
+        hid = np.flatnonzero((self._tracks.state == _HIDDEN) & (self._tracks.occluder >= 0))
         emerges = self._emerges(pred, dets, hid, lik)
         det_conf = self._scaled_confidence(dets.confidence)
         # detections too weak to start a track: still usable to continue one (conf gate in numpy)
         det_conf_fact = np.where(start_ok, np.maximum(det_conf, 1), 0)
-        active = self._unseen == 0
+        active = self._tracks.unseen == 0
         return FrameProblem(
-            track_id=self._id, active=active, tentative=~self._confirmed, expired=expired,
-            outside=outside, at_border=at_border, overlapped=overlapped, track_class=self._cls,
-            uncertain=(self._hits <= 1) & active,
+            track_id=self._tracks.id, active=active, tentative=~self._tracks.confirmed, expired=expired,
+            outside=outside, at_border=at_border, overlapped=overlapped, track_class=self._tracks.cls,
+            uncertain=(self._tracks.hits <= 1) & active,
             det_conf=det_conf_fact, det_class=dets.class_id, det_border=det_border & start_ok,
             det_overlapped=det_overlapped, cand=cand, covers=covers, keeps_covering=keeps,
-            hidden_by=_int_columns(self._id[hid], self._occluder[hid]),
+            hidden_by=_int_columns(self._tracks.id[hid], self._tracks.occluder[hid]),
             emerges=emerges,
-            visibility=self._vis, first_frame=self._frames_seen == 1, cand_exact=cand_exact,
+            visibility=self._tracks.vis, first_frame=self._frames_seen == 1, cand_exact=cand_exact,
             covers_exact=covers_exact, speed=self._speed() if "speed" in self._solver.solver.uses else None,
         )
 
     def _speed(self) -> np.ndarray:
         """(T,) predicted speed of each track's box centre, pixels per second (``speed/2``)."""
-        v = self._kf.velocity()[:, :2] if len(self._id) else np.zeros((0, 2))
+        v = self._tracks.kf.velocity()[:, :2] if len(self._tracks) else np.zeros((0, 2))
         return np.rint(np.hypot(v[:, 0], v[:, 1]) * self.config.fps).astype(np.int64)
 
     def _expired(self) -> np.ndarray:
         """(T,) bool: unseen tracks that would pass their time limit (hidden or missing) now."""
         c = self.config
-        unseen = self._unseen > 0
+        unseen = self._tracks.unseen > 0
         if not unseen.any():
             return unseen  # all False: every track was seen last frame
-        limit = np.where(self._state == _HIDDEN, c.max_hidden_frames, c.max_missing_frames)
-        return unseen & (self._unseen + 1 > limit)
+        limit = np.where(self._tracks.state == _HIDDEN, c.max_hidden_frames, c.max_missing_frames)
+        return unseen & (self._tracks.unseen + 1 > limit)
 
     def _emerges(self, pred: np.ndarray, dets: Detections, hid: np.ndarray, lik: np.ndarray) -> np.ndarray:
         """(E, 2) ``detection, track`` rows: candidate detections of hidden tracks that touch the
         occluder's predicted box, widened by ``emerge_margin`` of its size on every side."""
         if not (hid.size and len(dets)):
             return np.zeros((0, 2), dtype=np.int64)
-        pos = {int(t): i for i, t in enumerate(self._id.tolist())}
-        pairs = [(i, pos[o]) for i, o in zip(hid.tolist(), self._occluder[hid].tolist()) if o in pos]
+        pos = {int(t): i for i, t in enumerate(self._tracks.id.tolist())}
+        pairs = [(i, pos[o]) for i, o in zip(hid.tolist(), self._tracks.occluder[hid].tolist()) if o in pos]
         if not pairs:
             return np.zeros((0, 2), dtype=np.int64)
         tracks, occ = np.array(pairs, dtype=np.int64).T
@@ -534,21 +524,21 @@ class Tracker:
             rows, cols = linear_sum_assignment(-lik)
             for r, k in zip(rows.tolist(), cols.tolist()):
                 if lik[r, k] > 0:
-                    tid = int(self._id[r])
-                    (ans.assign if self._unseen[r] == 0 else ans.resume)[tid] = k
+                    tid = int(self._tracks.id[r])
+                    (ans.assign if self._tracks.unseen[r] == 0 else ans.resume)[tid] = k
                     matched_t.add(r)
                     matched_d.add(k)
         expired = self._expired()
-        for r in range(len(self._id)):
+        for r in range(len(self._tracks)):
             if r in matched_t:
-                if self._unseen[r] > 0:
-                    ans.events.append(("reappears", (int(self._id[r]),)))
+                if self._tracks.unseen[r] > 0:
+                    ans.events.append(("reappears", (int(self._tracks.id[r]),)))
                 continue
-            tid = int(self._id[r])
-            if not self._confirmed[r] or expired[r]:
+            tid = int(self._tracks.id[r])
+            if not self._tracks.confirmed[r] or expired[r]:
                 ans.end.append(tid)
                 ans.events.append(("ends", (tid,)))
-            elif self._unseen[r] == 0:
+            elif self._tracks.unseen[r] == 0:
                 ans.halt.append(tid)
                 ans.events.append(("missing_detections", (tid,)))
             else:
@@ -568,19 +558,19 @@ class Tracker:
         """Update the tracks by the answer; return this frame's events and ``track id -> detection row``
         of every track observed this frame (matched or new)."""
         c = self.config
-        if len(self._id) == 0 and not (ans.start or ans.events or ans.fluents):
+        if len(self._tracks) == 0 and not (ans.start or ans.events or ans.fluents):
             return [], {}  # no track before or after: nothing to update, confirm or report
-        index = {int(t): i for i, t in enumerate(self._id.tolist())}
+        index = self._tracks.row_of()
         # matched tracks
         matched = {**ans.assign, **ans.resume}
         if matched:
             rows = np.array([index[t] for t in matched], dtype=np.int64)
             cols = np.array(list(matched.values()), dtype=np.int64)
-            self._kf._update_trusted(rows, dets.xyxy[cols])  # distinct rows in range, gated boxes
-            self._unseen[rows] = 0
-            self._state[rows] = TrackState.VISIBLE
-            self._hits[rows] += 1
-            self._conf[rows] = dets.confidence[cols]
+            self._tracks.kf._update_trusted(rows, dets.xyxy[cols])  # distinct rows in range, gated boxes
+            self._tracks.unseen[rows] = 0
+            self._tracks.state[rows] = TrackState.VISIBLE
+            self._tracks.hits[rows] += 1
+            self._tracks.conf[rows] = dets.confidence[cols]
         observed = dict(matched)
         # new tracks (first, so that fluents and events can name them)
         new_vis = {a[0].row: v for n, a, v in ans.fluents if n == "visibility" and isinstance(a[0], Det)}
@@ -590,15 +580,10 @@ class Tracker:
             ids = np.arange(self._next_id, self._next_id + len(cols), dtype=np.int64)
             self._next_id += len(cols)
             new_ids = {Det(k): int(t) for k, t in zip(cols.tolist(), ids.tolist())}
-            self._kf.add(dets.xyxy[cols], velocity=self._scene_velocity())
-            k = len(cols)
             vis = [VISIBILITY_VALUES.index(new_vis.get(j, "fully_visible")) for j in cols.tolist()]
-            new = {"_id": ids, "_cls": dets.class_id[cols], "_state": np.full(k, TrackState.VISIBLE),
-                   "_occluder": np.full(k, -1), "_vis": np.array(vis), "_unseen": np.zeros(k),
-                   "_hits": np.ones(k), "_conf": dets.confidence[cols], "_confirmed": np.zeros(k, bool)}
-            for name in _TRACK_COLUMNS:  # confirmation of new tracks: by the general rule below
-                old = getattr(self, name)
-                setattr(self, name, np.concatenate([old, new[name].astype(old.dtype)]))
+            # confirmation of new tracks: by the general rule below
+            self._tracks.add(ids, dets.xyxy[cols], dets.class_id[cols], dets.confidence[cols], np.array(vis),
+                             velocity=self._scene_velocity())
             observed.update({new_ids[Det(j)]: j for j in cols.tolist()})
         # fluents: the answer holds the values that changed; the others carry on (inertia)
         for fname, fargs, value in ans.fluents:
@@ -610,33 +595,33 @@ class Tracker:
             if fname == "hidden_by":
                 occluder = new_ids[fargs[1]] if isinstance(fargs[1], Det) else fargs[1]
                 if value == "true":
-                    self._occluder[i] = occluder
-                elif self._occluder[i] == occluder:
-                    self._occluder[i] = -1
+                    self._tracks.occluder[i] = occluder
+                elif self._tracks.occluder[i] == occluder:
+                    self._tracks.occluder[i] = -1
             elif fname == "visibility":
-                self._vis[i] = VISIBILITY_VALUES.index(value)
+                self._tracks.vis[i] = VISIBILITY_VALUES.index(value)
         # unobserved tracks: hidden behind their occluder, or missing
         for t in ans.halt + ans.ignore_trk:
             i = index[t]
-            self._unseen[i] += 1
-            self._state[i] = TrackState.HIDDEN if self._occluder[i] >= 0 else TrackState.MISSING
+            self._tracks.unseen[i] += 1
+            self._tracks.state[i] = TrackState.HIDDEN if self._tracks.occluder[i] >= 0 else TrackState.MISSING
         # confirmation (nothing to do when every track is confirmed already)
         events: list[Event] = []
-        tentative = ~self._confirmed
+        tentative = ~self._tracks.confirmed
         if tentative.any():
-            confirm = (self._hits >= c.min_hits) | (self._frames_seen <= c.min_hits)
+            confirm = (self._tracks.hits >= c.min_hits) | (self._frames_seen <= c.min_hits)
             if c.confirm_confidence is not None:
-                confirm |= (self._unseen == 0) & (self._conf >= c.confirm_confidence)
+                confirm |= (self._tracks.unseen == 0) & (self._tracks.conf >= c.confirm_confidence)
             newly_confirmed = tentative & confirm
-            self._confirmed |= newly_confirmed
+            self._tracks.confirmed |= newly_confirmed
             # a tentative track's start event waits until the track is confirmed
             for i in np.flatnonzero(newly_confirmed).tolist():
-                pending = self._pending.pop(int(self._id[i]), None)
+                pending = self._pending.pop(int(self._tracks.id[i]), None)
                 if pending is not None:
                     events.append(pending)
         # events, with detections renamed to their new track ids; a tentative track's events
         # other than its start are not reported
-        confirmed = set(self._id[self._confirmed].tolist()) if ans.events else set()
+        confirmed = set(self._tracks.id[self._tracks.confirmed].tolist()) if ans.events else set()
         ended = set(ans.end)
         for name, args in ans.events:
             if any(isinstance(a, Det) and a not in new_ids for a in args):
@@ -650,10 +635,7 @@ class Tracker:
                 self._pending[ids_[0]] = ev
         # drop ended tracks
         if ended:
-            keep = np.array([t not in ended for t in self._id.tolist()], dtype=bool)
-            self._kf.remove(np.flatnonzero(~keep))
-            for name in _TRACK_COLUMNS:
-                setattr(self, name, getattr(self, name)[keep])
+            self._tracks.drop(np.array([t not in ended for t in self._tracks.id.tolist()], dtype=bool))
             for t in ended:
                 self._pending.pop(t, None)
         events.sort()
@@ -665,31 +647,31 @@ class Tracker:
         established track is enough: a lone car leading a convoy into view is the only motion
         known, and the fit at rest still counts for the new tracks (see ``_uncertain``)."""
         prior = np.zeros(4)
-        if not self.config.inherit_motion or len(self._id) == 0:
+        if not self.config.inherit_motion or len(self._tracks) == 0:
             return prior
-        settled = (self._unseen == 0) & (self._hits >= self.config.min_hits + 2)
+        settled = (self._tracks.unseen == 0) & (self._tracks.hits >= self.config.min_hits + 2)
         if settled.any():
-            prior[:2] = np.median(self._kf.velocity()[settled, :2], axis=0)
+            prior[:2] = np.median(self._tracks.kf.velocity()[settled, :2], axis=0)
         return prior
 
     def _output(self, dets: Detections, observed: dict[int, int], frame: int) -> Detections:
         """Every live confirmed track: its detection's box if observed, else the prediction."""
-        n = len(self._id)
+        n = len(self._tracks)
         if n == 0:
             return _no_tracks()  # most frames of sparse sequences
-        boxes = self._kf.xyxy()
+        boxes = self._tracks.kf.xyxy()
         rows = np.full(n, -1, dtype=np.int64)
         if observed:
-            pos = {int(t): i for i, t in enumerate(self._id.tolist())}
+            pos = {int(t): i for i, t in enumerate(self._tracks.id.tolist())}
             idx = np.array([pos[t] for t in observed], dtype=np.int64)
             cols = np.array(list(observed.values()), dtype=np.int64)
             boxes[idx] = dets.xyxy[cols]
             rows[idx] = dets.source_row[cols]
-        keep = self._confirmed
+        keep = self._tracks.confirmed
         # boolean indexing copies: the columns never alias the tracker's state
-        return _track_output(boxes[keep], self._conf[keep], self._cls[keep], self._id[keep],
-                             np.full(int(keep.sum()), frame, dtype=np.int64), rows[keep], self._state[keep],
-                             self._occluder[keep], self._vis[keep], self._unseen[keep])
+        return _track_output(boxes[keep], self._tracks.conf[keep], self._tracks.cls[keep], self._tracks.id[keep],
+                             np.full(int(keep.sum()), frame, dtype=np.int64), rows[keep], self._tracks.state[keep],
+                             self._tracks.occluder[keep], self._tracks.vis[keep], self._tracks.unseen[keep])
 
 
 def _track_output(xyxy: np.ndarray, confidence: np.ndarray, class_id: np.ndarray, tracker_id: np.ndarray,
