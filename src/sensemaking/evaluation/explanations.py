@@ -137,8 +137,10 @@ class GroundTruth:
                 wanted |= {CLASS_IDS["car"], CLASS_IDS["van"]}
             elif c == "pedestrian":
                 wanted |= {CLASS_IDS["pedestrian"], CLASS_IDS["person_sitting"]}
-            else:
+            elif c in CLASS_IDS:
                 wanted.add(CLASS_IDS[c])
+            else:
+                raise ValueError(f"unknown class {c!r}")
         return cls._make(boxes, np.isin(boxes.class_id, sorted(wanted)), "kitti", image_size, fps, 0,
                          n_frames)
 
@@ -362,7 +364,7 @@ class ExplanationResult:
             if kind == "hides_behind":
                 row["self"] = sum(v.reason == "self" for v in vs)
                 row["implausible_at_border"] = sum(v.verdict == IMPLAUSIBLE and v.border for v in vs)
-                ident = Counter(v.identity for v in vs if v.verdict != UNDECIDABLE or v.reason == "self")
+                ident = Counter(v.identity for v in vs)
                 row["identity"] = {k: ident.get(k, 0) for k in ("kept", "switched", "unknown", "not_resumed")}
             out["events"][kind] = row
         for kind in WARNING_KINDS:
@@ -592,7 +594,9 @@ class _Judge:
         pos = ant.get("position")
         if g is None:
             return WarningVerdict(**base, verdict=UNDECIDABLE, reason="unmatched")
-        if pred_frame is None or pos is None:
+        try:
+            pred_frame, px_pred, py_pred = int(pred_frame), float(pos[0]), float(pos[1])  # type: ignore[index]
+        except (TypeError, ValueError, IndexError):  # no anticipation in the record
             return WarningVerdict(**base, verdict=UNDECIDABLE, reason="no_prediction", gt=g)
         tr = self.t
         back = next((h for h in tr.frames.get(g, []) if h > f and tr.visible(tr.row[(g, h)])), None)
@@ -601,8 +605,8 @@ class _Judge:
                                   reappeared=False)
         i = tr.row[(g, back)]
         x1, _, x2, y2 = tr.xyxy[i]
-        px = float(math.hypot((x1 + x2) / 2 - float(pos[0]), y2 - float(pos[1])))
-        ferr = int(back - int(pred_frame))
+        px = float(math.hypot((x1 + x2) / 2 - px_pred, y2 - py_pred))
+        ferr = int(back - pred_frame)
         in_lane = None if tr.loc is None else bool(abs(tr.loc[i, 0]) <= self.c.lane_half_width_m)
         ok = abs(ferr) <= self.c.reappear_frames and px <= self.c.reappear_px
         reason = "on_target" if ok else ("late_or_early" if abs(ferr) > self.c.reappear_frames else "elsewhere")
