@@ -22,7 +22,10 @@ from sensemaking.benchmark.datasets import Benchmark, Sequence, default_data_roo
 from sensemaking.benchmark.runner import ours_config
 from sensemaking.detections import Detections
 from sensemaking.evaluation.explanations import (
-    ExplanationResult, evaluate_explanations, explanation_table, load_ground_truth,
+    ExplanationResult,
+    evaluate_explanations,
+    explanation_table,
+    load_ground_truth,
 )
 from sensemaking.reasoning.online import SituationMonitor
 from sensemaking.tracker import Tracker
@@ -53,20 +56,34 @@ def judge_benchmark(bench: Benchmark, say=print) -> list[ExplanationResult]:
         t0 = time.perf_counter()
         tracks, events, warnings = track_sequence(bench, seq)
         fmt = "kitti" if bench.spec.family == "kitti" else "mot"
-        gt = load_ground_truth(seq.gt_path, fmt, image_size=(int(seq.info.width), int(seq.info.height)),
-                               fps=float(seq.info.fps), classes=(bench.spec.class_name or "pedestrian",),
-                               n_frames=int(seq.info.length))
+        gt = load_ground_truth(
+            seq.gt_path,
+            fmt,
+            image_size=(int(seq.info.width), int(seq.info.height)),
+            fps=float(seq.info.fps),
+            classes=(bench.spec.class_name or "pedestrian",),
+            n_frames=int(seq.info.length),
+        )
         out.append(evaluate_explanations(gt, tracks, events, warnings, name=seq.name))
-        say(f"[{bench.name}] {seq.name}: {len(events)} events, {len(warnings)} warnings "
-            f"({time.perf_counter() - t0:.1f} s)")
+        say(
+            f"[{bench.name}] {seq.name}: {len(events)} events, {len(warnings)} warnings "
+            f"({time.perf_counter() - t0:.1f} s)"
+        )
     return out
 
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--data", type=Path, default=None, help="benchmark data (default ../shared/data)")
-    p.add_argument("--only", action="append", default=None, metavar="NAME",
-                   help="benchmark name or glob (repeatable), e.g. kitti-rrc-car, mot17-*")
+    p.add_argument(
+        "--data", type=Path, default=None, help="benchmark data (default ../shared/data)"
+    )
+    p.add_argument(
+        "--only",
+        action="append",
+        default=None,
+        metavar="NAME",
+        help="benchmark name or glob (repeatable), e.g. kitti-rrc-car, mot17-*",
+    )
     p.add_argument("--json", type=Path, default=None, help="write every verdict and summary here")
     args = p.parse_args(argv)
     root = args.data or default_data_root()
@@ -75,13 +92,24 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     results: dict[str, list[ExplanationResult]] = {}
     for bench in iter_benchmarks(root, args.only):
-        results[bench.name] = judge_benchmark(bench, say=lambda m: print(m, file=sys.stderr, flush=True))
+        results[bench.name] = judge_benchmark(
+            bench, say=lambda m: print(m, file=sys.stderr, flush=True)
+        )
     print(explanation_table(results), end="")
     if args.json is not None:
-        doc = {name: {"summary": ExplanationResult.combine(rs).summary(),
-                      "sequences": {r.name: {"events": [v.to_json() for v in r.events],
-                                             "warnings": [w.to_json() for w in r.warnings]} for r in rs}}
-               for name, rs in results.items()}
+        doc = {
+            name: {
+                "summary": ExplanationResult.combine(rs).summary(),
+                "sequences": {
+                    r.name: {
+                        "events": [v.to_json() for v in r.events],
+                        "warnings": [w.to_json() for w in r.warnings],
+                    }
+                    for r in rs
+                },
+            }
+            for name, rs in results.items()
+        }
         args.json.write_text(json.dumps(doc, indent=1, default=str) + "\n", encoding="utf-8")
     return 0
 

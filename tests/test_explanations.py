@@ -13,7 +13,12 @@ from sensemaking.classes import CLASS_IDS
 from sensemaking.cli import main
 from sensemaking.detections import Detections
 from sensemaking.evaluation.explanations import (
-    ExplanationResult, GroundTruth, evaluate_explanations, explanation_table, late_start_events, match_tracks,
+    ExplanationResult,
+    GroundTruth,
+    evaluate_explanations,
+    explanation_table,
+    late_start_events,
+    match_tracks,
 )
 from sensemaking.results import Event
 from sensemaking.synthetic import crossing_scene, occlusion_suite
@@ -22,8 +27,15 @@ from sensemaking.tracker import Tracker, TrackerConfig
 
 def _truth(scene, boxes: Detections | None = None, kind: str = "mot") -> GroundTruth:
     gt = scene.ground_truth if boxes is None else boxes
-    return GroundTruth(gt, np.ones(len(gt), dtype=bool), kind, (scene.width, scene.height), scene.fps, 0,
-                       scene.n_frames)
+    return GroundTruth(
+        gt,
+        np.ones(len(gt), dtype=bool),
+        kind,
+        (scene.width, scene.height),
+        scene.fps,
+        0,
+        scene.n_frames,
+    )
 
 
 def _perfect_tracks(scene, gt: Detections | None = None) -> Detections:
@@ -57,7 +69,12 @@ def _one(result: ExplanationResult, event: Event):
 def test_true_occlusion_is_plausible_and_identity_kept(crossing):
     res = evaluate_explanations(_truth(crossing), _perfect_tracks(crossing), [HIDE, UNHIDE])
     hide = _one(res, HIDE)
-    assert (hide.verdict, hide.reason, hide.gt, hide.identity) == ("plausible", "occluded_in_front", (1, 2), "kept")
+    assert (hide.verdict, hide.reason, hide.gt, hide.identity) == (
+        "plausible",
+        "occluded_in_front",
+        (1, 2),
+        "kept",
+    )
     assert _one(res, UNHIDE).verdict == "plausible"
     assert res.recall["hides_behind"] == (1, 1)
 
@@ -79,11 +96,19 @@ def test_hidden_behind_itself_is_implausible(crossing):
     tracks = _perfect_tracks(crossing)
     gt = crossing.ground_truth
     late = (gt.tracker_id == 1) & (gt.frame >= 13)
-    late = Detections(xyxy=gt.xyxy[late], tracker_id=np.full(int(late.sum()), 3), frame=gt.frame[late])
-    tracks = Detections.concatenate([tracks[~((tracks.tracker_id == 1) & (tracks.frame >= 13))], late])
+    late = Detections(
+        xyxy=gt.xyxy[late], tracker_id=np.full(int(late.sum()), 3), frame=gt.frame[late]
+    )
+    tracks = Detections.concatenate(
+        [tracks[~((tracks.tracker_id == 1) & (tracks.frame >= 13))], late]
+    )
     ev = Event(13, "hides_behind", (1, 3))
     res = evaluate_explanations(_truth(crossing), tracks, [ev])
-    assert (_one(res, ev).verdict, _one(res, ev).reason, _one(res, ev).gt) == ("implausible", "self", (1, 1))
+    assert (_one(res, ev).verdict, _one(res, ev).reason, _one(res, ev).gt) == (
+        "implausible",
+        "self",
+        (1, 1),
+    )
     assert res.summary()["events"]["hides_behind"]["self"] == 1
 
 
@@ -97,7 +122,9 @@ def test_undecidable_without_visibility_or_without_a_match(crossing):
     boxes_only = _truth(crossing, kind="boxes")
     v = _one(evaluate_explanations(boxes_only, _perfect_tracks(crossing), [HIDE]), HIDE)
     assert (v.verdict, v.reason) == ("undecidable", "occlusion_unknown")
-    ghost = Detections(xyxy=np.array([[10.0, 10, 40, 60]]), tracker_id=np.array([7]), frame=np.array([12]))
+    ghost = Detections(
+        xyxy=np.array([[10.0, 10, 40, 60]]), tracker_id=np.array([7]), frame=np.array([12])
+    )
     tracks = Detections.concatenate([_perfect_tracks(crossing), ghost])
     ev = Event(13, "hides_behind", (7, 2))
     v = _one(evaluate_explanations(_truth(crossing), tracks, [ev]), ev)
@@ -139,20 +166,29 @@ def test_missing_detections_and_reappears(crossing):
     tracks = _perfect_tracks(crossing)
     gt = crossing.ground_truth
     swapped = tracks.xyxy.copy()
-    swapped[(tracks.tracker_id == 1) & (tracks.frame == 19)] = gt.xyxy[(gt.tracker_id == 2) & (gt.frame == 19)]
+    swapped[(tracks.tracker_id == 1) & (tracks.frame == 19)] = gt.xyxy[
+        (gt.tracker_id == 2) & (gt.frame == 19)
+    ]
     keep = ~((tracks.tracker_id == 2) & (tracks.frame == 19))
     res = evaluate_explanations(_truth(crossing), tracks.with_(xyxy=swapped)[keep], [back])
     assert (_one(res, back).verdict, _one(res, back).reason) == ("implausible", "identity_switch")
 
 
 def _hidden_entity(frame: int, reappear: int, x: float, y: float) -> dict:
-    return {"frame": frame, "situation": "HIDDEN_ENTITY", "objects": [1, 2], "message": "",
-            "details": {"reappear_frame": reappear,
-                        "anticipation": {"reappear_frame": reappear, "position": [x, y]}}}
+    return {
+        "frame": frame,
+        "situation": "HIDDEN_ENTITY",
+        "objects": [1, 2],
+        "message": "",
+        "details": {
+            "reappear_frame": reappear,
+            "anticipation": {"reappear_frame": reappear, "position": [x, y]},
+        },
+    }
 
 
 def test_hidden_entity_reappearance_error(crossing):
-    """Object 1 is visible again (visibility >= 0.5) from frame 20 at bottom centre (678.3, 295.5)."""
+    """Object 1 is visible again (visibility >= 0.5) from frame 20, bottom centre (678.3, 295.5)."""
     gt = crossing.ground_truth
     row = (gt.tracker_id == 1) & (gt.frame == 20)
     x1, _, x2, y2 = gt.xyxy[row][0]
@@ -160,24 +196,46 @@ def test_hidden_entity_reappearance_error(crossing):
     on = _hidden_entity(14, 19, cx + 30, y2)
     off = _hidden_entity(14, 19, cx + 80, y2)
     late = _hidden_entity(14, 25, cx, y2)
-    note = {"frame": 0, "situation": "BLOCKED_LANE", "objects": [], "message": "not checked", "details": {}}
-    res = evaluate_explanations(_truth(crossing), _perfect_tracks(crossing), [], [on, off, late, note])
+    note = {
+        "frame": 0,
+        "situation": "BLOCKED_LANE",
+        "objects": [],
+        "message": "not checked",
+        "details": {},
+    }
+    res = evaluate_explanations(
+        _truth(crossing), _perfect_tracks(crossing), [], [on, off, late, note]
+    )
     assert len(res.warnings) == 3  # the note is not a warning
     a, b, c = res.warnings
-    assert (a.verdict, a.reason, a.frame_error, a.px_error, a.lead_frames) == ("plausible", "on_target", 1, 30.0, 6)
+    assert (a.verdict, a.reason, a.frame_error, a.px_error, a.lead_frames) == (
+        "plausible",
+        "on_target",
+        1,
+        30.0,
+        6,
+    )
     assert (b.verdict, b.reason) == ("implausible", "elsewhere")
     assert (c.verdict, c.reason, c.frame_error) == ("implausible", "late_or_early", -5)
     s = res.summary()["warnings"]["HIDDEN_ENTITY"]
-    assert (s["reappeared"], s["on_target"], s["on_target_of_reappeared"]) == (3, 1, pytest.approx(1 / 3))
+    assert (s["reappeared"], s["on_target"], s["on_target_of_reappeared"]) == (
+        3,
+        1,
+        pytest.approx(1 / 3),
+    )
 
 
 def _kitti_labels(rows: list[tuple[int, int, list[float], float, float]]) -> Detections:
     """(frame, id, xyxy, X, Z) rows -> KITTI-like car labels (occluded 0, not truncated)."""
     n = len(rows)
     loc = np.array([[r[3], 1.5, r[4]] for r in rows])
-    return Detections(xyxy=np.array([r[2] for r in rows], dtype=np.float64), tracker_id=np.array([r[1] for r in rows]),
-                      frame=np.array([r[0] for r in rows]), class_id=np.full(n, CLASS_IDS["car"]),
-                      data={"occluded": np.zeros(n, np.int64), "truncated": np.zeros(n), "location": loc})
+    return Detections(
+        xyxy=np.array([r[2] for r in rows], dtype=np.float64),
+        tracker_id=np.array([r[1] for r in rows]),
+        frame=np.array([r[0] for r in rows]),
+        class_id=np.full(n, CLASS_IDS["car"]),
+        data={"occluded": np.zeros(n, np.int64), "truncated": np.zeros(n), "location": loc},
+    )
 
 
 def test_sudden_stop_against_3d_time_to_contact():
@@ -191,10 +249,17 @@ def test_sudden_stop_against_3d_time_to_contact():
     labels = _kitti_labels(rows)
     gt = GroundTruth.from_kitti(labels, image_size=(1242, 375), fps=10.0, classes=("car",))
     tracks = labels.with_(tracker_id=labels.tracker_id + 10)
-    warn = [{"frame": 5, "situation": "SUDDEN_STOP", "objects": [t], "details": {}} for t in (11, 12, 13)]
+    warn = [
+        {"frame": 5, "situation": "SUDDEN_STOP", "objects": [t], "details": {}}
+        for t in (11, 12, 13)
+    ]
     res = evaluate_explanations(gt, tracks, [], warn)
     a, b, c = res.warnings
-    assert (a.verdict, a.reason, a.ttc_s) == ("plausible", "closing_in_lane", 1.5)  # 15 m at 10 m/s
+    assert (a.verdict, a.reason, a.ttc_s) == (
+        "plausible",
+        "closing_in_lane",
+        1.5,
+    )  # 15 m at 10 m/s
     assert (b.verdict, b.reason, b.lateral_m) == ("implausible", "to_the_side", 5.0)
     assert (c.verdict, c.reason, c.ttc_s) == ("implausible", "not_closing", math.inf)
     assert "ttc_s" not in c.to_json()  # not closing: no number in the JSON
@@ -207,15 +272,21 @@ def test_kitti_depth_decides_the_occluder_not_the_box_bottom():
     occluder = [850.0, 180, 1200, 375]
 
     def labels(z_hidden: float, z_occluder: float) -> Detections:
-        rows = [(0, 1, hidden, 3.8, z_hidden), (0, 2, occluder, 3.9, z_occluder),
-                (1, 1, hidden, 3.8, z_hidden), (1, 2, occluder, 3.9, z_occluder)]
+        rows = [
+            (0, 1, hidden, 3.8, z_hidden),
+            (0, 2, occluder, 3.9, z_occluder),
+            (1, 1, hidden, 3.8, z_hidden),
+            (1, 2, occluder, 3.9, z_occluder),
+        ]
         lab = _kitti_labels(rows)
         occl = np.array([0, 0, 1, 0])
         return lab.with_(data={**lab.data, "occluded": occl})
 
     ev = Event(1, "hides_behind", (1, 2))
-    for (zh, zo), expected in (((2.0, 8.0), ("implausible", "occluder_behind")),
-                               ((8.0, 2.0), ("plausible", "occluded_in_front"))):
+    for (zh, zo), expected in (
+        ((2.0, 8.0), ("implausible", "occluder_behind")),
+        ((8.0, 2.0), ("plausible", "occluded_in_front")),
+    ):
         lab = labels(zh, zo)
         gt = GroundTruth.from_kitti(lab, image_size=(1242, 375), classes=("car",))
         tracks = lab[~((lab.frame == 1) & (lab.tracker_id == 1))]
@@ -227,26 +298,41 @@ def test_kitti_depth_decides_the_occluder_not_the_box_bottom():
 def test_match_tracks_is_the_hungarian_assignment():
     """Track 8 overlaps both objects; the assignment that maximises total IoU gives it object 2
     and object 1 to track 9, though track 8 fits object 1 best."""
-    gt = Detections(xyxy=np.array([[0.0, 0, 10, 10], [4.0, 0, 14, 10]]), tracker_id=np.array([1, 2]),
-                    frame=np.array([1, 1]))
-    tracks = Detections(xyxy=np.array([[1.0, 0, 11, 10], [-1.0, 0, 9, 10]]), tracker_id=np.array([8, 9]),
-                        frame=np.array([1, 1]))
+    gt = Detections(
+        xyxy=np.array([[0.0, 0, 10, 10], [4.0, 0, 14, 10]]),
+        tracker_id=np.array([1, 2]),
+        frame=np.array([1, 1]),
+    )
+    tracks = Detections(
+        xyxy=np.array([[1.0, 0, 11, 10], [-1.0, 0, 9, 10]]),
+        tracker_id=np.array([8, 9]),
+        frame=np.array([1, 1]),
+    )
     assert match_tracks(gt, tracks) == {(8, 1): 2, (9, 1): 1}
     far = tracks.with_(xyxy=tracks.xyxy + [20, 0, 20, 0])
     assert match_tracks(gt, far) == {}
 
 
 def test_late_start_events_counts_starts_before_the_first_output():
-    tracks = Detections(xyxy=np.tile([0.0, 0, 5, 5], (3, 1)), tracker_id=np.array([1, 1, 2]),
-                        frame=np.array([3, 4, 2]))
-    events = [Event(1, "starts", (1,)), Event(2, "enters_fov", (2,)), Event(5, "starts", (4,)),
-              Event(2, "leaves_fov", (1,))]
+    tracks = Detections(
+        xyxy=np.tile([0.0, 0, 5, 5], (3, 1)),
+        tracker_id=np.array([1, 1, 2]),
+        frame=np.array([3, 4, 2]),
+    )
+    events = [
+        Event(1, "starts", (1,)),
+        Event(2, "enters_fov", (2,)),
+        Event(5, "starts", (4,)),
+        Event(2, "leaves_fov", (1,)),
+    ]
     assert late_start_events(tracks, events) == (2, 3)  # track 1 (output from 3) and 4 (never)
 
 
 def test_real_tracker_on_a_crossing_explains_it_plausibly(crossing):
     """Our tracker on the synthetic crossing: every hides_behind it abduces is true."""
-    tracker = Tracker(TrackerConfig.for_dataset("kitti", image_size=(crossing.width, crossing.height)))
+    tracker = Tracker(
+        TrackerConfig.for_dataset("kitti", image_size=(crossing.width, crossing.height))
+    )
     out, events = [], []
     for f, dets in crossing.frames():
         r = tracker.update(dets, frame=f)
@@ -261,11 +347,15 @@ def test_table_has_a_row_per_judged_kind(crossing):
     res = evaluate_explanations(_truth(crossing), _perfect_tracks(crossing), [HIDE, UNHIDE])
     table = explanation_table({"synthetic": [res]})
     rows = [line.split("|")[2].strip() for line in table.splitlines()[2:]]
-    assert rows == ["hides_behind", "unhides_from_behind", "starts/enters_fov before the track's first output frame"]
+    assert rows == [
+        "hides_behind",
+        "unhides_from_behind",
+        "starts/enters_fov before the track's first output frame",
+    ]
     assert "| synthetic | hides_behind | 1 | 1 | 0 | 0 | 100.0 | 100.0 | 100.0 of 1 |" in table
 
 
-# -- the CLI ----------------------------------------------------------------------------------------
+# -- the CLI ---------------------------------------------------------------------------------
 @pytest.fixture
 def mot_run(tmp_path, crossing):
     """The crossing as a MOTChallenge sequence (frames from 1): gt, perfect results, events."""
@@ -273,46 +363,96 @@ def mot_run(tmp_path, crossing):
     (seq / "gt").mkdir(parents=True)
     gt = crossing.ground_truth
     with open(seq / "gt" / "gt.txt", "w") as fh:
-        for f, i, (x1, y1, x2, y2), v in zip(gt.frame, gt.tracker_id, gt.xyxy, gt.data["visibility"]):
+        for f, i, (x1, y1, x2, y2), v in zip(
+            gt.frame, gt.tracker_id, gt.xyxy, gt.data["visibility"]
+        ):
             fh.write(f"{f + 1},{i},{x1:.2f},{y1:.2f},{x2 - x1:.2f},{y2 - y1:.2f},1,1,{v:.3f}\n")
-    (seq / "seqinfo.ini").write_text(f"[Sequence]\nname=CROSS\nseqLength={crossing.n_frames}\n"
-                                     f"imWidth={crossing.width}\nimHeight={crossing.height}\nframeRate=10\n")
+    (seq / "seqinfo.ini").write_text(
+        f"[Sequence]\nname=CROSS\nseqLength={crossing.n_frames}\n"
+        f"imWidth={crossing.width}\nimHeight={crossing.height}\nframeRate=10\n"
+    )
     tr = _perfect_tracks(crossing)
     res = tmp_path / "CROSS.txt"
     with open(res, "w") as fh:
         for f, i, (x1, y1, x2, y2) in zip(tr.frame, tr.tracker_id, tr.xyxy):
             fh.write(f"{f + 1},{i},{x1:.2f},{y1:.2f},{x2 - x1:.2f},{y2 - y1:.2f},1,-1,-1,-1\n")
     events = tmp_path / "CROSS.events.jsonl"
-    events.write_text("".join(json.dumps(Event(e.frame + 1, e.name, e.args).to_json()) + "\n"
-                              for e in (HIDE, UNHIDE)))
+    events.write_text(
+        "".join(
+            json.dumps(Event(e.frame + 1, e.name, e.args).to_json()) + "\n" for e in (HIDE, UNHIDE)
+        )
+    )
     return tmp_path, res, events
 
 
 def test_cli_explanations_table_and_json(mot_run, capsys):
     tmp, res, events = mot_run
     out = tmp / "out" / "verdicts.json"
-    rc = main(["evaluate", "--explanations", "--gt", str(tmp / "gt"), "--results", str(res),
-               "--events", str(events), "--json", str(out)])
+    rc = main(
+        [
+            "evaluate",
+            "--explanations",
+            "--gt",
+            str(tmp / "gt"),
+            "--results",
+            str(res),
+            "--events",
+            str(events),
+            "--json",
+            str(out),
+        ]
+    )
     assert rc == 0
     text = capsys.readouterr().out
     assert "| mot17 | hides_behind | 1 | 1 | 0 | 0 |" in text
     doc = json.loads(out.read_text())
     [verdict] = [v for v in doc["sequences"]["CROSS"]["events"] if v["event"] == "hides_behind"]
-    assert (verdict["verdict"], verdict["gt"], verdict["identity"]) == ("plausible", [1, 2], "kept")
+    assert (verdict["verdict"], verdict["gt"], verdict["identity"]) == (
+        "plausible",
+        [1, 2],
+        "kept",
+    )
 
 
 def test_cli_explanations_bad_input_is_one_line(mot_run, capsys):
     tmp, res, events = mot_run
-    events.write_text('{"frame": 14, "event": "hides_behind", "args": [1, 2]}\n{"frame": 20, "event"\n')
+    events.write_text(
+        '{"frame": 14, "event": "hides_behind", "args": [1, 2]}\n{"frame": 20, "event"\n'
+    )
     before = res.read_text()
-    rc = main(["evaluate", "--explanations", "--gt", str(tmp / "gt"), "--results", str(res),
-               "--events", str(events), "--json", str(tmp / "v.json")])
+    rc = main(
+        [
+            "evaluate",
+            "--explanations",
+            "--gt",
+            str(tmp / "gt"),
+            "--results",
+            str(res),
+            "--events",
+            str(events),
+            "--json",
+            str(tmp / "v.json"),
+        ]
+    )
     err = capsys.readouterr().err
     assert rc == 2 and f"{events}:2: not JSON" in err and len(err.strip().splitlines()) == 1
     assert not (tmp / "v.json").exists() and res.read_text() == before
     events.write_text('{"frame": 14, "event": "hides_behind", "args": [1]}\n')
-    assert main(["evaluate", "--explanations", "--gt", str(tmp / "gt"), "--results", str(res),
-                 "--events", str(events)]) == 2
+    assert (
+        main(
+            [
+                "evaluate",
+                "--explanations",
+                "--gt",
+                str(tmp / "gt"),
+                "--results",
+                str(res),
+                "--events",
+                str(events),
+            ]
+        )
+        == 2
+    )
     assert f"{events}:1: hides_behind takes 2 argument(s)" in capsys.readouterr().err
 
 

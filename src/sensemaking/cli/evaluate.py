@@ -7,8 +7,8 @@ Examples::
         --classes car --idsw-mode kitti_legacy
     sensemaking evaluate --gt MOT17-09/gt/gt.txt --results MOT17-09.txt
     sensemaking evaluate --explanations --gt data/kitti/training/label_02/0001.txt \\
-        --results runs/0001.txt --events runs/0001.events.jsonl --warnings runs/0001.warnings.jsonl \\
-        --classes car
+        --results runs/0001.txt --events runs/0001.events.jsonl \\
+        --warnings runs/0001.warnings.jsonl --classes car
 """
 
 from __future__ import annotations
@@ -28,7 +28,8 @@ _FORMAT_OF = {"mot17": "mot", "mot16": "mot", "mot20": "mot", "mot15": "mot", "k
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "evaluate",
-        help="score tracker output against ground truth (HOTA, CLEAR MOT, IDF1)",
+        help="score tracker output against ground truth (HOTA, CLEAR MOT, IDF1), or judge "
+             "its explanations (--explanations)",
         description=(
             "Score tracker results against ground truth with TrackEval's metrics and dataset rules "
             "(MOTChallenge, KITTI). --gt and --results are files (one sequence) or folders: "
@@ -58,10 +59,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="score a sequence without a results file as empty tracker output (else an error)")
     p.add_argument("--json", type=Path, metavar="OUT", help="write every metric to this JSON file")
     x = p.add_argument_group(
-        "explanations", "--explanations judges the tracker's events and warnings against the ground "
-        "truth instead of scoring the tracks (method and thresholds: docs/EXPLANATIONS.md). --results "
-        "must hold the visible tracks only (`track` without --write-hidden); --json then writes "
-        "every verdict.")
+        "explanations",
+        "--explanations judges the tracker's events and warnings against the ground truth "
+        "instead of scoring the tracks (method and thresholds: docs/EXPLANATIONS.md). "
+        "--results must hold the visible tracks only (`track` without --write-hidden); --json "
+        "then writes every verdict.")
     x.add_argument("--explanations", action="store_true",
                    help="judge events (and warnings) instead of scoring tracks")
     x.add_argument("--events", type=Path, metavar="PATH",
@@ -142,7 +144,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-# -- --explanations ---------------------------------------------------------------------------------
+# -- --explanations ----------------------------------------------------------------------------
 def _json_lines(path: Path) -> list[dict]:
     """Records of a JSON-lines file; a bad line is an InputError naming it."""
     import json
@@ -174,14 +176,15 @@ def _per_sequence(path: Path | None, names: list[str], suffix: str) -> dict[str,
         return dict.fromkeys(names)
     if path.is_file():
         if len(names) != 1:
-            raise InputError(f"is a single file, but {len(names)} sequences are judged; give a folder "
-                             f"of <sequence>.jsonl files", path)
+            raise InputError(f"is a single file, but {len(names)} sequences are judged; give a "
+                             "folder of <sequence>.jsonl files", path)
         return {names[0]: path}
     if not path.is_dir():
         raise InputError("no such file or folder", path)
     out: dict[str, Path | None] = {}
     for name in names:
-        found = [p for p in (path / f"{name}.jsonl", path / f"{name}.{suffix}.jsonl") if p.is_file()]
+        candidates = (path / f"{name}.jsonl", path / f"{name}.{suffix}.jsonl")
+        found = [p for p in candidates if p.is_file()]
         if not found:
             raise InputError(f"no {name}.jsonl or {name}.{suffix}.jsonl", path)
         out[name] = found[0]
@@ -199,8 +202,8 @@ def _events(path: Path) -> list:
             raise InputError('expected {"frame": int, "event": name, "args": [track ids]}', path,
                              r["_line"]) from None
         if ev.name in EVENT_NAMES and len(ev.args) != EVENT_NAMES[ev.name]:
-            raise InputError(f"{ev.name} takes {EVENT_NAMES[ev.name]} argument(s), got {len(ev.args)}",
-                             path, r["_line"])
+            raise InputError(f"{ev.name} takes {EVENT_NAMES[ev.name]} argument(s), got "
+                             f"{len(ev.args)}", path, r["_line"])
         out.append(ev)
     return out
 
@@ -209,15 +212,17 @@ def _warnings(path: Path) -> list[dict]:
     out = []
     for r in _json_lines(path):
         objs = r.get("objects")
-        if not isinstance(r.get("frame"), int) or not isinstance(objs, list) \
-                or not all(isinstance(o, int) for o in objs) or not isinstance(r.get("details", {}), dict):
+        ok = isinstance(r.get("frame"), int) and isinstance(objs, list) \
+            and all(isinstance(o, int) for o in objs) and isinstance(r.get("details", {}), dict)
+        if not ok:
             raise InputError('expected {"frame": int, "situation": name, "objects": [track ids], '
                              '"details": {...}}', path, r["_line"])
         out.append(r)
     return out
 
 
-def _sequence_facts(fmt: str, gt_path: Path, name: str) -> tuple[tuple[int, int] | None, float | None]:
+def _sequence_facts(fmt: str, gt_path: Path,
+                    name: str) -> tuple[tuple[int, int] | None, float | None]:
     """(image size, fps) from the seqinfo beside the ground truth, when there is one."""
     if fmt == "kitti":
         from sensemaking.io.kitti import read_kitti_seqinfo
@@ -238,7 +243,8 @@ def _sequence_facts(fmt: str, gt_path: Path, name: str) -> tuple[tuple[int, int]
     return None, None
 
 
-def _explanations(args: argparse.Namespace, fmt: str, benchmark: str, classes: list[str] | None, load) -> int:
+def _explanations(args: argparse.Namespace, fmt: str, benchmark: str, classes: list[str] | None,
+                  load) -> int:
     import json
 
     from sensemaking.cli.track import parse_size
@@ -252,7 +258,8 @@ def _explanations(args: argparse.Namespace, fmt: str, benchmark: str, classes: l
     if args.fps is not None and not args.fps > 0:
         raise InputError(f"--fps must be positive, got {args.fps}")
     size_arg = parse_size(args.image_size) if args.image_size else None
-    sequences = load(args.gt, args.results, seqmap=args.seqmap, missing_as_empty=args.missing_as_empty)
+    sequences = load(args.gt, args.results, seqmap=args.seqmap,
+                     missing_as_empty=args.missing_as_empty)
     names = list(sequences)
     events = _per_sequence(args.events, names, "events")
     warnings = _per_sequence(args.warnings, names, "warnings")
@@ -261,11 +268,13 @@ def _explanations(args: argparse.Namespace, fmt: str, benchmark: str, classes: l
         size, fps = _sequence_facts(fmt, Path(s.gt_path), name)
         size, fps = size_arg or size, args.fps or fps
         if size is None:
-            raise InputError("no seqinfo found for the image size: pass --image-size WxH", s.gt_path)
+            raise InputError("no seqinfo found for the image size: pass --image-size WxH",
+                             s.gt_path)
         if fps is None:
             fps = 10.0 if fmt == "kitti" else 30.0
         if fmt == "kitti":
-            gt = GroundTruth.from_kitti(s.gt, image_size=size, fps=fps, classes=classes or ("car", "pedestrian"),
+            gt = GroundTruth.from_kitti(s.gt, image_size=size, fps=fps,
+                                        classes=classes or ("car", "pedestrian"),
                                         n_frames=s.n_frames)
         else:
             gt = GroundTruth.from_mot(s.gt, image_size=size, fps=fps, n_frames=s.n_frames)
@@ -276,8 +285,10 @@ def _explanations(args: argparse.Namespace, fmt: str, benchmark: str, classes: l
     print(explanation_table({label: results}), end="")
     if args.json is not None:
         doc = {"benchmark": benchmark, "summary": ExplanationResult.combine(results).summary(),
-               "sequences": {r.name: {"summary": r.summary(), "events": [v.to_json() for v in r.events],
-                                      "warnings": [w.to_json() for w in r.warnings]} for r in results}}
+               "sequences": {r.name: {"summary": r.summary(),
+                                      "events": [v.to_json() for v in r.events],
+                                      "warnings": [w.to_json() for w in r.warnings]}
+                             for r in results}}
         with atomic_write(args.json) as handle:
             handle.write(json.dumps(doc, indent=1) + "\n")
         log.info("wrote %s", args.json)

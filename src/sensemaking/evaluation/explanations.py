@@ -31,21 +31,46 @@ import numpy as np
 
 from sensemaking.classes import CLASS_IDS
 from sensemaking.detections import Detections
-from sensemaking.evaluation._prepare import EPS, conflict_frames, max_assignment, offsets, overlap_pairs
+from sensemaking.evaluation._prepare import (
+    EPS,
+    conflict_frames,
+    max_assignment,
+    offsets,
+    overlap_pairs,
+)
 from sensemaking.results import Event
 
 __all__ = [
-    "ExplanationConfig", "GroundTruth", "Verdict", "WarningVerdict", "ExplanationResult",
-    "match_tracks", "evaluate_explanations", "load_ground_truth", "explanation_table", "late_start_events",
-    "EVENT_KINDS", "PLAUSIBLE", "IMPLAUSIBLE", "UNDECIDABLE",
+    "ExplanationConfig",
+    "GroundTruth",
+    "Verdict",
+    "WarningVerdict",
+    "ExplanationResult",
+    "match_tracks",
+    "evaluate_explanations",
+    "load_ground_truth",
+    "explanation_table",
+    "late_start_events",
+    "EVENT_KINDS",
+    "PLAUSIBLE",
+    "IMPLAUSIBLE",
+    "UNDECIDABLE",
 ]
 
 log = logging.getLogger(__name__)
 
 PLAUSIBLE, IMPLAUSIBLE, UNDECIDABLE = "plausible", "implausible", "undecidable"
 #: event kinds judged, in table order
-EVENT_KINDS = ("hides_behind", "unhides_from_behind", "enters_fov", "leaves_fov", "starts", "ends",
-               "missing_detections", "reappears")
+EVENT_KINDS = (
+    "hides_behind",
+    "unhides_from_behind",
+    "enters_fov",
+    "leaves_fov",
+    "starts",
+    "ends",
+    "missing_detections",
+    "reappears",
+)
 #: warnings judged
 WARNING_KINDS = ("HIDDEN_ENTITY", "SUDDEN_STOP")
 
@@ -91,8 +116,15 @@ class ExplanationConfig:
     def __post_init__(self) -> None:
         if not 0.0 < self.iou_threshold <= 1.0:
             raise ValueError(f"iou_threshold must be in (0, 1], got {self.iou_threshold}")
-        for name in ("border_margin_px", "min_cover", "window_s", "reappear_px", "lane_half_width_m",
-                     "ttc_max_s", "ttc_span_s"):
+        for name in (
+            "border_margin_px",
+            "min_cover",
+            "window_s",
+            "reappear_px",
+            "lane_half_width_m",
+            "ttc_max_s",
+            "ttc_span_s",
+        ):
             if not (math.isfinite(getattr(self, name)) and getattr(self, name) >= 0):
                 raise ValueError(f"{name} must be finite and >= 0, got {getattr(self, name)!r}")
 
@@ -123,8 +155,15 @@ class GroundTruth:
     n_frames: int
 
     @classmethod
-    def from_kitti(cls, labels: Detections, *, image_size: tuple[int, int], fps: float = 10.0,
-                   classes: Sequence[str] = ("car",), n_frames: int | None = None) -> GroundTruth:
+    def from_kitti(
+        cls,
+        labels: Detections,
+        *,
+        image_size: tuple[int, int],
+        fps: float = 10.0,
+        classes: Sequence[str] = ("car",),
+        n_frames: int | None = None,
+    ) -> GroundTruth:
         """KITTI ``label_02`` rows (``io.kitti.read_kitti_labels``); DontCare rows are dropped.
         ``classes``: the tracked classes (``car`` matches Car and Van, ``pedestrian``
         Pedestrian and Person_sitting)."""
@@ -141,35 +180,67 @@ class GroundTruth:
                 wanted.add(CLASS_IDS[c])
             else:
                 raise ValueError(f"unknown class {c!r}")
-        return cls._make(boxes, np.isin(boxes.class_id, sorted(wanted)), "kitti", image_size, fps, 0,
-                         n_frames)
+        return cls._make(
+            boxes, np.isin(boxes.class_id, sorted(wanted)), "kitti", image_size, fps, 0, n_frames
+        )
 
     @classmethod
-    def from_mot(cls, gt: Detections, *, image_size: tuple[int, int], fps: float = 30.0,
-                 n_frames: int | None = None) -> GroundTruth:
+    def from_mot(
+        cls,
+        gt: Detections,
+        *,
+        image_size: tuple[int, int],
+        fps: float = 30.0,
+        n_frames: int | None = None,
+    ) -> GroundTruth:
         """MOTChallenge ``gt.txt`` rows (``io.mot.read_mot(kind="gt")``). With a visibility column
         (MOT16/17/20) pedestrians and person-like distractors are matchable; without (MOT15,
         visibility -1) every row with a non-zero consider flag is."""
         vis = np.asarray(gt.data.get("visibility", np.full(len(gt), -1.0)), dtype=np.float64)
         has_vis = bool(len(gt)) and bool((vis >= 0).any())
         if has_vis:
-            person = [CLASS_IDS[n] for n in ("pedestrian", "person_on_vehicle", "static_person",
-                                             "distractor", "reflection")]
+            person = [
+                CLASS_IDS[n]
+                for n in (
+                    "pedestrian",
+                    "person_on_vehicle",
+                    "static_person",
+                    "distractor",
+                    "reflection",
+                )
+            ]
             matchable = np.isin(gt.class_id, person)
         else:
             consider = np.asarray(gt.data.get("consider", np.ones(len(gt))))
             matchable = consider != 0
-        return cls._make(gt, matchable, "mot" if has_vis else "boxes", image_size, fps, 1, n_frames)
+        return cls._make(
+            gt, matchable, "mot" if has_vis else "boxes", image_size, fps, 1, n_frames
+        )
 
     @classmethod
-    def _make(cls, boxes: Detections, matchable: np.ndarray, kind: str, image_size: tuple[int, int],
-              fps: float, first: int, n_frames: int | None) -> GroundTruth:
+    def _make(
+        cls,
+        boxes: Detections,
+        matchable: np.ndarray,
+        kind: str,
+        image_size: tuple[int, int],
+        fps: float,
+        first: int,
+        n_frames: int | None,
+    ) -> GroundTruth:
         if fps <= 0:
             raise ValueError(f"fps must be positive, got {fps}")
         if n_frames is None:
             n_frames = int(boxes.frame.max()) - first + 1 if len(boxes) else 0
-        return cls(boxes, np.asarray(matchable, dtype=bool), kind, (int(image_size[0]), int(image_size[1])),
-                   float(fps), first, int(n_frames))
+        return cls(
+            boxes,
+            np.asarray(matchable, dtype=bool),
+            kind,
+            (int(image_size[0]), int(image_size[1])),
+            float(fps),
+            first,
+            int(n_frames),
+        )
 
 
 class _Truth:
@@ -187,7 +258,12 @@ class _Truth:
         self.xyxy = b.xyxy
         w, h = gt.image_size
         m = config.border_margin_px
-        at = (b.xyxy[:, 0] <= m) | (b.xyxy[:, 1] <= m) | (b.xyxy[:, 2] >= w - m) | (b.xyxy[:, 3] >= h - m)
+        at = (
+            (b.xyxy[:, 0] <= m)
+            | (b.xyxy[:, 1] <= m)
+            | (b.xyxy[:, 2] >= w - m)
+            | (b.xyxy[:, 3] >= h - m)
+        )
         if "truncated" in b.data:
             at |= np.asarray(b.data["truncated"], dtype=np.float64) > 0
         self.at_border = at
@@ -225,7 +301,9 @@ class _Truth:
 
 
 # -- matching -------------------------------------------------------------------------------------
-def match_tracks(gt: Detections, tracks: Detections, threshold: float = 0.5) -> dict[tuple[int, int], int]:
+def match_tracks(
+    gt: Detections, tracks: Detections, threshold: float = 0.5
+) -> dict[tuple[int, int], int]:
     """``(track id, frame) -> ground-truth object id`` by the evaluation's matching: per frame, the
     Hungarian assignment maximising IoU among pairs with IoU >= ``threshold`` (TrackEval's
     preprocessing match, :func:`~sensemaking.evaluation._prepare.max_assignment`)."""
@@ -243,7 +321,10 @@ def match_tracks(gt: Detections, tracks: Detections, threshold: float = 0.5) -> 
     chosen = max_assignment(ps, score, positive, conflict_frames(ps, positive))
     g_ids, t_ids = gt.tracker_id[go][ps.pa[chosen]], tracks.tracker_id[to][ps.pb[chosen]]
     frames = tracks.frame[to][ps.pb[chosen]]
-    return {(int(t), int(f)): int(g) for t, f, g in zip(t_ids.tolist(), frames.tolist(), g_ids.tolist())}
+    return {
+        (int(t), int(f)): int(g)
+        for t, f, g in zip(t_ids.tolist(), frames.tolist(), g_ids.tolist())
+    }
 
 
 # -- verdicts -------------------------------------------------------------------------------------
@@ -269,7 +350,12 @@ class Verdict:
     identity: str | None = None
 
     def to_json(self) -> dict[str, Any]:
-        out = {**self.event.to_json(), "verdict": self.verdict, "reason": self.reason, "gt": list(self.gt)}
+        out = {
+            **self.event.to_json(),
+            "verdict": self.verdict,
+            "reason": self.reason,
+            "gt": list(self.gt),
+        }
         if self.event.name == "hides_behind":
             out.update(border=self.border, identity=self.identity)
         return out
@@ -338,7 +424,9 @@ class ExplanationResult:
     recall: dict[str, tuple[int, int]] = field(default_factory=dict)
 
     @classmethod
-    def combine(cls, results: Iterable[ExplanationResult], name: str = "COMBINED") -> ExplanationResult:
+    def combine(
+        cls, results: Iterable[ExplanationResult], name: str = "COMBINED"
+    ) -> ExplanationResult:
         out = cls(name)
         for r in results:
             out.events += r.events
@@ -363,9 +451,13 @@ class ExplanationResult:
                 row["recall_occasions"] = total
             if kind == "hides_behind":
                 row["self"] = sum(v.reason == "self" for v in vs)
-                row["implausible_at_border"] = sum(v.verdict == IMPLAUSIBLE and v.border for v in vs)
+                row["implausible_at_border"] = sum(
+                    v.verdict == IMPLAUSIBLE and v.border for v in vs
+                )
                 ident = Counter(v.identity for v in vs)
-                row["identity"] = {k: ident.get(k, 0) for k in ("kept", "switched", "unknown", "not_resumed")}
+                row["identity"] = {
+                    k: ident.get(k, 0) for k in ("kept", "switched", "unknown", "not_resumed")
+                }
             out["events"][kind] = row
         for kind in WARNING_KINDS:
             ws = [w for w in self.warnings if w.situation == kind]
@@ -376,9 +468,15 @@ class ExplanationResult:
                 row["never_reappeared"] = sum(w.reappeared is False for w in ws)
                 row["on_target"] = sum(w.on_target for w in ws)
                 row["on_target_of_reappeared"] = (row["on_target"] / len(back)) if back else None
-                row["median_frame_error"] = _median([abs(w.frame_error) for w in back if w.frame_error is not None])
-                row["median_px_error"] = _median([w.px_error for w in back if w.px_error is not None])
-                row["median_lead_frames"] = _median([w.lead_frames for w in back if w.lead_frames is not None])
+                row["median_frame_error"] = _median(
+                    [abs(w.frame_error) for w in back if w.frame_error is not None]
+                )
+                row["median_px_error"] = _median(
+                    [w.px_error for w in back if w.px_error is not None]
+                )
+                row["median_lead_frames"] = _median(
+                    [w.lead_frames for w in back if w.lead_frames is not None]
+                )
                 lanes = [w.in_lane for w in back if w.in_lane is not None]
                 row["in_lane"] = sum(lanes) if lanes else None
             out["warnings"][kind] = row
@@ -395,9 +493,15 @@ def _counts(vs: Sequence[Verdict] | Sequence[WarningVerdict]) -> dict[str, Any]:
     c = Counter(v.verdict for v in vs)
     p, i, u = c.get(PLAUSIBLE, 0), c.get(IMPLAUSIBLE, 0), c.get(UNDECIDABLE, 0)
     reasons = Counter(f"{v.verdict}:{v.reason}" for v in vs)
-    return {"total": len(vs), PLAUSIBLE: p, IMPLAUSIBLE: i, UNDECIDABLE: u,
-            "precision": p / (p + i) if p + i else None, "plausible_of_all": p / len(vs) if vs else None,
-            "reasons": dict(sorted(reasons.items()))}
+    return {
+        "total": len(vs),
+        PLAUSIBLE: p,
+        IMPLAUSIBLE: i,
+        UNDECIDABLE: u,
+        "precision": p / (p + i) if p + i else None,
+        "plausible_of_all": p / len(vs) if vs else None,
+        "reasons": dict(sorted(reasons.items())),
+    }
 
 
 # -- the judge ------------------------------------------------------------------------------------
@@ -457,8 +561,11 @@ class _Judge:
         if i is not None and self.t.at_border[i]:
             return True
         f0 = self.t.frames[g][0]
-        return bool(self.t.at_border[self.t.row[(g, f0)]]) and abs(f0 - f) <= self.window \
+        return (
+            bool(self.t.at_border[self.t.row[(g, f0)]])
+            and abs(f0 - f) <= self.window
             and f0 > self.gt.first_frame
+        )
 
     def left_at_border(self, g: int, f: int) -> bool:
         """Object ``g`` is at the border at ``f``, or its labelled track ended at the border
@@ -468,7 +575,11 @@ class _Judge:
             return True
         f1 = self.t.frames[g][-1]
         last = self.gt.first_frame + self.gt.n_frames - 1
-        return bool(self.t.at_border[self.t.row[(g, f1)]]) and abs(f1 - f) <= self.window and f1 < last
+        return (
+            bool(self.t.at_border[self.t.row[(g, f1)]])
+            and abs(f1 - f) <= self.window
+            and f1 < last
+        )
 
     # events
     def hides(self, ev: Event, unhide: Event | None) -> Verdict:
@@ -595,31 +706,51 @@ class _Judge:
         if g is None:
             return WarningVerdict(**base, verdict=UNDECIDABLE, reason="unmatched")
         try:
-            pred_frame, px_pred, py_pred = int(pred_frame), float(pos[0]), float(pos[1])  # type: ignore[index]
+            pred_frame = int(pred_frame)  # type: ignore[arg-type]
+            px_pred, py_pred = float(pos[0]), float(pos[1])  # type: ignore[index]
         except (TypeError, ValueError, IndexError):  # no anticipation in the record
             return WarningVerdict(**base, verdict=UNDECIDABLE, reason="no_prediction", gt=g)
         tr = self.t
-        back = next((h for h in tr.frames.get(g, []) if h > f and tr.visible(tr.row[(g, h)])), None)
+        back = next(
+            (h for h in tr.frames.get(g, []) if h > f and tr.visible(tr.row[(g, h)])), None
+        )
         if back is None:
-            return WarningVerdict(**base, verdict=IMPLAUSIBLE, reason="never_reappeared", gt=g,
-                                  reappeared=False)
+            return WarningVerdict(
+                **base, verdict=IMPLAUSIBLE, reason="never_reappeared", gt=g, reappeared=False
+            )
         i = tr.row[(g, back)]
         x1, _, x2, y2 = tr.xyxy[i]
         px = float(math.hypot((x1 + x2) / 2 - px_pred, y2 - py_pred))
         ferr = int(back - pred_frame)
         in_lane = None if tr.loc is None else bool(abs(tr.loc[i, 0]) <= self.c.lane_half_width_m)
         ok = abs(ferr) <= self.c.reappear_frames and px <= self.c.reappear_px
-        reason = "on_target" if ok else ("late_or_early" if abs(ferr) > self.c.reappear_frames else "elsewhere")
-        return WarningVerdict(**base, verdict=PLAUSIBLE if ok else IMPLAUSIBLE, reason=reason, gt=g,
-                              reappeared=True, frame_error=ferr, px_error=round(px, 1),
-                              lead_frames=int(back - f), in_lane=in_lane)
+        reason = (
+            "on_target"
+            if ok
+            else ("late_or_early" if abs(ferr) > self.c.reappear_frames else "elsewhere")
+        )
+        return WarningVerdict(
+            **base,
+            verdict=PLAUSIBLE if ok else IMPLAUSIBLE,
+            reason=reason,
+            gt=g,
+            reappeared=True,
+            frame_error=ferr,
+            px_error=round(px, 1),
+            lead_frames=int(back - f),
+            in_lane=in_lane,
+        )
 
     def sudden_stop(self, w: Mapping[str, Any]) -> WarningVerdict:
         f, objs = int(w["frame"]), tuple(int(o) for o in w["objects"])
         details = w.get("details") or {}
         warned = details.get("ttc_s")
-        base = {"frame": f, "situation": "SUDDEN_STOP", "objects": objs,
-                "warned_ttc_s": None if warned is None else float(warned)}
+        base = {
+            "frame": f,
+            "situation": "SUDDEN_STOP",
+            "objects": objs,
+            "warned_ttc_s": None if warned is None else float(warned),
+        }
         g, _ = self.gt_before(objs[0], f, inclusive=True)
         tr = self.t
         if g is None:
@@ -640,8 +771,12 @@ class _Judge:
         if lateral > self.c.lane_half_width_m:
             return WarningVerdict(**base, verdict=IMPLAUSIBLE, reason="to_the_side", **common)
         if ttc > self.c.ttc_max_s:
-            return WarningVerdict(**base, verdict=IMPLAUSIBLE,
-                                  reason="not_closing" if closing <= 0 else "ttc_long", **common)
+            return WarningVerdict(
+                **base,
+                verdict=IMPLAUSIBLE,
+                reason="not_closing" if closing <= 0 else "ttc_long",
+                **common,
+            )
         return WarningVerdict(**base, verdict=PLAUSIBLE, reason="closing_in_lane", **common)
 
     # recall
@@ -712,23 +847,43 @@ def late_start_events(tracks: Detections, events: Iterable[Event]) -> tuple[int,
     return late, total
 
 
-def load_ground_truth(path: str | Any, fmt: str, *, image_size: tuple[int, int], fps: float,
-                      classes: Sequence[str] = ("car",), n_frames: int | None = None) -> GroundTruth:
+def load_ground_truth(
+    path: str | Any,
+    fmt: str,
+    *,
+    image_size: tuple[int, int],
+    fps: float,
+    classes: Sequence[str] = ("car",),
+    n_frames: int | None = None,
+) -> GroundTruth:
     """Read a ground-truth file: ``fmt`` ``"kitti"`` (``label_02/<seq>.txt``; ``classes`` the
     tracked ones) or ``"mot"`` (``gt/gt.txt``). Raises :class:`~sensemaking.errors.InputError`."""
     if fmt == "kitti":
         from sensemaking.io.kitti import read_kitti_labels
 
-        return GroundTruth.from_kitti(read_kitti_labels(path), image_size=image_size, fps=fps,
-                                      classes=classes, n_frames=n_frames)
+        return GroundTruth.from_kitti(
+            read_kitti_labels(path),
+            image_size=image_size,
+            fps=fps,
+            classes=classes,
+            n_frames=n_frames,
+        )
     from sensemaking.io.mot import read_mot
 
-    return GroundTruth.from_mot(read_mot(path, kind="gt"), image_size=image_size, fps=fps, n_frames=n_frames)
+    return GroundTruth.from_mot(
+        read_mot(path, kind="gt"), image_size=image_size, fps=fps, n_frames=n_frames
+    )
 
 
-def evaluate_explanations(gt: GroundTruth, tracks: Detections, events: Iterable[Event],
-                          warnings: Iterable[Mapping[str, Any]] = (), *, name: str = "",
-                          config: ExplanationConfig | None = None) -> ExplanationResult:
+def evaluate_explanations(
+    gt: GroundTruth,
+    tracks: Detections,
+    events: Iterable[Event],
+    warnings: Iterable[Mapping[str, Any]] = (),
+    *,
+    name: str = "",
+    config: ExplanationConfig | None = None,
+) -> ExplanationResult:
     """Judge every event and HIDDEN_ENTITY / SUDDEN_STOP warning of one sequence.
 
     Args:
@@ -779,16 +934,20 @@ def _pct(x: float | None) -> str:
     return "-" if x is None else f"{100 * x:.1f}"
 
 
-def explanation_table(results: Mapping[str, Sequence[ExplanationResult] | ExplanationResult]) -> str:
+def explanation_table(
+    results: Mapping[str, Sequence[ExplanationResult] | ExplanationResult],
+) -> str:
     """The explanation-quality table (markdown), one block of rows per benchmark.
 
     ``results``: benchmark name -> its sequences' results (or one combined result). Columns per
     event kind: counts plausible / implausible / undecidable, precision (plausible of the
     decidable, %), plausible of all (%), recall (%) where defined, and the notes of
     docs/EXPLANATIONS.md (border, self, identity kept; HIDDEN_ENTITY on target)."""
-    lines = ["| benchmark | kind | n | plausible | implausible | undecidable | precision % "
-             "| plausible of all % | recall % | notes |",
-             "|---|---|---:|---:|---:|---:|---:|---:|---:|---|"]
+    lines = [
+        "| benchmark | kind | n | plausible | implausible | undecidable | precision % "
+        "| plausible of all % | recall % | notes |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---|",
+    ]
     for bench, res in results.items():
         r = res if isinstance(res, ExplanationResult) else ExplanationResult.combine(res)
         s = r.summary()
@@ -799,36 +958,52 @@ def explanation_table(results: Mapping[str, Sequence[ExplanationResult] | Explan
             notes = []
             if kind == "hides_behind":
                 ident = row["identity"]
-                notes.append(f"self {row['self']}; implausible at border {row['implausible_at_border']}; "
-                             f"identity kept {ident['kept']} / switched {ident['switched']}")
-            top = [f"{k.split(':', 1)[1]} {n}" for k, n in sorted(row["reasons"].items(), key=lambda kv: -kv[1])
-                   if k.startswith(IMPLAUSIBLE)][:3]
+                notes.append(
+                    f"self {row['self']}; implausible at border {row['implausible_at_border']}; "
+                    f"identity kept {ident['kept']} / switched {ident['switched']}"
+                )
+            top = _implausible_reasons(row)[:3]
             if top:
                 notes.append("implausible: " + ", ".join(top))
-            recall = _pct(row.get("recall")) + (f" of {row['recall_occasions']}" if "recall_occasions" in row else "")
-            lines.append(f"| {bench} | {kind} | {row['total']} | {row[PLAUSIBLE]} | {row[IMPLAUSIBLE]} | "
-                         f"{row[UNDECIDABLE]} | {_pct(row['precision'])} | {_pct(row['plausible_of_all'])} | "
-                         f"{recall if 'recall_occasions' in row else '-'} | {'; '.join(notes)} |")
+            recall = "-"
+            if "recall_occasions" in row:
+                recall = f"{_pct(row['recall'])} of {row['recall_occasions']}"
+            lines.append(_row(bench, kind, row, recall, "; ".join(notes)))
         for kind in WARNING_KINDS:
             row = s["warnings"][kind]
             if not row["total"]:
                 continue
             if kind == "HIDDEN_ENTITY":
-                note = (f"reappeared {row['reappeared']}, never {row['never_reappeared']}; on target (<= 3 "
-                        f"frames, 50 px) {_pct(row['on_target_of_reappeared'])} % of reappeared; median "
-                        f"error {_fmt(row['median_frame_error'])} frames, {_fmt(row['median_px_error'])} px; "
-                        f"median lead {_fmt(row['median_lead_frames'])} frames")
+                note = (
+                    f"reappeared {row['reappeared']}, never {row['never_reappeared']}; "
+                    f"on target {_pct(row['on_target_of_reappeared'])} % of reappeared; "
+                    f"median error {_fmt(row['median_frame_error'])} frames, "
+                    f"{_fmt(row['median_px_error'])} px; "
+                    f"median lead {_fmt(row['median_lead_frames'])} frames"
+                )
                 if row["in_lane"] is not None:
                     note += f"; in ego lane {row['in_lane']}"
             else:
-                note = "implausible: " + ", ".join(
-                    f"{k.split(':', 1)[1]} {n}" for k, n in row["reasons"].items() if k.startswith(IMPLAUSIBLE))
-            lines.append(f"| {bench} | {kind} | {row['total']} | {row[PLAUSIBLE]} | {row[IMPLAUSIBLE]} | "
-                         f"{row[UNDECIDABLE]} | {_pct(row['precision'])} | {_pct(row['plausible_of_all'])} | - | "
-                         f"{note} |")
-        lines.append(f"| {bench} | starts/enters_fov before the track's first output frame | "
-                     f"{s['starts_total']} | | | | | | | {s['late_starts']} of {s['starts_total']} |")
+                note = "implausible: " + ", ".join(_implausible_reasons(row))
+            lines.append(_row(bench, kind, row, "-", note))
+        lines.append(
+            f"| {bench} | starts/enters_fov before the track's first output frame | "
+            f"{s['starts_total']} | | | | | | | {s['late_starts']} of {s['starts_total']} |"
+        )
     return "\n".join(lines) + "\n"
+
+
+def _row(bench: str, kind: str, row: dict[str, Any], recall: str, notes: str) -> str:
+    cells = [bench, kind, row["total"], row[PLAUSIBLE], row[IMPLAUSIBLE], row[UNDECIDABLE],
+             _pct(row["precision"]), _pct(row["plausible_of_all"]), recall, notes]
+    return "| " + " | ".join(str(c) for c in cells) + " |"
+
+
+def _implausible_reasons(row: dict[str, Any]) -> list[str]:
+    """``"reason count"`` of the implausible verdicts of a summary row, most frequent first."""
+    found = [(n, k.split(":", 1)[1]) for k, n in row["reasons"].items()
+             if k.startswith(IMPLAUSIBLE)]
+    return [f"{reason} {n}" for n, reason in sorted(found, key=lambda x: (-x[0], x[1]))]
 
 
 def _fmt(x: float | None) -> str:
