@@ -925,6 +925,8 @@ def evaluate_explanations(
         elif w.get("situation") == "SUDDEN_STOP":
             out.warnings.append(judge.sudden_stop(w))
     out.late_starts, out.starts_total = late_start_events(tracks, events)
+    log.debug("%s: %d events and %d warnings judged", name or "sequence", len(out.events),
+              len(out.warnings))
     out.recall = judge.recall(events)
     return out
 
