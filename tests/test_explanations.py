@@ -465,3 +465,21 @@ def test_cli_events_need_explanations_and_explanations_need_events(mot_run, caps
         main(["evaluate", "--explanations", "--gt", str(tmp / "gt"), "--results", str(res)])
     assert exc.value.code == 2
     assert "--explanations needs --events" in capsys.readouterr().err
+
+
+def test_cli_explanations_folders_of_sequences(mot_run, capsys):
+    """--results, --events and --warnings as folders of <seq>.txt / <seq>.events.jsonl /
+    <seq>.warnings.jsonl; a sequence without an event log is an error naming the folder."""
+    tmp, res, events = mot_run
+    runs = tmp / "runs"
+    runs.mkdir()
+    res.rename(runs / "CROSS.txt")
+    events.rename(runs / "CROSS.events.jsonl")
+    note = {"frame": 1, "situation": "BLOCKED_LANE", "objects": [], "message": "", "details": {}}
+    (runs / "CROSS.warnings.jsonl").write_text(json.dumps(note) + "\n")
+    args = ["evaluate", "--explanations", "--gt", str(tmp / "gt"), "--results", str(runs)]
+    assert main(args + ["--events", str(runs), "--warnings", str(runs)]) == 0
+    assert "| mot17 | unhides_from_behind | 1 | 1 | 0 | 0 |" in capsys.readouterr().out
+    (runs / "CROSS.events.jsonl").unlink()
+    assert main(args + ["--events", str(runs)]) == 2
+    assert "no CROSS.jsonl or CROSS.events.jsonl" in capsys.readouterr().err
