@@ -483,3 +483,22 @@ def test_cli_explanations_folders_of_sequences(mot_run, capsys):
     (runs / "CROSS.events.jsonl").unlink()
     assert main(args + ["--events", str(runs)]) == 2
     assert "no CROSS.jsonl or CROSS.events.jsonl" in capsys.readouterr().err
+
+
+def test_overtaking_needs_a_flip_of_the_3d_depth_order():
+    """Car 1 drives past car 2 in the next lane (Z from 12 to 18 m, car 2 stays at 15 m, 3 m
+    apart): plausible. Car 3 parked behind car 2 in the same lane at a constant 5 m: no flip."""
+    rows = []
+    for f in range(11):
+        rows.append((f, 1, [400.0 + f, 150, 500, 250], -1.5, 12.0 + 0.6 * f))
+        rows.append((f, 2, [600.0, 150, 700, 250], 1.5, 15.0))
+        rows.append((f, 3, [800.0, 150, 900, 250], 1.8, 20.0))
+    labels = _kitti_labels(rows)
+    gt = GroundTruth.from_kitti(labels, image_size=(1242, 375), fps=10.0, classes=("car",))
+    tracks = labels.with_(tracker_id=labels.tracker_id + 10)
+    warn = [{"frame": 10, "situation": "OVERTAKING", "objects": [a, b], "details": d}
+            for a, b, d in ((11, 12, {"nearer_until": 2}), (13, 12, {}), (11, 11, {}))]
+    a, b, c = evaluate_explanations(gt, tracks, [], warn).warnings
+    assert (a.verdict, a.reason, a.lateral_m) == ("plausible", "passed_in_depth", 3.0)
+    assert (b.verdict, b.reason) == ("implausible", "no_depth_flip")
+    assert (c.verdict, c.reason) == ("implausible", "self")

@@ -2,7 +2,7 @@
 
 For every abduced event (``hides_behind``, ``unhides_from_behind``, ``enters_fov``,
 ``leaves_fov``, ``starts``, ``ends``, ``missing_detections``, ``reappears``) and every
-HIDDEN_ENTITY / SUDDEN_STOP warning, a verdict: ``plausible``, ``implausible`` or
+HIDDEN_ENTITY / SUDDEN_STOP / OVERTAKING warning, a verdict: ``plausible``, ``implausible`` or
 ``undecidable``, with the reason. The method and every threshold are in docs/EXPLANATIONS.md::
 
     from sensemaking.evaluation.explanations import GroundTruth, evaluate_explanations
@@ -72,7 +72,7 @@ EVENT_KINDS = (
     "reappears",
 )
 #: warnings judged
-WARNING_KINDS = ("HIDDEN_ENTITY", "SUDDEN_STOP")
+WARNING_KINDS = ("HIDDEN_ENTITY", "SUDDEN_STOP", "OVERTAKING")
 
 
 @dataclass(frozen=True)
@@ -98,6 +98,8 @@ class ExplanationConfig:
         lane_half_width_m: KITTI: an object with ``|X|`` up to this (metres) is in the ego lane.
         ttc_max_s: SUDDEN_STOP is plausible when the ground-truth time to contact is at most this.
         ttc_span_s: closing speed for the time to contact: depth change over this time span.
+        min_side_m: OVERTAKING: lateral distance (metres) between the two vehicles' centres from
+            which they are side by side, i.e. in different lanes.
     """
 
     iou_threshold: float = 0.5
@@ -112,6 +114,7 @@ class ExplanationConfig:
     lane_half_width_m: float = 2.0
     ttc_max_s: float = 4.0
     ttc_span_s: float = 0.5
+    min_side_m: float = 1.0
 
     def __post_init__(self) -> None:
         if not 0.0 < self.iou_threshold <= 1.0:
@@ -124,6 +127,7 @@ class ExplanationConfig:
             "lane_half_width_m",
             "ttc_max_s",
             "ttc_span_s",
+            "min_side_m",
         ):
             if not (math.isfinite(getattr(self, name)) and getattr(self, name) >= 0):
                 raise ValueError(f"{name} must be finite and >= 0, got {getattr(self, name)!r}")
@@ -363,7 +367,7 @@ class Verdict:
 
 @dataclass(frozen=True)
 class WarningVerdict:
-    """The judgement of one HIDDEN_ENTITY or SUDDEN_STOP warning.
+    """The judgement of one HIDDEN_ENTITY, SUDDEN_STOP or OVERTAKING warning.
 
     Attributes:
         frame, situation, objects: the warning's. verdict, reason: as for events.
@@ -374,6 +378,7 @@ class WarningVerdict:
         frame), ``in_lane`` (KITTI: |X| <= lane half width there).
         SUDDEN_STOP: ``ttc_s`` (ground-truth time to contact, inf when not closing), ``lateral_m``
         (|X|), ``warned_ttc_s`` (the warning's own estimate, if any).
+        OVERTAKING: ``lateral_m`` (|X_A - X_B| now).
     """
 
     frame: int
@@ -741,6 +746,36 @@ class _Judge:
             in_lane=in_lane,
         )
 
+    def overtaking(self, w: Mapping[str, Any]) -> WarningVerdict:
+        """A overtakes B: in 3D, A was nearer than B at ``details.nearer_until`` (else one window
+        before) and is farther now, the two side by side (``|X_A - X_B|`` >= ``min_side_m``)."""
+        f, objs = int(w["frame"]), tuple(int(o) for o in w["objects"])
+        base = {"frame": f, "situation": "OVERTAKING", "objects": objs}
+        if len(objs) != 2:
+            return WarningVerdict(**base, verdict=UNDECIDABLE, reason="unmatched")
+        g_a, _ = self.gt_before(objs[0], f, inclusive=True)
+        g_b, _ = self.gt_before(objs[1], f, inclusive=True)
+        tr = self.t
+        if g_a is None or g_b is None:
+            return WarningVerdict(**base, verdict=UNDECIDABLE, reason="unmatched", gt=g_a)
+        if g_a == g_b:
+            return WarningVerdict(**base, verdict=IMPLAUSIBLE, reason="self", gt=g_a)
+        if tr.loc is None:
+            return WarningVerdict(**base, verdict=UNDECIDABLE, reason="no_3d", gt=g_a)
+        until = (w.get("details") or {}).get("nearer_until")
+        f0 = int(until) if isinstance(until, (int, float)) else f - self.window
+        frames = [(tr.last_before(g, h), g) for h in (f0, f) for g in (g_a, g_b)]
+        if any(h is None for h, _ in frames):
+            return WarningVerdict(**base, verdict=UNDECIDABLE, reason="no_history", gt=g_a)
+        za0, zb0, za1, zb1 = (tr.loc[tr.row[(g, h)], 2] for h, g in frames)
+        side = abs(tr.loc[tr.row[(g_a, frames[2][0])], 0] - tr.loc[tr.row[(g_b, frames[3][0])], 0])
+        common = {"gt": g_a, "lateral_m": round(float(side), 2)}
+        if not (za0 < zb0 and za1 > zb1):
+            return WarningVerdict(**base, verdict=IMPLAUSIBLE, reason="no_depth_flip", **common)
+        if side < self.c.min_side_m:
+            return WarningVerdict(**base, verdict=IMPLAUSIBLE, reason="same_lane", **common)
+        return WarningVerdict(**base, verdict=PLAUSIBLE, reason="passed_in_depth", **common)
+
     def sudden_stop(self, w: Mapping[str, Any]) -> WarningVerdict:
         f, objs = int(w["frame"]), tuple(int(o) for o in w["objects"])
         details = w.get("details") or {}
@@ -884,7 +919,7 @@ def evaluate_explanations(
     name: str = "",
     config: ExplanationConfig | None = None,
 ) -> ExplanationResult:
-    """Judge every event and HIDDEN_ENTITY / SUDDEN_STOP warning of one sequence.
+    """Judge every event and HIDDEN_ENTITY, SUDDEN_STOP and OVERTAKING warning of one sequence.
 
     Args:
         gt: the sequence's ground truth (:class:`GroundTruth`).
@@ -924,6 +959,8 @@ def evaluate_explanations(
             out.warnings.append(judge.hidden_entity(w))
         elif w.get("situation") == "SUDDEN_STOP":
             out.warnings.append(judge.sudden_stop(w))
+        elif w.get("situation") == "OVERTAKING":
+            out.warnings.append(judge.overtaking(w))
     out.late_starts, out.starts_total = late_start_events(tracks, events)
     log.debug("%s: %d events and %d warnings judged", name or "sequence", len(out.events),
               len(out.warnings))
