@@ -3,8 +3,9 @@
 Runs our tracker (``TrackerConfig.for_dataset`` of the benchmark's family, the runner's loading:
 ``sensemaking.benchmark.datasets``, PointRCNN logits through a sigmoid there) with the situation
 monitor on every sequence of ``../shared/data``, judges every event and HIDDEN_ENTITY /
-SUDDEN_STOP / OVERTAKING warning against the ground truth (``sensemaking.evaluation.explanations``, method in
-docs/EXPLANATIONS.md) and prints the explanation-quality table per benchmark (markdown).
+SUDDEN_STOP / OVERTAKING warning against the ground truth
+(``sensemaking.evaluation.explanations``, method in docs/EXPLANATIONS.md) and prints the
+explanation-quality table per benchmark (markdown).
 
     nice -n 10 .venv/bin/python benchmarks/explanation_quality.py [--only kitti-rrc-car] \\
         [--data ../shared/data] [--json out.json]
