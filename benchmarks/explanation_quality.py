@@ -22,12 +22,14 @@ from pathlib import Path
 from sensemaking.benchmark.datasets import Benchmark, Sequence, default_data_root, iter_benchmarks
 from sensemaking.benchmark.runner import ours_config
 from sensemaking.detections import Detections
+from sensemaking.errors import SensemakingError
 from sensemaking.evaluation.explanations import (
     ExplanationResult,
     evaluate_explanations,
     explanation_table,
     load_ground_truth,
 )
+from sensemaking.io.atomic import atomic_write
 from sensemaking.reasoning.online import SituationMonitor
 from sensemaking.tracker import Tracker
 
@@ -92,10 +94,14 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{root}: no benchmark data", file=sys.stderr)
         return 2
     results: dict[str, list[ExplanationResult]] = {}
-    for bench in iter_benchmarks(root, args.only):
-        results[bench.name] = judge_benchmark(
-            bench, say=lambda m: print(m, file=sys.stderr, flush=True)
-        )
+    try:
+        for bench in iter_benchmarks(root, args.only):
+            results[bench.name] = judge_benchmark(
+                bench, say=lambda m: print(m, file=sys.stderr, flush=True)
+            )
+    except SensemakingError as exc:
+        print(f"explanation_quality: error: {exc}", file=sys.stderr)
+        return 2
     print(explanation_table(results), end="")
     if args.json is not None:
         doc = {
@@ -111,7 +117,8 @@ def main(argv: list[str] | None = None) -> int:
             }
             for name, rs in results.items()
         }
-        args.json.write_text(json.dumps(doc, indent=1, default=str) + "\n", encoding="utf-8")
+        with atomic_write(args.json) as handle:
+            handle.write(json.dumps(doc, indent=1, default=str) + "\n")
     return 0
 
 
