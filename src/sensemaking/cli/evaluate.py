@@ -6,6 +6,9 @@ Examples::
     sensemaking evaluate --gt data/kitti/training --results runs/kitti --benchmark kitti \\
         --classes car --idsw-mode kitti_legacy
     sensemaking evaluate --gt MOT17-09/gt/gt.txt --results MOT17-09.txt
+    sensemaking evaluate --explanations --gt data/kitti/training/label_02/0001.txt \\
+        --results runs/0001.txt --events runs/0001.events.jsonl \\
+        --warnings runs/0001.warnings.jsonl --classes car
 """
 
 from __future__ import annotations
@@ -25,7 +28,8 @@ _FORMAT_OF = {"mot17": "mot", "mot16": "mot", "mot20": "mot", "mot15": "mot", "k
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "evaluate",
-        help="score tracker output against ground truth (HOTA, CLEAR MOT, IDF1)",
+        help="score tracker output against ground truth (HOTA, CLEAR MOT, IDF1), or judge "
+             "its explanations (--explanations)",
         description=(
             "Score tracker results against ground truth with TrackEval's metrics and dataset rules "
             "(MOTChallenge, KITTI). --gt and --results are files (one sequence) or folders: "
@@ -54,6 +58,23 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--missing-as-empty", action="store_true",
                    help="score a sequence without a results file as empty tracker output (else an error)")
     p.add_argument("--json", type=Path, metavar="OUT", help="write every metric to this JSON file")
+    x = p.add_argument_group(
+        "explanations",
+        "--explanations judges the tracker's events and warnings against the ground truth "
+        "instead of scoring the tracks (method and thresholds: docs/EXPLANATIONS.md). "
+        "--results must hold the visible tracks only (`track` without --write-hidden); --json "
+        "then writes every verdict.")
+    x.add_argument("--explanations", action="store_true",
+                   help="judge events (and warnings) instead of scoring tracks")
+    x.add_argument("--events", type=Path, metavar="PATH",
+                   help="event log of `track --events` (JSON lines): a file, or a folder of "
+                        "<seq>.jsonl / <seq>.events.jsonl")
+    x.add_argument("--warnings", type=Path, metavar="PATH",
+                   help="warnings of `track --warnings` (JSON lines): a file, or a folder of "
+                        "<seq>.jsonl / <seq>.warnings.jsonl (optional)")
+    x.add_argument("--image-size", metavar="WxH",
+                   help="image size in pixels when no seqinfo is found (e.g. 1242x375)")
+    x.add_argument("--fps", type=float, help="frame rate when no seqinfo is found")
     p.set_defaults(func=run, _parser=p)
 
 
@@ -109,11 +130,166 @@ def run(args: argparse.Namespace) -> int:
         parser.error(str(exc))
 
     load = load_kitti_benchmark if fmt == "kitti" else load_mot_benchmark
+    if args.explanations:
+        return _explanations(args, fmt, benchmark, classes, load)
+    if args.events is not None or args.warnings is not None:
+        parser.error("--events and --warnings go with --explanations")
     sequences = load(args.gt, args.results, seqmap=args.seqmap, missing_as_empty=args.missing_as_empty)
     report = evaluate(sequences, rules, idsw_mode=args.idsw_mode)
     print(report.table(), end="")
     if args.json is not None:
         with atomic_write(args.json) as handle:
             handle.write(report.to_json() + "\n")
+        log.info("wrote %s", args.json)
+    return 0
+
+
+# -- --explanations ----------------------------------------------------------------------------
+def _json_lines(path: Path) -> list[dict]:
+    """Records of a JSON-lines file; a bad line is an InputError naming it."""
+    import json
+
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InputError("no such file", path) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read: {exc}", path) from None
+    out = []
+    for lineno, line in enumerate(text.splitlines(), start=1):
+        if not line.strip():
+            continue
+        try:
+            record = json.loads(line)
+        except json.JSONDecodeError as exc:
+            raise InputError(f"not JSON: {exc.msg}", path, lineno) from None
+        if not isinstance(record, dict):
+            raise InputError("expected a JSON object per line", path, lineno)
+        out.append({**record, "_line": lineno})
+    return out
+
+
+def _per_sequence(path: Path | None, names: list[str], suffix: str) -> dict[str, Path | None]:
+    """The file of each sequence: ``path`` itself (one sequence) or ``<path>/<seq>.jsonl`` /
+    ``<path>/<seq>.<suffix>.jsonl``."""
+    if path is None:
+        return dict.fromkeys(names)
+    if path.is_file():
+        if len(names) != 1:
+            raise InputError(f"is a single file, but {len(names)} sequences are judged; give a "
+                             "folder of <sequence>.jsonl files", path)
+        return {names[0]: path}
+    if not path.is_dir():
+        raise InputError("no such file or folder", path)
+    out: dict[str, Path | None] = {}
+    for name in names:
+        candidates = (path / f"{name}.jsonl", path / f"{name}.{suffix}.jsonl")
+        found = [p for p in candidates if p.is_file()]
+        if not found:
+            raise InputError(f"no {name}.jsonl or {name}.{suffix}.jsonl", path)
+        out[name] = found[0]
+    return out
+
+
+def _events(path: Path) -> list:
+    from sensemaking.results import EVENT_NAMES, Event
+
+    out = []
+    for r in _json_lines(path):
+        try:
+            ev = Event.from_json(r)
+        except (KeyError, TypeError, ValueError):
+            raise InputError('expected {"frame": int, "event": name, "args": [track ids]}', path,
+                             r["_line"]) from None
+        if ev.name in EVENT_NAMES and len(ev.args) != EVENT_NAMES[ev.name]:
+            raise InputError(f"{ev.name} takes {EVENT_NAMES[ev.name]} argument(s), got "
+                             f"{len(ev.args)}", path, r["_line"])
+        out.append(ev)
+    return out
+
+
+def _warnings(path: Path) -> list[dict]:
+    out = []
+    for r in _json_lines(path):
+        objs = r.get("objects")
+        ok = isinstance(r.get("frame"), int) and isinstance(objs, list) \
+            and all(isinstance(o, int) for o in objs) and isinstance(r.get("details", {}), dict)
+        if not ok:
+            raise InputError('expected {"frame": int, "situation": name, "objects": [track ids], '
+                             '"details": {...}}', path, r["_line"])
+        out.append(r)
+    return out
+
+
+def _sequence_facts(fmt: str, gt_path: Path,
+                    name: str) -> tuple[tuple[int, int] | None, float | None]:
+    """(image size, fps) from the seqinfo beside the ground truth, when there is one."""
+    if fmt == "kitti":
+        from sensemaking.io.kitti import read_kitti_seqinfo
+
+        for root in (gt_path.parent, gt_path.parent.parent):
+            csv = root / "seqinfo.csv"
+            if csv.is_file():
+                info = read_kitti_seqinfo(csv).get(name)
+                if info is not None:
+                    return (info.width, info.height), info.fps
+        return None, None
+    from sensemaking.io.mot import read_seqinfo
+
+    ini = gt_path.parent.parent / "seqinfo.ini"
+    if ini.is_file():
+        info = read_seqinfo(ini)
+        return (info.width, info.height), info.fps
+    return None, None
+
+
+def _explanations(args: argparse.Namespace, fmt: str, benchmark: str, classes: list[str] | None,
+                  load) -> int:
+    import json
+
+    from sensemaking.cli.track import parse_size
+    from sensemaking.evaluation.explanations import (
+        ExplanationResult, GroundTruth, evaluate_explanations, explanation_table,
+    )
+    from sensemaking.io.atomic import atomic_write
+
+    if args.events is None:
+        args._parser.error("--explanations needs --events (the event log of `track --events`)")
+    if args.fps is not None and not args.fps > 0:
+        raise InputError(f"--fps must be positive, got {args.fps}")
+    size_arg = parse_size(args.image_size) if args.image_size else None
+    sequences = load(args.gt, args.results, seqmap=args.seqmap,
+                     missing_as_empty=args.missing_as_empty)
+    names = list(sequences)
+    events = _per_sequence(args.events, names, "events")
+    warnings = _per_sequence(args.warnings, names, "warnings")
+    results = []
+    for name, s in sequences.items():
+        size, fps = _sequence_facts(fmt, Path(s.gt_path), name)
+        size, fps = size_arg or size, args.fps or fps
+        if size is None:
+            raise InputError("no seqinfo found for the image size: pass --image-size WxH",
+                             s.gt_path)
+        if fps is None:
+            fps = 10.0 if fmt == "kitti" else 30.0
+        if fmt == "kitti":
+            gt = GroundTruth.from_kitti(s.gt, image_size=size, fps=fps,
+                                        classes=classes or ("car", "pedestrian"),
+                                        n_frames=s.n_frames)
+        else:
+            gt = GroundTruth.from_mot(s.gt, image_size=size, fps=fps, n_frames=s.n_frames)
+        evs = _events(events[name])  # type: ignore[arg-type]
+        ws = _warnings(warnings[name]) if warnings[name] is not None else []
+        results.append(evaluate_explanations(gt, s.tracks, evs, ws, name=name))
+    label = benchmark + (f"/{','.join(classes)}" if classes else "")
+    print(explanation_table({label: results}), end="")
+    if args.json is not None:
+        doc = {"benchmark": benchmark, "summary": ExplanationResult.combine(results).summary(),
+               "sequences": {r.name: {"summary": r.summary(),
+                                      "events": [v.to_json() for v in r.events],
+                                      "warnings": [w.to_json() for w in r.warnings]}
+                             for r in results}}
+        with atomic_write(args.json) as handle:
+            handle.write(json.dumps(doc, indent=1) + "\n")
         log.info("wrote %s", args.json)
     return 0
