@@ -1,32 +1,34 @@
 """A frame's abduction, component by component, with clingo's answers remembered.
 
-Two shortcuts, both forced by the structure of the problem rather than by any rule:
+Three shortcuts, each forced by the structure of the problem rather than by any rule:
 
-* **Independent components** are solved separately (:meth:`FrameProblem.components` gives the
-  argument: no rule of ``tracking.lp`` joins atoms of two components and the objective is a sum).
-  Off for encodings not known to be local (``decompose=False``): the frame is one program.
-* **A component solved before** is answered from a cache of clingo's own answers, keyed by
-  its canonical facts (:class:`~sensemaking.abduction.problem.Component`): the same facts, in
-  the same order, given to the same program and options, give the same answer. Answers cut short
-  by the wall-clock budget are not remembered (they depend on machine load); answers cut short
-  by the deterministic conflict budget are (they do not). The cache is shared by every solver
-  of the process with the same program and options (the answers are the same).
+* **Independent components** are solved apart from each other's answers
+  (:meth:`FrameProblem.components` gives the argument: no rule of ``tracking.lp`` joins atoms of
+  two components and the objective is a sum at every priority). Off for encodings not known to
+  be local (``decompose=False``): the frame is one program.
+* **A component solved before** is answered from a cache of clingo's answers, keyed by its
+  canonical facts (:class:`~sensemaking.abduction.problem.Component`). Answers cut short by the
+  wall-clock budget are not remembered (they depend on machine load); answers cut short by the
+  deterministic conflict budget are (they do not).
+* **The components not in the cache are solved together**, in one program on one fresh
+  ``Control``: the grounder's fixed cost (~1.6 ms per ``Control``, whatever the facts) is paid
+  once a frame. Their atoms are told apart by their numbers (each component gets its own range).
+  An optimal answer of that program is optimal for each component at every priority, since each
+  level is a sum over components. With ties, which optimal answer a component gets may depend on
+  the components solved beside it; the cache belongs to one tracker and is emptied by
+  ``reset()``, so a sequence gives the same output in any process.
 """
 
 from __future__ import annotations
 
-import threading
 import time
+from bisect import bisect_right
 from collections import OrderedDict
 
 from sensemaking.abduction.problem import Component, FrameProblem
-from sensemaking.abduction.solver import AbductionSolver, Answer
+from sensemaking.abduction.solver import AbductionSolver, Answer, Det, Ref
 
 __all__ = ["ComponentSolver"]
-
-#: per (program, options): clingo's answers by component, least recently used first
-_CACHES: dict[tuple[str, tuple[str, ...]], OrderedDict[Component, Answer]] = {}
-_LOCK = threading.Lock()
 
 
 class ComponentSolver:
@@ -36,43 +38,109 @@ class ComponentSolver:
         solver: the clingo solver (program, constants, options).
         decompose: solve independent components separately (True) or the frame as one
             program (False; for encodings whose rules may relate unconnected objects).
-        cache_size: components remembered per program (least recently used first out); 0
-            disables the cache. Memory stays bounded on runs of any length.
+        cache_size: components remembered (least recently used first out); 0 disables the
+            cache. Memory stays bounded on runs of any length.
     """
 
-    def __init__(self, solver: AbductionSolver, decompose: bool = True, cache_size: int = 50_000):
+    def __init__(self, solver: AbductionSolver, decompose: bool = True, cache_size: int = 20_000):
         self.solver = solver
         self.decompose = decompose
         self.cache_size = cache_size
-        with _LOCK:
-            self._cache = _CACHES.setdefault((solver.program, tuple(solver.options)), OrderedDict())
+        self._cache: OrderedDict[Component, Answer] = OrderedDict()
         self.stats = {"components": 0, "cache_hits": 0, "solver_calls": 0}
 
+    def reset(self) -> None:
+        """Forget the remembered answers (a new sequence)."""
+        self._cache.clear()
+
     def solve(self, problem: FrameProblem, budget_ms: float | None = None) -> Answer | None:
-        """The frame's answer in its terms (track ids, detection rows); None if some component
-        got no model within the budgets (the caller falls back for the whole frame)."""
+        """The frame's answer in its terms (track ids, detection rows); None if no model was
+        found within the budgets (the caller falls back for the whole frame)."""
         t0 = time.perf_counter()
         parts = problem.components() if self.decompose else [problem.whole()]
         answer = Answer()
+        missed: dict[Component, list[tuple[list[int], list[int]]]] = {}
         for component, track_ids, det_rows in parts:
-            with _LOCK:
-                local = self._cache.get(component)
-                if local is not None:
-                    self._cache.move_to_end(component)
-            if local is not None:
-                self.stats["cache_hits"] += 1
-            else:
-                remaining = None if budget_ms is None else budget_ms - (time.perf_counter() - t0) * 1e3
-                local = self.solver.solve_facts(component.facts(self.solver.uses), remaining)
-                self.stats["solver_calls"] += 1
-                if local is None:
-                    return None
-                if not local.timed_out and self.cache_size > 0:
-                    with _LOCK:
-                        self._cache[component] = local
-                        while len(self._cache) > self.cache_size:
-                            self._cache.popitem(last=False)
-            self.stats["components"] += 1
+            local = self._cache.get(component)
+            if local is None:
+                missed.setdefault(component, []).append((track_ids, det_rows))
+                continue
+            self._cache.move_to_end(component)
+            self.stats["cache_hits"] += 1
             answer.merge(local.mapped(track_ids, det_rows))
+        if missed:
+            solved = self._solve_together(list(missed), budget_ms)
+            if solved is None:
+                return None
+            for (component, uses), local in zip(missed.items(), solved):
+                if not local.timed_out and self.cache_size > 0:
+                    self._cache[component] = local
+                    while len(self._cache) > self.cache_size:
+                        self._cache.popitem(last=False)
+                for track_ids, det_rows in uses:
+                    answer.merge(local.mapped(track_ids, det_rows))
+        self.stats["components"] += len(parts)
         answer.solve_ms = (time.perf_counter() - t0) * 1e3
         return answer
+
+    def _solve_together(self, components: list[Component], budget_ms: float | None) -> list[Answer] | None:
+        """Each component's answer (in its own numbering), from one program for all of them."""
+        self.stats["solver_calls"] += 1
+        uses = self.solver.uses
+        if len(components) == 1:
+            one = self.solver.solve_facts(components[0].facts(uses), budget_ms)
+            return None if one is None else [one]
+        t_starts, d_starts, facts = [], [], []
+        t0 = d0 = 0
+        for c in components:
+            t_starts.append(t0)
+            d_starts.append(d0)
+            facts += c.facts(uses, t0, d0)
+            t0 += c.n_refs
+            d0 += len(c.dets)
+        whole = self.solver.solve_facts(facts, budget_ms)
+        if whole is None:
+            return None
+        return _split(whole, t_starts, d_starts)
+
+
+def _split(answer: Answer, t_starts: list[int], d_starts: list[int]) -> list[Answer]:
+    """The answer of a program of several components, cut into each one's answer in its own
+    numbering (component ``k`` owns tracks from ``t_starts[k]`` and detections from
+    ``d_starts[k]`` on). The objective's value is known for the whole only: parts get None."""
+    parts = [Answer(cost=None, optimal=answer.optimal, budget_hit=answer.budget_hit,
+                    timed_out=answer.timed_out) for _ in t_starts]
+
+    def of_track(t: int) -> int:
+        return bisect_right(t_starts, t) - 1
+
+    def of_det(d: int) -> int:
+        return bisect_right(d_starts, d) - 1
+
+    def local(k: int, args: tuple[Ref, ...]) -> tuple[Ref, ...]:
+        return tuple(Det(a.row - d_starts[k]) if isinstance(a, Det) else
+                     a - t_starts[k] if isinstance(a, int) else a for a in args)
+
+    def owner(args: tuple[Ref, ...]) -> int:
+        first = next(a for a in args if isinstance(a, (int, Det)))
+        return of_det(first.row) if isinstance(first, Det) else of_track(first)
+
+    for name in ("assign", "resume"):
+        for t, d in getattr(answer, name).items():
+            k = of_track(t)
+            getattr(parts[k], name)[t - t_starts[k]] = d - d_starts[k]
+    for name in ("start", "ignore_det"):
+        for d in getattr(answer, name):
+            k = of_det(d)
+            getattr(parts[k], name).append(d - d_starts[k])
+    for name in ("end", "halt", "ignore_trk"):
+        for t in getattr(answer, name):
+            k = of_track(t)
+            getattr(parts[k], name).append(t - t_starts[k])
+    for ev, args in answer.events:
+        k = owner(args)
+        parts[k].events.append((ev, local(k, args)))
+    for fl, args, value in answer.fluents:
+        k = owner(args)
+        parts[k].fluents.append((fl, local(k, args), value))
+    return parts

@@ -17,7 +17,8 @@ from collections.abc import Collection
 from dataclasses import dataclass, field
 
 import numpy as np
-from clingo import Function, Number, Symbol
+from clingo import Function, Symbol
+from clingo import Number as _number
 
 __all__ = ["FrameProblem", "Component", "VISIBILITY_VALUES", "TRACK_FLAGS"]
 
@@ -26,6 +27,7 @@ VISIBILITY_VALUES = ("fully_visible", "partially_occluded", "fully_occluded")
 TRACK_FLAGS = ("tentative", "uncertain", "expired", "outside", "at_border", "overlapped")
 
 _TRUE = Function("true")
+_ZERO = _number(0)
 _VISIBILITY = tuple(Function(v) for v in VISIBILITY_VALUES)
 
 
@@ -61,53 +63,62 @@ class Component:
     emerges: tuple[tuple[int, int], ...]
     hidden_by: tuple[tuple[int, int], ...]
 
-    def facts(self, uses: Collection[str] = ()) -> list[Symbol]:
+    @property
+    def n_refs(self) -> int:
+        """Track numbers the component uses: its tracks, then occluders outside it."""
+        return max([len(self.tracks)] + [o + 1 for _, o in self.hidden_by])
+
+    def facts(self, uses: Collection[str] = (), t0: int = 0, d0: int = 0) -> list[Symbol]:
         """The component's facts as symbols. ``uses``: optional predicates to include (``speed``
-        only when the encoding mentions it: a fact no rule reads cannot change the answer)."""
+        only when the encoding mentions it: a fact no rule reads cannot change the answer).
+        ``t0``, ``d0``: first track and detection number (several components in one program)."""
         out: list[Symbol] = []
         add = out.append
         with_speed = "speed" in uses
+
+        def det(j: int) -> Symbol:
+            return Function("d", [_number(d0 + j)])
+
+        def track(i: int) -> Symbol:
+            return _number(t0 + i)
+
         for i, (active, *flags, cls, vis, speed) in enumerate(self.tracks):
-            t = Number(i)
+            t = track(i)
             add(Function("track", [t]))
-            add(Function("ttype", [t, Number(cls)]))
+            add(Function("ttype", [t, _number(cls)]))
             add(Function("active" if active else "halted", [t]))
             for name, on in zip(TRACK_FLAGS, flags):
                 if on:
                     add(Function(name, [t]))
-            add(Function("holds", [Function("in_fov", [t]), _TRUE, Number(0)]))
-            add(Function("holds", [Function("visibility", [t]), _VISIBILITY[vis], Number(0)]))
+            add(Function("holds", [Function("in_fov", [t]), _TRUE, _ZERO]))
+            add(Function("holds", [Function("visibility", [t]), _VISIBILITY[vis], _ZERO]))
             if with_speed and speed >= 0:
-                add(Function("speed", [t, Number(speed)]))
+                add(Function("speed", [t, _number(speed)]))
         for j, (conf, cls, border, overlapped) in enumerate(self.dets):
-            d = _det(j)
-            add(Function("det", [d, Number(conf)]))
-            add(Function("dtype", [d, Number(cls)]))
+            d = det(j)
+            add(Function("det", [d, _number(conf)]))
+            add(Function("dtype", [d, _number(cls)]))
             if border:
                 add(Function("det_border", [d]))
             if overlapped:
                 add(Function("det_overlapped", [d]))
         for t, j, lik, preferred in self.cand:
-            add(Function("cand", [Number(t), _det(j), Number(lik)]))
+            add(Function("cand", [track(t), det(j), _number(lik)]))
             if preferred:
-                add(Function("prefer", [Number(t), _det(j)]))
+                add(Function("prefer", [track(t), det(j)]))
         for j, t, rank in self.covers:
-            add(Function("covers", [_det(j), Number(t)]))
+            add(Function("covers", [det(j), track(t)]))
             if rank >= 0:
-                add(Function("cover_rank", [_det(j), Number(t), Number(rank)]))
+                add(Function("cover_rank", [det(j), track(t), _number(rank)]))
         for j, t in self.keeps_covering:
-            add(Function("keeps_covering", [_det(j), Number(t)]))
+            add(Function("keeps_covering", [det(j), track(t)]))
         for j, t in self.emerges:
-            add(Function("emerges", [_det(j), Number(t)]))
+            add(Function("emerges", [det(j), track(t)]))
         for t, o in self.hidden_by:
-            add(Function("holds", [Function("hidden_by", [Number(t), Number(o)]), _TRUE, Number(0)]))
+            add(Function("holds", [Function("hidden_by", [track(t), track(o)]), _TRUE, _ZERO]))
         if self.first_frame:
             add(Function("first_frame"))
         return out
-
-
-def _det(j: int) -> Symbol:
-    return Function("d", [Number(j)])
 
 
 @dataclass

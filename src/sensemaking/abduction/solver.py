@@ -132,7 +132,8 @@ class Answer:
     ignore_det: list[int] = field(default_factory=list)
     events: list[tuple[str, tuple[Ref, ...]]] = field(default_factory=list)
     fluents: list[tuple[str, tuple[Ref, ...], str]] = field(default_factory=list)
-    cost: int = 0
+    #: the objective's value at priority >= 0 (None: not known for this part alone)
+    cost: int | None = 0
     optimal: bool = True
     #: the deterministic work budget (``max_conflicts``) ended the search: best answer so far
     budget_hit: bool = False
@@ -180,7 +181,7 @@ class Answer:
         self.resume.update(part.resume)
         for name in ("start", "end", "halt", "ignore_trk", "ignore_det", "events", "fluents"):
             getattr(self, name).extend(getattr(part, name))
-        self.cost += part.cost
+        self.cost = None if self.cost is None or part.cost is None else self.cost + part.cost
         self.optimal &= part.optimal
         self.budget_hit |= part.budget_hit
         self.timed_out |= part.timed_out
