@@ -8,12 +8,11 @@ an ``int`` is a number, a ``str`` a constant (an ASP identifier such as ``visibl
 
 from __future__ import annotations
 
-from collections.abc import Iterable
 from typing import Any
 
 import clingo
 
-__all__ = ["AspString", "Fact", "symbol", "add_facts", "value"]
+__all__ = ["AspString", "Fact", "symbol", "value"]
 
 #: one fact or term: ``(name, arg, ...)``
 Fact = tuple[Any, ...]
@@ -37,14 +36,6 @@ def symbol(term: Any) -> clingo.Symbol:
     if isinstance(term, int) and not isinstance(term, bool):
         return clingo.Number(term)
     raise TypeError(f"no ASP term for {term!r} ({type(term).__name__})")
-
-
-def add_facts(ctl: clingo.Control, facts: Iterable[Fact]) -> None:
-    """Add ``facts`` to a Control through its backend, before grounding (the grounder sees them
-    as facts)."""
-    with ctl.backend() as backend:
-        for fact in facts:
-            backend.add_rule([backend.add_atom(symbol(fact))])
 
 
 def value(sym: clingo.Symbol) -> Any:

@@ -36,7 +36,7 @@ from clingo import ast as clingo_ast
 
 from sensemaking.errors import InputError
 from sensemaking.reasoning.anticipation import AnticipationConfig
-from sensemaking.reasoning.facts import Fact, add_facts
+from sensemaking.reasoning.facts import Fact, symbol
 from sensemaking.reasoning.relations import MotionThresholds, RelationConfig
 
 __all__ = ["Situation", "Warning", "SituationWarning", "SituationConfig", "SituationMatch", "SituationSolver",
@@ -213,6 +213,10 @@ class SituationMatch:
     info: dict[str, list[Any]]
 
 
+#: fact symbols a SituationSolver keeps (about 100 bytes each) before it starts afresh
+_SYMBOLS_KEPT = 100_000
+
+
 class SituationSolver:
     """situations.lp (with relations.lp and the user's encodings) solved by clingo for the facts
     of one frame, with a cache of clingo's own answers.
@@ -242,6 +246,9 @@ class SituationSolver:
         self._parts = [("base", [])] + [(p, []) for p in parts]
         self._cache: OrderedDict[tuple[Fact, ...], tuple[clingo.Symbol, ...]] = OrderedDict()
         self._cache_size = max(0, int(cache_size))
+        # the symbol of each fact seen lately: facts recur from frame to frame (relative frames,
+        # window indices), and making a clingo symbol costs more than grounding it
+        self._symbols: dict[Fact, clingo.Symbol] = {}
         self.calls = self.hits = 0
         try:  # surface the user's grounding errors (unsafe variables, ...) now, as InputError
             self._solve(())
@@ -269,7 +276,15 @@ class SituationSolver:
         with clingo_ast.ProgramBuilder(ctl) as builder:  # parsed once: cheaper than text per call
             for stmt in self._stmts:
                 builder.add(stmt)
-        add_facts(ctl, facts)
+        if len(self._symbols) > _SYMBOLS_KEPT:
+            self._symbols.clear()
+        memo = self._symbols
+        with ctl.backend() as backend:
+            for fact in facts:
+                sym = memo.get(fact)
+                if sym is None:
+                    sym = memo[fact] = symbol(fact)
+                backend.add_rule([backend.add_atom(sym)])
         ctl.ground(self._parts)
         found: list[clingo.Symbol] = []
 
