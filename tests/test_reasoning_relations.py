@@ -129,7 +129,7 @@ def test_pair_relations_and_facts_are_written_smaller_id_first():
     boxes = np.array([[0, 0, 10, 10], [5, 0, 15, 10]], float)
     pairs, codes = pair_relations(boxes, RelationConfig(tol_px=0, tol_rel=0))
     ids = np.array([9, 4])  # track 9 is box 0: written as ra(4,9,...) with converse relations
-    assert relation_facts(7, ids, pairs, codes) == ["ra(4,9,7,overlapped_by,equal)."]
+    assert relation_facts(7, ids, pairs, codes) == [("ra", 4, 9, 7, "overlapped_by", "equal")]
     a, b, c = order_pairs(ids, pairs, codes)
     assert (a.tolist(), b.tolist()) == ([4], [9])
 
@@ -151,7 +151,7 @@ def test_motion_features_and_kinds():
     assert got[1] == {"receding"}
     assert got[2] == {"moving_right", "keeping_distance"}
     assert got[3] == {"stopped", "stopping", "keeping_distance"}  # 80 px/s before, still now
-    assert motion_facts(3, np.array([1, 2, 3, 4]), kinds[1:2]) == ["motion(1,3,receding)."]
+    assert motion_facts(3, np.array([1, 2, 3, 4]), kinds[1:2]) == [("motion", 1, 3, "receding")]
 
 
 def test_thresholds_are_in_pixels_per_second():

@@ -412,19 +412,18 @@ def order_pairs(ids: np.ndarray, pairs: np.ndarray, codes: np.ndarray) -> tuple[
     return np.where(swap, b, a), np.where(swap, a, b), codes
 
 
-def relation_facts(frame: int, ids: np.ndarray, pairs: np.ndarray, codes: np.ndarray) -> list[str]:
-    """``ra(A,B,F,Rx,Ry).`` facts, one per pair, written with ``A < B``.
-
-    The encoding ``relations.lp`` derives the converse ``ra(B,A,F,...)``; give each unordered
-    pair once.
+def relation_facts(frame: int, ids: np.ndarray, pairs: np.ndarray, codes: np.ndarray) -> list[tuple[Any, ...]]:
+    """``ra(A,B,F,Rx,Ry)`` facts (tuples, see :mod:`~sensemaking.reasoning.facts`), one per pair,
+    with ``A < B``. The encoding ``relations.lp`` derives the converse ``ra(B,A,F,...)``; give
+    each unordered pair once.
     """
     a, b, codes = order_pairs(ids, np.asarray(pairs, dtype=np.int64).reshape(-1, 2), codes)
-    return [f"ra({x},{y},{frame},{IA_RELATIONS[rx]},{IA_RELATIONS[ry]})."
+    return [("ra", x, y, int(frame), IA_RELATIONS[rx], IA_RELATIONS[ry])
             for x, y, (rx, ry) in zip(a.tolist(), b.tolist(), codes.tolist())]
 
 
-def motion_facts(frame: int, ids: np.ndarray, kinds: np.ndarray) -> list[str]:
-    """``motion(T,F,Kind).`` facts from (N, 8) bool :func:`classify_motion` output."""
+def motion_facts(frame: int, ids: np.ndarray, kinds: np.ndarray) -> list[tuple[Any, ...]]:
+    """``motion(T,F,Kind)`` facts (tuples) from (N, 8) bool :func:`classify_motion` output."""
     ids = np.asarray(ids, dtype=np.int64)
     rows, cols = np.nonzero(np.asarray(kinds, dtype=bool))
-    return [f"motion({ids[r]},{frame},{MOTION_KINDS[k]})." for r, k in zip(rows.tolist(), cols.tolist())]
+    return [("motion", int(ids[r]), int(frame), MOTION_KINDS[k]) for r, k in zip(rows.tolist(), cols.tolist())]
