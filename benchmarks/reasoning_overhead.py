@@ -8,7 +8,7 @@ taken from the cache of clingo's answers. ``--gt`` also times the monitor on the
 tracks (every labelled object, all visible). The target is absolute (issue 13): situation
 monitoring at most 0.1 ms per frame, pure Python.
 
-    python benchmarks/reasoning_overhead.py [--data ../shared/data/kitti] [--seqs 0000 0001 ...] [--gt]
+    python benchmarks/reasoning_overhead.py [--data ../shared/data/kitti] [--seqs 0000 ...] [--gt]
 """
 
 from __future__ import annotations
@@ -42,16 +42,30 @@ def gt_results(labels_path: Path, length: int):
     for f in range(length):
         d = frames.get(f, Detections.empty())
         k = len(d)
-        yield FrameResult(f, d.with_(data={"state": np.zeros(k, np.int64), "occluder": np.full(k, -1),
-                                           "visibility": np.zeros(k, np.int64), "hidden_frames": np.zeros(k, np.int64)}))
+        yield FrameResult(
+            f,
+            d.with_(
+                data={
+                    "state": np.zeros(k, np.int64),
+                    "occluder": np.full(k, -1),
+                    "visibility": np.zeros(k, np.int64),
+                    "hidden_frames": np.zeros(k, np.int64),
+                }
+            ),
+        )
 
 
-def time_monitor(name: str, runs: dict[str, tuple[list, tuple[int, int], float]], repeat: int) -> None:
+def time_monitor(
+    name: str, runs: dict[str, tuple[list, tuple[int, int], float]], repeat: int
+) -> None:
     """Print ms per frame (median over repeats) of a fresh monitor over each sequence's results."""
     from sensemaking.reasoning.online import SituationMonitor
 
     print(f"\n{name}: situation monitoring, wall clock per frame (median of {repeat} repeats)")
-    print(f"{'seq':>5} {'frames':>6} {'ms/frame':>9} {'clingo calls':>12} {'cache hits':>10} {'warnings':>8}")
+    print(
+        f"{'seq':>5} {'frames':>6} {'ms/frame':>9} {'clingo calls':>12} {'cache hits':>10} "
+        f"{'warnings':>8}"
+    )
     totals = [0.0] * repeat
     frames_all = 0
     for seq, (results, size, fps) in runs.items():
@@ -66,26 +80,45 @@ def time_monitor(name: str, runs: dict[str, tuple[list, tuple[int, int], float]]
             totals[k] += spent[-1]
         n = max(len(results), 1)
         frames_all += len(results)
-        print(f"{seq:>5} {len(results):>6} {1000 * statistics.median(spent) / n:>9.3f} "
-              f"{int(mon.stats['solver_calls']):>12} {int(mon.stats['cache_hits']):>10} {warnings:>8}")
+        print(
+            f"{seq:>5} {len(results):>6} {1000 * statistics.median(spent) / n:>9.3f} "
+            f"{int(mon.stats['solver_calls']):>12} {int(mon.stats.get('cache_hits', 0)):>10} "
+            f"{warnings:>8}"
+        )
     ms = 1000 * statistics.median(totals) / max(frames_all, 1)
     verdict = "within" if ms <= TARGET_MS else "OVER"
-    print(f"{'all':>5} {frames_all:>6} {ms:>9.3f}   target {TARGET_MS} ms/frame: {verdict} "
-          f"({ms / TARGET_MS:.1f}x the target)")
+    print(
+        f"{'all':>5} {frames_all:>6} {ms:>9.3f}   target {TARGET_MS} ms/frame: {verdict} "
+        f"({ms / TARGET_MS:.1f}x the target)"
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=DEFAULT_DATA, help="KITTI folder (training/, detections/)")
-    ap.add_argument("--seqs", nargs="*", default=None, help="sequence names (default: all with RRC car detections)")
-    ap.add_argument("--gt", action="store_true", help="also time the monitor on ground-truth tracks")
-    ap.add_argument("--repeat", type=int, default=3, help="runs of the monitor per sequence (default 3)")
+    ap.add_argument(
+        "--data", type=Path, default=DEFAULT_DATA, help="KITTI folder (training/, detections/)"
+    )
+    ap.add_argument(
+        "--seqs",
+        nargs="*",
+        default=None,
+        help="sequence names (default: all with RRC car detections)",
+    )
+    ap.add_argument(
+        "--gt", action="store_true", help="also time the monitor on ground-truth tracks"
+    )
+    ap.add_argument(
+        "--repeat", type=int, default=3, help="runs of the monitor per sequence (default 3)"
+    )
     args = ap.parse_args(argv)
 
     try:
         from sensemaking.tracker import Tracker, TrackerConfig
     except ImportError as exc:
-        return _fail(f"sensemaking.tracker is not available yet ({exc}); the benchmark needs the tracker's output")
+        return _fail(
+            f"sensemaking.tracker is not available yet ({exc}); "
+            "the benchmark needs the tracker's output"
+        )
     from sensemaking.detections import Detections
     from sensemaking.io.kitti import read_kitti_detections, read_kitti_seqinfo
 
@@ -101,12 +134,28 @@ def main(argv: list[str] | None = None) -> int:
         size = (si.width, si.height)
         by_frame = dict(read_kitti_detections(det_dir / f"{seq}.txt").frames())
         tracker = Tracker(TrackerConfig.for_dataset("kitti", fps=si.fps, image_size=size))
-        tracked[seq] = ([tracker.update(by_frame.get(f, Detections.empty()), frame=f) for f in range(si.length)],
-                        size, si.fps)
+        tracked[seq] = (
+            [
+                tracker.update(by_frame.get(f, Detections.empty()), frame=f)
+                for f in range(si.length)
+            ],
+            size,
+            si.fps,
+        )
     time_monitor("KITTI RRC car, tracker output", tracked, repeat)
     if args.gt:
-        gt = {seq: (list(gt_results(args.data / "training" / "label_02" / f"{seq}.txt", info[seq].length)),
-                    (info[seq].width, info[seq].height), info[seq].fps) for seq in seqs}
+        gt = {
+            seq: (
+                list(
+                    gt_results(
+                        args.data / "training" / "label_02" / f"{seq}.txt", info[seq].length
+                    )
+                ),
+                (info[seq].width, info[seq].height),
+                info[seq].fps,
+            )
+            for seq in seqs
+        }
         time_monitor("KITTI ground truth (all classes)", gt, repeat)
     return 0
 

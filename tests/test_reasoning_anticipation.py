@@ -7,7 +7,11 @@ import pytest
 from test_scene_helpers import CAR, CYC, Obj, build_results, build_scene, cyclist_behind_turning_car, linear
 
 from sensemaking.reasoning.anticipation import (
-    AnticipationConfig, anticipate, anticipate_scene, fit_motion, reappearance_errors,
+    AnticipationConfig,
+    anticipate,
+    anticipate_scene,
+    fit_motion,
+    reappearance_errors,
 )
 from sensemaking.reasoning.context import Corridor
 from sensemaking.reasoning.online import SituationMonitor

@@ -29,7 +29,10 @@ def test_fails_with_a_clear_message_without_the_tracker(monkeypatch, capsys):
 
 @pytest.mark.integration
 @pytest.mark.slow
-@pytest.mark.skipif(not (KITTI / "detections" / "rrc" / "car" / "0003.txt").exists(), reason="needs ../shared/data/kitti")
+@pytest.mark.skipif(
+    not (KITTI / "detections" / "rrc" / "car" / "0003.txt").exists(),
+    reason="needs ../shared/data/kitti",
+)
 def test_runs_on_one_sequence_and_prints_the_time_per_frame_against_the_target(capsys):
     pytest.importorskip("sensemaking.tracker")
     bench = _load()

@@ -10,7 +10,13 @@ from test_scene_helpers import CAR, Obj, build_results, linear
 
 from sensemaking.errors import InputError
 from sensemaking.reasoning.context import (
-    CITYSCAPES_LABELS, Corridor, LaneMap, SceneContext, Segmentation, asp_name, load_lanes,
+    CITYSCAPES_LABELS,
+    Corridor,
+    LaneMap,
+    SceneContext,
+    Segmentation,
+    asp_name,
+    load_lanes,
 )
 from sensemaking.reasoning.online import SituationMonitor
 

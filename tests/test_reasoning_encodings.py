@@ -100,10 +100,14 @@ def _fact(sym: clingo.Symbol):
     return (sym.name, *map(_fact, sym.arguments)) if sym.arguments else sym.name
 
 
+def _facts(program: str) -> tuple:
+    text = HEAD + program
+    return tuple(_fact(clingo.parse_term(f.strip())) for f in text.split(".") if f.strip())
+
+
 def sit(program: str, part: str, **consts: int) -> list[str]:
     """Sorted warn/2 and info/4 of SituationSolver for the facts of ``program``."""
-    facts = tuple(_fact(clingo.parse_term(f.strip())) for f in (HEAD + program).split(".") if f.strip())
-    return sorted(str(s) for s in SituationSolver([part], consts).answer(facts))
+    return sorted(str(s) for s in SituationSolver([part], consts).answer(_facts(program)))
 
 
 def test_constants_and_defaults():
@@ -116,7 +120,8 @@ def test_constants_and_defaults():
 
 def test_overtaking_rule():
     flip = ("vehicle(1). vehicle(2). ra(1,2,7,before,after). ra(1,2,10,before,before).")
-    assert sit(flip, "overtaking") == ["info(overtaking,(1,2),nearer_until,frame(7))", "warn(overtaking,(1,2))"]
+    assert sit(flip, "overtaking") == ["info(overtaking,(1,2),nearer_until,frame(7))",
+                                       "warn(overtaking,(1,2))"]
     # oncoming: the overtaken vehicle approaches
     assert sit(flip + "motion(2,10,approaching).", "overtaking") == []
     # too long ago for ov_ms
@@ -127,7 +132,8 @@ def test_overtaking_rule():
 
 def test_hidden_entity_rule():
     prog = "person(1). vehicle(2). hidden_by(1,2,10). anticipated(1,2,18,600,250). anticipated_in_corridor(1,2,18)."
-    assert sit(prog, "hidden_entity") == ["info(hidden_entity,(1,2),reappear_frame,frame(18))", "warn(hidden_entity,(1,2))"]
+    assert sit(prog, "hidden_entity") == ["info(hidden_entity,(1,2),reappear_frame,frame(18))",
+                                          "warn(hidden_entity,(1,2))"]
     assert sit(prog, "hidden_entity", he_lead_ms=500) == []
     assert sit(prog.replace("anticipated_in_corridor(1,2,18).", ""), "hidden_entity") == []
 
@@ -177,11 +183,12 @@ def test_exiting_vehicle_rule():
 
 def test_solver_caches_clingo_answers_by_facts_and_uses_only_the_parts_asked_for(tmp_path):
     big = "vehicle(3). in_corridor(3,10). state(3,10,visible). area(3,10,200)."
-    facts = tuple(_fact(clingo.parse_term(f.strip())) for f in (HEAD + big).split(".") if f.strip())
+    facts = _facts(big)
     solver = SituationSolver(["reduced_visibility"])
     first = solver.answer(facts)
     assert solver.answer(facts) == first and (solver.calls, solver.hits) == (1, 1)
     assert SituationSolver(["overtaking"]).answer(facts) == ()
     extra = tmp_path / "front.lp"
     extra.write_text("warn(big_front,(T,)) :- now(N), area(T,N,A), A > 100.")
-    assert [str(s) for s in SituationSolver([], extra_encodings=[extra]).answer(facts)] == ["warn(big_front,(3,))"]
+    got = SituationSolver([], extra_encodings=[extra]).answer(facts)
+    assert [str(s) for s in got] == ["warn(big_front,(3,))"]

@@ -8,9 +8,23 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sensemaking.reasoning.relations import (
-    IA_RELATIONS, INVERSE, MOTION_KINDS, MotionThresholds, RelationConfig, classify_motion, interval_relation_masks,
-    interval_relations, inverse_codes, motion_facts, motion_features, near_pairs, order_pairs, pair_relations,
-    rectangle_relations, relation_facts, track_motion,
+    IA_RELATIONS,
+    INVERSE,
+    MOTION_KINDS,
+    MotionThresholds,
+    RelationConfig,
+    classify_motion,
+    interval_relation_masks,
+    interval_relations,
+    inverse_codes,
+    motion_facts,
+    motion_features,
+    near_pairs,
+    order_pairs,
+    pair_relations,
+    rectangle_relations,
+    relation_facts,
+    track_motion,
 )
 
 # one hand-made pair of intervals per relation: a = [lo, hi], b = [lo, hi]

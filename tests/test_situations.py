@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from test_scene_helpers import CAR, CYC, PED, TRUCK, Obj, build_results, cyclist_behind_turning_car, linear, piecewise
 
+from sensemaking.errors import InputError
 from sensemaking.reasoning.context import Lane, LaneMap, SceneContext
 from sensemaking.reasoning.online import SituationMonitor
-from sensemaking.errors import InputError
 from sensemaking.reasoning.situations import ALL_SITUATIONS, Situation, SituationConfig, Warning
 
 SIZE = (1242, 375)
@@ -308,7 +308,8 @@ def test_without_image_size_corridor_situations_are_skipped():
 # -- user encodings -------------------------------------------------------------------------------
 STOPPED_AHEAD = """
 warn(stopped_ahead,(T,)) :- now(N), vehicle(T), in_corridor(T,N), motion(T,N,stopped).
-info(stopped_ahead,(T,),since,frame(F)) :- warn(stopped_ahead,(T,)), now(N), F = #min{ G : motion(T,G,stopped) }.
+info(stopped_ahead,(T,),since,frame(F)) :- warn(stopped_ahead,(T,)),
+                                           F = #min{ G : motion(T,G,stopped) }.
 """
 
 
@@ -356,7 +357,8 @@ def test_facts_are_relative_to_now_and_answers_come_back_in_frames_and_ids():
     truck = Obj(7, TRUCK, linear(range(100, 104), (420, 170, 820, 370)))
     far = Obj(9, CAR, linear(range(100, 104), (40, 170, 100, 200)))
     results = [r for r in build_results([truck, far], 104) if r.frame >= 100]
-    mon = SituationMonitor(SituationConfig(situations={"REDUCED_VISIBILITY"}), fps=10.0, image_size=SIZE)
+    config = SituationConfig(situations={"REDUCED_VISIBILITY"})
+    mon = SituationMonitor(config, fps=10.0, image_size=SIZE)
     for r in results:
         mon.update(r)
     facts, tracks = mon._facts()

@@ -281,9 +281,10 @@ class Scene:
         """
         from sensemaking.reasoning.facts import facts_text, scene_facts
 
-        return facts_text(scene_facts(self, boxes=boxes, states=states, relations=relations, motion=motion,
-                                      corridor=corridor, context=context, relation_config=relation_config,
-                                      motion_thresholds=motion_thresholds))
+        facts = scene_facts(self, boxes=boxes, states=states, relations=relations, motion=motion,
+                            corridor=corridor, context=context, relation_config=relation_config,
+                            motion_thresholds=motion_thresholds)
+        return facts_text(facts)
 
     # -- JSON -----------------------------------------------------------------------------------
     def to_json(self) -> dict[str, Any]:

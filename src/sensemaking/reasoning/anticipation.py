@@ -185,8 +185,8 @@ def anticipate(hidden_frames: np.ndarray, hidden_xyxy: np.ndarray, occluder_fram
     t_last, t_box, t_vel = fit_motion(hidden_frames, hidden_xyxy, c.velocity_points, span)
     o_last, o_box, o_vel = fit_motion(occluder_frames, occluder_xyxy, c.velocity_points, span)
     horizon = max(1, int(round(c.horizon_s * fps)))
-    found = _first_uncovered(t_last, t_box.tolist(), t_vel.tolist(), o_last, o_box.tolist(), o_vel.tolist(), now,
-                             horizon, c.reappear_coverage)
+    found = _first_uncovered(t_last, t_box.tolist(), t_vel.tolist(), o_last, o_box.tolist(),
+                             o_vel.tolist(), now, horizon, c.reappear_coverage)
     if found is None:
         return None
     k, box, overdue = found

@@ -56,10 +56,18 @@ def value(sym: clingo.Symbol) -> Any:
     return str(sym)
 
 
-def scene_facts(scene: Scene, *, boxes: bool = True, states: bool = True, relations: bool = True,
-                motion: bool = True, corridor: bool = True, context: SceneContext | None = None,
-                relation_config: RelationConfig | None = None,
-                motion_thresholds: MotionThresholds | None = None) -> list[Fact]:
+def scene_facts(
+    scene: Scene,
+    *,
+    boxes: bool = True,
+    states: bool = True,
+    relations: bool = True,
+    motion: bool = True,
+    corridor: bool = True,
+    context: SceneContext | None = None,
+    relation_config: RelationConfig | None = None,
+    motion_thresholds: MotionThresholds | None = None,
+) -> list[Fact]:
     """A :class:`~sensemaking.scene.Scene` as facts (predicates documented in
     ``reasoning/encodings/scene.lp``).
 
@@ -75,7 +83,12 @@ def scene_facts(scene: Scene, *, boxes: bool = True, states: bool = True, relati
     """
     from sensemaking.reasoning.context import SceneContext, asp_name
     from sensemaking.reasoning.relations import (
-        MotionThresholds, RelationConfig, motion_facts, pair_relations, relation_facts, track_motion,
+        MotionThresholds,
+        RelationConfig,
+        motion_facts,
+        pair_relations,
+        relation_facts,
+        track_motion,
     )
     from sensemaking.results import TrackState
 
@@ -90,23 +103,40 @@ def scene_facts(scene: Scene, *, boxes: bool = True, states: bool = True, relati
     if scene.image_size is not None:
         out.append(("image", int(scene.image_size[0]), int(scene.image_size[1])))
     for t in scene.tracks.values():
-        out += [("track", t.id, asp_name(t.class_name)), ("first_frame", t.id, t.first), ("last_frame", t.id, t.last)]
+        out += [
+            ("track", t.id, asp_name(t.class_name)),
+            ("first_frame", t.id, t.first),
+            ("last_frame", t.id, t.last),
+        ]
     if boxes:
         for t in scene.tracks.values():
-            out += [("box", t.id, f, *b) for f, b in zip(t.frames.tolist(), np.rint(t.xyxy).astype(np.int64).tolist())]
+            out += [
+                ("box", t.id, f, *b)
+                for f, b in zip(t.frames.tolist(), np.rint(t.xyxy).astype(np.int64).tolist())
+            ]
     if states:
         for t in scene.tracks.values():
-            out += [("state", t.id, f, states_names[s]) for f, s in zip(t.frames.tolist(), t.state.tolist())]
+            out += [
+                ("state", t.id, f, states_names[s])
+                for f, s in zip(t.frames.tolist(), t.state.tolist())
+            ]
     out += [("occurs_at", (e.name, *e.args), e.frame) for e in scene.events]
-    out += [("holds_during", (fl.fluent, *fl.args), fl.value, fl.start, fl.end) for fl in scene.fluents]
+    out += [
+        ("holds_during", (fl.fluent, *fl.args), fl.value, fl.start, fl.end) for fl in scene.fluents
+    ]
     if relations or (corridor and scene.image_size is not None):
         ts = list(scene.tracks.values())
         frames = np.concatenate([t.frames for t in ts]) if ts else np.zeros(0, np.int64)
-        tracks = np.concatenate([np.full(len(t), t.id, dtype=np.int64) for t in ts]) if ts else frames
+        tracks = (
+            np.concatenate([np.full(len(t), t.id, dtype=np.int64) for t in ts]) if ts else frames
+        )
         xyxy = np.concatenate([t.xyxy for t in ts]) if ts else np.zeros((0, 4))
         if corridor and scene.image_size is not None and frames.size:
             inside = ctx.corridor.contains_boxes(xyxy, scene.image_size)
-            out += [("in_corridor", t, f) for t, f in zip(tracks[inside].tolist(), frames[inside].tolist())]
+            out += [
+                ("in_corridor", t, f)
+                for t, f in zip(tracks[inside].tolist(), frames[inside].tolist())
+            ]
         if relations and frames.size:
             rc = relation_config or RelationConfig()
             order = np.argsort(frames, kind="stable")

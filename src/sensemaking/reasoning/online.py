@@ -27,14 +27,24 @@ import clingo
 import numpy as np
 
 from sensemaking.classes import PEOPLE, VEHICLES, class_name
+from sensemaking.errors import InputError
 from sensemaking.reasoning.anticipation import Anticipation, anticipate
 from sensemaking.reasoning.context import SceneContext, asp_name
 from sensemaking.reasoning.facts import AspString, Fact, value
 from sensemaking.reasoning.relations import (
-    IA_RELATIONS, INVERSE, MOTION_KINDS, classify_motion, motion_features, pair_relations,
+    IA_RELATIONS,
+    INVERSE,
+    MOTION_KINDS,
+    classify_motion,
+    motion_features,
+    pair_relations,
 )
 from sensemaking.reasoning.situations import (
-    Situation, SituationConfig, SituationMatch, SituationSolver, Warning,
+    Situation,
+    SituationConfig,
+    SituationMatch,
+    SituationSolver,
+    Warning,
 )
 from sensemaking.results import Event, FrameResult, TrackState
 
@@ -52,8 +62,20 @@ _ORDER: dict[str, int] = {s.name: i for i, s in enumerate(Situation)}
 class _Frame:
     """One frame of the window: the numbers its facts are made of (track ids, absolute frames)."""
 
-    __slots__ = ("frame", "events", "ids", "state", "hidden_by", "in_corr", "area", "motion", "ra", "lanes",
-                 "on_lane", "surface")
+    __slots__ = (
+        "frame",
+        "events",
+        "ids",
+        "state",
+        "hidden_by",
+        "in_corr",
+        "area",
+        "motion",
+        "ra",
+        "lanes",
+        "on_lane",
+        "surface",
+    )
 
     def __init__(self, frame: int, events: list[Event]) -> None:
         self.frame = frame
@@ -91,9 +113,14 @@ class SituationMonitor:
     time spent in ``update`` (milliseconds).
     """
 
-    def __init__(self, config: SituationConfig | None = None, context: SceneContext | None = None,
-                 fps: float = 10.0, image_size: tuple[int, int] | None = (1242, 375),
-                 extra_encodings: Sequence[str | PathLike[str]] = ()):
+    def __init__(
+        self,
+        config: SituationConfig | None = None,
+        context: SceneContext | None = None,
+        fps: float = 10.0,
+        image_size: tuple[int, int] | None = (1242, 375),
+        extra_encodings: Sequence[str | PathLike[str]] = (),
+    ):
         if fps <= 0:
             raise ValueError(f"fps must be positive, got {fps}")
         if image_size is not None and (image_size[0] <= 0 or image_size[1] <= 0):
@@ -111,13 +138,19 @@ class SituationMonitor:
         if Situation.BLOCKED_LANE in enabled and not self.context.lanes:
             self._skipped[Situation.BLOCKED_LANE] = "needs lanes (no lanes file given)"
         if self.image_size is None:
-            for s in (Situation.HIDDEN_ENTITY, Situation.REDUCED_VISIBILITY, Situation.SUDDEN_STOP):
+            for s in (
+                Situation.HIDDEN_ENTITY,
+                Situation.REDUCED_VISIBILITY,
+                Situation.SUDDEN_STOP,
+            ):
                 if s in enabled:
                     self._skipped[s] = "needs the image size (for the ego corridor)"
         checked = [s.value for s in enabled if s not in self._skipped]
         self._solver = SituationSolver(checked, self.config.constants, extra_encodings)
         # box area (px²) -> permille of the image
-        self._permille = 0.0 if self.image_size is None else 1000.0 / (self.image_size[0] * self.image_size[1])
+        self._permille = (
+            0.0 if self.image_size is None else 1000.0 / (self.image_size[0] * self.image_size[1])
+        )
         # visible boxes kept per track: anticipation fits the last velocity_points of them, and
         # motion needs the box 2 lag frames before
         self._hist_len = max(2 * self._lag, self.config.anticipation.velocity_points) + 1
@@ -164,7 +197,9 @@ class SituationMonitor:
             self._seq_start = f
             for s, why in self._skipped.items():
                 log.info("%s not checked: it %s", s.name, why)
-                new.append(Warning(f, s.name, (), f"{s.name} not checked: it {why}", {"skipped": why}))
+                new.append(
+                    Warning(f, s.name, (), f"{s.name} not checked: it {why}", {"skipped": why})
+                )
         self._last_frame = f
         self._observe(result)
         facts, tracks = self._facts()
@@ -206,7 +241,9 @@ class SituationMonitor:
         self._anticip = {}
         tr = result.tracks
         if tr.tracker_id is None or tr.class_id is None:
-            raise ValueError(f"frame {f}: the tracks of a frame result need tracker_id and class_id")
+            raise ValueError(
+                f"frame {f}: the tracks of a frame result need tracker_id and class_id"
+            )
         ids = tr.tracker_id.tolist()
         n = len(ids)
         if n == 0:
@@ -214,7 +251,11 @@ class SituationMonitor:
         cls = tr.class_id.tolist()
         data = tr.data
         states = np.asarray(data["state"], dtype=np.int64).tolist() if "state" in data else [0] * n
-        occl = np.asarray(data["occluder"], dtype=np.int64).tolist() if "occluder" in data else [-1] * n
+        occl = (
+            np.asarray(data["occluder"], dtype=np.int64).tolist()
+            if "occluder" in data
+            else [-1] * n
+        )
         xyxy = tr.xyxy
         boxes = xyxy.tolist()
         fr.ids = ids
@@ -238,7 +279,9 @@ class SituationMonitor:
 
         if self.image_size is not None:
             k = self._permille
-            for i in np.flatnonzero(self.context.corridor.contains_boxes(xyxy, self.image_size)).tolist():
+            for i in np.flatnonzero(
+                self.context.corridor.contains_boxes(xyxy, self.image_size)
+            ).tolist():
                 x1, y1, x2, y2 = boxes[i]
                 fr.in_corr.append(ids[i])
                 fr.area[ids[i]] = round((x2 - x1) * (y2 - y1) * k)
@@ -250,7 +293,7 @@ class SituationMonitor:
                 if a is not None:
                     self._anticip[t] = a
 
-        # rectangle relations of the near pairs involving a vehicle (vehicle/vehicle, person/vehicle)
+        # rectangle relations of near pairs with a vehicle (vehicle/vehicle, person/vehicle)
         rel = [i for i, c in enumerate(cls) if c in _ROLE]
         veh = [_ROLE[cls[i]] for i in rel]
         if len(rel) >= 2 and True in veh:
@@ -269,7 +312,9 @@ class SituationMonitor:
                 for i in np.flatnonzero(lane.contains_points(bottom)).tolist():
                     fr.on_lane.setdefault(ids[i], []).append(term)
         if self.context.segmentation is not None:
-            for i, s in enumerate(self.context.segmentation.surface_under(f, xyxy, self.image_size)):
+            for i, s in enumerate(
+                self.context.segmentation.surface_under(f, xyxy, self.image_size)
+            ):
                 if s is not None:
                     fr.surface[ids[i]] = asp_name(s)
 
@@ -293,9 +338,12 @@ class SituationMonitor:
         cur = np.array([e[1] for _, e, _ in moving], dtype=np.float64)
         dt = np.array([(e[0] - p[0]) / self.fps for _, e, p in moving], dtype=np.float64)
         feats = motion_features(prev, cur, dt)
-        kinds = classify_motion(feats, np.array([p[2] for _, _, p in moving], dtype=np.float64), self.config.motion)
-        for (t, e, _), row, sp, vx, g in zip(moving, kinds.tolist(), feats.speed.tolist(), feats.vx.tolist(),
-                                             feats.growth.tolist()):
+        kinds = classify_motion(
+            feats, np.array([p[2] for _, _, p in moving], dtype=np.float64), self.config.motion
+        )
+        for (t, e, _), row, sp, vx, g in zip(
+            moving, kinds.tolist(), feats.speed.tolist(), feats.vx.tolist(), feats.growth.tolist()
+        ):
             e[2], e[3], e[4] = sp, vx, g
             fr.motion[t] = tuple(compress(MOTION_KINDS, row))
 
@@ -307,7 +355,9 @@ class SituationMonitor:
             return 0.0, 0.0, 0.0
         return h[-1][2], h[-1][3], h[-1][4]
 
-    def _anticipate(self, t: int, o: int, f: int, boxes: dict[int, list[float]]) -> Anticipation | None:
+    def _anticipate(
+        self, t: int, o: int, f: int, boxes: dict[int, list[float]]
+    ) -> Anticipation | None:
         h = self._hist.get(t)
         if not h:
             return None
@@ -319,9 +369,19 @@ class SituationMonitor:
         if not oh:
             return None
         th = list(h)[-points:]
-        return anticipate(np.array([e[0] for e in th]), np.array([e[1] for e in th]), np.array([e[0] for e in oh]),
-                          np.array([e[1] for e in oh]), f, fps=self.fps, track=t, occluder=o,
-                          image_size=self.image_size, corridor=self.context.corridor, config=ap)
+        return anticipate(
+            np.array([e[0] for e in th]),
+            np.array([e[1] for e in th]),
+            np.array([e[0] for e in oh]),
+            np.array([e[1] for e in oh]),
+            f,
+            fps=self.fps,
+            track=t,
+            occluder=o,
+            image_size=self.image_size,
+            corridor=self.context.corridor,
+            config=ap,
+        )
 
     # -- facts and answers ----------------------------------------------------------------------
     def _facts(self) -> tuple[tuple[Fact, ...], list[int]]:
@@ -330,8 +390,10 @@ class SituationMonitor:
         frames = self._frames
         n = frames[-1].frame
         seen = {t for fr in frames for t in fr.ids}
-        mentioned = seen.union(*(fr.hidden_by.values() for fr in frames),
-                               *(e.args for fr in frames for e in fr.events))
+        mentioned = seen.union(
+            *(fr.hidden_by.values() for fr in frames),
+            *(e.args for fr in frames for e in fr.events),
+        )
         tracks = sorted(mentioned)
         local = {t: i for i, t in enumerate(tracks)}
         out: list[Fact] = [("now", 0), ("frame_ms", self._frame_ms)]
@@ -352,15 +414,22 @@ class SituationMonitor:
             out += [("in_corridor", local[t], g) for t in fr.in_corr]
             out += [("motion", local[t], g, k) for t, kinds in fr.motion.items() for k in kinds]
             out += [("ra", local[a], local[b], g, rx, ry) for a, b, rx, ry in fr.ra]
-            out += [("occurs_at", (e.name, *(local[a] for a in e.args)), e.frame - n) for e in fr.events]
-            out += [("on_lane", local[t], term, g) for t, terms in fr.on_lane.items() for term in terms]
+            out += [
+                ("occurs_at", (e.name, *(local[a] for a in e.args)), e.frame - n)
+                for e in fr.events
+            ]
+            out += [
+                ("on_lane", local[t], term, g) for t, terms in fr.on_lane.items() for term in terms
+            ]
             out += [("surface", local[t], g, s) for t, s in fr.surface.items()]
         now = frames[-1]
         out += [("area", local[t], 0, a) for t, a in now.area.items()]
         out += [("lane", term) for term in now.lanes]
         for a in self._anticip.values():
             t, o, r = local[a.track], local[a.occluder], a.reappear_frame - n
-            out.append(("anticipated", t, o, r, int(round(a.position[0])), int(round(a.position[1]))))
+            out.append(
+                ("anticipated", t, o, r, int(round(a.position[0])), int(round(a.position[1])))
+            )
             if a.in_corridor:
                 out.append(("anticipated_in_corridor", t, o, r))
         return tuple(out), tracks
@@ -372,12 +441,15 @@ class SituationMonitor:
 
         def track(sym: clingo.Symbol) -> int:
             if sym.type != clingo.SymbolType.Number or not 0 <= sym.number < len(tracks):
-                raise ValueError(f"situation encodings: {sym} is not a track of the window")
+                raise InputError(f"situation encodings: {sym} is not a track of the window")
             return tracks[sym.number]
 
         def objects(sym: clingo.Symbol) -> tuple[int, ...]:
-            return tuple(track(a) for a in sym.arguments) if sym.type == clingo.SymbolType.Function \
-                and not sym.name else (track(sym),)
+            return (
+                tuple(track(a) for a in sym.arguments)
+                if sym.type == clingo.SymbolType.Function and not sym.name
+                else (track(sym),)
+            )
 
         def detail(sym: clingo.Symbol) -> Any:
             if sym.type == clingo.SymbolType.Function and len(sym.arguments) == 1:
@@ -398,8 +470,10 @@ class SituationMonitor:
         for key, k, v in infos:
             if key in warns:
                 warns[key].setdefault(k, []).append(v)
-        out = [SituationMatch(s, objs, {k: sorted(v, key=str) for k, v in info.items()})
-               for (s, objs), info in warns.items()]
+        out = [
+            SituationMatch(s, objs, {k: sorted(v, key=str) for k, v in info.items()})
+            for (s, objs), info in warns.items()
+        ]
         out.sort(key=lambda d: (_ORDER.get(d.situation, len(_ORDER)), d.situation, d.objects))
         return out
 
@@ -431,9 +505,12 @@ class SituationMonitor:
             ant = self._anticip[t]
             details["anticipation"] = ant.to_json()
             details["lead_frames"], details["lead_s"] = ant.lead_frames, round(ant.lead_s, 3)
-            msg = (f"{desc(t)} is hidden behind {desc(o)} and may reappear in front of the ego vehicle "
-                   f"at frame {ant.reappear_frame} (in {ant.lead_frames} frames, {ant.lead_s:.1f} s) at "
-                   f"x={ant.position[0]:.0f}, y={ant.position[1]:.0f} px")
+            msg = (
+                f"{desc(t)} is hidden behind {desc(o)} and may reappear in front of the ego "
+                f"vehicle at frame {ant.reappear_frame} (in {ant.lead_frames} frames, "
+                f"{ant.lead_s:.1f} s) at "
+                f"x={ant.position[0]:.0f}, y={ant.position[1]:.0f} px"
+            )
         elif s == "REDUCED_VISIBILITY":
             (o,) = objs
             parts = []
@@ -442,11 +519,15 @@ class SituationMonitor:
             hides = info.get("hides", [])
             if hides:
                 parts.append("it hides " + ", ".join(desc(h) for h in hides))
-            msg = f"{desc(o)} in front of the ego vehicle reduces visibility" + (f" ({'; '.join(parts)})" if parts else "")
+            msg = f"{desc(o)} in front of the ego vehicle reduces visibility" + (
+                f" ({'; '.join(parts)})" if parts else ""
+            )
         elif s == "SUDDEN_STOP":
             (veh,) = objs
             sp, vx, g = self._features(veh)
-            details.update({"speed_px_s": round(sp, 1), "vx_px_s": round(vx, 1), "growth_per_s": round(g, 3)})
+            details.update(
+                {"speed_px_s": round(sp, 1), "vx_px_s": round(vx, 1), "growth_per_s": round(g, 3)}
+            )
             if "stopping" in info.get("cause", []):
                 msg = f"{desc(veh)} in front of the ego vehicle stops suddenly"
             else:

@@ -17,7 +17,7 @@ All of it is computed in numpy and handed to clingo as facts, and only for pairs
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
 
@@ -412,7 +412,8 @@ def order_pairs(ids: np.ndarray, pairs: np.ndarray, codes: np.ndarray) -> tuple[
     return np.where(swap, b, a), np.where(swap, a, b), codes
 
 
-def relation_facts(frame: int, ids: np.ndarray, pairs: np.ndarray, codes: np.ndarray) -> list[tuple[Any, ...]]:
+def relation_facts(frame: int, ids: np.ndarray, pairs: np.ndarray,
+                   codes: np.ndarray) -> list[tuple[Any, ...]]:
     """``ra(A,B,F,Rx,Ry)`` facts (tuples, see :mod:`~sensemaking.reasoning.facts`), one per pair,
     with ``A < B``. The encoding ``relations.lp`` derives the converse ``ra(B,A,F,...)``; give
     each unordered pair once.
@@ -426,4 +427,5 @@ def motion_facts(frame: int, ids: np.ndarray, kinds: np.ndarray) -> list[tuple[A
     """``motion(T,F,Kind)`` facts (tuples) from (N, 8) bool :func:`classify_motion` output."""
     ids = np.asarray(ids, dtype=np.int64)
     rows, cols = np.nonzero(np.asarray(kinds, dtype=bool))
-    return [("motion", int(ids[r]), int(frame), MOTION_KINDS[k]) for r, k in zip(rows.tolist(), cols.tolist())]
+    return [("motion", int(ids[r]), int(frame), MOTION_KINDS[k])
+            for r, k in zip(rows.tolist(), cols.tolist())]

@@ -39,8 +39,8 @@ from sensemaking.reasoning.anticipation import AnticipationConfig
 from sensemaking.reasoning.facts import Fact, symbol
 from sensemaking.reasoning.relations import MotionThresholds, RelationConfig
 
-__all__ = ["Situation", "Warning", "SituationWarning", "SituationConfig", "SituationMatch", "SituationSolver",
-           "situation_constants", "encoding_text", "ALL_SITUATIONS"]
+__all__ = ["Situation", "Warning", "SituationWarning", "SituationConfig", "SituationMatch",
+           "SituationSolver", "situation_constants", "encoding_text", "ALL_SITUATIONS"]
 
 log = logging.getLogger(__name__)
 
@@ -125,8 +125,8 @@ def _shipped() -> tuple[tuple[Any, ...], dict[str, int]]:
             consts[stmt.name] = int(stmt.value.symbol.number)
         stmts.append(stmt)
 
-    clingo_ast.parse_string(encoding_text("relations.lp") + "\n#program base.\n" + encoding_text("situations.lp"),
-                            collect)
+    text = encoding_text("relations.lp") + "\n#program base.\n" + encoding_text("situations.lp")
+    clingo_ast.parse_string(text, collect)
     return tuple(stmts), consts
 
 
@@ -139,7 +139,8 @@ def _parse_user_encoding(path: str | PathLike[str]) -> tuple[Any, ...]:
     try:
         # a user's rules go to base unless the file opens its own parts
         clingo_ast.parse_string("#program base.", stmts.append)
-        clingo_ast.parse_files([str(path)], stmts.append, logger=lambda _code, msg: messages.append(msg))
+        clingo_ast.parse_files([str(path)], stmts.append,
+                               logger=lambda _code, msg: messages.append(msg))
     except RuntimeError as exc:
         raise InputError(_first_line(messages, exc)) from None
     return tuple(stmts)
@@ -213,6 +214,8 @@ class SituationMatch:
     info: dict[str, list[Any]]
 
 
+#: program parts of the built-in situations
+_ALL_PARTS: tuple[str, ...] = tuple(s.value for s in Situation)
 #: fact symbols a SituationSolver keeps (about 100 bytes each) before it starts afresh
 _SYMBOLS_KEPT = 100_000
 
@@ -237,13 +240,15 @@ class SituationSolver:
     encoding). ``calls`` counts clingo calls, ``hits`` answers from the cache.
     """
 
-    def __init__(self, parts: Sequence[str] = tuple(s.value for s in Situation),
+    def __init__(self, parts: Sequence[str] = _ALL_PARTS,
                  constants: Mapping[str, int] | None = None,
                  extra_encodings: Sequence[str | PathLike[str]] = (), cache_size: int = 256):
         situation_constants(constants)  # validates
         self._args = ["--warn=none"] + [f"-c{k}={int(v)}" for k, v in (constants or {}).items()]
-        self._stmts = _shipped()[0] + tuple(s for p in extra_encodings for s in _parse_user_encoding(p))
-        self._parts = [("base", [])] + [(p, []) for p in parts]
+        user = tuple(s for p in extra_encodings for s in _parse_user_encoding(p))
+        self._stmts = _shipped()[0] + user
+        self._parts: list[tuple[str, list[clingo.Symbol]]] = [("base", [])]
+        self._parts += [(p, []) for p in parts]
         self._cache: OrderedDict[tuple[Fact, ...], tuple[clingo.Symbol, ...]] = OrderedDict()
         self._cache_size = max(0, int(cache_size))
         # the symbol of each fact seen lately: facts recur from frame to frame (relative frames,
@@ -290,7 +295,7 @@ class SituationSolver:
 
         def first(model: clingo.Model) -> bool:
             found.extend(s for s in model.symbols(shown=True)
-                         if (s.name == "warn" and len(s.arguments) == 2) or (s.name == "info" and len(s.arguments) == 4))
+                         if (s.name, len(s.arguments)) in (("warn", 2), ("info", 4)))
             return False  # the first answer set is the answer
 
         ctl.solve(on_model=first)
