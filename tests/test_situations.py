@@ -366,3 +366,20 @@ def test_facts_are_relative_to_now_and_answers_come_back_in_frames_and_ids():
     assert ("seq_start", -3) in facts and all(f[2] <= 0 for f in facts if f[0] == "state")
     assert [(w.situation, w.objects) for w in mon.active] == [("REDUCED_VISIBILITY", (7,))]
     assert mon.stats["solver_calls"] + mon.stats["cache_hits"] == 4
+
+
+def test_a_monitor_pickles_mid_sequence_and_goes_on_with_the_same_warnings(tmp_path):
+    import pickle
+
+    rule = tmp_path / "stopped_ahead.lp"
+    rule.write_text(STOPPED_AHEAD)
+    results = build_results(cyclist_behind_turning_car() + overtaking(ids=(3, 4)))
+    mon = SituationMonitor(fps=10.0, image_size=SIZE, extra_encodings=[rule])
+    frames = [w.frame for w in SituationMonitor(fps=10.0, image_size=SIZE).run(results)]
+    half = next(i for i, r in enumerate(results) if r.frame == max(frames))  # before the last warning
+    for r in results[:half]:
+        mon.update(r)
+    copy = pickle.loads(pickle.dumps(mon))
+    a = [w.to_json() for r in results[half:] for w in mon.update(r)]
+    b = [w.to_json() for r in results[half:] for w in copy.update(r)]
+    assert a == b and a

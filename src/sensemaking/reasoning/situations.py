@@ -245,8 +245,8 @@ class SituationSolver:
                  extra_encodings: Sequence[str | PathLike[str]] = (), cache_size: int = 256):
         situation_constants(constants)  # validates
         self._args = ["--warn=none"] + [f"-c{k}={int(v)}" for k, v in (constants or {}).items()]
-        user = tuple(s for p in extra_encodings for s in _parse_user_encoding(p))
-        self._stmts = _shipped()[0] + user
+        self._extra = tuple(str(p) for p in extra_encodings)
+        self._stmts = self._program()
         self._parts: list[tuple[str, list[clingo.Symbol]]] = [("base", [])]
         self._parts += [(p, []) for p in parts]
         self._cache: OrderedDict[tuple[Fact, ...], tuple[clingo.Symbol, ...]] = OrderedDict()
@@ -260,6 +260,17 @@ class SituationSolver:
         except RuntimeError as exc:
             raise InputError(f"situation encodings: {' '.join(str(exc).split())}",
                              extra_encodings[0] if len(extra_encodings) == 1 else None) from None
+
+    def _program(self) -> tuple[Any, ...]:
+        return _shipped()[0] + tuple(s for p in self._extra for s in _parse_user_encoding(p))
+
+    def __getstate__(self) -> dict[str, Any]:
+        # clingo's ASTs and symbols do not pickle: the program is parsed again (user files too)
+        return {**self.__dict__, "_stmts": None, "_cache": OrderedDict(), "_symbols": {}}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._stmts = self._program()
 
     def answer(self, facts: tuple[Fact, ...]) -> tuple[clingo.Symbol, ...]:
         """The ``warn/2`` and ``info/4`` atoms clingo finds for ``facts``."""
