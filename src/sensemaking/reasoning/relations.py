@@ -329,8 +329,7 @@ def motion_features(prev: np.ndarray, cur: np.ndarray, dt: float | np.ndarray) -
     hc = np.maximum(c[:, 3] - c[:, 1], 1e-6)
     growth = (hc - hp) / (0.5 * (hp + hc)) / dt
     vx, vy = v[:, 0], v[:, 1]
-    # sqrt(vx² + vy²), not hypot: IEEE square roots are exact-rounded in numpy and math alike,
-    # so motion_row gets the same value (hypot's last bit differs between implementations)
+    # sqrt(vx² + vy²), not hypot: the value the thresholds were set on (hypot's last bit varies)
     return MotionFeatures(vx, vy, vbottom, growth, np.sqrt(vx * vx + vy * vy))
 
 
