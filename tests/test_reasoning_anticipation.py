@@ -7,7 +7,11 @@ import pytest
 from test_scene_helpers import CAR, CYC, Obj, build_results, build_scene, cyclist_behind_turning_car, linear
 
 from sensemaking.reasoning.anticipation import (
-    AnticipationConfig, anticipate, anticipate_fits, anticipate_scene, fit_motion, fit_motion_rows, reappearance_errors,
+    AnticipationConfig,
+    anticipate,
+    anticipate_scene,
+    fit_motion,
+    reappearance_errors,
 )
 from sensemaking.reasoning.context import Corridor
 from sensemaking.reasoning.online import SituationMonitor
@@ -134,37 +138,6 @@ def test_prediction_follows_the_occluder_during_the_occlusion():
     first_visible = next(r.frame for r in results if r.frame > 12 and r.state_of(1).name == "VISIBLE")
     assert first_visible == 29
     assert [f for f, _ in leads] == list(range(12, 29)) and all(rf == 29 for _, rf in leads)
-
-
-def test_anticipate_fits_equals_anticipate_on_random_histories():
-    rng = np.random.default_rng(11)
-    cfg = AnticipationConfig()
-    for it in range(300):
-        k, m = int(rng.integers(1, 8)), int(rng.integers(1, 8))
-        hf, of = np.sort(rng.choice(30, k, replace=False)), np.sort(rng.choice(35, m, replace=False))
-        hx = np.stack([rng.uniform(0, 1200, k), rng.uniform(100, 200, k)], 1)
-        hx = np.concatenate([hx, hx + rng.uniform(5, 150, (k, 2))], 1)
-        ox = hx[:1].repeat(m, 0) + rng.normal(0, 20, (m, 4)) * [1, 1, 1, 1]
-        ox[:, 2:] = np.maximum(ox[:, 2:], ox[:, :2] + 1)
-        now = int(max(hf.max(), of.max())) + 1
-        size = None if it % 4 == 0 else (1242, 375)
-        span = cfg.velocity_span_s * 10.0
-        fits = (fit_motion(hf, hx, cfg.velocity_points, span), fit_motion(of, ox, cfg.velocity_points, span))
-        assert anticipate_fits(*fits, now, fps=10.0, image_size=size) == anticipate(hf, hx, of, ox, now, fps=10.0,
-                                                                                   image_size=size)
-
-
-def test_fit_motion_rows_gives_the_values_of_fit_motion():
-    rng = np.random.default_rng(7)
-    for _ in range(2000):
-        k = int(rng.integers(1, 12))
-        frames = np.sort(rng.choice(200, k, replace=False)) + 1000
-        boxes = rng.uniform(0, 1200, (k, 4))
-        boxes[:, 2:] += boxes[:, :2]
-        points = int(rng.integers(1, 11))
-        span = float(rng.uniform(3, 30)) if rng.random() < 0.7 else None
-        last, box, vel = fit_motion(frames, boxes, points, span)
-        assert fit_motion_rows(frames.tolist(), boxes.tolist(), points, span) == (last, box.tolist(), vel.tolist())
 
 
 def test_first_uncovered_is_the_frame_by_frame_look_ahead():

@@ -10,7 +10,13 @@ from test_scene_helpers import CAR, Obj, build_results, linear
 
 from sensemaking.errors import InputError
 from sensemaking.reasoning.context import (
-    CITYSCAPES_LABELS, Corridor, LaneMap, SceneContext, Segmentation, asp_name, load_lanes,
+    CITYSCAPES_LABELS,
+    Corridor,
+    LaneMap,
+    SceneContext,
+    Segmentation,
+    asp_name,
+    load_lanes,
 )
 from sensemaking.reasoning.online import SituationMonitor
 
@@ -156,18 +162,3 @@ def test_blocked_lane_uses_the_ground_label():
                                image_size=SIZE)
         got = [w for w in mon.run(build_results([car])) if w.situation == "BLOCKED_LANE"]
         assert len(got) == expected
-
-
-@pytest.mark.parametrize("corridor", [Corridor(), Corridor(min_overlap=1.0),
-                                      Corridor(((100, 375), (1000, 375), (900, 300), (700, 200), (500, 200), (200, 300)),
-                                               normalized=False, min_overlap=0.3)])
-def test_contains_rows_equals_contains_boxes(corridor):
-    rng = np.random.default_rng(5)
-    ys = np.unique(corridor.polygon(SIZE)[:, 1])
-    for _ in range(300):
-        n = int(rng.integers(0, 12))
-        x1 = rng.uniform(-100, 1300, n)
-        rows = np.concatenate([ys, ys + 0.5, ys - 1e-9])  # at, between and just above the vertex rows
-        y2 = np.where(rng.random(n) < 0.3, rng.choice(rows, n), rng.uniform(100, 400, n))
-        b = np.stack([x1, y2 - rng.uniform(1, 80, n), x1 + rng.uniform(0, 300, n), y2], 1).reshape(n, 4)
-        assert corridor.contains_rows(b.tolist(), SIZE) == corridor.contains_boxes(b, SIZE).tolist()

@@ -6,9 +6,8 @@ import clingo
 import numpy as np
 import pytest
 
-from sensemaking.reasoning.online import BOTTOM_LOWER
 from sensemaking.reasoning.relations import IA_RELATIONS, INVERSE, interval_relations
-from sensemaking.reasoning.situations import encoding_text, situation_constants, solve_window
+from sensemaking.reasoning.situations import SituationSolver, encoding_text, situation_constants
 
 
 def atoms(program: str, *files: str, parts: tuple[str, ...] = ("base",), show: str | None = None) -> list[str]:
@@ -44,15 +43,14 @@ def test_converse_closer_side_by_side_touching():
 
 def test_bottom_lower_is_exactly_the_lower_bottom_relations():
     lp = {a[len("bottom_lower("):-1] for a in atoms("", "relations.lp", show="#show bottom_lower/1.")}
-    assert lp == BOTTOM_LOWER
     # every y relation of proper intervals whose end lies beyond the other's end is listed
     rng = np.random.default_rng(1)
     lo = rng.integers(0, 20, (4000, 2)).astype(float)
     a = np.stack([lo[:, 0], lo[:, 0] + rng.integers(1, 10, 4000)], axis=1)
     b = np.stack([lo[:, 1], lo[:, 1] + rng.integers(1, 10, 4000)], axis=1)
     names = [IA_RELATIONS[c] for c in interval_relations(a, b)]
-    assert {n for n, lower in zip(names, a[:, 1] > b[:, 1]) if lower} == BOTTOM_LOWER
-    assert not {n for n, lower in zip(names, a[:, 1] <= b[:, 1]) if lower} & BOTTOM_LOWER
+    assert {n for n, lower in zip(names, a[:, 1] > b[:, 1]) if lower} == lp
+    assert not {n for n, lower in zip(names, a[:, 1] <= b[:, 1]) if lower} & lp
 
 
 # -- scene.lp and questions.lp -------------------------------------------------------------------
@@ -96,50 +94,20 @@ def test_questions():
 HEAD = "now(10). frame_ms(100). seq_start(0). "
 
 
+def _fact(sym: clingo.Symbol):
+    if sym.type == clingo.SymbolType.Number:
+        return sym.number
+    return (sym.name, *map(_fact, sym.arguments)) if sym.arguments else sym.name
+
+
+def _facts(program: str) -> tuple:
+    text = HEAD + program
+    return tuple(_fact(clingo.parse_term(f.strip())) for f in text.split(".") if f.strip())
+
+
 def sit(program: str, part: str, **consts: int) -> list[str]:
-    return sorted(
-        [f"warn({d.situation.value},{d.objects})" for d in solve_window(HEAD + program, [part], consts)]
-        + [f"info({d.situation.value},{d.objects},{k},{v})" for d in solve_window(HEAD + program, [part], consts)
-           for k, vs in d.info.items() for v in vs])
-
-
-def test_program_text_is_the_parsed_program_with_the_constants_substituted():
-    from clingo import ast
-
-    from sensemaking.reasoning.situations import Situation, _program, _program_text
-
-    consts = tuple(sorted(situation_constants({"rv_area": 99}).items()))
-    names = tuple(s.value for s in Situation)
-    text = _program_text(consts, names)
-    assert "#const" not in text and "rv_area" not in text and "A >= 99" in text
-    parsed: list[str] = []
-    ast.parse_string(text, lambda stmt: parsed.append(str(stmt)))
-    parts = _program(consts)
-    expected = [str(s) for name in ("base",) + names + ("relations",) for s in parts[name]
-                if s.ast_type != ast.ASTType.Program]
-    assert parsed[1:] == expected  # after the implicit #program base.
-    # relations.lp only with the parts that use it
-    assert "side_by_side" not in _program_text(consts, ("reduced_visibility",))
-
-
-def test_program_text_leaves_out_rules_that_cannot_fire_or_do_not_matter():
-    from sensemaking.reasoning.situations import _fact_names, _program_text
-
-    consts = tuple(sorted(situation_constants().items()))
-    rv = _program_text(consts, ("reduced_visibility",),
-                       _fact_names("now(3). in_corridor(1,3). state(1,3,visible). area(1,3,200)."))
-    assert "hidden_by" not in rv and "area_permille" in rv and "#show warn/2." in rv
-    # without state/3 no warn rule can fire, so neither can the info rules
-    assert "reduced_visibility" not in _program_text(consts, ("reduced_visibility",),
-                                                      _fact_names("now(3). area(1,3,9)."))
-    ov = _program_text(consts, ("overtaking",),
-                       _fact_names("now(3). frame_ms(100). vehicle(1). vehicle(2). ra(1,2,3,before,after)."))
-    assert "closer(A,B,F) :-" in ov and "touching" not in ov and "ia(" not in ov
-    # not facts only: nothing is left out
-    assert _fact_names("a :- b.") is None and _fact_names("{ a }.") is None
-    assert _fact_names('lane("x y"). occurs_at(starts(3),5).') >= {"lane", "occurs_at", "starts"}
-    assert sit("in_corridor(1,10). state(1,10,visible). area(1,10,160).", "reduced_visibility") == [
-        "info(reduced_visibility,(1,),area_permille,160)", "warn(reduced_visibility,(1,))"]
+    """Sorted warn/2 and info/4 of SituationSolver for the facts of ``program``."""
+    return sorted(str(s) for s in SituationSolver([part], consts).answer(_facts(program)))
 
 
 def test_constants_and_defaults():
@@ -152,7 +120,8 @@ def test_constants_and_defaults():
 
 def test_overtaking_rule():
     flip = ("vehicle(1). vehicle(2). ra(1,2,7,before,after). ra(1,2,10,before,before).")
-    assert sit(flip, "overtaking") == ["info(overtaking,(1, 2),nearer_until,7)", "warn(overtaking,(1, 2))"]
+    assert sit(flip, "overtaking") == ["info(overtaking,(1,2),nearer_until,frame(7))",
+                                       "warn(overtaking,(1,2))"]
     # oncoming: the overtaken vehicle approaches
     assert sit(flip + "motion(2,10,approaching).", "overtaking") == []
     # too long ago for ov_ms
@@ -163,7 +132,8 @@ def test_overtaking_rule():
 
 def test_hidden_entity_rule():
     prog = "person(1). vehicle(2). hidden_by(1,2,10). anticipated(1,2,18,600,250). anticipated_in_corridor(1,2,18)."
-    assert sit(prog, "hidden_entity") == ["info(hidden_entity,(1, 2),reappear_frame,18)", "warn(hidden_entity,(1, 2))"]
+    assert sit(prog, "hidden_entity") == ["info(hidden_entity,(1,2),reappear_frame,frame(18))",
+                                          "warn(hidden_entity,(1,2))"]
     assert sit(prog, "hidden_entity", he_lead_ms=500) == []
     assert sit(prog.replace("anticipated_in_corridor(1,2,18).", ""), "hidden_entity") == []
 
@@ -175,7 +145,7 @@ def test_reduced_visibility_rule():
     assert sit(big, "reduced_visibility", rv_area=300) == []
     hides = "in_corridor(3,10). state(3,10,visible). area(3,10,20). hidden_by(5,3,10)."
     assert sit(hides, "reduced_visibility") == ["info(reduced_visibility,(3,),area_permille,20)",
-                                                "info(reduced_visibility,(3,),hides,5)",
+                                                "info(reduced_visibility,(3,),hides,track(5))",
                                                 "warn(reduced_visibility,(3,))"]
 
 
@@ -204,8 +174,21 @@ def test_blocked_lane_rule():
 def test_exiting_vehicle_rule():
     prog = ("person(7). vehicle(8). occurs_at(starts(7),8). ra(7,8,9,overlaps,finishes). "
             "motion(8,9,stopped).")
-    assert sit(prog, "exiting_vehicle") == ["info(exiting_vehicle,(7, 8),appeared,8)",
-                                            "warn(exiting_vehicle,(7, 8))"]
+    assert sit(prog, "exiting_vehicle") == ["info(exiting_vehicle,(7,8),appeared,frame(8))",
+                                            "warn(exiting_vehicle,(7,8))"]
     assert sit(prog.replace("starts(7),8", "starts(7),0"), "exiting_vehicle") == []  # first frame
     assert sit(prog.replace("overlaps,finishes", "before,finishes"), "exiting_vehicle") == []  # apart
     assert sit(prog.replace("motion(8,9,stopped).", ""), "exiting_vehicle") == []  # moving vehicle
+
+
+def test_solver_caches_clingo_answers_by_facts_and_uses_only_the_parts_asked_for(tmp_path):
+    big = "vehicle(3). in_corridor(3,10). state(3,10,visible). area(3,10,200)."
+    facts = _facts(big)
+    solver = SituationSolver(["reduced_visibility"])
+    first = solver.answer(facts)
+    assert solver.answer(facts) == first and (solver.calls, solver.hits) == (1, 1)
+    assert SituationSolver(["overtaking"]).answer(facts) == ()
+    extra = tmp_path / "front.lp"
+    extra.write_text("warn(big_front,(T,)) :- now(N), area(T,N,A), A > 100.")
+    got = SituationSolver([], extra_encodings=[extra]).answer(facts)
+    assert [str(s) for s in got] == ["warn(big_front,(3,))"]

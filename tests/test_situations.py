@@ -6,14 +6,14 @@ from __future__ import annotations
 import json
 import logging
 
-import clingo
 import numpy as np
 import pytest
 from test_scene_helpers import CAR, CYC, PED, TRUCK, Obj, build_results, cyclist_behind_turning_car, linear, piecewise
 
+from sensemaking.errors import InputError
 from sensemaking.reasoning.context import Lane, LaneMap, SceneContext
 from sensemaking.reasoning.online import SituationMonitor
-from sensemaking.reasoning.situations import ALL_SITUATIONS, Situation, SituationConfig, Warning, answer_of_grounded
+from sensemaking.reasoning.situations import ALL_SITUATIONS, Situation, SituationConfig, Warning
 
 SIZE = (1242, 375)
 
@@ -106,48 +106,6 @@ def test_overtaking_not_for_oncoming_traffic():
     assert only(run([Obj(1, CAR, a), Obj(2, CAR, b)]), "OVERTAKING") == []
 
 
-@pytest.mark.parametrize("name", ["oncoming", "overtaking", "hidden_late", "reduced", "stop", "loom"])
-def test_exact_situations_are_answered_from_the_snapshot_as_the_solver_would(name):
-    # OVERTAKING, HIDDEN_ENTITY, REDUCED_VISIBILITY and SUDDEN_STOP candidates pass every condition
-    # of their rules (side by side, B not approaching, lead within he_lead_ms, ...): the monitor
-    # answers them, details included, without a solver call; grounding everything agrees frame
-    # by frame
-    a = linear(range(30), box(500, 290, 120, 80))
-    b = piecewise([(0, box(650, 260, 90, 60)), (29, box(690, 330, 150, 100))])  # near, oncoming
-    objs, config = {
-        "oncoming": ([Obj(1, CAR, a), Obj(2, CAR, b)], {"situations": {"OVERTAKING"}}),
-        "overtaking": (overtaking(), {"situations": {"OVERTAKING"}}),
-        "hidden_late": (cyclist_behind_turning_car(), {"situations": {"HIDDEN_ENTITY"}, "constants": {"he_lead_ms": 1000}}),
-        "reduced": (cyclist_behind_turning_car(), {"situations": {"REDUCED_VISIBILITY"}}),
-        "stop": (stopping_car(2), {"situations": {"SUDDEN_STOP"}}),
-        "loom": (looming_car(True), {"situations": {"SUDDEN_STOP"}}),
-    }[name]
-    mon = SituationMonitor(SituationConfig(**config), fps=10.0, image_size=SIZE)
-    full = SituationMonitor(SituationConfig(**config, prefilter=False), fps=10.0, image_size=SIZE)
-    held = 0
-    for r in build_results(objs):
-        assert [w.to_json() for w in mon.update(r)] == [w.to_json() for w in full.update(r)]
-        got = [w.to_json() for w in mon.active]
-        assert got == [w.to_json() for w in full.active]
-        assert all(w["frame"] == r.frame for w in got)
-        held += bool(got)
-    assert mon.stats["solver_calls"] == 0 and full.stats["solver_calls"] == mon.stats["frames"]
-    assert (held > 0) == (name != "oncoming")
-
-
-def test_situations_only_prefiltered_still_ask_the_solver():
-    # BLOCKED_LANE (how long on the lane) and EXITING_VEHICLE (touching) are grounded when they
-    # have candidates, and only then
-    lanes = ([Obj(1, CAR, linear(range(20), (560, 230, 700, 310)))], SceneContext(lanes=LANES))
-    exits = (parked_car_and_person((860, 190, 900, 300)), None)
-    for (objs, ctx), name in ((lanes, "BLOCKED_LANE"), (exits, "EXITING_VEHICLE")):
-        mon = SituationMonitor(SituationConfig(situations={name}), ctx, fps=10.0, image_size=SIZE)
-        warnings = mon.run(build_results(objs))
-        assert [w.situation for w in warnings if w.objects] == [name]
-        assert 0 < mon.stats["solver_calls"] < mon.stats["frames"]
-
-
-# -- HIDDEN_ENTITY --------------------------------------------------------------------------------
 def test_hidden_entity_occurs_while_hidden():
     w = only(run(cyclist_behind_turning_car()), "HIDDEN_ENTITY")
     assert w == [(21, "HIDDEN_ENTITY", (1, 2))]
@@ -268,19 +226,6 @@ SCENES = {
 }
 
 
-@pytest.mark.parametrize("name", sorted(SCENES))
-def test_prefilter_gives_the_same_warnings_as_grounding_everything(name):
-    objs, ctx = SCENES[name]
-    noise = 1.0 if name == "noisy" else 0.0
-    fast = SituationMonitor(SituationConfig(prefilter=True), ctx, 10.0, SIZE)
-    full = SituationMonitor(SituationConfig(prefilter=False), ctx, 10.0, SIZE)
-    for r in build_results(objs, noise_px=noise):
-        a, b = fast.update(r), full.update(r)
-        assert [w.to_json() for w in a] == [w.to_json() for w in b]
-        assert [w.to_json() for w in fast.active] == [w.to_json() for w in full.active]
-    assert fast.stats["solver_calls"] <= full.stats["solver_calls"]
-
-
 def test_each_situation_is_found_by_some_scene():
     found = set()
     for objs, ctx in SCENES.values():
@@ -342,7 +287,7 @@ def test_empty_frames_and_unknown_classes():
     from sensemaking.detections import Detections
     from sensemaking.results import FrameResult
 
-    mon = SituationMonitor(SituationConfig(prefilter=False))
+    mon = SituationMonitor(SituationConfig())
     assert [w.situation for w in mon.update(FrameResult(0, Detections.empty()))] == ["BLOCKED_LANE"]
     odd = Obj(1, 18, linear(range(5), (420, 170, 820, 370)))  # misc: neither vehicle nor person
     warnings = mon.run(build_results([odd]))
@@ -358,92 +303,83 @@ def test_without_image_size_corridor_situations_are_skipped():
     assert {k[1] for k in kinds(warnings)} == {"OVERTAKING"}
 
 
-@pytest.mark.parametrize("name", sorted(SCENES))
-def test_leaving_out_rules_that_cannot_matter_changes_no_answer(name, monkeypatch):
-    """solve_window grounds only the rules that can fire with the facts at hand and that warn/info
-    depend on; on every fact set of a scene (all facts of the window, every situation) the
-    answers equal those of the whole program, and rules were left out somewhere."""
-    import sensemaking.reasoning.online as online
-    from sensemaking.reasoning import situations
 
-    calls: list[tuple[str, list[Situation]]] = []
-    monkeypatch.setattr(online, "solve_window",
-                        lambda facts, parts, consts=None: calls.append((facts, list(parts))) or [])
-    objs, ctx = SCENES[name]
-    mon = SituationMonitor(SituationConfig(prefilter=False), ctx, 10.0, SIZE)
-    for r in build_results(objs, noise_px=1.0 if name == "noisy" else 0.0):
+
+# -- user encodings -------------------------------------------------------------------------------
+STOPPED_AHEAD = """
+warn(stopped_ahead,(T,)) :- now(N), vehicle(T), in_corridor(T,N), motion(T,N,stopped).
+info(stopped_ahead,(T,),since,frame(F)) :- warn(stopped_ahead,(T,)),
+                                           F = #min{ G : motion(T,G,stopped) }.
+"""
+
+
+def test_a_new_situation_in_a_user_encoding_is_warned_on_every_frame_where_it_holds(tmp_path):
+    """A car in front drives, stands still from frame 10 to 19, drives on: STOPPED_AHEAD (a rule
+    of the user's file, nothing in Python) holds exactly while its motion is ``stopped``."""
+    rule = tmp_path / "stopped_ahead.lp"
+    rule.write_text(STOPPED_AHEAD)
+    car = Obj(1, CAR, piecewise([(0, (560, 200, 700, 290)), (10, (560, 240, 700, 330)),
+                                 (20, (560, 240, 700, 330)), (30, (560, 280, 700, 370))]))
+    mon = SituationMonitor(fps=10.0, image_size=SIZE, extra_encodings=[rule])
+    plain = SituationMonitor(fps=10.0, image_size=SIZE)
+    held, stopped = [], []
+    for r in build_results([car], 30):
         mon.update(r)
-    consts = tuple(sorted(situations.situation_constants().items()))
-    names = tuple(s.value for s in mon._checked)
-    pruned = 0
-    for facts, parts in calls[::3]:
-        got = situations.solve_window(facts, parts)
-        with monkeypatch.context() as m:
-            m.setattr(situations, "_fact_names", lambda facts: None)
-            assert situations.solve_window(facts, parts) == got
-        pruned += len(situations._program_text(consts, names, situations._fact_names(facts))) < \
-            len(situations._program_text(consts, names))
-    assert pruned > 0
+        plain.update(r)
+        if any(w.situation == "STOPPED_AHEAD" for w in mon.active):
+            held.append(r.frame)
+        if "stopped" in mon._frames[-1].motion.get(1, ()):
+            stopped.append(r.frame)
+        # the built-in situations are untouched by the extra rules
+        assert [w.to_json() for w in mon.active if w.situation != "STOPPED_AHEAD"] == \
+            [w.to_json() for w in plain.active]
+    assert held == stopped and len(held) >= 5
+    w = next(w for w in mon.run(build_results([car], 30)) if w.situation == "STOPPED_AHEAD")
+    assert w.objects == (1,) and w.details["since"] == w.frame and "stopped ahead" in w.message
 
 
-# -- reading the answer of a grounded program ---------------------------------------------------
-def _grounded(program: str) -> clingo.Control:
-    ctl = clingo.Control(["--warn=none"])
-    ctl.add("base", [], program)
-    ctl.ground([("base", [])])
-    return ctl
+def test_user_encoding_errors_name_the_file_and_line(tmp_path):
+    bad = tmp_path / "bad.lp"
+    bad.write_text("warn(x,(T,)) :- vehicle(T)\n")  # no closing dot
+    with pytest.raises(InputError, match="bad.lp:2"):
+        SituationMonitor(extra_encodings=[bad])
+    unsafe = tmp_path / "unsafe.lp"
+    unsafe.write_text("warn(x,(T,)) :- not vehicle(T).\n")
+    with pytest.raises(InputError, match="unsafe"):
+        SituationMonitor(extra_encodings=[unsafe])
+    with pytest.raises(InputError, match="no such situation encoding file"):
+        SituationMonitor(extra_encodings=[tmp_path / "missing.lp"])
 
 
-@pytest.mark.parametrize("program, expected", [
-    # stratified: grounding decides everything, the facts are the answer
-    ("p(1). p(2). q(X) :- p(X), not r(X). r(2).", ["q(1)"]),
-    # a choice leaves atoms open: the solver decides (first answer set: some subset)
-    ("{ q(1) }. :- not q(1).", ["q(1)"]),
-    # no answer set at all
-    ("q(1). :- q(1).", []),
-    ("p(1). q(X) :- p(X). :- q(1), not s. s :- not t. t :- not s.", ["q(1)"]),
-])
-def test_answer_of_grounded_is_the_first_answer_set(program, expected):
-    got = sorted(str(s) for s in answer_of_grounded(_grounded(program), [("q", 1)]))
-    assert got == expected
+def test_facts_are_relative_to_now_and_answers_come_back_in_frames_and_ids():
+    """Tracks 7 and 9 become indices 0 and 1, frames count back from 0; the answer of a frame is
+    read back with ids and frame numbers; the same scene later hits clingo's cached answer."""
+    truck = Obj(7, TRUCK, linear(range(100, 104), (420, 170, 820, 370)))
+    far = Obj(9, CAR, linear(range(100, 104), (40, 170, 100, 200)))
+    results = [r for r in build_results([truck, far], 104) if r.frame >= 100]
+    config = SituationConfig(situations={"REDUCED_VISIBILITY"})
+    mon = SituationMonitor(config, fps=10.0, image_size=SIZE)
+    for r in results:
+        mon.update(r)
+    facts, tracks = mon._facts()
+    assert tracks == [7, 9] and ("now", 0) in facts and ("state", 0, -3, "visible") in facts
+    assert ("seq_start", -3) in facts and all(f[2] <= 0 for f in facts if f[0] == "state")
+    assert [(w.situation, w.objects) for w in mon.active] == [("REDUCED_VISIBILITY", (7,))]
+    assert mon.stats["solver_calls"] + mon.stats["cache_hits"] == 4
 
 
-def _stmts(program: str) -> list:
-    from clingo import ast as clingo_ast
+def test_a_monitor_pickles_mid_sequence_and_goes_on_with_the_same_warnings(tmp_path):
+    import pickle
 
-    from sensemaking.reasoning.situations import _stmt
-
-    out: list = []
-    clingo_ast.parse_string(program, lambda s: out.append(s) if s.ast_type != clingo_ast.ASTType.Program else None)
-    return [_stmt(s) for s in out]
-
-
-@pytest.mark.parametrize("program, stratified", [
-    ("p(1). q(X) :- p(X), not r(X). r(X) :- p(X), X > 1. #show q/1.", True),
-    ("p :- not q. q :- not p.", False),            # negative cycle
-    ("p(1). q :- p(X), not q.", False),             # through itself
-    ("p(1). n(N) :- N = #count { X: p(X) }.", True),  # aggregate over a lower stratum
-    ("p(1). p(N+1) :- p(N), N < 3, N = #max { X: p(X) }.", False),  # aggregate in a cycle
-    ("p(1). :- p(1).", False),                      # constraint
-    ("{ p(1) }.", False),                           # choice
-])
-def test_stratified_programs_are_recognised(program, stratified):
-    from sensemaking.reasoning.situations import _stratified
-
-    assert _stratified(_stmts(program)) is stratified
-
-
-def test_every_situation_part_is_stratified_so_grounding_decides_it():
-    from sensemaking.reasoning import situations
-
-    consts = tuple(sorted(situations.situation_constants().items()))
-    for s in Situation:
-        assert situations._pruned(consts, (s.value,))[2]
-    assert situations._pruned(consts, tuple(s.value for s in Situation))[2]
-
-
-def test_answer_of_grounded_for_a_stratified_program_reads_the_facts():
-    ctl = _grounded("p(1). p(2). q(X) :- p(X), not r(X). r(2).")
-    assert sorted(str(s) for s in answer_of_grounded(ctl, [("q", 1)], stratified=True)) == ["q(1)"]
-    # atoms left open (a choice, wrongly declared stratified) still go to the solver
-    assert [str(s) for s in answer_of_grounded(_grounded("{ q(1) }. :- not q(1)."), [("q", 1)], True)] == ["q(1)"]
+    rule = tmp_path / "stopped_ahead.lp"
+    rule.write_text(STOPPED_AHEAD)
+    results = build_results(cyclist_behind_turning_car() + overtaking(ids=(3, 4)))
+    mon = SituationMonitor(fps=10.0, image_size=SIZE, extra_encodings=[rule])
+    frames = [w.frame for w in SituationMonitor(fps=10.0, image_size=SIZE).run(results)]
+    half = next(i for i, r in enumerate(results) if r.frame == max(frames))  # before the last warning
+    for r in results[:half]:
+        mon.update(r)
+    copy = pickle.loads(pickle.dumps(mon))
+    a = [w.to_json() for r in results[half:] for w in mon.update(r)]
+    b = [w.to_json() for r in results[half:] for w in copy.update(r)]
+    assert a == b and a

@@ -265,7 +265,9 @@ class Scene:
                  corridor: bool = True, context: SceneContext | None = None,
                  relation_config: RelationConfig | None = None,
                  motion_thresholds: MotionThresholds | None = None) -> str:
-        """The scene as ASP facts (predicates documented in ``reasoning/encodings/scene.lp``).
+        """The scene as ASP facts, one a line (predicates documented in
+        ``reasoning/encodings/scene.lp``): the text of
+        :func:`sensemaking.reasoning.facts.scene_facts`, which builds them as clingo symbols.
 
         Args:
             boxes: ``box/6`` per track and frame.
@@ -277,57 +279,12 @@ class Scene:
                 default: the default corridor, no lanes.
             relation_config, motion_thresholds: see :mod:`sensemaking.reasoning.relations`.
         """
-        from sensemaking.reasoning.context import SceneContext
-        from sensemaking.reasoning.relations import (
-            MotionThresholds, RelationConfig, motion_facts, pair_relations, relation_facts, track_motion,
-        )
+        from sensemaking.reasoning.facts import facts_text, scene_facts
 
-        ctx = context or SceneContext()
-        out: list[str] = []
-        fr = self.frame_numbers
-        if fr.size:
-            out.append(f"scene_frames({int(fr[0])},{int(fr[-1])}).")
-            if fr.size == int(fr[-1] - fr[0]) + 1:
-                out.append(f"frame({int(fr[0])}..{int(fr[-1])}).")
-            else:
-                out.extend(f"frame({f})." for f in fr.tolist())
-        out.append(f"fps({int(round(self.fps))}).")
-        if self.image_size is not None:
-            out.append(f"image({self.image_size[0]},{self.image_size[1]}).")
-        for t in self.tracks.values():
-            out.append(f"track({t.id},{t.class_name}). first_frame({t.id},{t.first}). last_frame({t.id},{t.last}).")
-        if boxes:
-            for t in self.tracks.values():
-                b = np.rint(t.xyxy).astype(np.int64)
-                out.extend(f"box({t.id},{f},{x1},{y1},{x2},{y2})." for f, (x1, y1, x2, y2) in zip(t.frames.tolist(), b.tolist()))
-        if states:
-            for t in self.tracks.values():
-                out.extend(f"state({t.id},{f},{_STATES[s]})." for f, s in zip(t.frames.tolist(), t.state.tolist()))
-        out.extend(f"occurs_at({e.name}({','.join(map(str, e.args))}),{e.frame})." for e in self.events)
-        out.extend(f.asp() for f in self.fluents)
-        rows = self._rows() if (relations or corridor) else None
-        if corridor and self.image_size is not None and rows is not None and rows["frame"].size:
-            inside = ctx.corridor.contains_boxes(rows["xyxy"], self.image_size)
-            out.extend(f"in_corridor({t},{f})." for t, f in
-                       zip(rows["track"][inside].tolist(), rows["frame"][inside].tolist()))
-        if relations and rows is not None and rows["frame"].size:
-            rc = relation_config or RelationConfig()
-            order = np.argsort(rows["frame"], kind="stable")
-            fs = rows["frame"][order]
-            cuts = np.flatnonzero(np.diff(fs)) + 1
-            for chunk in np.split(order, cuts):
-                if chunk.size < 2:
-                    continue
-                pairs, codes = pair_relations(rows["xyxy"][chunk], rc)
-                out.extend(relation_facts(int(rows["frame"][chunk[0]]), rows["track"][chunk], pairs, codes))
-        if motion:
-            mt = motion_thresholds or MotionThresholds()
-            for t in self.tracks.values():
-                vis = t.visible_mask()
-                frames, kinds, _ = track_motion(t.frames[vis], t.xyxy[vis], self.fps, mt)
-                for f, k in zip(frames.tolist(), kinds):
-                    out.extend(motion_facts(f, np.array([t.id]), k[None, :]))
-        return "\n".join(out) + "\n"
+        facts = scene_facts(self, boxes=boxes, states=states, relations=relations, motion=motion,
+                            corridor=corridor, context=context, relation_config=relation_config,
+                            motion_thresholds=motion_thresholds)
+        return facts_text(facts)
 
     # -- JSON -----------------------------------------------------------------------------------
     def to_json(self) -> dict[str, Any]:

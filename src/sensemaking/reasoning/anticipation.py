@@ -22,7 +22,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from sensemaking.reasoning.context import Corridor
     from sensemaking.scene import Scene
 
-__all__ = ["AnticipationConfig", "Anticipation", "fit_motion", "anticipate", "anticipate_fits", "anticipate_scene",
+__all__ = ["AnticipationConfig", "Anticipation", "fit_motion", "anticipate", "anticipate_scene",
            "reappearance_errors", "ReappearanceError"]
 
 
@@ -122,47 +122,6 @@ def fit_motion(frames: np.ndarray, xyxy: np.ndarray, points: int = 5,
     return last, box, vel
 
 
-def fit_motion_rows(frames: list[int], boxes: list[list[float]], points: int = 5,
-                    span: float | None = None) -> tuple[int, list[float], list[float]]:
-    """:func:`fit_motion` in plain Python for a few boxes given as lists, returning lists: for the
-    per-frame monitor, where numpy's per-call cost dominates. The same float operations in the
-    same order as numpy's for fewer than 8 boxes (numpy sums shorter vectors one element after
-    the other), so the same values; more boxes go through :func:`fit_motion`."""
-    f = [float(v) for v in frames[-points:]]
-    x = boxes[-points:]
-    if not f:
-        raise ValueError("fit_motion needs at least one box")
-    if len(f) >= 8:
-        last, box_a, vel_a = fit_motion(np.array(f), np.array(x, dtype=np.float64), points, span)
-        return last, box_a.tolist(), vel_a.tolist()
-    if span is not None:
-        keep = [i for i, v in enumerate(f) if v >= f[-1] - span]
-        f, x = [f[i] for i in keep], [x[i] for i in keep]
-    last = int(f[-1])
-    n = len(f)
-    if n < 2:
-        return last, [float(v) for v in x[-1]], [0.0, 0.0, 0.0, 0.0]
-    # the sums are written out: one addition after the other from 0.0, like numpy below 8 terms
-    # (the builtin sum() compensates rounding from Python 3.12 on)
-    t = [v - f[-1] for v in f]
-    tm = 0.0
-    for v in t:
-        tm += v
-    tm /= n
-    s0 = s1 = s2 = s3 = 0.0
-    for b in x:
-        s0, s1, s2, s3 = s0 + b[0], s1 + b[1], s2 + b[2], s3 + b[3]
-    m0, m1, m2, m3 = s0 / n, s1 / n, s2 / n, s3 / n
-    denom = s0 = s1 = s2 = s3 = 0.0
-    for v, b in zip(t, x):
-        d = v - tm
-        denom += d * d
-        s0, s1, s2, s3 = s0 + d * (b[0] - m0), s1 + d * (b[1] - m1), s2 + d * (b[2] - m2), s3 + d * (b[3] - m3)
-    vel = [s0 / denom, s1 / denom, s2 / denom, s3 / denom]
-    back = 0.0 - tm
-    return last, [m0 + vel[0] * back, m1 + vel[1] * back, m2 + vel[2] * back, m3 + vel[3] * back], vel
-
-
 def _box_at(last: int, box: list[float], vel: list[float], frame: int) -> list[float]:
     """The box ``box + vel * (frame - last)`` (pixels; ``vel`` per frame) about the same centre
     with each side kept >= 1 px."""
@@ -183,39 +142,16 @@ def _coverage(a: list[float], b: list[float]) -> float:
     return (w if w > 0 else 0.0) * (h if h > 0 else 0.0) / (area if area >= 1e-9 else 1e-9)
 
 
-def _floats(v: Any) -> list[float]:
-    return v.tolist() if isinstance(v, np.ndarray) else [float(x) for x in v]
-
-
 def _first_uncovered(t_last: int, t_box: list[float], t_vel: list[float], o_last: int, o_box: list[float],
                      o_vel: list[float], now: int, steps: int,
                      coverage: float) -> tuple[int, list[float], bool] | None:
     """``(k, box, overdue)`` for the first of the frames ``now + 1 .. now + steps`` at which the
     extrapolated object is less than ``coverage`` covered, or None if there is none."""
     overdue = _coverage(_box_at(t_last, t_box, t_vel, now), _box_at(o_last, o_box, o_vel, now)) < coverage
-    # _box_at and _coverage written out (the same float operations): this loop is the monitor's
-    # hot spot while objects are hidden
-    a0, a1, a2, a3 = t_box
-    u0, u1, u2, u3 = t_vel
-    b0, b1, b2, b3 = o_box
-    v0, v1, v2, v3 = o_vel
     for k in range(1, steps + 1):
-        f = float(now + k)
-        dt = f - t_last
-        x1, y1, x2, y2 = a0 + u0 * dt, a1 + u1 * dt, a2 + u2 * dt, a3 + u3 * dt
-        cx, cy, w, h = (x1 + x2) / 2, (y1 + y2) / 2, x2 - x1, y2 - y1
-        w, h = (w if w >= 1.0 else 1.0) / 2, (h if h >= 1.0 else 1.0) / 2
-        p0, p1, p2, p3 = cx - w, cy - h, cx + w, cy + h
-        dt = f - o_last
-        x1, y1, x2, y2 = b0 + v0 * dt, b1 + v1 * dt, b2 + v2 * dt, b3 + v3 * dt
-        cx, cy, w, h = (x1 + x2) / 2, (y1 + y2) / 2, x2 - x1, y2 - y1
-        w, h = (w if w >= 1.0 else 1.0) / 2, (h if h >= 1.0 else 1.0) / 2
-        q0, q1, q2, q3 = cx - w, cy - h, cx + w, cy + h
-        w = (p2 if p2 < q2 else q2) - (p0 if p0 > q0 else q0)
-        h = (p3 if p3 < q3 else q3) - (p1 if p1 > q1 else q1)
-        area = (p2 - p0) * (p3 - p1)
-        if (w if w > 0 else 0.0) * (h if h > 0 else 0.0) / (area if area >= 1e-9 else 1e-9) < coverage:
-            return k, [p0, p1, p2, p3], overdue and k == 1
+        box = _box_at(t_last, t_box, t_vel, now + k)
+        if _coverage(box, _box_at(o_last, o_box, o_vel, now + k)) < coverage:
+            return k, box, overdue and k == 1
     return None
 
 
@@ -240,31 +176,17 @@ def anticipate(hidden_frames: np.ndarray, hidden_xyxy: np.ndarray, occluder_fram
         An :class:`Anticipation`, or None when the object does not come out from behind the
         occluder within the horizon (they move together, or either history is empty).
     """
+    from sensemaking.reasoning.context import Corridor
+
     c = config or AnticipationConfig()
     if len(hidden_frames) == 0 or len(occluder_frames) == 0:
         return None
     span = c.velocity_span_s * fps
-    return anticipate_fits(fit_motion(hidden_frames, hidden_xyxy, c.velocity_points, span),
-                           fit_motion(occluder_frames, occluder_xyxy, c.velocity_points, span), now, fps=fps,
-                           track=track, occluder=occluder, image_size=image_size, corridor=corridor, config=c)
-
-
-def anticipate_fits(hidden_fit: tuple[int, Any, Any], occluder_fit: tuple[int, Any, Any],
-                    now: int, *, fps: float, track: int = -1, occluder: int = -1,
-                    image_size: tuple[int, int] | None = None, corridor: Corridor | None = None,
-                    config: AnticipationConfig | None = None) -> Anticipation | None:
-    """:func:`anticipate` from the :func:`fit_motion` results of the hidden object and the occluder
-    (fitted with ``config.velocity_points`` and a span of ``config.velocity_span_s * fps``
-    frames), e.g. a fit kept while the object stays hidden; or from :func:`fit_motion_rows`
-    (boxes and velocities as lists)."""
-    from sensemaking.reasoning.context import Corridor
-
-    c = config or AnticipationConfig()
-    t_last, t_box, t_vel = hidden_fit
-    o_last, o_box, o_vel = occluder_fit
+    t_last, t_box, t_vel = fit_motion(hidden_frames, hidden_xyxy, c.velocity_points, span)
+    o_last, o_box, o_vel = fit_motion(occluder_frames, occluder_xyxy, c.velocity_points, span)
     horizon = max(1, int(round(c.horizon_s * fps)))
-    found = _first_uncovered(t_last, _floats(t_box), _floats(t_vel), o_last, _floats(o_box), _floats(o_vel), now,
-                             horizon, c.reappear_coverage)
+    found = _first_uncovered(t_last, t_box.tolist(), t_vel.tolist(), o_last, o_box.tolist(),
+                             o_vel.tolist(), now, horizon, c.reappear_coverage)
     if found is None:
         return None
     k, box, overdue = found
@@ -272,7 +194,7 @@ def anticipate_fits(hidden_fit: tuple[int, Any, Any], occluder_fit: tuple[int, A
     in_corridor, in_image = False, True
     if image_size is not None:
         corr = corridor or Corridor()
-        in_corridor = corr.contains_rows([box], image_size)[0]
+        in_corridor = bool(corr.contains_boxes(np.array([box]), image_size)[0])
         cx, cy = (box[0] + box[2]) / 2, (box[1] + box[3]) / 2
         in_image = bool(0 <= cx <= image_size[0] and 0 <= cy <= image_size[1])
         in_corridor = in_corridor and in_image

@@ -39,7 +39,7 @@ from __future__ import annotations
 import json
 import logging
 import re
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
 from os import PathLike
@@ -49,7 +49,6 @@ from typing import Any
 import numpy as np
 
 from sensemaking.errors import InputError
-from sensemaking.reasoning.relations import ProfileRowTest
 
 __all__ = [
     "Corridor", "Lane", "LaneMap", "Segmentation", "SceneContext", "CITYSCAPES_LABELS",
@@ -106,14 +105,6 @@ def _profile(points: tuple[tuple[float, float], ...], normalized: bool,
     ys = np.unique(p[:, 1])
     xl, xr = _spans(p, ys)
     return ys, xl, xr
-
-
-@lru_cache(maxsize=64)
-def _profile_lists(points: tuple[tuple[float, float], ...], normalized: bool,
-                   image_size: tuple[int, int]) -> tuple[list[float], list[float], list[float]]:
-    """:func:`_profile` as Python lists."""
-    ys, xl, xr = _profile(points, normalized, image_size)
-    return ys.tolist(), xl.tolist(), xr.tolist()
 
 
 def _edge_ratio(xyxy: np.ndarray, xl: np.ndarray, xr: np.ndarray) -> np.ndarray:
@@ -175,17 +166,6 @@ class Corridor:
         # min_overlap is in (0, 1]: clipping the ratio to [0, 1] and NaN -> 0 change nothing here
         b = np.asarray(xyxy, dtype=np.float64).reshape(-1, 4)
         return _edge_ratio(b, *self.span_at(b[:, 3], image_size)) >= self.min_overlap
-
-    def contains_rows(self, boxes: list[list[float]], image_size: tuple[int, int]) -> list[bool]:
-        """Plain-Python :meth:`contains_boxes` for a few boxes ``[x1, y1, x2, y2]`` (Python floats):
-        the same result (np.interp's arithmetic over the same profile), without numpy's per-call cost."""
-        return self.row_test(image_size)(boxes)
-
-    def row_test(self, image_size: tuple[int, int]) -> Callable[[list[list[float]]], list[bool]]:
-        """:meth:`contains_rows` for one image size, the corridor's profile bound once (for a
-        caller that tests every frame)."""
-        ys, xl, xr = _profile_lists(self.points, self.normalized, (int(image_size[0]), int(image_size[1])))
-        return ProfileRowTest(ys, xl, xr, self.min_overlap)
 
     def contains_points(self, points: np.ndarray, image_size: tuple[int, int]) -> np.ndarray:
         """(N,) bool: points ``(x, y)`` in pixels lie inside the corridor."""

@@ -17,9 +17,7 @@ All of it is computed in numpy and handed to clingo as facts, and only for pairs
 
 from __future__ import annotations
 
-import math
-from bisect import bisect_right
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
 
@@ -29,7 +27,7 @@ __all__ = [
     "IA_RELATIONS", "INVERSE", "MOTION_KINDS", "RelationConfig", "MotionThresholds", "MotionFeatures",
     "interval_relation_masks", "interval_relations", "rectangle_relations", "inverse_codes", "relation_name",
     "near_pairs", "pair_relations", "order_pairs", "motion_features", "classify_motion", "track_motion", "relation_facts",
-    "motion_facts", "near_pair_codes", "near_depth_order", "motion_row", "ProfileRowTest", "BOTTOM_LOWER", "INVERSE_CODES",
+    "motion_facts",
 ]
 
 #: the 13 Allen relations; the index is the relation's integer code
@@ -46,8 +44,6 @@ INVERSE: dict[str, str] = {
     "meets": "met_by", "met_by": "meets", "equal": "equal",
 }
 _INVERSE_CODE = np.array([_CODE[INVERSE[r]] for r in IA_RELATIONS], dtype=np.int8)
-#: by relation code: the code of the converse relation (a list, for plain-Python loops)
-INVERSE_CODES: list[int] = _INVERSE_CODE.tolist()
 
 #: qualitative motion kinds, the column order of :func:`classify_motion`
 MOTION_KINDS: tuple[str, ...] = (
@@ -128,8 +124,6 @@ def _code_table() -> np.ndarray:
 
 
 _WEIGHTS = np.array([27, 9, 3, 1], dtype=np.int64)
-#: :func:`_code_table` as a list (plain-Python lookups)
-_CODE_LIST: list[int] = _code_table().tolist()
 #: end points compared by :func:`_codes`, per axis: start-start, end-end, end of a - start of b,
 #: start of a - end of b (columns of an interval ``[lo, hi]``, and of a box on x then y)
 _IA_A, _IA_B = np.array([0, 1, 1, 0]), np.array([0, 1, 0, 1])
@@ -257,98 +251,6 @@ def pair_relations(xyxy: np.ndarray, config: RelationConfig | None = None,
     return pairs, rectangle_relations(a, b, tol)
 
 
-def near_pair_codes(boxes: list[list[float]], config: RelationConfig,
-                    wanted: list[bool] | None = None) -> list[tuple[int, int, int, int]]:
-    """:func:`pair_relations` of a few boxes given as lists, as ``(i, j, x code, y code)`` for the
-    near pairs ``i < j`` in the order of :func:`near_pairs`, only those with ``wanted[i] or
-    wanted[j]`` (default: all pairs). The per-frame monitor needs only the depth order
-    (:func:`near_depth_order`); the full relations are asked for rarely."""
-    pairs, codes = pair_relations(np.asarray(boxes, dtype=np.float64).reshape(-1, 4), config)
-    return [(i, j, cx, cy) for (i, j), (cx, cy) in zip(pairs.tolist(), codes.tolist())
-            if wanted is None or wanted[i] or wanted[j]]
-
-
-#: y relations that put A's bottom edge lower in the image than B's, i.e. A nearer the camera
-#: (``bottom_lower/1`` of relations.lp)
-BOTTOM_LOWER: frozenset[str] = frozenset({"after", "met_by", "overlapped_by", "contains", "started_by"})
-_BOTTOM_LOWER_CODES: list[bool] = [r in BOTTOM_LOWER for r in IA_RELATIONS]
-
-
-def near_depth_order(boxes: list[list[float]], config: RelationConfig) -> list[tuple[int, int]]:
-    """``(nearer, farther)`` index pairs of the near boxes whose y relation puts one bottom lower:
-    ``(i, j)`` where :func:`near_pair_codes` gives a y code in :data:`BOTTOM_LOWER`, ``(j, i)``
-    where its converse is, in the same order; the depth order of ``closer/3`` in relations.lp.
-
-    Where both heights are >= 0 and the bottoms lie apart by more than the tolerance, every such
-    relation is one of BOTTOM_LOWER or its converse (after, met_by, overlapped_by, contains,
-    started_by all end later), so the code is not needed; otherwise it is computed."""
-    n = len(boxes)
-    out: list[tuple[int, int]] = []
-    near, tol_px, tol_rel = config.near, config.tol_px, config.tol_rel
-    table, lower, inverse = _CODE_LIST, _BOTTOM_LOWER_CODES, INVERSE_CODES
-    for i in range(n - 1):
-        a0, a1, a2, a3 = boxes[i]
-        wa, ha = a2 - a0, a3 - a1
-        for j in range(i + 1, n):
-            b0, b1, b2, b3 = boxes[j]
-            wb, hb = b2 - b0, b3 - b1
-            # near_pairs' gap test in plain Python: this loop runs every frame (a test keeps the two equal)
-            g, h = b0 - a2, a0 - b2
-            if (g if g > h else h) > near * (wa if wa > wb else wb):
-                continue
-            g, h = b1 - a3, a1 - b3
-            if (g if g > h else h) > near * (ha if ha > hb else hb):
-                continue
-            t = tol_rel * (ha if ha < hb else hb)
-            t = tol_px if tol_px >= t else t
-            d1 = a3 - b3
-            if ha >= 0 and hb >= 0 and (d1 > t or d1 < -t):
-                out.append((i, j) if d1 > t else (j, i))
-                continue
-            d0, d2, d3 = a1 - b1, a3 - b1, a1 - b3
-            code = table[(2 if d0 > t else 0 if d0 < -t else 1) * 27 + (2 if d1 > t else 0 if d1 < -t else 1) * 9
-                         + (2 if d2 > t else 0 if d2 < -t else 1) * 3 + (2 if d3 > t else 0 if d3 < -t else 1)]
-            if lower[code]:
-                out.append((i, j))
-            elif lower[inverse[code]]:
-                out.append((j, i))
-    return out
-
-
-class ProfileRowTest:
-    """The test behind :meth:`~sensemaking.reasoning.context.Corridor.row_test`, called with boxes
-    ``[x1, y1, x2, y2]`` (Python floats): which have their bottom edge at least ``min_overlap``
-    (fraction) inside a region given by its horizontal extent ``[xl[k], xr[k]]`` at increasing
-    rows ``ys[k]`` (pixels, at least two rows), linear in between, as ``np.interp`` gives it (the
-    same arithmetic, in its order). Here, with the per-frame helpers that setup.py compiles."""
-
-    def __init__(self, ys: list[float], xl: list[float], xr: list[float], min_overlap: float) -> None:
-        self.ys, self.xl, self.xr, self.min_overlap = ys, xl, xr, min_overlap
-        # per segment between vertex rows: its first row, x extent there and slopes, so that
-        # left = slope * (y - row) + x is np.interp's arithmetic, in its order
-        self.segs = [(ys[j], xl[j], xr[j], (xl[j + 1] - xl[j]) / (ys[j + 1] - ys[j]),
-                      (xr[j + 1] - xr[j]) / (ys[j + 1] - ys[j])) for j in range(len(ys) - 1)]
-
-
-    def __call__(self, boxes: list[list[float]]) -> list[bool]:
-        ys, xl, xr, segs, m = self.ys, self.xl, self.xr, self.segs, self.min_overlap
-        lo, hi, last = ys[0], ys[-1], len(ys) - 1
-        out = []
-        for x1, _, x2, y in boxes:
-            if y < lo or y > hi or y != y:
-                out.append(False)
-                continue
-            j = (0 if y < hi else last) if last == 1 else bisect_right(ys, y) - 1
-            if j >= last or ys[j] == y:  # np.interp returns the vertex value there
-                left, right = xl[j], xr[j]
-            else:
-                y0, l0, r0, sl, sr = segs[j]
-                left, right = sl * (y - y0) + l0, sr * (y - y0) + r0
-            w = x2 - x1
-            out.append(((right if right < x2 else x2) - (left if left > x1 else x1)) / (1e-9 if 1e-9 > w else w) >= m)
-        return out
-
-
 # -- motion -------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class MotionThresholds:
@@ -427,8 +329,7 @@ def motion_features(prev: np.ndarray, cur: np.ndarray, dt: float | np.ndarray) -
     hc = np.maximum(c[:, 3] - c[:, 1], 1e-6)
     growth = (hc - hp) / (0.5 * (hp + hc)) / dt
     vx, vy = v[:, 0], v[:, 1]
-    # sqrt(vx² + vy²), not hypot: IEEE square roots are exact-rounded in numpy and math alike,
-    # so motion_row gets the same value (hypot's last bit differs between implementations)
+    # sqrt(vx² + vy²), not hypot: the value the thresholds were set on (hypot's last bit varies)
     return MotionFeatures(vx, vy, vbottom, growth, np.sqrt(vx * vx + vy * vy))
 
 
@@ -461,38 +362,6 @@ def classify_motion(now: MotionFeatures, speed_before: np.ndarray | None = None,
     out[:, 6] = approaching & (now.growth >= t.looming_s)
     out[:, 7] = np.abs(now.growth) < t.growth_s
     return out
-
-
-def motion_row(prev: list[float], cur: list[float], dt: float, speed_before: float,
-               thresholds: MotionThresholds) -> tuple[tuple[bool, ...], float, float, float]:
-    """Plain-Python :func:`motion_features` + :func:`classify_motion` for one box: for the
-    per-frame monitor, where numpy's per-call cost dominates. The same float operations (the
-    speed as ``sqrt(vx * vx + vy * vy)``), so the same values.
-
-    Args:
-        prev, cur: boxes ``[x1, y1, x2, y2]`` (Python floats). dt: seconds between them (> 0).
-        speed_before: centre speed before (px/s, NaN where unknown). thresholds: see its class.
-
-    Returns:
-        ``kinds`` (8 bools, columns :data:`MOTION_KINDS`), ``speed`` (px/s), ``vx`` (px/s) and
-        ``growth`` (1/s).
-    """
-    if not dt > 0:
-        raise ValueError("dt must be positive")
-    t = thresholds
-    g = t.growth_s
-    vx = ((cur[0] + cur[2]) - (prev[0] + prev[2])) / 2 / dt
-    vy = ((cur[1] + cur[3]) - (prev[1] + prev[3])) / 2 / dt
-    vb = (cur[3] - prev[3]) / dt
-    hp = max(prev[3] - prev[1], 1e-6)
-    hc = max(cur[3] - cur[1], 1e-6)
-    gr = (hc - hp) / (0.5 * (hp + hc)) / dt
-    sp = math.sqrt(vx * vx + vy * vy)
-    approaching = gr >= g and vb >= t.bottom_px_s
-    stopped = sp < t.stopped_px_s and abs(gr) < g
-    kinds = (approaching, gr <= -g and vb <= -t.bottom_px_s, vx <= -t.lateral_px_s, vx >= t.lateral_px_s, stopped,
-             stopped and speed_before >= t.moving_px_s, approaching and gr >= t.looming_s, abs(gr) < g)
-    return kinds, sp, vx, gr
 
 
 def track_motion(frames: np.ndarray, xyxy: np.ndarray, fps: float,
@@ -542,19 +411,20 @@ def order_pairs(ids: np.ndarray, pairs: np.ndarray, codes: np.ndarray) -> tuple[
     return np.where(swap, b, a), np.where(swap, a, b), codes
 
 
-def relation_facts(frame: int, ids: np.ndarray, pairs: np.ndarray, codes: np.ndarray) -> list[str]:
-    """``ra(A,B,F,Rx,Ry).`` facts, one per pair, written with ``A < B``.
-
-    The encoding ``relations.lp`` derives the converse ``ra(B,A,F,...)``; give each unordered
-    pair once.
+def relation_facts(frame: int, ids: np.ndarray, pairs: np.ndarray,
+                   codes: np.ndarray) -> list[tuple[Any, ...]]:
+    """``ra(A,B,F,Rx,Ry)`` facts (tuples, see :mod:`~sensemaking.reasoning.facts`), one per pair,
+    with ``A < B``. The encoding ``relations.lp`` derives the converse ``ra(B,A,F,...)``; give
+    each unordered pair once.
     """
     a, b, codes = order_pairs(ids, np.asarray(pairs, dtype=np.int64).reshape(-1, 2), codes)
-    return [f"ra({x},{y},{frame},{IA_RELATIONS[rx]},{IA_RELATIONS[ry]})."
+    return [("ra", x, y, int(frame), IA_RELATIONS[rx], IA_RELATIONS[ry])
             for x, y, (rx, ry) in zip(a.tolist(), b.tolist(), codes.tolist())]
 
 
-def motion_facts(frame: int, ids: np.ndarray, kinds: np.ndarray) -> list[str]:
-    """``motion(T,F,Kind).`` facts from (N, 8) bool :func:`classify_motion` output."""
+def motion_facts(frame: int, ids: np.ndarray, kinds: np.ndarray) -> list[tuple[Any, ...]]:
+    """``motion(T,F,Kind)`` facts (tuples) from (N, 8) bool :func:`classify_motion` output."""
     ids = np.asarray(ids, dtype=np.int64)
     rows, cols = np.nonzero(np.asarray(kinds, dtype=bool))
-    return [f"motion({ids[r]},{frame},{MOTION_KINDS[k]})." for r, k in zip(rows.tolist(), cols.tolist())]
+    return [("motion", int(ids[r]), int(frame), MOTION_KINDS[k])
+            for r, k in zip(rows.tolist(), cols.tolist())]
