@@ -44,16 +44,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--compare", type=Path, default=None)
     args = parser.parse_args(argv)
     from sensemaking.benchmark.datasets import iter_benchmarks
-    from sensemaking.benchmark.runner import ours_config
     from sensemaking.detections import Detections
-    from sensemaking.tracker import Tracker
+    from sensemaking.tracker import Tracker, TrackerConfig
 
     differ = 0
     for bench in iter_benchmarks(args.data, args.only):
         times: list[float] = []
         for seq in bench.sequences:
-            config = ours_config(bench.spec.family, fps=seq.info.fps,
-                                 image_size=(seq.info.width, seq.info.height))
+            config = TrackerConfig.for_dataset(bench.spec.family, fps=float(seq.info.fps),
+                                               image_size=(seq.info.width, seq.info.height))
             tracker = Tracker(config)
             frames = dict(seq.detections.frames())
             lines: list[str] = []
