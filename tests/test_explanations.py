@@ -496,8 +496,10 @@ def test_overtaking_needs_a_flip_of_the_3d_depth_order():
     labels = _kitti_labels(rows)
     gt = GroundTruth.from_kitti(labels, image_size=(1242, 375), fps=10.0, classes=("car",))
     tracks = labels.with_(tracker_id=labels.tracker_id + 10)
-    warn = [{"frame": 10, "situation": "OVERTAKING", "objects": [a, b], "details": d}
-            for a, b, d in ((11, 12, {"nearer_until": 2}), (13, 12, {}), (11, 11, {}))]
+    warn = [
+        {"frame": 10, "situation": "OVERTAKING", "objects": [a, b], "details": d}
+        for a, b, d in ((11, 12, {"nearer_until": 2}), (13, 12, {}), (11, 11, {}))
+    ]
     a, b, c = evaluate_explanations(gt, tracks, [], warn).warnings
     assert (a.verdict, a.reason, a.lateral_m) == ("plausible", "passed_in_depth", 3.0)
     assert (b.verdict, b.reason) == ("implausible", "no_depth_flip")

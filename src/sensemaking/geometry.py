@@ -4,8 +4,19 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["iou", "intersection", "coverage", "box_area", "safe_ratio", "iou_from_intersection", "xywh_to_xyxy",
-           "xyxy_to_xywh", "xyxy_to_cxcywh", "cxcywh_to_xyxy", "clip_to_image"]
+__all__ = [
+    "iou",
+    "intersection",
+    "coverage",
+    "box_area",
+    "safe_ratio",
+    "iou_from_intersection",
+    "xywh_to_xyxy",
+    "xyxy_to_xywh",
+    "xyxy_to_cxcywh",
+    "cxcywh_to_xyxy",
+    "clip_to_image",
+]
 
 
 def intersection(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -8,7 +8,13 @@ from typing import Union
 
 from sensemaking.detections import Detections
 from sensemaking.evaluation._prepare import PathLike, prepare
-from sensemaking.evaluation.metrics import IDSW_MODES, clear_metrics, count_metrics, hota_metrics, identity_metrics
+from sensemaking.evaluation.metrics import (
+    IDSW_MODES,
+    clear_metrics,
+    count_metrics,
+    hota_metrics,
+    identity_metrics,
+)
 from sensemaking.evaluation.report import COMBINED, Report, SequenceMetrics
 from sensemaking.evaluation.rules import DatasetRules, get_rules, rules_for_benchmark
 
@@ -27,7 +33,9 @@ class SequenceInput:
     tracks_path: PathLike = None
 
 
-SequenceArg = Union[SequenceInput, tuple[Detections, Detections], tuple[Detections, Detections, int]]
+SequenceArg = Union[
+    SequenceInput, tuple[Detections, Detections], tuple[Detections, Detections, int]
+]
 RulesArg = Union[DatasetRules, str, Sequence[Union[DatasetRules, str]]]
 
 
@@ -123,8 +131,16 @@ def evaluate(
     results: dict[str, dict[str, SequenceMetrics]] = {}
     for r in rules_list:
         per_seq = {
-            name: evaluate_sequence(s.gt, s.tracks, r, n_frames=s.n_frames, idsw_mode=idsw_mode, name=name,
-                                    gt_path=s.gt_path, tracks_path=s.tracks_path)
+            name: evaluate_sequence(
+                s.gt,
+                s.tracks,
+                r,
+                n_frames=s.n_frames,
+                idsw_mode=idsw_mode,
+                name=name,
+                gt_path=s.gt_path,
+                tracks_path=s.tracks_path,
+            )
             for name, s in inputs.items()
         }
         per_seq[COMBINED] = SequenceMetrics.combine(list(per_seq.values()))
@@ -133,6 +149,8 @@ def evaluate(
     benchmarks = {r.benchmark for r in rules_list}
     thresholds = {r.threshold for r in rules_list}
     return Report(
-        benchmark="+".join(sorted(benchmarks)), idsw_mode=idsw_mode, results=results,
+        benchmark="+".join(sorted(benchmarks)),
+        idsw_mode=idsw_mode,
+        results=results,
         threshold=thresholds.pop() if len(thresholds) == 1 else rules_list[0].threshold,
     )

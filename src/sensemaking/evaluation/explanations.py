@@ -962,8 +962,12 @@ def evaluate_explanations(
         elif w.get("situation") == "OVERTAKING":
             out.warnings.append(judge.overtaking(w))
     out.late_starts, out.starts_total = late_start_events(tracks, events)
-    log.debug("%s: %d events and %d warnings judged", name or "sequence", len(out.events),
-              len(out.warnings))
+    log.debug(
+        "%s: %d events and %d warnings judged",
+        name or "sequence",
+        len(out.events),
+        len(out.warnings),
+    )
     out.recall = judge.recall(events)
     return out
 
@@ -1033,15 +1037,26 @@ def explanation_table(
 
 
 def _row(bench: str, kind: str, row: dict[str, Any], recall: str, notes: str) -> str:
-    cells = [bench, kind, row["total"], row[PLAUSIBLE], row[IMPLAUSIBLE], row[UNDECIDABLE],
-             _pct(row["precision"]), _pct(row["plausible_of_all"]), recall, notes]
+    cells = [
+        bench,
+        kind,
+        row["total"],
+        row[PLAUSIBLE],
+        row[IMPLAUSIBLE],
+        row[UNDECIDABLE],
+        _pct(row["precision"]),
+        _pct(row["plausible_of_all"]),
+        recall,
+        notes,
+    ]
     return "| " + " | ".join(str(c) for c in cells) + " |"
 
 
 def _implausible_reasons(row: dict[str, Any]) -> list[str]:
     """``"reason count"`` of the implausible verdicts of a summary row, most frequent first."""
-    found = [(n, k.split(":", 1)[1]) for k, n in row["reasons"].items()
-             if k.startswith(IMPLAUSIBLE)]
+    found = [
+        (n, k.split(":", 1)[1]) for k, n in row["reasons"].items() if k.startswith(IMPLAUSIBLE)
+    ]
     return [f"{reason} {n}" for n, reason in sorted(found, key=lambda x: (-x[0], x[1]))]
 
 

@@ -82,7 +82,9 @@ class Run:
         """Track id -> its most frequent class id."""
         counts: dict[int, Counter] = defaultdict(Counter)
         for r in self.results:
-            for tid, cid in zip(r.tracks.tracker_id.tolist(), r.tracks.class_id.tolist(), strict=True):
+            for tid, cid in zip(
+                r.tracks.tracker_id.tolist(), r.tracks.class_id.tolist(), strict=True
+            ):
                 counts[tid][cid] += 1
         return {tid: c.most_common(1)[0][0] for tid, c in counts.items()}
 
@@ -105,7 +107,9 @@ class Run:
             t = r.tracks
             states = _column(t, "state", TrackState.VISIBLE)
             occl = _column(t, "occluder", -1)
-            for tid, st, oc in zip(t.tracker_id.tolist(), states.tolist(), occl.tolist(), strict=True):
+            for tid, st, oc in zip(
+                t.tracker_id.tolist(), states.tolist(), occl.tolist(), strict=True
+            ):
                 cur = open_.get(tid)
                 if cur is not None and cur[1] == f - 1 and cur[2] == st and cur[3] == oc:
                     cur[1] = f
@@ -164,8 +168,15 @@ def as_run(
         path_name = Path(source).stem
         source = _load_scene(Path(source))
     if isinstance(source, Run):
-        run = Run(list(source.results), list(source.warnings), source.width, source.height,
-                  source.fps, source.name, source.scene)
+        run = Run(
+            list(source.results),
+            list(source.warnings),
+            source.width,
+            source.height,
+            source.fps,
+            source.name,
+            source.scene,
+        )
         if warnings == "auto":
             warnings = run.warnings
     elif isinstance(source, Sequence) and all(isinstance(r, FrameResult) for r in source):

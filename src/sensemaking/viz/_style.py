@@ -123,7 +123,11 @@ def track_caption(track_id: int, class_id: int | None, state: int, occluder: int
     """The chip drawn on a box: ``#5 cyclist``, ``#5 cyclist hidden behind #2``, ``#5 car missing``."""
     label = track_label(track_id, class_id)
     if state == 1:  # TrackState.HIDDEN
-        return label + (f" hidden behind #{int(occluder)}" if occluder is not None and occluder >= 0 else " hidden")
+        return label + (
+            f" hidden behind #{int(occluder)}"
+            if occluder is not None and occluder >= 0
+            else " hidden"
+        )
     if state == 2:  # TrackState.MISSING
         return label + " missing"
     return label
@@ -141,12 +145,16 @@ _EVENT_PHRASES: dict[str, Callable[[list[str]], str]] = {
 }
 
 
-def event_sentence(name: str, args: tuple[int, ...] | list[int], classes: Mapping[int, int] | None = None) -> str:
+def event_sentence(
+    name: str, args: tuple[int, ...] | list[int], classes: Mapping[int, int] | None = None
+) -> str:
     """An event in words, e.g. ``#5 cyclist is hidden behind #2 car``; unknown names verbatim."""
     classes = classes or {}
     labels = [track_label(a, classes.get(int(a))) for a in args]
     phrase = _EVENT_PHRASES.get(name)
-    if phrase is None or len(labels) < (2 if name in ("hides_behind", "unhides_from_behind") else 1):
+    if phrase is None or len(labels) < (
+        2 if name in ("hides_behind", "unhides_from_behind") else 1
+    ):
         return f"{name}({', '.join(map(str, args))})"
     return phrase(labels)
 
