@@ -90,7 +90,7 @@ def test_hand_computed_clear_identity_hota(gap_case):
 
 
 def test_legacy_kitti_idsw_differs_across_a_gap(gap_case):
-    """The old KITTI devkit counts no switch when the object was not tracked in the previous frame."""
+    """The old KITTI devkit counts no switch when the object was untracked the frame before."""
     te = evaluate_sequence(*gap_case, "mot15", idsw_mode="trackeval")
     legacy = evaluate_sequence(*gap_case, "mot15", idsw_mode="kitti_legacy")
     assert te["IDSW"] == 1 and legacy["IDSW"] == 0
@@ -486,7 +486,7 @@ def test_load_kitti_benchmark(tmp_path):
 
 
 def _devkit_loop(trajectories):
-    """The old KITTI devkit's per-trajectory ID-switch / fragmentation loop, transcribed literally."""
+    """The old KITTI devkit's per-trajectory ID-switch / fragmentation loop, transcribed as is."""
     ids = frags = 0
     for g, ign_g in trajectories:
         if all(ign_g) or all(x == -1 for x in g):

@@ -1,4 +1,4 @@
-"""Parity of sensemaking.evaluation with TrackEval (the ``trackeval`` package) to 1e-6, every field.
+"""Parity of sensemaking.evaluation with TrackEval (the ``trackeval`` package): every field, 1e-6.
 
 Needs ``../shared/data`` (benchmark annotations, never committed) and the dev dependency
 ``trackeval``; skipped cleanly without them. TrackEval reads its own folder layout, which each
@@ -350,7 +350,7 @@ def _random_mot(rng, tmp: Path, benchmark: str, name: str) -> tuple[Path, Path, 
             if kind == "tr" and n >= 2 and rng.random() < 0.3:
                 boxes[1] = boxes[0]
             ids = rng.choice(np.arange(1, 16), n, replace=False)
-            for (x, y, w, h), i in zip(boxes.tolist(), ids.tolist()):
+            for (x, y, w, h), i in zip(boxes.tolist(), ids.tolist(), strict=True):
                 if kind == "tr":
                     lines.append(f"{f},{i},{x},{y},{w},{h},1,-1,-1,-1")
                 elif benchmark == "MOT17":
@@ -375,13 +375,14 @@ def _random_kitti(rng, tmp: Path, name: str) -> tuple[Path, Path, Path, int]:
     for f in range(n_frames):
         n = int(rng.integers(0, 12))
         ids = rng.choice(np.arange(0, 16), n, replace=False)
-        for (x, y, w, h), i in zip(_grid_boxes(rng, n, 3).tolist(), ids.tolist()):
+        for (x, y, w, h), i in zip(_grid_boxes(rng, n, 3).tolist(), ids.tolist(), strict=True):
             cls = int(
                 rng.choice([CAR, CAR, CAR, VAN, PED, PED, DONTCARE, CLASS_IDS["person_sitting"]])
             )
             i = -1 if cls == DONTCARE else i
             gt_lines.append(
-                f"{f} {i} {_KITTI_TYPES[cls]} {rng.choice([0, 0, 0, 1, 2])} {rng.integers(0, 4)} 0 "
+                f"{f} {i} {_KITTI_TYPES[cls]} "
+                f"{rng.choice([0, 0, 0, 1, 2])} {rng.integers(0, 4)} 0 "
                 f"{x} {y} {x + w} {y + h} 1 1 1 1 1 1 0"
             )
         n = int(rng.integers(0, 12))
@@ -389,10 +390,11 @@ def _random_kitti(rng, tmp: Path, name: str) -> tuple[Path, Path, Path, int]:
         if n >= 2 and rng.random() < 0.3:
             boxes[1] = boxes[0]
         ids = rng.choice(np.arange(0, 16), n, replace=False)
-        for (x, y, w, h), i in zip(boxes.tolist(), ids.tolist()):
+        for (x, y, w, h), i in zip(boxes.tolist(), ids.tolist(), strict=True):
             kind = _KITTI_TYPES[int(rng.choice([CAR, CAR, PED, VAN]))]
             tr_lines.append(
-                f"{f} {i} {kind} -1 -1 -10 {x} {y} {x + w} {y + h} -1 -1 -1 -1000 -1000 -1000 -10 0.5"
+                f"{f} {i} {kind} -1 -1 -10 {x} {y} {x + w} {y + h} "
+                "-1 -1 -1 -1000 -1000 -1000 -10 0.5"
             )
     te_gt = (
         tmp / "te_labels" / f"{name}.txt"

@@ -42,8 +42,12 @@ def _perfect_tracks(scene, gt: Detections | None = None) -> Detections:
     """A perfect tracker: the ground-truth box of every object on the frames it was detected,
     with the object id as track id."""
     gt = scene.ground_truth if gt is None else gt
-    seen = set(zip(scene.detections.data["gt_id"].tolist(), scene.detections.frame.tolist()))
-    keep = np.array([(t, f) in seen for t, f in zip(gt.tracker_id.tolist(), gt.frame.tolist())])
+    seen = set(
+        zip(scene.detections.data["gt_id"].tolist(), scene.detections.frame.tolist(), strict=True)
+    )
+    keep = np.array(
+        [(t, f) in seen for t, f in zip(gt.tracker_id.tolist(), gt.frame.tolist(), strict=True)]
+    )
     return Detections(xyxy=gt.xyxy[keep], tracker_id=gt.tracker_id[keep], frame=gt.frame[keep])
 
 
@@ -188,7 +192,7 @@ def _hidden_entity(frame: int, reappear: int, x: float, y: float) -> dict:
 
 
 def test_hidden_entity_reappearance_error(crossing):
-    """Object 1 is visible again (visibility >= 0.5) from frame 20, bottom centre (678.3, 295.5)."""
+    """Object 1 is seen again (visibility >= 0.5) from frame 20, bottom centre (678.3, 295.5)."""
     gt = crossing.ground_truth
     row = (gt.tracker_id == 1) & (gt.frame == 20)
     x1, _, x2, y2 = gt.xyxy[row][0]
@@ -364,7 +368,7 @@ def mot_run(tmp_path, crossing):
     gt = crossing.ground_truth
     with open(seq / "gt" / "gt.txt", "w") as fh:
         for f, i, (x1, y1, x2, y2), v in zip(
-            gt.frame, gt.tracker_id, gt.xyxy, gt.data["visibility"]
+            gt.frame, gt.tracker_id, gt.xyxy, gt.data["visibility"], strict=True
         ):
             fh.write(f"{f + 1},{i},{x1:.2f},{y1:.2f},{x2 - x1:.2f},{y2 - y1:.2f},1,1,{v:.3f}\n")
     (seq / "seqinfo.ini").write_text(
@@ -374,7 +378,7 @@ def mot_run(tmp_path, crossing):
     tr = _perfect_tracks(crossing)
     res = tmp_path / "CROSS.txt"
     with open(res, "w") as fh:
-        for f, i, (x1, y1, x2, y2) in zip(tr.frame, tr.tracker_id, tr.xyxy):
+        for f, i, (x1, y1, x2, y2) in zip(tr.frame, tr.tracker_id, tr.xyxy, strict=True):
             fh.write(f"{f + 1},{i},{x1:.2f},{y1:.2f},{x2 - x1:.2f},{y2 - y1:.2f},1,-1,-1,-1\n")
     events = tmp_path / "CROSS.events.jsonl"
     events.write_text(

@@ -23,10 +23,11 @@ from sensemaking.geometry import (
 coord = st.floats(-1000.0, 1000.0, allow_nan=False, allow_infinity=False)
 size = st.floats(0.0, 500.0, allow_nan=False, allow_infinity=False)
 positive = st.floats(0.5, 500.0, allow_nan=False, allow_infinity=False)
+box_count = st.integers(0, 6)
 
 
 @st.composite
-def boxes(draw, n=st.integers(0, 6), sizes=size) -> np.ndarray:
+def boxes(draw, n=box_count, sizes=size) -> np.ndarray:
     k = draw(n)
     out = np.empty((k, 4))
     for i in range(k):
@@ -260,7 +261,7 @@ def test_detections_trusted_equals_validated():
 
 
 def test_tracker_output_columns_are_valid():
-    """The tracker builds its output with Detections.trusted: validating it again changes nothing."""
+    """The tracker builds its output with Detections.trusted: validating it again is a no-op."""
     from sensemaking.tracker import Tracker
 
     t = Tracker(image_size=(100, 100))

@@ -250,7 +250,7 @@ class KalmanBank:
         self._clamp_size(self._x, self._v)
 
     def update(self, index: np.ndarray, xyxy: np.ndarray) -> None:
-        """Correct rows ``index`` (K,) with measured boxes ``xyxy`` (K, 4) pixels (rows must be distinct)."""
+        """Correct rows ``index`` (K,), distinct, with measured boxes ``xyxy`` (K, 4) pixels."""
         idx = self._rows(index)
         z = _to_cxcywh(xyxy)
         if z.shape[0] != idx.size:

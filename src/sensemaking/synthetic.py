@@ -160,7 +160,7 @@ def _render(
     rng: np.random.Generator,
     name: str,
 ) -> SyntheticScene:
-    """Render trajectories ``cxcywh`` (F, N, 4) pixels, alive where ``exists`` (F, N), into a scene."""
+    """A scene from trajectories ``cxcywh`` (F, N, 4) pixels, alive where ``exists`` (F, N)."""
     n_frames, n_obj = exists.shape
     c = cxcywh
     full = np.concatenate([c[..., :2] - c[..., 2:] / 2, c[..., :2] + c[..., 2:] / 2], axis=-1)

@@ -170,6 +170,11 @@ def offsets(frame_idx_sorted: np.ndarray, n_frames: int) -> np.ndarray:
 _CHUNK = 1 << 21
 
 
+def _concat(parts: list[np.ndarray], dtype: type[np.generic]) -> np.ndarray:
+    """Concatenate 1-D ``parts`` as ``dtype`` (an empty array of that dtype when there is none)."""
+    return np.concatenate(parts).astype(dtype) if parts else np.zeros(0, dtype=dtype)
+
+
 def overlap_pairs(
     a: np.ndarray, a_off: np.ndarray, b: np.ndarray, b_off: np.ndarray, kind: str = "iou"
 ) -> tuple[PairSet, np.ndarray]:
@@ -216,17 +221,16 @@ def overlap_pairs(
             pas.append(ga[ok])
             pbs.append(gb[ok])
             vals.append(iw[flat[ok]] * ih[ok])
-    cat = lambda xs, dt: np.concatenate(xs).astype(dt) if xs else np.zeros(0, dtype=dt)
-    pf = cat(pfs, np.int64)
+    pf = _concat(pfs, np.int64)
     ps = PairSet(
         a_off=a_off,
         b_off=b_off,
         pair_off=offsets(pf, T),
         pf=pf,
-        pa=cat(pas, np.int64),
-        pb=cat(pbs, np.int64),
+        pa=_concat(pas, np.int64),
+        pb=_concat(pbs, np.int64),
     )
-    inter = cat(vals, np.float64)
+    inter = _concat(vals, np.float64)
     area_a = (a[:, 2] - a[:, 0]) * (a[:, 3] - a[:, 1])
     aa = area_a[ps.pa]
     if kind == "ioa":
@@ -254,7 +258,8 @@ def overlap_pairs(
 
 
 def conflict_frames(ps: PairSet, positive: np.ndarray) -> np.ndarray:
-    """(T,) bool: frames where some box has more than one positive pair (a real assignment problem).
+    """(T,) bool: frames where some box has more than one positive pair (a real assignment
+    problem).
 
     Elsewhere the positive pairs already are the unique optimal assignment.
     """
@@ -353,7 +358,8 @@ def _check_unique(
     if dup.size:
         k = int(rows[order[dup[0] + 1]])
         raise _fail(
-            f"id {int(ids[order[dup[0]]])} occurs more than once in frame {int(f[dup[0]]) + first}",
+            f"id {int(ids[order[dup[0]]])} occurs more than once "
+            f"in frame {int(f[dup[0]]) + first}",
             det,
             k,
             path,
@@ -449,8 +455,9 @@ def prepare(
         bad = np.flatnonzero(~np.isin(g_cls, rules.valid_gt_classes))
         if bad.size:
             raise _fail(
-                f"ground-truth class {int(g_cls[bad[0]])} is not a {rules.benchmark.upper()} class "
-                f"(1..13); is this {rules.benchmark.upper()} ground truth? (MOT15 has no class column)",
+                f"ground-truth class {int(g_cls[bad[0]])} "
+                f"is not a {rules.benchmark.upper()} class (1..13); "
+                f"is this {rules.benchmark.upper()} ground truth? (MOT15 has no class column)",
                 gt,
                 int(bad[0]),
                 gt_path,
@@ -467,7 +474,8 @@ def prepare(
         neg = np.flatnonzero(tracks.tracker_id < 0)
         if neg.size:
             raise _fail(
-                f"negative track id {int(tracks.tracker_id[neg[0]])} (every tracker box needs an id >= 0)",
+                f"negative track id {int(tracks.tracker_id[neg[0]])} "
+                "(every tracker box needs an id >= 0)",
                 tracks,
                 int(neg[0]),
                 tracks_path,

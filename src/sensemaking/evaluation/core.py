@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Union
 
 from sensemaking.detections import Detections
 from sensemaking.evaluation._prepare import PathLike, prepare
@@ -33,10 +32,8 @@ class SequenceInput:
     tracks_path: PathLike = None
 
 
-SequenceArg = Union[
-    SequenceInput, tuple[Detections, Detections], tuple[Detections, Detections, int]
-]
-RulesArg = Union[DatasetRules, str, Sequence[Union[DatasetRules, str]]]
+SequenceArg = SequenceInput | tuple[Detections, Detections] | tuple[Detections, Detections, int]
+RulesArg = DatasetRules | str | Sequence[DatasetRules | str]
 
 
 def _check_mode(idsw_mode: str) -> None:
@@ -66,7 +63,8 @@ def evaluate_sequence(
             ``kitti-car``, ``kitti-pedestrian``.
         n_frames: sequence length; frames outside ``first .. first + n_frames - 1`` raise
             :class:`~sensemaking.errors.InputError` (None: inferred from the boxes).
-        idsw_mode: ``"trackeval"`` or ``"kitti_legacy"`` (see :mod:`~sensemaking.evaluation.metrics`).
+        idsw_mode: ``"trackeval"`` or ``"kitti_legacy"``
+            (see :mod:`~sensemaking.evaluation.metrics`).
         name: sequence name for the result.
         gt_path, tracks_path: source files, only to name them in errors.
 
@@ -115,7 +113,7 @@ def evaluate(
     """Score several sequences and combine them (per class: each sequence plus ``"COMBINED"``).
 
     Args:
-        sequences: name -> :class:`SequenceInput` or ``(gt, tracks)`` or ``(gt, tracks, n_frames)``.
+        sequences: name -> :class:`SequenceInput`, ``(gt, tracks)`` or ``(gt, tracks, n_frames)``.
         rules: rules, a rules name, a benchmark name (``"kitti"`` scores car and pedestrian) or a
             list of rules (one report block each).
         idsw_mode: ``"trackeval"`` or ``"kitti_legacy"``; the report records it.

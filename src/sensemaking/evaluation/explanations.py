@@ -87,8 +87,8 @@ class ExplanationConfig:
             (0 fully visible, 1 partly, 2 largely occluded, 3 unknown).
         kitti_visible_max: KITTI level up to which an object counts as visible again (HIDDEN_ENTITY
             reappearance: a partly occluded object is what a detector sees).
-        visibility_max: MOT17 visibility ratio below which a pedestrian counts as occluded (and from
-            which on it counts as visible again).
+        visibility_max: MOT17 visibility ratio below which a pedestrian counts as occluded
+            (and from which on it counts as visible again).
         min_cover: fraction of the hidden object's ground-truth box the occluder's box must cover.
         window_s: tolerance (seconds) between an enter/leave/start/end event and the ground-truth
             track's first/last frame at the border.
@@ -255,7 +255,7 @@ class _Truth:
         b = gt.boxes
         self.row: dict[tuple[int, int], int] = {}
         frames: dict[int, list[int]] = defaultdict(list)
-        for i, (g, f) in enumerate(zip(b.tracker_id.tolist(), b.frame.tolist())):
+        for i, (g, f) in enumerate(zip(b.tracker_id.tolist(), b.frame.tolist(), strict=True)):
             self.row[(g, f)] = i
             frames[g].append(f)
         self.frames = {g: sorted(fs) for g, fs in frames.items()}
@@ -327,7 +327,7 @@ def match_tracks(
     frames = tracks.frame[to][ps.pb[chosen]]
     return {
         (int(t), int(f)): int(g)
-        for t, f, g in zip(t_ids.tolist(), frames.tolist(), g_ids.tolist())
+        for t, f, g in zip(t_ids.tolist(), frames.tolist(), g_ids.tolist(), strict=True)
     }
 
 
@@ -520,7 +520,9 @@ class _Judge:
         self.match = match_tracks(sel, tracks, config.iou_threshold)
         self.visible: dict[int, list[int]] = defaultdict(list)
         self.box: dict[tuple[int, int], np.ndarray] = {}
-        for i, (tid, f) in enumerate(zip(tracks.tracker_id.tolist(), tracks.frame.tolist())):
+        for i, (tid, f) in enumerate(
+            zip(tracks.tracker_id.tolist(), tracks.frame.tolist(), strict=True)
+        ):
             self.visible[tid].append(f)
             self.box[(tid, f)] = tracks.xyxy[i]
         for fs in self.visible.values():
@@ -831,7 +833,7 @@ class _Judge:
         tr = self.t
         hide_hit = hide_all = 0
         for t, fs in self.visible.items():
-            for a, b in zip(fs, fs[1:] + [None]):
+            for a, b in zip(fs, fs[1:] + [None], strict=True):
                 f = a + 1
                 if b == f or f >= self.gt.first_frame + self.gt.n_frames:
                     continue
@@ -871,7 +873,7 @@ def late_start_events(tracks: Detections, events: Iterable[Event]) -> tuple[int,
     """``(late, total)``: ``starts`` and ``enters_fov`` events dated before the first frame their
     track is output (tentative tracks: the event log and the tracks disagree), and all of them."""
     first: dict[int, int] = {}
-    for t, f in zip(tracks.tracker_id.tolist(), tracks.frame.tolist()):
+    for t, f in zip(tracks.tracker_id.tolist(), tracks.frame.tolist(), strict=True):
         if t not in first or f < first[t]:
             first[t] = f
     late = total = 0

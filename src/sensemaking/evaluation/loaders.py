@@ -1,6 +1,7 @@
 """Load whole benchmarks (ground truth + one tracker's results) from the usual folder layouts.
 
-- MOTChallenge: ``<gt>/<seq>/gt/gt.txt`` and ``<gt>/<seq>/seqinfo.ini``; results ``<results>/<seq>.txt``.
+- MOTChallenge: ``<gt>/<seq>/gt/gt.txt`` and ``<gt>/<seq>/seqinfo.ini``;
+  results ``<results>/<seq>.txt``.
 - KITTI: ``<gt>/label_02/<seq>.txt`` and ``<gt>/seqinfo.csv``; results ``<results>/<seq>.txt``.
 
 Either side may also be a single file (one sequence). Which sequences: the seqmap when given

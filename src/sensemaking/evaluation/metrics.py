@@ -281,7 +281,7 @@ def _identity_final(res: Result) -> Result:
 
 
 def identity_metrics(d: Prepared, threshold: float = 0.5) -> Result:
-    """Identity fields of one sequence (IDF1, IDR, IDP, IDTP, IDFN, IDFP): one global id matching."""
+    """Identity fields of one sequence (IDF1, IDR, IDP, IDTP, IDFN, IDFP): one global matching."""
     res: Result = {"IDF1": 0.0, "IDR": 0.0, "IDP": 0.0, "IDTP": 0, "IDFN": 0, "IDFP": 0}
     if d.num_tracker_dets == 0:
         res["IDFN"] = d.num_gt_dets

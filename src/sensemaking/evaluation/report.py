@@ -1,4 +1,4 @@
-"""Results: :class:`SequenceMetrics` (one sequence, or COMBINED) and :class:`Report` (a benchmark)."""
+"""Results: :class:`SequenceMetrics` (one sequence, or COMBINED), :class:`Report` (a benchmark)."""
 
 from __future__ import annotations
 
@@ -103,7 +103,8 @@ class SequenceMetrics(Mapping[str, float]):
         name: sequence name, or ``"COMBINED"``.
         class_name: the scored class (``"pedestrian"``, ``"car"``).
         idsw_mode: ``"trackeval"`` or ``"kitti_legacy"``.
-        parts: raw per-family results (``clear``, ``identity``, ``hota``, ``count``), used to combine.
+        parts: raw per-family results (``clear``, ``identity``, ``hota``, ``count``), used to
+            combine.
     """
 
     name: str
@@ -259,7 +260,10 @@ class Report:
                 f"percentages except counts; IoU threshold {self.threshold:g})"
             )
             lines.append(
-                "  ".join(["sequence".ljust(w0)] + [f.rjust(w) for f, w in zip(fields, widths)])
+                "  ".join(
+                    ["sequence".ljust(w0)]
+                    + [f.rjust(w) for f, w in zip(fields, widths, strict=True)]
+                )
             )
             ordered = [n for n in names if n != COMBINED] + [COMBINED]
             for n in ordered:
@@ -268,7 +272,8 @@ class Report:
                 m = res[n]
                 lines.append(
                     "  ".join(
-                        [n.ljust(w0)] + [_fmt(f, m[f]).rjust(w) for f, w in zip(fields, widths)]
+                        [n.ljust(w0)]
+                        + [_fmt(f, m[f]).rjust(w) for f, w in zip(fields, widths, strict=True)]
                     )
                 )
         return "\n".join(lines) + "\n"

@@ -145,7 +145,8 @@ def _norm(name: str) -> str:
 
 
 def get_rules(name: str | DatasetRules) -> DatasetRules:
-    """Rules by name: ``mot17``, ``mot16``, ``mot20``, ``mot15``, ``kitti-car``, ``kitti-pedestrian``.
+    """Rules by name: ``mot17``, ``mot16``, ``mot20``, ``mot15``, ``kitti-car``,
+    ``kitti-pedestrian``.
 
     Raises ValueError for an unknown name (or bare ``kitti``, which has two classes).
     """

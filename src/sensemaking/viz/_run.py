@@ -253,7 +253,8 @@ def _from_scene(scene: Any) -> Run:
     results = getattr(scene, "frame_results", None)
     if results is None:
         raise TypeError(
-            f"cannot draw a {type(scene).__name__}: give a Scene, a scene JSON path or a list of FrameResult"
+            f"cannot draw a {type(scene).__name__}: "
+            "give a Scene, a scene JSON path or a list of FrameResult"
         )
     size = getattr(scene, "image_size", None)
     fps = getattr(scene, "fps", None)

@@ -120,7 +120,7 @@ def track_label(track_id: int, class_id: int | None) -> str:
 
 
 def track_caption(track_id: int, class_id: int | None, state: int, occluder: int = -1) -> str:
-    """The chip drawn on a box: ``#5 cyclist``, ``#5 cyclist hidden behind #2``, ``#5 car missing``."""
+    """The chip on a box: ``#5 cyclist``, ``#5 cyclist hidden behind #2``, ``#5 car missing``."""
     label = track_label(track_id, class_id)
     if state == 1:  # TrackState.HIDDEN
         return label + (
@@ -170,7 +170,8 @@ def warning_sentence(warning: Any) -> str:
 
 
 def is_note(warning: Any) -> bool:
-    """True for a note that a situation could not be checked (``details["skipped"]``), not a warning."""
+    """True for a note that a situation could not be checked (``details["skipped"]``), not a
+    warning."""
     details = _get(warning, "details", None) or {}
     return bool(isinstance(details, Mapping) and details.get("skipped"))
 

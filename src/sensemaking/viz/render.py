@@ -60,7 +60,7 @@ class RenderOptions:
 
 
 def default_scale(width: int, with_images: bool) -> float:
-    """Output / source size: at most 640 px wide on a plain canvas, 1280 px over images, never > 1."""
+    """Output / source size: at most 640 px wide on a plain canvas, 1280 px over images, <= 1."""
     return min(1.0, (1280.0 if with_images else 640.0) / max(int(width), 1))
 
 
@@ -217,12 +217,12 @@ class FrameDrawer:
                 self._expected.extend(_anticipation(w))
         self._classes = run.classes
 
-    # colours --------------------------------------------------------------------------------------
+    # colours -------------------------------------------------------------------------------------
     def ink(self, slot: int) -> Any:
         """A palette slot as this canvas' ink (the slot itself in palette mode, RGB otherwise)."""
         return slot if self.mode == "P" else self._pal[slot]
 
-    # canvas ---------------------------------------------------------------------------------------
+    # canvas --------------------------------------------------------------------------------------
     def blank(self) -> Any:
         """A fresh canvas: plain background (with guide lines) above an empty caption strip."""
         if self._blank is None:
@@ -256,7 +256,7 @@ class FrameDrawer:
         im.paste(picture.convert("RGB"), (0, 0))
         return im
 
-    # data -----------------------------------------------------------------------------------------
+    # data ----------------------------------------------------------------------------------------
     def _centres_at(self, frame: int) -> dict[int, tuple[float, float]]:
         c = self._centres.get(frame)
         if c is None:
@@ -277,7 +277,7 @@ class FrameDrawer:
             self._centres[frame] = c
         return c
 
-    # drawing --------------------------------------------------------------------------------------
+    # drawing -------------------------------------------------------------------------------------
     def draw(self, frame: int, picture: Any = None) -> Any:
         """The drawn frame as a Pillow image (``size`` px; mode "P" or "RGB")."""
         _, draw = _pil()
@@ -359,7 +359,7 @@ class FrameDrawer:
                 self._chip(im, d, label, x1, y1, y2, slot, solid=False)
 
     def _draw_expected(self, im: Any, d: Any, frame: int, r: Any) -> None:
-        """Where a hidden object is anticipated to reappear (HIDDEN_ENTITY warnings), while hidden."""
+        """Where a hidden object is expected to reappear (HIDDEN_ENTITY warning), while hidden."""
         if not self._expected:
             return
         states = r.tracks.data.get("state")
@@ -402,7 +402,7 @@ class FrameDrawer:
         solid: bool,
         above: bool | None = None,
     ) -> None:
-        """A label above the box, filled in the track colour (visible), or below it and outlined."""
+        """A label above the box, filled in the track colour (visible), or below it, outlined."""
         tw, th = self.text.width(text), self.text.height
         w, h = self.image_size
         cx = int(min(max(x, 0), max(w - tw - 4, 0)))

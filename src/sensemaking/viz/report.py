@@ -327,9 +327,12 @@ h3{font-size:14px;margin:0 0 4px}
 .summary{color:var(--dim);margin:0 0 8px}
 nav a{margin-right:14px;color:#2457c5;text-decoration:none}
 .legend{display:flex;flex-wrap:wrap;gap:14px;color:var(--dim);font-size:12px;margin:4px 0 8px}
-.legend i{display:inline-block;width:18px;height:9px;border-radius:2px;margin-right:5px;vertical-align:middle}
-.legend b{display:inline-block;width:9px;height:9px;border-radius:50%;margin-right:4px;vertical-align:middle}
-svg.timeline{width:100%;height:auto;background:var(--card);border:1px solid var(--line);border-radius:6px}
+.legend i{display:inline-block;width:18px;height:9px;border-radius:2px;margin-right:5px;
+  vertical-align:middle}
+.legend b{display:inline-block;width:9px;height:9px;border-radius:50%;margin-right:4px;
+  vertical-align:middle}
+svg.timeline{width:100%;height:auto;background:var(--card);border:1px solid var(--line);
+  border-radius:6px}
 svg.timeline text{font:11px system-ui,sans-serif;fill:var(--fg)}
 svg.timeline .tick{fill:var(--dim)}
 svg.timeline .row-bg:nth-of-type(odd){fill:#f4f6f9}
@@ -339,7 +342,8 @@ li.warning{margin:3px 0}
 li.warning .situation{color:var(--warn);font-weight:600;margin-right:6px}
 li.warning .frame{color:var(--dim);margin-right:6px}
 .stories{display:grid;grid-template-columns:repeat(auto-fill,minmax(330px,1fr));gap:10px}
-article.story{background:var(--card);border:1px solid var(--line);border-radius:6px;padding:8px 12px}
+article.story{background:var(--card);border:1px solid var(--line);border-radius:6px;
+  padding:8px 12px}
 article.story:target{outline:3px solid #2457c5}
 article.story ol{margin:4px 0 0;padding-left:18px}
 article.story .source{color:var(--dim);font-size:11px}
@@ -349,7 +353,8 @@ table.metrics th,table.metrics td{border:1px solid var(--line);padding:4px 8px;t
 table.metrics th:first-child,table.metrics td:first-child{text-align:left}
 .note{color:var(--dim);font-size:12px}
 .frames{display:grid;grid-template-columns:repeat(auto-fill,minmax(360px,1fr));gap:12px}
-figure.thumb{margin:0;background:var(--card);border:1px solid var(--line);border-radius:6px;padding:6px}
+figure.thumb{margin:0;background:var(--card);border:1px solid var(--line);border-radius:6px;
+  padding:6px}
 figure.thumb:target{outline:3px solid #2457c5}
 figure.thumb img{width:100%;height:auto;display:block;border-radius:3px}
 figure.thumb figcaption{font-size:12px;color:var(--dim);margin-top:4px}
@@ -363,7 +368,8 @@ _JS = """
     var ok=imgs.filter(function(i){return i.complete&&i.naturalWidth>0;}).length;
     document.body.setAttribute('data-images-decoded',ok+'/'+imgs.length);
     var s=document.getElementById('image-status');
-    if(s){s.textContent=ok===imgs.length?'':(imgs.length-ok)+' of '+imgs.length+' pictures could not be shown.';}
+    if(s){s.textContent=ok===imgs.length?'':
+      (imgs.length-ok)+' of '+imgs.length+' pictures could not be shown.';}
   }
   if(document.readyState==='complete'){check();}else{window.addEventListener('load',check);}
 })();
@@ -450,9 +456,11 @@ def _timeline_svg(run: Run) -> str:
             fill = _EVENT_STYLE.get(e.name, ("#111827", 1))[0]
             cx = g.x(e.frame) + g.unit / 2
             out.append(
-                f'<circle class="event" data-event="{_e(e.name)}" cx="{cx:.1f}" cy="{y + g.row_h / 2:.1f}" '
+                f'<circle class="event" data-event="{_e(e.name)}" '
+                f'cx="{cx:.1f}" cy="{y + g.row_h / 2:.1f}" '
                 f'r="3.6" fill="{fill}" stroke="#fff" stroke-width="0.8">'
-                f"<title>frame {e.frame}: {_e(st.event_sentence(e.name, e.args, classes))}</title></circle>"
+                f"<title>frame {e.frame}: {_e(st.event_sentence(e.name, e.args, classes))}</title>"
+                "</circle>"
             )
         out.append("</g>")
     y = g.top + len(ids) * g.row_h
@@ -466,7 +474,8 @@ def _timeline_svg(run: Run) -> str:
         cx, cy = g.x(f) + g.unit / 2, y + g.row_h / 2
         out.append(
             f'<a href="#warning-{i}"><path class="warning-mark" '
-            f'd="M{cx:.1f} {cy - 5:.1f} L{cx + 5:.1f} {cy:.1f} L{cx:.1f} {cy + 5:.1f} L{cx - 5:.1f} {cy:.1f}Z" '
+            f'd="M{cx:.1f} {cy - 5:.1f} L{cx + 5:.1f} {cy:.1f} '
+            f'L{cx:.1f} {cy + 5:.1f} L{cx - 5:.1f} {cy:.1f}Z" '
             f'fill="#d92d2d">'
             f"<title>frame {f}: {_e(st.warning_sentence(w))}</title></path></a>"
         )
@@ -511,7 +520,8 @@ def _warnings_html(run: Run, thumbs: set[int]) -> str:
             '<p class="note">Not checked: '
             + "; ".join(
                 _e(
-                    f"{str(_get(n, 'situation', '')).upper()} ({_get(n, 'details', {}).get('skipped')})"
+                    f"{str(_get(n, 'situation', '')).upper()} "
+                    f"({_get(n, 'details', {}).get('skipped')})"
                 )
                 for n in notes
             )
@@ -530,8 +540,10 @@ def _warnings_html(run: Run, thumbs: set[int]) -> str:
         objs = ", ".join(f"#{o}" if isinstance(o, (int, np.integer)) else str(o) for o in objects)
         frame = f'<a href="#frame-{f}">frame {f}</a>' if f in thumbs else f"frame {f}"
         items.append(
-            f'<li class="warning" id="warning-{i}" data-frame="{f}"><span class="frame">{frame}</span>'
-            f'<span class="situation">{_e(situation)}</span><span class="message">{_e(message)}</span>'
+            f'<li class="warning" id="warning-{i}" data-frame="{f}">'
+            f'<span class="frame">{frame}</span>'
+            f'<span class="situation">{_e(situation)}</span>'
+            f'<span class="message">{_e(message)}</span>'
             + (f' <span class="note">({_e(objs)})</span>' if objs else "")
             + "</li>"
         )
@@ -572,8 +584,9 @@ def _metrics_html(metrics: Sequence[tuple[str, Any]]) -> str:
         rows.append(f"<tr><td>{_e(label)}</td>{''.join(cells)}</tr>")
         mode = getattr(m, "idsw_mode", mode)
     return (
-        f'<table class="metrics"><thead><tr><th>class</th>{head}</tr></thead><tbody>{"".join(rows)}'
-        f'</tbody></table><p class="note">Visible boxes scored with TrackEval rules; percentages except '
+        f'<table class="metrics"><thead><tr><th>class</th>{head}</tr></thead>'
+        f"<tbody>{''.join(rows)}</tbody></table>"
+        '<p class="note">Visible boxes scored with TrackEval rules; percentages except '
         f"counts; ID switches counted the {_e(mode)} way.</p>"
     )
 
@@ -671,7 +684,8 @@ def build_report(
         f"{len(run.frames)} frames ({run.first_frame}–{run.last_frame}"
         + (f", {run.fps:g} fps" if run.fps else "")
         + f", {w}×{h} px) · {_count(len(run.track_ids), 'track')} · "
-        f"{_count(len(run.events), 'event')} ({_count(n_hidden, 'occlusion')}) · {_count(n_warn, 'warning')}"
+        f"{_count(len(run.events), 'event')} ({_count(n_hidden, 'occlusion')}) · "
+        f"{_count(n_warn, 'warning')}"
     )
     nav = [
         '<a href="#timeline">Timeline</a>',
@@ -683,9 +697,11 @@ def build_report(
     if thumbs:
         nav.append('<a href="#frames">Key frames</a>')
     body = [
-        f'<header><h1>{_e(title)}</h1><p class="summary">{_e(summary)}</p><nav>{"".join(nav)}</nav></header>',
+        f'<header><h1>{_e(title)}</h1><p class="summary">{_e(summary)}</p>'
+        f"<nav>{''.join(nav)}</nav></header>",
         f'<section id="timeline"><h2>Timeline</h2>{_legend()}{_timeline_svg(run)}</section>',
-        f'<section id="warnings"><h2>Warnings ({n_warn})</h2>{_warnings_html(run, set(frames))}</section>',
+        f'<section id="warnings"><h2>Warnings ({n_warn})</h2>'
+        f"{_warnings_html(run, set(frames))}</section>",
         f'<section id="stories"><h2>Stories</h2>{_stories_html(run)}</section>',
     ]
     if metrics is not None:
