@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
+from typing import TypedDict, Unpack
 
 import numpy as np
 
@@ -92,14 +93,17 @@ class SyntheticScene:
     def frames(self) -> Iterator[tuple[int, Detections]]:
         """Yield ``(frame, detections)`` for every frame 0..n_frames-1 in order; frames
         without detections give an empty Detections (same ``data`` keys)."""
-        det = self.detections
-        if np.any(np.diff(det.frame) < 0):
-            det = det[np.argsort(det.frame, kind="stable")]
-        cuts = np.searchsorted(det.frame, np.arange(self.n_frames + 1), side="left")
+        det, frame = self.detections, self.detections.frame
+        assert frame is not None  # Detections fills every column
+        if np.any(np.diff(frame) < 0):
+            order = np.argsort(frame, kind="stable")
+            det, frame = det[order], frame[order]
+        cuts = np.searchsorted(frame, np.arange(self.n_frames + 1), side="left")
         for f in range(self.n_frames):
             yield f, det[cuts[f] : cuts[f + 1]]
 
     def __repr__(self) -> str:
+        assert self.ground_truth.tracker_id is not None
         return (
             f"SyntheticScene({self.name!r}, n_frames={self.n_frames}, "
             f"objects={np.unique(self.ground_truth.tracker_id).size}, "
@@ -190,8 +194,10 @@ def _render(
         b_hides_a = meet & (y2[:, second] > y2[:, first])  # (F, P)
         a_hides_b = meet & (y2[:, first] > y2[:, second])
         for hidden, hides in ((first, b_hides_a), (second, a_hides_b)):
-            np.add.at(covered, (slice(None), hidden), np.where(hides, inter, 0.0))
-            np.add.at(n_occluders, (slice(None), hidden), hides.astype(np.int64))
+            cols = (slice(None), hidden)
+            # numpy's stubs omit the tuple-with-slices index that ufunc.at documents and accepts
+            np.add.at(covered, cols, np.where(hides, inter, 0.0))  # type: ignore[arg-type]
+            np.add.at(n_occluders, cols, hides.astype(np.int64))  # type: ignore[arg-type]
         for f, i in zip(*np.nonzero(n_occluders > 1), strict=True):  # overlapping occluders
             others = np.concatenate(
                 [second[(first == i) & b_hides_a[f]], first[(second == i) & a_hides_b[f]]]
@@ -242,6 +248,7 @@ def _render(
         f_d = np.concatenate([f_d, f_fp])
         boxes = np.concatenate([boxes, fp_boxes])
         conf = np.concatenate([conf, rng.uniform(0.05, 0.5, total)])
+        assert ground_truth.class_id is not None
         det_class = np.concatenate([det_class, ground_truth.class_id[template]])
         det_gt = np.concatenate([det_gt, np.full(total, -1, dtype=np.int64)])
 
@@ -428,18 +435,30 @@ def _keyframed(n_frames: int, keys: Sequence[Sequence[float]]) -> tuple[np.ndarr
     return np.stack([cx, bottom - h / 2, w, h], axis=1), (t >= k[0, 0]) & (t <= k[-1, 0])
 
 
+class _RenderOptions(TypedDict):
+    """The keyword arguments of :func:`_render` that a hand-made scene passes through."""
+
+    width: int
+    height: int
+    fps: float
+    occlusion_threshold: float
+    miss_rate: float
+    false_positive_rate: float
+    noise_px: float
+
+
 def _scene_from_keys(
     objects: Sequence[tuple[int, Sequence[Sequence[float]]]],
     n_frames: int,
     name: str,
     rng: np.random.Generator,
-    **render: float,
+    **render: Unpack[_RenderOptions],
 ) -> SyntheticScene:
     parts = [_keyframed(n_frames, keys) for _, keys in objects]
     cxcywh = np.stack([p[0] for p in parts], axis=1)
     exists = np.stack([p[1] for p in parts], axis=1)
     class_id = np.array([cls for cls, _ in objects], dtype=np.int64)
-    return _render(cxcywh, exists, class_id, rng=rng, name=name, **render)  # type: ignore[arg-type]
+    return _render(cxcywh, exists, class_id, rng=rng, name=name, **render)
 
 
 def crossing_scene(
@@ -599,7 +618,7 @@ def _leave_and_enter(rng: np.random.Generator) -> SyntheticScene:
     )
 
 
-_SUITE_RENDER: dict[str, float] = {
+_SUITE_RENDER: _RenderOptions = {
     "width": 1242,
     "height": 375,
     "fps": 10.0,
@@ -610,13 +629,23 @@ _SUITE_RENDER: dict[str, float] = {
 }
 
 
+class _CrossingOptions(TypedDict, total=False):
+    """Keyword arguments of :func:`crossing_scene` that the suite varies."""
+
+    gap: int
+    far_speed: float
+    direction: int
+    near_class: int
+    far_class: int
+
+
 def occlusion_suite(seed: int = 0) -> list[SyntheticScene]:
     """Varied small occlusion scenes (speeds, gaps of 3-15 frames, directions, turning
     vehicles, leaving/entering at the border), each with a descriptive ``name``."""
     car, ped, truck, cyc = (CLASS_IDS[k] for k in ("car", "pedestrian", "truck", "cyclist"))
     rng = np.random.default_rng(seed)
     seeds = rng.integers(0, 2**31 - 1, 9)
-    specs = [
+    specs: list[tuple[str, _CrossingOptions]] = [
         ("pedestrian_overtakes_behind", dict(gap=8, far_speed=8.0, direction=1)),
         ("pedestrians_cross", dict(gap=4, far_speed=3.0, direction=-1)),
         (
@@ -638,7 +667,7 @@ def occlusion_suite(seed: int = 0) -> list[SyntheticScene]:
     ]
     scenes = []
     for (name, kwargs), s in zip(specs, seeds[:6], strict=True):
-        scene = crossing_scene(int(s), **kwargs)  # type: ignore[arg-type]
+        scene = crossing_scene(int(s), **kwargs)
         scenes.append(
             SyntheticScene(
                 scene.detections,

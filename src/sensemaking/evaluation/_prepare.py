@@ -290,7 +290,8 @@ def max_assignment(
     take = positive if frame_mask is None else positive & np.repeat(frame_mask, counts)
     chosen = [np.flatnonzero(take & ~np.repeat(frames_lsa, counts))]
     solve = lsa()
-    for t in np.flatnonzero(frames_lsa if frame_mask is None else frames_lsa & frame_mask):
+    lsa_mask = frames_lsa if frame_mask is None else frames_lsa & frame_mask
+    for t in np.flatnonzero(lsa_mask).tolist():
         mat, index = ps.dense(t, score[ps.pair_off[t] : ps.pair_off[t + 1]])
         rows, cols = solve(-mat)
         idx = index[rows, cols]
@@ -306,6 +307,7 @@ def max_assignment(
 
 
 def _line(det: Detections, i: int) -> int | None:
+    assert det.source_row is not None  # Detections fills every column on construction
     row = int(det.source_row[i])
     return row if row >= 0 else None
 
@@ -326,6 +328,7 @@ def _check_boxes(det: Detections, path: PathLike, what: str) -> None:
 
 def _check_frames(det: Detections, first: int, n_frames: int, path: PathLike, what: str) -> None:
     f = det.frame
+    assert f is not None
     bad = (f < first) | (f >= first + n_frames)
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
@@ -380,12 +383,14 @@ def _file_order(det: Detections) -> np.ndarray:
     breaks exact ties (duplicate boxes) by position, so the order can change a result.
     """
     rows = det.source_row
+    assert rows is not None
     return rows if len(rows) and bool((rows >= 0).all()) else np.arange(len(det))
 
 
 def infer_n_frames(gt: Detections, tracks: Detections, first: int) -> int:
     """Frames spanned by the boxes: ``max frame - first + 1`` (0 if there are none)."""
-    last = max([first - 1] + [int(d.frame.max()) for d in (gt, tracks) if len(d)])
+    assert gt.frame is not None and tracks.frame is not None
+    last = max([first - 1] + [int(f.max()) for f in (gt.frame, tracks.frame) if len(f)])
     return last - first + 1
 
 
@@ -406,15 +411,19 @@ def prepare(
     raise :class:`InputError` (None: inferred from the boxes). Paths only improve error messages.
     """
     first = rules.first_frame
+    assert gt.frame is not None and gt.tracker_id is not None and gt.class_id is not None
+    assert tracks.frame is not None and tracks.tracker_id is not None
+    assert tracks.class_id is not None
     for det, path, what in (
         (gt, gt_path, "ground truth"),
         (tracks, tracks_path, "tracker output"),
     ):
         _check_boxes(det, path, what)
         if n_frames is None:
-            bad = det.frame < first
-            if bad.any():
-                i = int(np.flatnonzero(bad)[0])
+            assert det.frame is not None
+            early = det.frame < first
+            if early.any():
+                i = int(np.flatnonzero(early)[0])
                 raise _fail(
                     f"frame {int(det.frame[i])} is before the first frame {first}",
                     det,

@@ -29,7 +29,7 @@ ID switches (``idsw_mode``):
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -118,7 +118,7 @@ def _clear_matches(d: Prepared, threshold: float) -> np.ndarray:
     prev_tid = np.full(d.num_gt_ids, -1, dtype=np.int64)
     solve = lsa()
     po = ps.pair_off
-    for t in np.flatnonzero(lsa_frames):
+    for t in np.flatnonzero(lsa_frames).tolist():
         p = prev_of[t]
         prev_g = np.empty(0, dtype=np.int64)
         if p >= 0:
@@ -261,7 +261,7 @@ def clear_metrics(d: Prepared, threshold: float = 0.5, idsw_mode: str = "trackev
     return _clear_final(res)
 
 
-def combine_clear(results: Sequence[Result]) -> Result:
+def combine_clear(results: Sequence[Mapping[str, Any]]) -> Result:
     """CLEAR over several sequences: counts summed, ratios recomputed."""
     res: Result = {f: sum(r[f] for r in results) for f in CLEAR_INT}
     res["MOTP_sum"] = float(sum(r["MOTP_sum"] for r in results))
@@ -317,7 +317,7 @@ def identity_metrics(d: Prepared, threshold: float = 0.5) -> Result:
     return _identity_final(res)
 
 
-def combine_identity(results: Sequence[Result]) -> Result:
+def combine_identity(results: Sequence[Mapping[str, Any]]) -> Result:
     """Identity over several sequences: counts summed, ratios recomputed."""
     return _identity_final({f: sum(r[f] for r in results) for f in ("IDTP", "IDFN", "IDFP")})
 
@@ -404,7 +404,7 @@ def hota_metrics(d: Prepared) -> Result:
     return _hota_final(res)
 
 
-def combine_hota(results: Sequence[Result]) -> Result:
+def combine_hota(results: Sequence[Mapping[str, Any]]) -> Result:
     """HOTA over several sequences: TP/FN/FP summed per alpha, association and localisation
     averaged weighted by each sequence's TP per alpha, then the rest recomputed."""
     res: Result = {f: sum(r[f] for r in results) for f in ("HOTA_TP", "HOTA_FN", "HOTA_FP")}
@@ -430,6 +430,6 @@ def count_metrics(d: Prepared) -> Result:
     }
 
 
-def combine_count(results: Sequence[Result]) -> Result:
+def combine_count(results: Sequence[Mapping[str, Any]]) -> Result:
     """Count over several sequences: sums."""
     return {f: sum(r[f] for r in results) for f in COUNT_FIELDS}

@@ -82,6 +82,8 @@ class Run:
         """Track id -> its most frequent class id."""
         counts: dict[int, Counter] = defaultdict(Counter)
         for r in self.results:
+            # Detections fills every column on construction
+            assert r.tracks.tracker_id is not None and r.tracks.class_id is not None
             for tid, cid in zip(
                 r.tracks.tracker_id.tolist(), r.tracks.class_id.tolist(), strict=True
             ):
@@ -93,6 +95,7 @@ class Run:
         """Track ids ordered by first appearance (then id)."""
         first: dict[int, int] = {}
         for r in self.results:
+            assert r.tracks.tracker_id is not None
             for tid in r.tracks.tracker_id.tolist():
                 first.setdefault(tid, int(r.frame))
         return sorted(first, key=lambda t: (first[t], t))
@@ -107,6 +110,7 @@ class Run:
             t = r.tracks
             states = _column(t, "state", TrackState.VISIBLE)
             occl = _column(t, "occluder", -1)
+            assert t.tracker_id is not None
             for tid, st, oc in zip(
                 t.tracker_id.tolist(), states.tolist(), occl.tolist(), strict=True
             ):

@@ -265,6 +265,7 @@ class FrameDrawer:
             if r is not None and len(r.tracks):
                 xy = r.tracks.xyxy * self.scale
                 cx, cy = (xy[:, 0] + xy[:, 2]) / 2, (xy[:, 1] + xy[:, 3]) / 2
+                assert r.tracks.tracker_id is not None  # Detections fills every column
                 c = dict(
                     zip(
                         r.tracks.tracker_id.tolist(),
@@ -286,6 +287,7 @@ class FrameDrawer:
         r = self.run.by_frame.get(frame)
         warned = self._warned_objects(frame)
         if r is not None and len(r.tracks):
+            assert r.tracks.tracker_id is not None
             self._draw_trails(d, frame, r.tracks.tracker_id.tolist())
             self._draw_expected(im, d, frame, r)
             self._draw_tracks(im, d, r.tracks, warned)
