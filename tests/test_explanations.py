@@ -137,6 +137,18 @@ def test_undecidable_without_visibility_or_without_a_match(crossing):
     assert (s["undecidable"], s["precision"]) == (1, None)
 
 
+def test_events_of_a_users_encoding_are_no_crash(crossing):
+    """A user's encoding may abduce events without arguments or with constants: recall ignores
+    them, and a constant where a track id belongs names no track (unmatched)."""
+    truth, tracks = _truth(crossing), _perfect_tracks(crossing)
+    base = evaluate_explanations(truth, tracks, [HIDE, UNHIDE])
+    foggy, by_wall = Event(3, "foggy", ()), Event(13, "hides_behind", ("wall", 2))
+    res = evaluate_explanations(truth, tracks, [HIDE, UNHIDE, foggy, by_wall])
+    assert res.recall == base.recall
+    v = _one(res, by_wall)
+    assert (v.verdict, v.reason, v.gt) == ("undecidable", "unmatched", (None, 2))
+
+
 def test_enter_leave_start_at_the_border():
     scene = next(s for s in occlusion_suite(0) if s.name == "leave_and_enter_at_border")
     gt = scene.ground_truth

@@ -109,6 +109,8 @@ def test_captions_and_event_sentences():
         st.event_sentence("hides_behind", (5, 2), classes) == "#5 cyclist is hidden behind #2 car"
     )
     assert st.event_sentence("made_up", (1, 2)) == "made_up(1, 2)"
+    # a constant of a user's encoding is no track id: shown as it is
+    assert st.event_sentence("near", (5, "left")) == "near(5, left)"
     assert st.warning_sentence(Warn(1, "hidden_entity", (5,), "")) == "HIDDEN_ENTITY: #5"
 
 

@@ -215,6 +215,21 @@ def test_notes_are_listed_apart_from_warnings(no_explain: None):
     assert 'class="warning-mark"' not in text
 
 
+def test_events_of_a_users_encoding_in_the_report(no_explain: None):
+    """Events of a user's encoding may have constants or no arguments: those about a track are
+    told on its row and in its story with the constants as they are; the others have no row."""
+    from sensemaking.results import Event
+
+    results = occlusion_results()
+    results[4].events.extend([Event(4, "foggy", ()), Event(4, "near", (1, "left"))])
+    results[5].events.append(Event(5, "weather", ("rain",)))
+    text = build_report(as_run(results, width=800, height=300), max_thumbnails=0)
+    assert "<title>frame 4: near(1, left)</title>" in text
+    assert "<li>Frame 4: near(1, left).</li>" in text
+    assert "rain" not in text and "foggy" not in text
+    assert len(re.findall(r'<g class="track-row" data-track="\d+">', text)) == 3
+
+
 def test_report_of_empty_runs(no_explain: None):
     from sensemaking.detections import Detections
     from sensemaking.results import FrameResult

@@ -53,7 +53,7 @@ class Event:
 
     frame: int
     name: str
-    args: tuple[int, ...]
+    args: tuple[int | str, ...]
 
     def to_json(self) -> dict[str, Any]:
         """The JSON-lines record ``{"frame": ..., "event": ..., "args": [...]}``."""

@@ -9,7 +9,7 @@ every run, the video and the report.
 from __future__ import annotations
 
 import colorsys
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from functools import lru_cache
 from typing import Any
 
@@ -146,11 +146,12 @@ _EVENT_PHRASES: dict[str, Callable[[list[str]], str]] = {
 
 
 def event_sentence(
-    name: str, args: tuple[int, ...] | list[int], classes: Mapping[int, int] | None = None
+    name: str, args: Sequence[int | str], classes: Mapping[int, int] | None = None
 ) -> str:
-    """An event in words, e.g. ``#5 cyclist is hidden behind #2 car``; unknown names verbatim."""
+    """An event in words, e.g. ``#5 cyclist is hidden behind #2 car``; unknown names verbatim.
+    ``args`` are track ids, or constants (a user's encoding), which are shown as they are."""
     classes = classes or {}
-    labels = [track_label(a, classes.get(int(a))) for a in args]
+    labels = [a if isinstance(a, str) else track_label(a, classes.get(int(a))) for a in args]
     phrase = _EVENT_PHRASES.get(name)
     if phrase is None or len(labels) < (
         2 if name in ("hides_behind", "unhides_from_behind") else 1

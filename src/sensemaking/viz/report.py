@@ -78,12 +78,6 @@ _EVENT_STYLE: dict[str, tuple[str, int]] = {
 # stories ---------------------------------------------------------------------------------------
 def _explain_function() -> Any:
     try:
-        from sensemaking.reasoning import explain  # type: ignore[attr-defined]
-
-        return explain
-    except ImportError:
-        pass
-    try:
         from sensemaking.reasoning.questions import explain
 
         return explain
@@ -266,6 +260,7 @@ def compute_metrics(
     if gt_format not in ("mot", "kitti"):
         raise ValueError("gt_format must be 'mot' or 'kitti' for ground truth given as Detections")
     tracks = _run_tracks(run)
+    assert tracks.class_id is not None  # Detections fills every column
     out: list[tuple[str, Any]] = []
     if gt_format == "mot":
         if len(tracks) and not np.any(np.isin(tracks.class_id, (0, CLASS_IDS["pedestrian"]))):
@@ -435,7 +430,7 @@ def _timeline_svg(run: Run) -> str:
     classes = run.classes
     by_subject: dict[int, list[Any]] = {}
     for e in run.events:
-        if e.args:
+        if e.args and not isinstance(e.args[0], str):  # a constant subject has no track row
             by_subject.setdefault(int(e.args[0]), []).append(e)
     for k, tid in enumerate(ids):
         y = g.top + k * g.row_h
