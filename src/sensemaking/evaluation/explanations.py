@@ -728,11 +728,10 @@ class _Judge:
         pos = ant.get("position")
         if g is None:
             return judged(verdict=UNDECIDABLE, reason="unmatched")
-        try:
-            pred_frame = int(pred_frame)  # type: ignore[arg-type]
-            px_pred, py_pred = float(pos[0]), float(pos[1])  # type: ignore[index]
-        except (TypeError, ValueError, IndexError):  # no anticipation in the record
+        prediction = _prediction(pred_frame, pos)
+        if prediction is None:  # no anticipation in the record
             return judged(verdict=UNDECIDABLE, reason="no_prediction", gt=g)
+        pred_frame, px_pred, py_pred = prediction
         tr = self.t
         back = next(
             (h for h in tr.frames.get(g, []) if h > f and tr.visible(tr.row[(g, h)])), None
@@ -880,6 +879,17 @@ class _Judge:
         if tr.occl is not None or tr.vis is not None:
             out["hides_behind"] = (hide_hit, hide_all)
         return out
+
+
+def _prediction(frame: Any, position: Any) -> tuple[int, float, float] | None:
+    """``(frame, x, y)`` pixels of a warning record's predicted reappearance (None: none there,
+    or not numbers)."""
+    if frame is None or position is None:
+        return None
+    try:
+        return int(frame), float(position[0]), float(position[1])
+    except (TypeError, ValueError, IndexError):
+        return None
 
 
 def _track(ev: Event, k: int = 0) -> int | None:
