@@ -27,13 +27,20 @@ from sensemaking.evaluation import (
     rules_for_benchmark,
 )
 
-CAR, VAN, PED, DONTCARE = CLASS_IDS["car"], CLASS_IDS["van"], CLASS_IDS["pedestrian"], CLASS_IDS["dontcare"]
+CAR, VAN, PED, DONTCARE = (
+    CLASS_IDS["car"],
+    CLASS_IDS["van"],
+    CLASS_IDS["pedestrian"],
+    CLASS_IDS["dontcare"],
+)
 B = [0.0, 0.0, 10.0, 10.0]
 FAR = [100.0, 100.0, 110.0, 110.0]
 
 
 def dets(boxes, ids, frames, **kw) -> Detections:
-    return Detections(xyxy=np.asarray(boxes, dtype=float).reshape(-1, 4), tracker_id=ids, frame=frames, **kw)
+    return Detections(
+        xyxy=np.asarray(boxes, dtype=float).reshape(-1, 4), tracker_id=ids, frame=frames, **kw
+    )
 
 
 def approx(x):
@@ -42,6 +49,7 @@ def approx(x):
 
 # ---------------------------------------------------------------------------------------------
 # hand-computed metrics
+
 
 @pytest.fixture
 def gap_case():
@@ -71,18 +79,24 @@ def test_hand_computed_clear_identity_hota(gap_case):
     assert m["HOTA"] == approx(0.5)
     assert m["OWTA"] == approx(math.sqrt(0.75 * 5 / 12))
     assert m["LocA"] == approx(1.0)
-    assert m["HOTA(0)"] == approx(0.5) and m["LocA(0)"] == approx(1.0) and m["HOTALocA(0)"] == approx(0.5)
+    assert (
+        m["HOTA(0)"] == approx(0.5)
+        and m["LocA(0)"] == approx(1.0)
+        and m["HOTALocA(0)"] == approx(0.5)
+    )
     np.testing.assert_allclose(m.per_alpha["HOTA"], np.full(19, 0.5), rtol=1e-12)
     np.testing.assert_array_equal(m.per_alpha["HOTA_TP"], np.full(19, 3.0))
     assert (m["Dets"], m["GT_Dets"], m["IDs"], m["GT_IDs"]) == (4, 4, 3, 1)
 
 
 def test_legacy_kitti_idsw_differs_across_a_gap(gap_case):
-    """The old KITTI devkit counts no switch when the object was not tracked in the previous frame."""
+    """The old KITTI devkit counts no switch when the object was untracked the frame before."""
     te = evaluate_sequence(*gap_case, "mot15", idsw_mode="trackeval")
     legacy = evaluate_sequence(*gap_case, "mot15", idsw_mode="kitti_legacy")
     assert te["IDSW"] == 1 and legacy["IDSW"] == 0
-    assert legacy["Frag"] == 1  # id 6 differs from the untracked previous frame, last frame: a fragment
+    assert (
+        legacy["Frag"] == 1
+    )  # id 6 differs from the untracked previous frame, last frame: a fragment
     assert legacy["MOTA"] == approx((3 - 1 - 0) / 4)
     assert legacy["sMOTA"] == approx((3 - 1 - 0) / 4)
     for f in ("MODA", "IDF1", "HOTA", "CLR_TP", "CLR_FP", "MT"):  # only IDSW-based fields change
@@ -102,14 +116,23 @@ def test_legacy_and_trackeval_agree_on_consecutive_switch():
 def test_legacy_kitti_no_switch_after_ignored_frame():
     """KITTI: frame 1 of the car is heavily occluded (ignored). TrackEval still counts 10 -> 11 as
     a switch; the legacy devkit resets its memory at ignored frames and counts none."""
-    gt = dets([B, B, B], [0, 0, 0], [0, 1, 2], class_id=CAR,
-              data={"occluded": [0, 3, 0], "truncated": [0.0, 0.0, 0.0]})
+    gt = dets(
+        [B, B, B],
+        [0, 0, 0],
+        [0, 1, 2],
+        class_id=CAR,
+        data={"occluded": [0, 3, 0], "truncated": [0.0, 0.0, 0.0]},
+    )
     big = [0.0, 0.0, 40.0, 40.0]
     gt = gt.with_(xyxy=[big] * 3)
     tr = dets([big] * 3, [10, 10, 11], [0, 1, 2], class_id=CAR)
     te = evaluate_sequence(gt, tr, "kitti-car")
     legacy = evaluate_sequence(gt, tr, "kitti-car", idsw_mode="kitti_legacy")
-    assert (te["CLR_TP"], te["CLR_FP"], te["CLR_FN"]) == (2, 0, 0)  # the box on the ignored gt is removed
+    assert (te["CLR_TP"], te["CLR_FP"], te["CLR_FN"]) == (
+        2,
+        0,
+        0,
+    )  # the box on the ignored gt is removed
     assert te["IDSW"] == 1 and te["Frag"] == 0
     assert legacy["IDSW"] == 0 and legacy["Frag"] == 1
 
@@ -148,9 +171,18 @@ def test_no_plus_one_pixel_convention(tmp_path):
 def test_mot17_preprocessing():
     """Only class 1 with consider flag 1 is gt; a box on a distractor (static person) is removed;
     a box on an ignored (flag 0) pedestrian stays and is a false positive."""
-    gt = dets([[0, 0, 10, 20], [50, 0, 60, 20], [100, 0, 110, 20]], [1, 2, 3], [1, 1, 1],
-              class_id=[PED, CLASS_IDS["static_person"], PED], data={"consider": [1, 1, 0]})
-    tr = dets([[0, 0, 10, 20], [50, 0, 60, 20], [100, 0, 110, 20], [200, 0, 210, 20]], [1, 2, 3, 4], [1] * 4)
+    gt = dets(
+        [[0, 0, 10, 20], [50, 0, 60, 20], [100, 0, 110, 20]],
+        [1, 2, 3],
+        [1, 1, 1],
+        class_id=[PED, CLASS_IDS["static_person"], PED],
+        data={"consider": [1, 1, 0]},
+    )
+    tr = dets(
+        [[0, 0, 10, 20], [50, 0, 60, 20], [100, 0, 110, 20], [200, 0, 210, 20]],
+        [1, 2, 3, 4],
+        [1] * 4,
+    )
     m = evaluate_sequence(gt, tr, "mot17")
     assert (m["GT_Dets"], m["Dets"], m["CLR_TP"], m["CLR_FP"], m["CLR_FN"]) == (1, 3, 1, 2, 0)
     assert m["MOTA"] == approx(-1.0)
@@ -161,15 +193,37 @@ def test_mot17_preprocessing():
 
 def test_kitti_preprocessing():
     big = lambda x: [x, 0.0, x + 50.0, 50.0]  # noqa: E731
-    gt = dets([big(0), big(100), big(200), [300, 0, 400, 100], big(0)], [0, 1, 2, -1, 3], [0] * 5,
-              class_id=[CAR, CAR, VAN, DONTCARE, PED],
-              data={"occluded": [0, 3, 0, -1, 0], "truncated": [0.0, 0.0, 0.0, -1.0, 0.0]})
-    tr = dets([big(0), big(100), big(200), [310, 10, 360, 60], [500, 0, 520, 20], [600, 0, 700, 100], big(0)],
-              [10, 11, 12, 13, 14, 15, 16], [0] * 7, class_id=[CAR] * 6 + [PED])
+    gt = dets(
+        [big(0), big(100), big(200), [300, 0, 400, 100], big(0)],
+        [0, 1, 2, -1, 3],
+        [0] * 5,
+        class_id=[CAR, CAR, VAN, DONTCARE, PED],
+        data={"occluded": [0, 3, 0, -1, 0], "truncated": [0.0, 0.0, 0.0, -1.0, 0.0]},
+    )
+    tr = dets(
+        [
+            big(0),
+            big(100),
+            big(200),
+            [310, 10, 360, 60],
+            [500, 0, 520, 20],
+            [600, 0, 700, 100],
+            big(0),
+        ],
+        [10, 11, 12, 13, 14, 15, 16],
+        [0] * 7,
+        class_id=[CAR] * 6 + [PED],
+    )
     car = evaluate_sequence(gt, tr, "kitti-car")
     # kept: 10 (TP) and 15 (FP); removed: 11 (on occluded car), 12 (on van), 13 (in DontCare),
     # 14 (20 px tall); 16 is a pedestrian
-    assert (car["GT_Dets"], car["Dets"], car["CLR_TP"], car["CLR_FP"], car["CLR_FN"]) == (1, 2, 1, 1, 0)
+    assert (car["GT_Dets"], car["Dets"], car["CLR_TP"], car["CLR_FP"], car["CLR_FN"]) == (
+        1,
+        2,
+        1,
+        1,
+        0,
+    )
     assert car["MOTA"] == approx(0.0)
     ped = evaluate_sequence(gt, tr, "kitti-pedestrian")
     assert (ped["GT_Dets"], ped["Dets"], ped["CLR_TP"]) == (1, 1, 1)
@@ -180,7 +234,14 @@ def test_empty_sequences_follow_trackeval_early_return():
     recomputes them from the counts."""
     gt = dets([B, B], [1, 1], [1, 2], class_id=PED)
     m = evaluate_sequence(gt, Detections.empty(), "mot17", n_frames=2)
-    assert (m["CLR_FN"], m["ML"], m["MLR"], m["MOTA"], m["HOTA"], m["LocA"]) == (2, 1, 1.0, 0.0, 0.0, 1.0)
+    assert (m["CLR_FN"], m["ML"], m["MLR"], m["MOTA"], m["HOTA"], m["LocA"]) == (
+        2,
+        1,
+        1.0,
+        0.0,
+        0.0,
+        1.0,
+    )
     only_fp = evaluate_sequence(Detections.empty(), dets([B], [3], [1]), "mot17", n_frames=2)
     assert (only_fp["CLR_FP"], only_fp["MOTA"], only_fp["MLR"]) == (1, 0.0, 1.0)
     both = SequenceMetrics.combine([m, only_fp])
@@ -198,8 +259,14 @@ def test_combine_sums_counts_and_weights_hota(gap_case):
     tp_a, tp_b = a.per_alpha["HOTA_TP"], b.per_alpha["HOTA_TP"]
     ass = (a.per_alpha["AssA"] * tp_a + b.per_alpha["AssA"] * tp_b) / np.maximum(1, tp_a + tp_b)
     np.testing.assert_allclose(c.per_alpha["AssA"], ass, rtol=1e-12)
-    det = (tp_a + tp_b) / (tp_a + tp_b + a.per_alpha["HOTA_FN"] + b.per_alpha["HOTA_FN"]
-                          + a.per_alpha["HOTA_FP"] + b.per_alpha["HOTA_FP"])
+    det = (tp_a + tp_b) / (
+        tp_a
+        + tp_b
+        + a.per_alpha["HOTA_FN"]
+        + b.per_alpha["HOTA_FN"]
+        + a.per_alpha["HOTA_FP"]
+        + b.per_alpha["HOTA_FP"]
+    )
     np.testing.assert_allclose(c.per_alpha["HOTA"], np.sqrt(det * ass), rtol=1e-12)
     assert c["HOTA"] == approx(float(np.mean(np.sqrt(det * ass))))
 
@@ -213,6 +280,7 @@ def test_boxes_outside_the_image_are_scored_as_given():
 
 # ---------------------------------------------------------------------------------------------
 # properties
+
 
 @st.composite
 def scenes(draw):
@@ -245,7 +313,21 @@ def test_properties_perfect_and_relabelled(gt, perm):
 @given(scenes(), scenes())
 def test_properties_fractions_in_range(gt, tr):
     m = evaluate_sequence(gt, tr.with_(tracker_id=tr.tracker_id + 100), "mot17")
-    for f in ("HOTA", "DetA", "AssA", "LocA", "MOTP", "IDF1", "IDR", "IDP", "CLR_Re", "CLR_Pr", "MTR", "PTR", "MLR"):
+    for f in (
+        "HOTA",
+        "DetA",
+        "AssA",
+        "LocA",
+        "MOTP",
+        "IDF1",
+        "IDR",
+        "IDP",
+        "CLR_Re",
+        "CLR_Pr",
+        "MTR",
+        "PTR",
+        "MLR",
+    ):
         assert -1e-12 <= m[f] <= 1 + 1e-12, f
     assert m["MOTA"] <= 1.0 and m["CLR_TP"] + m["CLR_FN"] == m["GT_Dets"]
     assert m["CLR_TP"] + m["CLR_FP"] == m["Dets"] and m["IDTP"] <= m["CLR_TP"] + m["Dets"]
@@ -253,6 +335,7 @@ def test_properties_fractions_in_range(gt, tr):
 
 # ---------------------------------------------------------------------------------------------
 # rules, results objects, errors
+
 
 def test_rules_by_name():
     assert get_rules("MOT17").gt_class == PED
@@ -283,7 +366,9 @@ def test_report_json_and_table(gap_case):
     assert row.split()[1] == "50.000"  # HOTA as a percentage
     assert report.combined()["CLR_TP"] == 6 and report["s1"]["IDSW"] == 0
     m = report["s1"]
-    assert set(m) >= {"MOTA", "IDF1", "HOTA", "HOTA(0)", "Dets", "GT_IDs", "sMOTA"} and len(m) == len(list(m))
+    assert set(m) >= {"MOTA", "IDF1", "HOTA", "HOTA(0)", "Dets", "GT_IDs", "sMOTA"} and len(
+        m
+    ) == len(list(m))
     with pytest.raises(KeyError):
         m["HOTA_TP"]
 
@@ -293,7 +378,9 @@ def test_kitti_report_has_both_classes():
     tr = gt.with_(tracker_id=[5, 6])
     report = evaluate({"0000": (gt, tr, 1)}, "kitti")
     assert report.classes == ["car", "pedestrian"]
-    assert report.combined("car")["MOTA"] == approx(1.0) and report.combined("pedestrian")["IDF1"] == approx(1.0)
+    assert report.combined("car")["MOTA"] == approx(1.0) and report.combined("pedestrian")[
+        "IDF1"
+    ] == approx(1.0)
     with pytest.raises(KeyError):
         report.combined()
 
@@ -315,20 +402,27 @@ def test_input_errors():
     with pytest.raises(ValueError, match="idsw_mode"):
         evaluate_sequence(gt, gt, "mot17", idsw_mode="devkit")
     # KITTI drops negative ids instead (DontCare rows have id -1)
-    m = evaluate_sequence(gt.with_(frame=[0, 1], class_id=CAR, xyxy=[[0, 0, 40, 40]] * 2),
-                          dets([[0, 0, 40, 40]], [-1], [0], class_id=CAR), "kitti-car")
+    m = evaluate_sequence(
+        gt.with_(frame=[0, 1], class_id=CAR, xyxy=[[0, 0, 40, 40]] * 2),
+        dets([[0, 0, 40, 40]], [-1], [0], class_id=CAR),
+        "kitti-car",
+    )
     assert m["Dets"] == 0 and m["CLR_FN"] == 2
 
 
 # ---------------------------------------------------------------------------------------------
 # benchmark folders
 
+
 def _mot_layout(root, n_frames=3):
     for name in ("A", "B"):
         (root / "gt" / name / "gt").mkdir(parents=True)
-        (root / "gt" / name / "gt" / "gt.txt").write_text("1,1,0,0,10,10,1,1,1\n2,1,0,0,10,10,1,1,1\n")
+        (root / "gt" / name / "gt" / "gt.txt").write_text(
+            "1,1,0,0,10,10,1,1,1\n2,1,0,0,10,10,1,1,1\n"
+        )
         (root / "gt" / name / "seqinfo.ini").write_text(
-            f"[Sequence]\nname={name}\nseqLength={n_frames}\nimWidth=640\nimHeight=480\nframeRate=30\n")
+            f"[Sequence]\nname={name}\nseqLength={n_frames}\nimWidth=640\nimHeight=480\nframeRate=30\n"
+        )
     (root / "res").mkdir()
     (root / "res" / "A.txt").write_text("1,3,0,0,10,10,1,-1,-1,-1\n2,3,0,0,10,10,1,-1,-1,-1\n")
     return root / "gt", root / "res"
@@ -363,16 +457,21 @@ def test_load_mot_benchmark_and_errors(tmp_path):
 
 def test_load_kitti_benchmark(tmp_path):
     (tmp_path / "label_02").mkdir()
-    label = ("0 -1 DontCare -1 -1 -10 300 0 400 100 -1 -1 -1 -1000 -1000 -1000 -10\n"
-             "0 0 Car 0 0 0 0 0 50 50 1 1 1 1 1 1 0\n"
-             "1 0 Car 0 0 0 0 0 50 50 1 1 1 1 1 1 0\n")
+    label = (
+        "0 -1 DontCare -1 -1 -10 300 0 400 100 -1 -1 -1 -1000 -1000 -1000 -10\n"
+        "0 0 Car 0 0 0 0 0 50 50 1 1 1 1 1 1 0\n"
+        "1 0 Car 0 0 0 0 0 50 50 1 1 1 1 1 1 0\n"
+    )
     (tmp_path / "label_02" / "0000.txt").write_text(label)
-    (tmp_path / "seqinfo.csv").write_text("seq,num_frames,im_width,im_height,frame_rate\n0000,2,1242,375,10\n")
+    (tmp_path / "seqinfo.csv").write_text(
+        "seq,num_frames,im_width,im_height,frame_rate\n0000,2,1242,375,10\n"
+    )
     (tmp_path / "res").mkdir()
     (tmp_path / "res" / "0000.txt").write_text(
         "0 4 Car -1 -1 -10 0 0 50 50 -1 -1 -1 -1000 -1000 -1000 -10 0.9\n"
         "0 5 Car -1 -1 -10 310 10 360 60 -1 -1 -1 -1000 -1000 -1000 -10 0.9\n"
-        "1 4 Car -1 -1 -10 0 0 50 50 -1 -1 -1 -1000 -1000 -1000 -10 0.9\n")
+        "1 4 Car -1 -1 -10 0 0 50 50 -1 -1 -1 -1000 -1000 -1000 -10 0.9\n"
+    )
     seqs = load_kitti_benchmark(tmp_path, tmp_path / "res")
     assert seqs["0000"].n_frames == 2
     report = evaluate(seqs, "kitti")
@@ -380,13 +479,14 @@ def test_load_kitti_benchmark(tmp_path):
     assert (car["CLR_TP"], car["CLR_FP"], car["IDSW"]) == (2, 0, 0)  # the DontCare box is removed
     assert report.results["pedestrian"]["0000"]["Dets"] == 0
     (tmp_path / "res" / "0000.txt").write_text(
-        "2 4 Car -1 -1 -10 0 0 50 50 -1 -1 -1 -1000 -1000 -1000 -10 0.9\n")
+        "2 4 Car -1 -1 -10 0 0 50 50 -1 -1 -1 -1000 -1000 -1000 -10 0.9\n"
+    )
     with pytest.raises(InputError, match=r"frame 2 is outside the sequence \(frames 0\.\.1"):
         evaluate(load_kitti_benchmark(tmp_path, tmp_path / "res"), "kitti")
 
 
 def _devkit_loop(trajectories):
-    """The old KITTI devkit's per-trajectory ID-switch / fragmentation loop, transcribed literally."""
+    """The old KITTI devkit's per-trajectory ID-switch / fragmentation loop, transcribed as is."""
     ids = frags = 0
     for g, ign_g in trajectories:
         if all(ign_g) or all(x == -1 for x in g):
@@ -399,7 +499,13 @@ def _devkit_loop(trajectories):
                 continue
             if last_id != g[f] and last_id != -1 and g[f] != -1 and g[f - 1] != -1:
                 ids += 1
-            if f < len(g) - 1 and g[f - 1] != g[f] and last_id != -1 and g[f] != -1 and g[f + 1] != -1:
+            if (
+                f < len(g) - 1
+                and g[f - 1] != g[f]
+                and last_id != -1
+                and g[f] != -1
+                and g[f + 1] != -1
+            ):
                 frags += 1
             if g[f] != -1:
                 last_id = g[f]
@@ -409,13 +515,20 @@ def _devkit_loop(trajectories):
 
 
 @settings(max_examples=200, deadline=None)
-@given(st.lists(st.lists(st.tuples(st.integers(-1, 3), st.booleans()), min_size=1, max_size=12),
-                min_size=1, max_size=5))
+@given(
+    st.lists(
+        st.lists(st.tuples(st.integers(-1, 3), st.booleans()), min_size=1, max_size=12),
+        min_size=1,
+        max_size=5,
+    )
+)
 def test_legacy_rule_matches_devkit_loop(trajs):
     from sensemaking.evaluation.metrics import legacy_idsw_frag
 
     key = np.concatenate([np.full(len(t), k) for k, t in enumerate(trajs)])
-    frame = np.concatenate([np.arange(len(t))[::-1] * 3 for t in trajs])  # any order in, frame order used
+    frame = np.concatenate(
+        [np.arange(len(t))[::-1] * 3 for t in trajs]
+    )  # any order in, frame order used
     value = np.concatenate([[v for v, _ in t][::-1] for t in trajs])
     ign = np.concatenate([[i for _, i in t][::-1] for t in trajs]).astype(bool)
     expected = _devkit_loop([([v for v, _ in t], [i for _, i in t]) for t in trajs])

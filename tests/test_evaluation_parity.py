@@ -1,4 +1,4 @@
-"""Parity of sensemaking.evaluation with TrackEval (the ``trackeval`` package) to 1e-6, every field.
+"""Parity of sensemaking.evaluation with TrackEval (the ``trackeval`` package): every field, 1e-6.
 
 Needs ``../shared/data`` (benchmark annotations, never committed) and the dev dependency
 ``trackeval``; skipped cleanly without them. TrackEval reads its own folder layout, which each
@@ -33,27 +33,48 @@ from sensemaking.io.kitti import read_kitti_labels, read_kitti_seqinfo, write_ki
 from sensemaking.io.mot import read_mot, read_seqinfo, write_mot  # noqa: E402
 
 TOL = 1e-6
-CAR, VAN, PED, DONTCARE = CLASS_IDS["car"], CLASS_IDS["van"], CLASS_IDS["pedestrian"], CLASS_IDS["dontcare"]
+CAR, VAN, PED, DONTCARE = (
+    CLASS_IDS["car"],
+    CLASS_IDS["van"],
+    CLASS_IDS["pedestrian"],
+    CLASS_IDS["dontcare"],
+)
 
 MOT17_SEQS = ["MOT17-02-YOLOX-half", "MOT17-05-FRCNN", "MOT17-09-YOLOX-half"]
-MOT15_SEQS = ["ETH-Bahnhof", "PETS09-S2L1", "TUD-Campus"]  # the first two have consider-flag-0 rows
+MOT15_SEQS = [
+    "ETH-Bahnhof",
+    "PETS09-S2L1",
+    "TUD-Campus",
+]  # the first two have consider-flag-0 rows
 KITTI_SEQS = ["0000", "0001", "0004", "0010"]  # cars in all, pedestrians in all
 
 
 # ---------------------------------------------------------------------------------------------
 # TrackEval runners
 
+
 def _evaluator():
-    return trackeval.Evaluator({
-        "USE_PARALLEL": False, "PRINT_RESULTS": False, "PRINT_CONFIG": False, "OUTPUT_SUMMARY": False,
-        "OUTPUT_DETAILED": False, "PLOT_CURVES": False, "TIME_PROGRESS": False, "LOG_ON_ERROR": None,
-        "BREAK_ON_ERROR": True,
-    })
+    return trackeval.Evaluator(
+        {
+            "USE_PARALLEL": False,
+            "PRINT_RESULTS": False,
+            "PRINT_CONFIG": False,
+            "OUTPUT_SUMMARY": False,
+            "OUTPUT_DETAILED": False,
+            "PLOT_CURVES": False,
+            "TIME_PROGRESS": False,
+            "LOG_ON_ERROR": None,
+            "BREAK_ON_ERROR": True,
+        }
+    )
 
 
 def _metrics():
-    return [trackeval.metrics.HOTA(), trackeval.metrics.CLEAR({"PRINT_CONFIG": False}),
-            trackeval.metrics.Identity({"PRINT_CONFIG": False})]  # Count is always added
+    return [
+        trackeval.metrics.HOTA(),
+        trackeval.metrics.CLEAR({"PRINT_CONFIG": False}),
+        trackeval.metrics.Identity({"PRINT_CONFIG": False}),
+    ]  # Count is always added
 
 
 def trackeval_mot(tmp: Path, seqs: dict[str, tuple[Path, Path, int]], benchmark: str) -> dict:
@@ -65,17 +86,26 @@ def trackeval_mot(tmp: Path, seqs: dict[str, tuple[Path, Path, int]], benchmark:
         shutil.copy(gt, gt_root / name / "gt" / "gt.txt")
         (gt_root / name / "seqinfo.ini").write_text(f"[Sequence]\nname={name}\nseqLength={n}\n")
         shutil.copy(res, trackers / "T" / "data" / f"{name}.txt")
-    dataset = trackeval.datasets.MotChallenge2DBox({
-        "GT_FOLDER": str(gt_root), "TRACKERS_FOLDER": str(trackers), "OUTPUT_FOLDER": str(tmp / "te_out"),
-        "BENCHMARK": benchmark, "SKIP_SPLIT_FOL": True, "TRACKERS_TO_EVAL": ["T"], "PRINT_CONFIG": False,
-        "SEQ_INFO": {name: n for name, (_, _, n) in seqs.items()},
-    })
+    dataset = trackeval.datasets.MotChallenge2DBox(
+        {
+            "GT_FOLDER": str(gt_root),
+            "TRACKERS_FOLDER": str(trackers),
+            "OUTPUT_FOLDER": str(tmp / "te_out"),
+            "BENCHMARK": benchmark,
+            "SKIP_SPLIT_FOL": True,
+            "TRACKERS_TO_EVAL": ["T"],
+            "PRINT_CONFIG": False,
+            "SEQ_INFO": {name: n for name, (_, _, n) in seqs.items()},
+        }
+    )
     with contextlib.redirect_stdout(io.StringIO()):
         res, _ = _evaluator().evaluate([dataset], _metrics())
     return res["MotChallenge2DBox"]["T"]
 
 
-def trackeval_kitti(tmp: Path, seqs: dict[str, tuple[Path, Path, int]], classes: list[str]) -> dict:
+def trackeval_kitti(
+    tmp: Path, seqs: dict[str, tuple[Path, Path, int]], classes: list[str]
+) -> dict:
     """TrackEval's Kitti2DBox on name -> (label file, results file, length)."""
     gt_root, trackers = tmp / "te_gt", tmp / "te_trackers"
     (gt_root / "label_02").mkdir(parents=True)
@@ -86,10 +116,16 @@ def trackeval_kitti(tmp: Path, seqs: dict[str, tuple[Path, Path, int]], classes:
         shutil.copy(gt, gt_root / "label_02" / f"{name}.txt")
         shutil.copy(res, trackers / "T" / "data" / f"{name}.txt")
     (gt_root / "evaluate_tracking.seqmap.training").write_text("".join(lines))
-    dataset = trackeval.datasets.Kitti2DBox({
-        "GT_FOLDER": str(gt_root), "TRACKERS_FOLDER": str(trackers), "OUTPUT_FOLDER": str(tmp / "te_out"),
-        "CLASSES_TO_EVAL": classes, "TRACKERS_TO_EVAL": ["T"], "PRINT_CONFIG": False,
-    })
+    dataset = trackeval.datasets.Kitti2DBox(
+        {
+            "GT_FOLDER": str(gt_root),
+            "TRACKERS_FOLDER": str(trackers),
+            "OUTPUT_FOLDER": str(tmp / "te_out"),
+            "CLASSES_TO_EVAL": classes,
+            "TRACKERS_TO_EVAL": ["T"],
+            "PRINT_CONFIG": False,
+        }
+    )
     with contextlib.redirect_stdout(io.StringIO()):
         res, _ = _evaluator().evaluate([dataset], _metrics())
     return res["Kitti2DBox"]["T"]
@@ -98,12 +134,21 @@ def trackeval_kitti(tmp: Path, seqs: dict[str, tuple[Path, Path, int]], classes:
 def max_differences(te_res: dict, ours) -> dict[str, float]:
     """Field -> max |TrackEval - ours| over every TrackEval field (arrays over alpha included)."""
     out = {}
-    for family, part in (("HOTA", "hota"), ("CLEAR", "clear"), ("Identity", "identity"), ("Count", "count")):
+    for family, part in (
+        ("HOTA", "hota"),
+        ("CLEAR", "clear"),
+        ("Identity", "identity"),
+        ("Count", "count"),
+    ):
         for field, value in te_res[family].items():
             if field == "Frames":  # per-sequence only in TrackEval's Count; not a metric
                 continue
             assert field in ours.parts[part], f"{family}.{field} missing"
-            out[field] = float(np.max(np.abs(np.asarray(value, float) - np.asarray(ours.parts[part][field], float))))
+            out[field] = float(
+                np.max(
+                    np.abs(np.asarray(value, float) - np.asarray(ours.parts[part][field], float))
+                )
+            )
     return out
 
 
@@ -121,6 +166,7 @@ def assert_parity(te_by_seq: dict, report, class_name: str, sequences: list[str]
 # ---------------------------------------------------------------------------------------------
 # deterministic fake tracker output
 
+
 def perturb(gt: Detections, seed: int, fp_rate: float = 0.05) -> Detections:
     """Ground truth turned into a flawed tracker output (same frames, new ids, sorted by frame)."""
     rng = np.random.default_rng(seed)
@@ -133,7 +179,9 @@ def perturb(gt: Detections, seed: int, fp_rate: float = 0.05) -> Detections:
         a = rng.integers(f.min(), f.max() + 1)
         keep &= ~((ids == i) & (frames >= a) & (frames < a + rng.integers(2, 12)))
     new_ids = ids * 10 + 1
-    for i in rng.choice(uid, size=max(1, len(uid) // 3), replace=False):  # new id from some frame on
+    for i in rng.choice(
+        uid, size=max(1, len(uid) // 3), replace=False
+    ):  # new id from some frame on
         f = frames[ids == i]
         new_ids[(ids == i) & (frames >= rng.integers(f.min(), f.max() + 1))] = i * 10 + 2
     for _ in range(max(1, len(uid) // 6)):  # two ids swapped from some frame on
@@ -156,7 +204,9 @@ def perturb(gt: Detections, seed: int, fp_rate: float = 0.05) -> Detections:
         xyxy=np.concatenate([boxes[keep], np.round(fp, 2)]),
         confidence=np.round(rng.random(int(keep.sum()) + n_fp), 3),
         class_id=np.concatenate([gt.class_id[keep], gt.class_id[src]]),
-        tracker_id=np.concatenate([new_ids[keep], 10**6 + rng.integers(0, max(2, n_fp // 3), n_fp)]),
+        tracker_id=np.concatenate(
+            [new_ids[keep], 10**6 + rng.integers(0, max(2, n_fp // 3), n_fp)]
+        ),
         frame=np.concatenate([frames[keep], frames[src]]),
     )
     return _unique_sorted(out)
@@ -170,6 +220,7 @@ def _unique_sorted(d: Detections) -> Detections:
 
 # ---------------------------------------------------------------------------------------------
 
+
 def test_fixtures_parity(tmp_path):
     """TUD-Campus and TUD-Stadtmitte with their classic tracker output test.txt (MOT15 rules)."""
     root = DATA / "metric-fixtures"
@@ -179,8 +230,13 @@ def test_fixtures_parity(tmp_path):
         shutil.copy(root / name / "test.txt", tmp_path / "res" / f"{name}.txt")
         seqs[name] = (root / name / "gt.txt", tmp_path / "res" / f"{name}.txt", n)
     te = trackeval_mot(tmp_path, seqs, "MOT15")
-    ours = evaluate({name: (read_mot(g, kind="gt"), read_mot(r, kind="results"), n)
-                     for name, (g, r, n) in seqs.items()}, "mot15")
+    ours = evaluate(
+        {
+            name: (read_mot(g, kind="gt"), read_mot(r, kind="results"), n)
+            for name, (g, r, n) in seqs.items()
+        },
+        "mot15",
+    )
     assert_parity(te, ours, "pedestrian", list(seqs))
     # the classic published numbers for these fixtures
     assert ours["TUD-Campus"]["MOTA"] == pytest.approx(0.526462, abs=1e-6)
@@ -199,7 +255,11 @@ def test_mot_benchmark_parity(tmp_path, benchmark, names):
             gt = gt[np.isin(gt.class_id, [1, 2, 7, 8, 12])]
         tracks = perturb(gt, seed=100 + k).with_(class_id=1)
         write_mot(res / f"{name}.txt", tracks)
-        seqs[name] = (root / name / "gt" / "gt.txt", res / f"{name}.txt", read_seqinfo(root / name).length)
+        seqs[name] = (
+            root / name / "gt" / "gt.txt",
+            res / f"{name}.txt",
+            read_seqinfo(root / name).length,
+        )
     te = trackeval_mot(tmp_path, seqs, benchmark.upper())
     ours = evaluate(load_mot_benchmark(root, res, seqmap=_seqmap(tmp_path, names)), benchmark)
     assert assert_parity(te, ours, "pedestrian", names) <= TOL
@@ -225,13 +285,21 @@ def test_kitti_parity(tmp_path):
         objects = gt[np.isin(gt.class_id, [CAR, VAN, PED]) & (gt.tracker_id >= 0)]
         tracks = perturb(objects, seed=300 + k, fp_rate=0.1)
         cls = tracks.class_id.copy()
-        cls[(cls == VAN) & (rng.random(len(cls)) < 0.7)] = CAR  # "cars" on vans: removed as distractors
+        cls[(cls == VAN) & (rng.random(len(cls)) < 0.7)] = (
+            CAR  # "cars" on vans: removed as distractors
+        )
         dc = gt[gt.class_id == DONTCARE]  # boxes inside DontCare regions: removed
-        in_dc = Detections(xyxy=np.round(dc.xyxy + rng.normal(0, 2, (len(dc), 4)), 2),
-                           class_id=np.where(rng.random(len(dc)) < 0.5, CAR, PED),
-                           tracker_id=5 * 10**6 + np.arange(len(dc)) % 7, frame=dc.frame, confidence=0.5)
+        in_dc = Detections(
+            xyxy=np.round(dc.xyxy + rng.normal(0, 2, (len(dc), 4)), 2),
+            class_id=np.where(rng.random(len(dc)) < 0.5, CAR, PED),
+            tracker_id=5 * 10**6 + np.arange(len(dc)) % 7,
+            frame=dc.frame,
+            confidence=0.5,
+        )
         tracks = _unique_sorted(Detections.concatenate([tracks.with_(class_id=cls), in_dc]))
-        ok = (tracks.xyxy[:, 2] > tracks.xyxy[:, 0] + 0.5) & (tracks.xyxy[:, 3] > tracks.xyxy[:, 1] + 0.5)
+        ok = (tracks.xyxy[:, 2] > tracks.xyxy[:, 0] + 0.5) & (
+            tracks.xyxy[:, 3] > tracks.xyxy[:, 1] + 0.5
+        )
         write_kitti(res / f"{name}.txt", tracks[ok])
         seqs[name] = (root / "label_02" / f"{name}.txt", res / f"{name}.txt", info[name].length)
     te = trackeval_kitti(tmp_path, seqs, ["car", "pedestrian"])
@@ -245,7 +313,9 @@ def test_kitti_parity(tmp_path):
     legacy = evaluate(loaded, "kitti", idsw_mode="kitti_legacy")
     lc = legacy.combined("car")
     assert legacy.idsw_mode == "kitti_legacy" and lc["IDSW"] < car["IDSW"]
-    assert lc["CLR_TP"] == car["CLR_TP"] and lc["IDF1"] == car["IDF1"] and lc["HOTA"] == car["HOTA"]
+    assert (
+        lc["CLR_TP"] == car["CLR_TP"] and lc["IDF1"] == car["IDF1"] and lc["HOTA"] == car["HOTA"]
+    )
     assert lc["MOTA"] - car["MOTA"] == pytest.approx((car["IDSW"] - lc["IDSW"]) / car["GT_Dets"])
 
 
@@ -253,7 +323,13 @@ def test_kitti_parity(tmp_path):
 # random adversarial scenes: coarse integer grid (exact ties, IoU exactly 0.5, duplicate boxes),
 # empty frames, unsorted ids, every class and flag
 
-_KITTI_TYPES = {CAR: "Car", VAN: "Van", PED: "Pedestrian", DONTCARE: "DontCare", CLASS_IDS["person_sitting"]: "Person"}
+_KITTI_TYPES = {
+    CAR: "Car",
+    VAN: "Van",
+    PED: "Pedestrian",
+    DONTCARE: "DontCare",
+    CLASS_IDS["person_sitting"]: "Person",
+}
 
 
 def _grid_boxes(rng, n: int, scale: int) -> np.ndarray:
@@ -274,7 +350,7 @@ def _random_mot(rng, tmp: Path, benchmark: str, name: str) -> tuple[Path, Path, 
             if kind == "tr" and n >= 2 and rng.random() < 0.3:
                 boxes[1] = boxes[0]
             ids = rng.choice(np.arange(1, 16), n, replace=False)
-            for (x, y, w, h), i in zip(boxes.tolist(), ids.tolist()):
+            for (x, y, w, h), i in zip(boxes.tolist(), ids.tolist(), strict=True):
                 if kind == "tr":
                     lines.append(f"{f},{i},{x},{y},{w},{h},1,-1,-1,-1")
                 elif benchmark == "MOT17":
@@ -286,7 +362,8 @@ def _random_mot(rng, tmp: Path, benchmark: str, name: str) -> tuple[Path, Path, 
     gt = tmp / "gt" / name / "gt" / "gt.txt"
     gt.write_text("".join(line + "\n" for line in gt_lines))
     (tmp / "gt" / name / "seqinfo.ini").write_text(
-        f"[Sequence]\nname={name}\nseqLength={n_frames}\nimWidth=99\nimHeight=99\nframeRate=1\n")
+        f"[Sequence]\nname={name}\nseqLength={n_frames}\nimWidth=99\nimHeight=99\nframeRate=1\n"
+    )
     res = tmp / "res" / f"{name}.txt"
     res.write_text("".join(line + "\n" for line in tr_lines))
     return gt, res, n_frames
@@ -298,25 +375,37 @@ def _random_kitti(rng, tmp: Path, name: str) -> tuple[Path, Path, Path, int]:
     for f in range(n_frames):
         n = int(rng.integers(0, 12))
         ids = rng.choice(np.arange(0, 16), n, replace=False)
-        for (x, y, w, h), i in zip(_grid_boxes(rng, n, 3).tolist(), ids.tolist()):
-            cls = int(rng.choice([CAR, CAR, CAR, VAN, PED, PED, DONTCARE, CLASS_IDS["person_sitting"]]))
+        for (x, y, w, h), i in zip(_grid_boxes(rng, n, 3).tolist(), ids.tolist(), strict=True):
+            cls = int(
+                rng.choice([CAR, CAR, CAR, VAN, PED, PED, DONTCARE, CLASS_IDS["person_sitting"]])
+            )
             i = -1 if cls == DONTCARE else i
-            gt_lines.append(f"{f} {i} {_KITTI_TYPES[cls]} {rng.choice([0, 0, 0, 1, 2])} {rng.integers(0, 4)} 0 "
-                            f"{x} {y} {x + w} {y + h} 1 1 1 1 1 1 0")
+            gt_lines.append(
+                f"{f} {i} {_KITTI_TYPES[cls]} "
+                f"{rng.choice([0, 0, 0, 1, 2])} {rng.integers(0, 4)} 0 "
+                f"{x} {y} {x + w} {y + h} 1 1 1 1 1 1 0"
+            )
         n = int(rng.integers(0, 12))
         boxes = _grid_boxes(rng, n, 3)
         if n >= 2 and rng.random() < 0.3:
             boxes[1] = boxes[0]
         ids = rng.choice(np.arange(0, 16), n, replace=False)
-        for (x, y, w, h), i in zip(boxes.tolist(), ids.tolist()):
+        for (x, y, w, h), i in zip(boxes.tolist(), ids.tolist(), strict=True):
             kind = _KITTI_TYPES[int(rng.choice([CAR, CAR, PED, VAN]))]
-            tr_lines.append(f"{f} {i} {kind} -1 -1 -10 {x} {y} {x + w} {y + h} -1 -1 -1 -1000 -1000 -1000 -10 0.5")
-    te_gt = tmp / "te_labels" / f"{name}.txt"  # TrackEval spells person sitting "Person" (as KITTI tracking)
+            tr_lines.append(
+                f"{f} {i} {kind} -1 -1 -10 {x} {y} {x + w} {y + h} "
+                "-1 -1 -1 -1000 -1000 -1000 -10 0.5"
+            )
+    te_gt = (
+        tmp / "te_labels" / f"{name}.txt"
+    )  # TrackEval spells person sitting "Person" (as KITTI tracking)
     te_gt.parent.mkdir(exist_ok=True)
     te_gt.write_text("".join(line + "\n" for line in gt_lines))
     ours = tmp / "gt" / "label_02" / f"{name}.txt"
     ours.parent.mkdir(parents=True, exist_ok=True)
-    ours.write_text("".join(line.replace(" Person ", " Person_sitting ") + "\n" for line in gt_lines))
+    ours.write_text(
+        "".join(line.replace(" Person ", " Person_sitting ") + "\n" for line in gt_lines)
+    )
     res = tmp / "res" / f"{name}.txt"
     res.write_text("".join(line + "\n" for line in tr_lines))
     return te_gt, ours, res, n_frames
@@ -334,7 +423,9 @@ def test_random_scenes_parity(tmp_path, family, seed):
             te_gt, _, res, n = _random_kitti(rng, tmp_path, name)
             seqs[name], lengths[name] = (te_gt, res, n), n
         (tmp_path / "gt" / "seqinfo.csv").write_text(
-            "seq,num_frames,im_width,im_height,frame_rate\n" + "".join(f"{s},{n},99,99,10\n" for s, n in lengths.items()))
+            "seq,num_frames,im_width,im_height,frame_rate\n"
+            + "".join(f"{s},{n},99,99,10\n" for s, n in lengths.items())
+        )
         te = trackeval_kitti(tmp_path, seqs, ["car", "pedestrian"])
         ours = evaluate(load_kitti_benchmark(tmp_path / "gt", tmp_path / "res"), "kitti")
         for class_name in ("car", "pedestrian"):

@@ -42,8 +42,12 @@ def _perfect_tracks(scene, gt: Detections | None = None) -> Detections:
     """A perfect tracker: the ground-truth box of every object on the frames it was detected,
     with the object id as track id."""
     gt = scene.ground_truth if gt is None else gt
-    seen = set(zip(scene.detections.data["gt_id"].tolist(), scene.detections.frame.tolist()))
-    keep = np.array([(t, f) in seen for t, f in zip(gt.tracker_id.tolist(), gt.frame.tolist())])
+    seen = set(
+        zip(scene.detections.data["gt_id"].tolist(), scene.detections.frame.tolist(), strict=True)
+    )
+    keep = np.array(
+        [(t, f) in seen for t, f in zip(gt.tracker_id.tolist(), gt.frame.tolist(), strict=True)]
+    )
     return Detections(xyxy=gt.xyxy[keep], tracker_id=gt.tracker_id[keep], frame=gt.frame[keep])
 
 
@@ -133,6 +137,18 @@ def test_undecidable_without_visibility_or_without_a_match(crossing):
     assert (s["undecidable"], s["precision"]) == (1, None)
 
 
+def test_events_of_a_users_encoding_are_no_crash(crossing):
+    """A user's encoding may abduce events without arguments or with constants: recall ignores
+    them, and a constant where a track id belongs names no track (unmatched)."""
+    truth, tracks = _truth(crossing), _perfect_tracks(crossing)
+    base = evaluate_explanations(truth, tracks, [HIDE, UNHIDE])
+    foggy, by_wall = Event(3, "foggy", ()), Event(13, "hides_behind", ("wall", 2))
+    res = evaluate_explanations(truth, tracks, [HIDE, UNHIDE, foggy, by_wall])
+    assert res.recall == base.recall
+    v = _one(res, by_wall)
+    assert (v.verdict, v.reason, v.gt) == ("undecidable", "unmatched", (None, 2))
+
+
 def test_enter_leave_start_at_the_border():
     scene = next(s for s in occlusion_suite(0) if s.name == "leave_and_enter_at_border")
     gt = scene.ground_truth
@@ -188,7 +204,7 @@ def _hidden_entity(frame: int, reappear: int, x: float, y: float) -> dict:
 
 
 def test_hidden_entity_reappearance_error(crossing):
-    """Object 1 is visible again (visibility >= 0.5) from frame 20, bottom centre (678.3, 295.5)."""
+    """Object 1 is seen again (visibility >= 0.5) from frame 20, bottom centre (678.3, 295.5)."""
     gt = crossing.ground_truth
     row = (gt.tracker_id == 1) & (gt.frame == 20)
     x1, _, x2, y2 = gt.xyxy[row][0]
@@ -364,7 +380,7 @@ def mot_run(tmp_path, crossing):
     gt = crossing.ground_truth
     with open(seq / "gt" / "gt.txt", "w") as fh:
         for f, i, (x1, y1, x2, y2), v in zip(
-            gt.frame, gt.tracker_id, gt.xyxy, gt.data["visibility"]
+            gt.frame, gt.tracker_id, gt.xyxy, gt.data["visibility"], strict=True
         ):
             fh.write(f"{f + 1},{i},{x1:.2f},{y1:.2f},{x2 - x1:.2f},{y2 - y1:.2f},1,1,{v:.3f}\n")
     (seq / "seqinfo.ini").write_text(
@@ -374,7 +390,7 @@ def mot_run(tmp_path, crossing):
     tr = _perfect_tracks(crossing)
     res = tmp_path / "CROSS.txt"
     with open(res, "w") as fh:
-        for f, i, (x1, y1, x2, y2) in zip(tr.frame, tr.tracker_id, tr.xyxy):
+        for f, i, (x1, y1, x2, y2) in zip(tr.frame, tr.tracker_id, tr.xyxy, strict=True):
             fh.write(f"{f + 1},{i},{x1:.2f},{y1:.2f},{x2 - x1:.2f},{y2 - y1:.2f},1,-1,-1,-1\n")
     events = tmp_path / "CROSS.events.jsonl"
     events.write_text(
@@ -496,8 +512,10 @@ def test_overtaking_needs_a_flip_of_the_3d_depth_order():
     labels = _kitti_labels(rows)
     gt = GroundTruth.from_kitti(labels, image_size=(1242, 375), fps=10.0, classes=("car",))
     tracks = labels.with_(tracker_id=labels.tracker_id + 10)
-    warn = [{"frame": 10, "situation": "OVERTAKING", "objects": [a, b], "details": d}
-            for a, b, d in ((11, 12, {"nearer_until": 2}), (13, 12, {}), (11, 11, {}))]
+    warn = [
+        {"frame": 10, "situation": "OVERTAKING", "objects": [a, b], "details": d}
+        for a, b, d in ((11, 12, {"nearer_until": 2}), (13, 12, {}), (11, 11, {}))
+    ]
     a, b, c = evaluate_explanations(gt, tracks, [], warn).warnings
     assert (a.verdict, a.reason, a.lateral_m) == ("plausible", "passed_in_depth", 3.0)
     assert (b.verdict, b.reason) == ("implausible", "no_depth_flip")

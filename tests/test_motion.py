@@ -56,8 +56,12 @@ def _assert_same(a: tuple[np.ndarray, ...], b: tuple[np.ndarray, ...]) -> None:
 
 # convergence -----------------------------------------------------------------------------
 @SETTINGS
-@given(c0=arrays(np.float64, 2, elements=centre), s0=arrays(np.float64, 2, elements=st.floats(20.0, 300.0)),
-       vc=arrays(np.float64, 2, elements=speed), vs=arrays(np.float64, 2, elements=growth))
+@given(
+    c0=arrays(np.float64, 2, elements=centre),
+    s0=arrays(np.float64, 2, elements=st.floats(20.0, 300.0)),
+    vc=arrays(np.float64, 2, elements=speed),
+    vs=arrays(np.float64, 2, elements=growth),
+)
 def test_constant_velocity_is_predicted_after_five_updates(c0, s0, vc, vs):
     start = np.concatenate([c0, s0])
     vel = np.concatenate([vc, vs])
@@ -76,8 +80,14 @@ def test_constant_velocity_is_predicted_after_five_updates(c0, s0, vc, vs):
 def test_converges_over_many_tracks_at_once():
     rng = np.random.default_rng(0)
     n = 200
-    start = np.column_stack([rng.uniform(0, 1200, n), rng.uniform(0, 375, n),
-                             rng.uniform(20, 200, n), rng.uniform(20, 200, n)])
+    start = np.column_stack(
+        [
+            rng.uniform(0, 1200, n),
+            rng.uniform(0, 375, n),
+            rng.uniform(20, 200, n),
+            rng.uniform(20, 200, n),
+        ]
+    )
     vel = np.column_stack([rng.uniform(-30, 30, (n, 2)), rng.uniform(-1, 1, (n, 2))])
     bank = KalmanBank()
     bank.add(cxcywh_to_xyxy(start))
@@ -133,7 +143,9 @@ def test_per_track_steps_equal_separate_predictions(bank, seed):
         single = bank.copy()
         single.predict(int(n))
         np.testing.assert_allclose(out[i], single.xyxy()[i], rtol=1e-12, atol=1e-9)
-        np.testing.assert_allclose(batched.covariance()[i], single.covariance()[i], rtol=1e-12, atol=1e-9)
+        np.testing.assert_allclose(
+            batched.covariance()[i], single.covariance()[i], rtol=1e-12, atol=1e-9
+        )
 
 
 @SETTINGS
@@ -198,9 +210,12 @@ def test_batched_update_equals_one_by_one(bank, seed):
 
 
 @SETTINGS
-@given(s0=arrays(np.float64, (5, 2), elements=st.floats(2.0, 60.0)),
-       shrink=arrays(np.float64, (5, 2), elements=st.floats(0.5, 20.0)),
-       steps=st.integers(1, 50), min_size=st.floats(0.5, 8.0))
+@given(
+    s0=arrays(np.float64, (5, 2), elements=st.floats(2.0, 60.0)),
+    shrink=arrays(np.float64, (5, 2), elements=st.floats(0.5, 20.0)),
+    steps=st.integers(1, 50),
+    min_size=st.floats(0.5, 8.0),
+)
 def test_predicted_sizes_never_below_min_size(s0, shrink, steps, min_size):
     bank = KalmanBank(KalmanConfig(min_size=min_size))
     c0 = np.full((5, 2), 300.0)
@@ -283,7 +298,11 @@ def test_bad_update_raises():
 def test_predict_of_100_tracks_is_cheap():
     rng = np.random.default_rng(1)
     bank = KalmanBank()
-    bank.add(cxcywh_to_xyxy(np.column_stack([rng.uniform(0, 1200, (100, 2)), rng.uniform(10, 100, (100, 2))])))
+    bank.add(
+        cxcywh_to_xyxy(
+            np.column_stack([rng.uniform(0, 1200, (100, 2)), rng.uniform(10, 100, (100, 2))])
+        )
+    )
     per_call = min(timeit.repeat(bank.predict, number=200, repeat=5)) / 200
     assert per_call < 1e-3  # budget is 0.2 ms; generous here so loaded CI machines pass
 
@@ -307,13 +326,17 @@ def test_trusted_update_equals_checked_update(bank, seed):
 def test_single_step_predict_equals_general_formula(bank):
     # a scalar step and per-track steps of ones give the same state, bit for bit
     fast, general = bank.copy(), bank.copy()
-    np.testing.assert_array_equal(fast.predict(1), general.predict(np.ones(len(bank), dtype=np.int64)))
+    np.testing.assert_array_equal(
+        fast.predict(1), general.predict(np.ones(len(bank), dtype=np.int64))
+    )
     _assert_same(_state(fast), _state(general))
 
 
 def test_single_step_predict_clamps_like_general_formula():
     bank = KalmanBank(KalmanConfig(min_size=4.0))
-    bank.add(np.array([[0, 0, 10, 10.0], [0, 0, 5, 5.0]]), velocity=np.array([1.0, -1.0, -3.0, -2.0]))
+    bank.add(
+        np.array([[0, 0, 10, 10.0], [0, 0, 5, 5.0]]), velocity=np.array([1.0, -1.0, -3.0, -2.0])
+    )
     fast, general = bank.copy(), bank.copy()
     for _ in range(3):
         np.testing.assert_array_equal(fast.predict(1), general.predict(np.ones(2, dtype=np.int64)))

@@ -44,7 +44,15 @@ def occlusion_results(n: int = 40) -> list[FrameResult]:
         rows.append((1, [300, 100, 500, 250], CLASS_IDS["car"], 0, -1))
         x = 150 + f * 12
         hidden = 15 <= f <= 22
-        rows.append((2, [x, 120, x + 50, 240], CLASS_IDS["cyclist"], 1 if hidden else 0, 1 if hidden else -1))
+        rows.append(
+            (
+                2,
+                [x, 120, x + 50, 240],
+                CLASS_IDS["cyclist"],
+                1 if hidden else 0,
+                1 if hidden else -1,
+            )
+        )
         if f == 0:
             events += [Event(0, "starts", (1,)), Event(0, "starts", (2,))]
         if f == 15:
@@ -60,18 +68,28 @@ def occlusion_results(n: int = 40) -> list[FrameResult]:
                 events.append(Event(28, "missing_detections", (3,)))
         k = len(rows)
         tracks = Detections(
-            xyxy=np.array([r[1] for r in rows], dtype=float), class_id=[r[2] for r in rows],
-            tracker_id=[r[0] for r in rows], frame=f,
-            data={"state": np.array([r[3] for r in rows]), "occluder": np.array([r[4] for r in rows]),
-                  "visibility": np.zeros(k, dtype=int), "hidden_frames": np.zeros(k, dtype=int)},
+            xyxy=np.array([r[1] for r in rows], dtype=float),
+            class_id=[r[2] for r in rows],
+            tracker_id=[r[0] for r in rows],
+            frame=f,
+            data={
+                "state": np.array([r[3] for r in rows]),
+                "occluder": np.array([r[4] for r in rows]),
+                "visibility": np.zeros(k, dtype=int),
+                "hidden_frames": np.zeros(k, dtype=int),
+            },
         )
         out.append(FrameResult(f, tracks, sorted(events)))
     return out
 
 
 def occlusion_run(**kw: Any):
-    warnings = [Warn(16, "HIDDEN_ENTITY", (2, 1), "#2 cyclist hidden behind #1 car may reappear in front")]
-    return as_run(occlusion_results(), warnings=warnings, width=W, height=H, fps=10.0, name="synthetic", **kw)
+    warnings = [
+        Warn(16, "HIDDEN_ENTITY", (2, 1), "#2 cyclist hidden behind #1 car may reappear in front")
+    ]
+    return as_run(
+        occlusion_results(), warnings=warnings, width=W, height=H, fps=10.0, name="synthetic", **kw
+    )
 
 
 # style ----------------------------------------------------------------------------------------
@@ -87,8 +105,12 @@ def test_captions_and_event_sentences():
     assert st.track_caption(5, CLASS_IDS["car"], 2) == "#5 car missing"
     assert st.track_caption(5, 0, 0) == "#5"
     classes = {5: CLASS_IDS["cyclist"], 2: CLASS_IDS["car"]}
-    assert st.event_sentence("hides_behind", (5, 2), classes) == "#5 cyclist is hidden behind #2 car"
+    assert (
+        st.event_sentence("hides_behind", (5, 2), classes) == "#5 cyclist is hidden behind #2 car"
+    )
     assert st.event_sentence("made_up", (1, 2)) == "made_up(1, 2)"
+    # a constant of a user's encoding is no track id: shown as it is
+    assert st.event_sentence("near", (5, "left")) == "near(5, left)"
     assert st.warning_sentence(Warn(1, "hidden_entity", (5,), "")) == "HIDDEN_ENTITY: #5"
 
 
@@ -113,7 +135,7 @@ def test_hidden_track_is_dashed_and_captioned():
     im = _rgb(drawer.draw(18))
     colour = np.array(st.track_rgb(2))
     x1 = 150 + 18 * 12
-    top = im[120, x1:x1 + 50]
+    top = im[120, x1 : x1 + 50]
     on = np.all(np.abs(top - colour) < 3, axis=1)
     assert 0.3 < on.mean() < 0.9, "the hidden box's edge should alternate dashes and gaps"
     # a visible box's edge is solid
@@ -199,7 +221,12 @@ def test_png_folder_output_keeps_other_files(tmp_path: Path):
     out_dir.mkdir()
     (out_dir / "README").write_text("mine")
     render_scene(occlusion_run(), str(out_dir) + "/", frames=range(10, 13))
-    assert sorted(p.name for p in out_dir.iterdir()) == ["000010.png", "000011.png", "000012.png", "README"]
+    assert sorted(p.name for p in out_dir.iterdir()) == [
+        "000010.png",
+        "000011.png",
+        "000012.png",
+        "README",
+    ]
     fresh = render_scene(occlusion_run(), tmp_path / "new", frames=[0])
     assert [p.name for p in fresh.iterdir()] == ["000000.png"]
     assert not list(tmp_path.glob(".*part*"))
@@ -240,7 +267,9 @@ def test_failed_render_leaves_nothing(tmp_path: Path, monkeypatch: pytest.Monkey
 
 
 # frame sources --------------------------------------------------------------------------------
-def _write_images(folder: Path, frames: range, colour: tuple[int, int, int], size=(W, H), suffix=".png") -> None:
+def _write_images(
+    folder: Path, frames: range, colour: tuple[int, int, int], size=(W, H), suffix=".png"
+) -> None:
     folder.mkdir()
     for f in frames:
         Image.new("RGB", size, colour).save(folder / f"{f:06d}{suffix}")
@@ -279,7 +308,9 @@ def test_render_over_a_video(tmp_path: Path):
 
 def test_images_and_video_are_exclusive(tmp_path: Path):
     with pytest.raises(InputError):
-        render_scene(occlusion_run(), tmp_path / "x.gif", images=tmp_path, video=tmp_path / "v.mp4")
+        render_scene(
+            occlusion_run(), tmp_path / "x.gif", images=tmp_path, video=tmp_path / "v.mp4"
+        )
 
 
 def test_missing_image_folder_is_an_input_error(tmp_path: Path):
@@ -306,15 +337,47 @@ def test_render_scene_file_and_cli(tmp_path: Path):
     assert run.size() == (W, H) and run.fps == 10.0 and run.name == "scene"
     assert len(run.results) == 40 and run.classes[2] == CLASS_IDS["cyclist"]
     warnings = tmp_path / "w.jsonl"
-    warnings.write_text(json.dumps({"frame": 16, "situation": "HIDDEN_ENTITY", "objects": [2, 1],
-                                    "message": "cyclist may reappear", "details": {}}) + "\n")
-    assert main(["-q", "render", str(scene), "--output", str(tmp_path / "out.gif"), "--fps", "5",
-                 "--frames", "10:19", "--warnings", str(warnings)]) == 0
+    warnings.write_text(
+        json.dumps(
+            {
+                "frame": 16,
+                "situation": "HIDDEN_ENTITY",
+                "objects": [2, 1],
+                "message": "cyclist may reappear",
+                "details": {},
+            }
+        )
+        + "\n"
+    )
+    assert (
+        main(
+            [
+                "-q",
+                "render",
+                str(scene),
+                "--output",
+                str(tmp_path / "out.gif"),
+                "--fps",
+                "5",
+                "--frames",
+                "10:19",
+                "--warnings",
+                str(warnings),
+            ]
+        )
+        == 0
+    )
     with Image.open(tmp_path / "out.gif") as im:
         assert im.n_frames == 10 and im.info["duration"] == 200
     assert main(["-q", "render", str(scene), "--output", str(tmp_path / "bad.txt")]) == 2
-    assert main(["-q", "render", str(tmp_path / "none.json"), "--output", str(tmp_path / "o.gif")]) == 2
-    assert main(["-q", "render", str(scene), "--output", str(tmp_path / "o.gif"), "--frames", "9:3"]) == 2
+    assert (
+        main(["-q", "render", str(tmp_path / "none.json"), "--output", str(tmp_path / "o.gif")])
+        == 2
+    )
+    assert (
+        main(["-q", "render", str(scene), "--output", str(tmp_path / "o.gif"), "--frames", "9:3"])
+        == 2
+    )
 
 
 def test_gif_frames_decode_to_exactly_what_was_drawn(tmp_path: Path):
@@ -358,8 +421,21 @@ def test_empty_runs():
 
 def test_anticipated_reappearance_is_drawn_while_hidden():
     box = [420.0, 120.0, 470.0, 240.0]
-    warn = Warn(16, "HIDDEN_ENTITY", (2, 1), "may reappear",
-                {"anticipation": {"track": 2, "occluder": 1, "frame": 16, "reappear_frame": 24, "box": box}})
+    warn = Warn(
+        16,
+        "HIDDEN_ENTITY",
+        (2, 1),
+        "may reappear",
+        {
+            "anticipation": {
+                "track": 2,
+                "occluder": 1,
+                "frame": 16,
+                "reappear_frame": 24,
+                "box": box,
+            }
+        },
+    )
     run = as_run(occlusion_results(), warnings=[warn], width=W, height=H)
     drawer = FrameDrawer(run, scale=1.0, options=RenderOptions(trail=0, grid=False))
     red = np.array(st.palette()[st.WARNING])
@@ -392,8 +468,21 @@ def test_dashed_boxes_far_outside_the_image_are_cheap_and_clipped():
     _dashed_rect(Recorder(), (10, 10, 70, 34), 1, 2, dash=7, gap=5)
     assert len(calls) == 2 * 5 + 2 * 2  # 60 px edges: 5 dashes; 24 px edges: 2 dashes
     t0 = time.perf_counter()
-    huge = as_run([FrameResult(0, Detections(xyxy=[[-1e8, -1e8, 1e8, 1e8]], tracker_id=[1], frame=0,
-                                             data={"state": np.array([1]), "occluder": np.array([-1])}))],
-                  warnings=None, width=W, height=H)
+    huge = as_run(
+        [
+            FrameResult(
+                0,
+                Detections(
+                    xyxy=[[-1e8, -1e8, 1e8, 1e8]],
+                    tracker_id=[1],
+                    frame=0,
+                    data={"state": np.array([1]), "occluder": np.array([-1])},
+                ),
+            )
+        ],
+        warnings=None,
+        width=W,
+        height=H,
+    )
     FrameDrawer(huge).draw(0)
     assert time.perf_counter() - t0 < 2.0

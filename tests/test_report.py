@@ -21,7 +21,13 @@ from sensemaking.detections import Detections  # noqa: E402
 from sensemaking.errors import InputError  # noqa: E402
 from sensemaking.viz import report as report_mod  # noqa: E402
 from sensemaking.viz._run import as_run  # noqa: E402
-from sensemaking.viz.report import build_report, fallback_story, key_frames, track_story, write_report  # noqa: E402
+from sensemaking.viz.report import (
+    build_report,
+    fallback_story,
+    key_frames,
+    track_story,
+    write_report,
+)  # noqa: E402
 
 
 @pytest.fixture
@@ -45,8 +51,12 @@ def test_report_sections(no_explain: None):
 
 def test_report_is_self_contained():
     text = build_report(occlusion_run())
-    assert "http:" not in text and "https:" not in text and "//" not in re.sub(r"data:[^\"]+", "", text)
-    assert "<link" not in text and " src=\"data:" in text
+    assert (
+        "http:" not in text
+        and "https:" not in text
+        and "//" not in re.sub(r"data:[^\"]+", "", text)
+    )
+    assert "<link" not in text and ' src="data:' in text
     assert not re.search(r'src="(?!data:)', text)
 
 
@@ -77,7 +87,9 @@ def test_key_frames_prefer_warnings_and_occlusions():
 def test_fallback_story_tells_the_occlusion():
     run = occlusion_run()
     story = fallback_story(run, 2)
-    assert story[0].startswith("#2 cyclist was tracked from frame 0 to frame 39 (4.0 s), visible in 32 of 40")
+    assert story[0].startswith(
+        "#2 cyclist was tracked from frame 0 to frame 39 (4.0 s), visible in 32 of 40"
+    )
     assert "Frame 15: #2 cyclist is hidden behind #1 car (for 8 frames, 0.8 s)." in story
     assert "Frame 23: #2 cyclist reappears from behind #1 car." in story
     assert any("#3 car: detections are missing (for 3 frames" in s for s in fallback_story(run, 3))
@@ -106,14 +118,36 @@ def test_story_uses_reasoning_when_available():
 def test_metrics_against_ground_truth(no_explain: None):
     from sensemaking.classes import CLASS_IDS
 
-    people = [r.__class__(r.frame, r.tracks.with_(class_id=np.full(len(r.tracks), CLASS_IDS["pedestrian"])),
-                          r.events) for r in occlusion_results()]
+    people = [
+        r.__class__(
+            r.frame,
+            r.tracks.with_(class_id=np.full(len(r.tracks), CLASS_IDS["pedestrian"])),
+            r.events,
+        )
+        for r in occlusion_results()
+    ]
     run = as_run(people, warnings=None)
     visible = [r.visible for r in run.results]
-    gt = Detections.concatenate([Detections(xyxy=v.xyxy, class_id=np.ones(len(v), int), tracker_id=v.tracker_id,
-                                            frame=v.frame + 1) for v in visible])
-    shifted = as_run([r.__class__(r.frame + 1, r.tracks.with_(frame=r.tracks.frame + 1), r.events)
-                      for r in run.results], warnings=None, width=800, height=300)
+    gt = Detections.concatenate(
+        [
+            Detections(
+                xyxy=v.xyxy,
+                class_id=np.ones(len(v), int),
+                tracker_id=v.tracker_id,
+                frame=v.frame + 1,
+            )
+            for v in visible
+        ]
+    )
+    shifted = as_run(
+        [
+            r.__class__(r.frame + 1, r.tracks.with_(frame=r.tracks.frame + 1), r.events)
+            for r in run.results
+        ],
+        warnings=None,
+        width=800,
+        height=300,
+    )
     text = build_report(shifted, gt=gt, gt_format="mot", max_thumbnails=0)
     assert '<table class="metrics">' in text and "mot17 pedestrian" in text
     row = re.search(r"<tr><td>mot17 pedestrian</td>(.*?)</tr>", text).group(1)
@@ -136,20 +170,64 @@ def test_write_report_and_cli(tmp_path: Path, no_explain: None):
     for r in occlusion_results():
         rec.add(r)
     rec.scene().save(tmp_path / "scene.json")
-    assert main(["-q", "report", str(tmp_path / "scene.json"), "--output", str(tmp_path / "c.html"),
-                 "--thumbnails", "3", "--no-warnings", "--title", "My run"]) == 0
+    assert (
+        main(
+            [
+                "-q",
+                "report",
+                str(tmp_path / "scene.json"),
+                "--output",
+                str(tmp_path / "c.html"),
+                "--thumbnails",
+                "3",
+                "--no-warnings",
+                "--title",
+                "My run",
+            ]
+        )
+        == 0
+    )
     html = (tmp_path / "c.html").read_text(encoding="utf-8")
     assert "<title>My run</title>" in html and html.count('<figure class="thumb"') == 3
-    assert main(["-q", "report", str(tmp_path / "scene.json"), "--output", str(tmp_path / "d.html"),
-                 "--format", "mot"]) == 2
+    assert (
+        main(
+            [
+                "-q",
+                "report",
+                str(tmp_path / "scene.json"),
+                "--output",
+                str(tmp_path / "d.html"),
+                "--format",
+                "mot",
+            ]
+        )
+        == 2
+    )
     assert not (tmp_path / "d.html").exists()
 
 
 def test_notes_are_listed_apart_from_warnings(no_explain: None):
     note = Warn(3, "BLOCKED_LANE", (), "", {"skipped": "no lanes known"})
-    text = build_report(as_run(occlusion_results(), warnings=[note], width=800, height=300), max_thumbnails=0)
+    text = build_report(
+        as_run(occlusion_results(), warnings=[note], width=800, height=300), max_thumbnails=0
+    )
     assert "No warnings." in text and "BLOCKED_LANE (no lanes known)" in text
     assert 'class="warning-mark"' not in text
+
+
+def test_events_of_a_users_encoding_in_the_report(no_explain: None):
+    """Events of a user's encoding may have constants or no arguments: those about a track are
+    told on its row and in its story with the constants as they are; the others have no row."""
+    from sensemaking.results import Event
+
+    results = occlusion_results()
+    results[4].events.extend([Event(4, "foggy", ()), Event(4, "near", (1, "left"))])
+    results[5].events.append(Event(5, "weather", ("rain",)))
+    text = build_report(as_run(results, width=800, height=300), max_thumbnails=0)
+    assert "<title>frame 4: near(1, left)</title>" in text
+    assert "<li>Frame 4: near(1, left).</li>" in text
+    assert "rain" not in text and "foggy" not in text
+    assert len(re.findall(r'<g class="track-row" data-track="\d+">', text)) == 3
 
 
 def test_report_of_empty_runs(no_explain: None):

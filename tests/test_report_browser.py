@@ -23,9 +23,17 @@ pytestmark = pytest.mark.integration
 
 CHROMIUM = Path("/usr/bin/chromium")
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
-FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-         "--disable-background-networking", "--disable-component-update", "--disable-sync",
-         "--virtual-time-budget=5000"]
+FLAGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--virtual-time-budget=5000",
+]
 
 
 def _chromium(page: Path, *extra: str) -> subprocess.CompletedProcess[str]:
@@ -34,7 +42,10 @@ def _chromium(page: Path, *extra: str) -> subprocess.CompletedProcess[str]:
     with tempfile.TemporaryDirectory(prefix="chromium-profile-") as profile:
         return subprocess.run(
             [str(CHROMIUM), *FLAGS, f"--user-data-dir={profile}", *extra, page.resolve().as_uri()],
-            capture_output=True, text=True, timeout=120, check=True,
+            capture_output=True,
+            text=True,
+            timeout=120,
+            check=True,
         )
 
 
@@ -80,7 +91,9 @@ def _dump(page: Path) -> _Dom:
 
 def _story(dom: _Dom, track: int) -> str:
     """The text of one track's story as the browser shows it."""
-    m = re.search(rf'<article class="story" id="track-{track}"[^>]*>(.*?)</article>', dom.html, re.S)
+    m = re.search(
+        rf'<article class="story" id="track-{track}"[^>]*>(.*?)</article>', dom.html, re.S
+    )
     assert m, f"no story for track {track}"
     return re.sub(r"<[^>]+>", " ", m.group(1))
 

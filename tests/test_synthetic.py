@@ -25,10 +25,15 @@ SUITE = occlusion_suite(0)
 
 
 def _same(a: Detections, b: Detections) -> bool:
-    return (len(a) == len(b) and all(np.array_equal(getattr(a, k), getattr(b, k))
-            for k in ("xyxy", "confidence", "class_id", "tracker_id", "frame"))
-            and a.data.keys() == b.data.keys()
-            and all(np.array_equal(a.data[k], b.data[k]) for k in a.data))
+    return (
+        len(a) == len(b)
+        and all(
+            np.array_equal(getattr(a, k), getattr(b, k))
+            for k in ("xyxy", "confidence", "class_id", "tracker_id", "frame")
+        )
+        and a.data.keys() == b.data.keys()
+        and all(np.array_equal(a.data[k], b.data[k]) for k in a.data)
+    )
 
 
 def _visibility_by_raster(gt: Detections, frame: int, step: float = 0.25) -> dict[int, float]:
@@ -64,7 +69,9 @@ def _missing_runs(scene: SyntheticScene, oid: int) -> list[tuple[int, int]]:
     return [(a, n) for a, n in runs]
 
 
-def _check_consistent(scene: SyntheticScene, noise_px: float = 1.0, threshold: float = 0.6) -> None:
+def _check_consistent(
+    scene: SyntheticScene, noise_px: float = 1.0, threshold: float = 0.6
+) -> None:
     gt, det = scene.ground_truth, scene.detections
     # shapes and ranges
     assert np.all(gt.xyxy[:, 2:] > gt.xyxy[:, :2]) and np.all(det.xyxy[:, 2:] > det.xyxy[:, :2])
@@ -105,7 +112,9 @@ def test_make_scene_is_deterministic():
     assert not _same(a.detections, c.detections)
     for s in (SUITE, occlusion_suite(0)):
         assert [x.name for x in s] == [x.name for x in SUITE]
-    assert all(_same(x.detections, y.detections) for x, y in zip(SUITE, occlusion_suite(0), strict=True))
+    assert all(
+        _same(x.detections, y.detections) for x, y in zip(SUITE, occlusion_suite(0), strict=True)
+    )
 
 
 @pytest.mark.parametrize("n_tracks", [5, 10, 20, 50, 100])
@@ -124,8 +133,12 @@ def test_make_scene_counts_and_overlap(n_tracks):
 
 
 @settings(max_examples=25, deadline=None)
-@given(n_tracks=st.integers(0, 60), overlap=st.floats(0.0, 1.0), seed=st.integers(0, 10_000),
-       classes=st.sampled_from([(3,), (1,), (1, 3, 16), (15, 14)]))
+@given(
+    n_tracks=st.integers(0, 60),
+    overlap=st.floats(0.0, 1.0),
+    seed=st.integers(0, 10_000),
+    classes=st.sampled_from([(3,), (1,), (1, 3, 16), (15, 14)]),
+)
 def test_make_scene_overlap_matches_target(n_tracks, overlap, seed, classes):
     scene = make_scene(n_tracks, n_frames=20, overlap=overlap, seed=seed, classes=classes)
     _check_consistent(scene)
@@ -153,8 +166,9 @@ def test_visibility_matches_an_independent_raster():
     for f in (0, 10, 17, 29):
         m = scene.ground_truth.frame == f
         expected = _visibility_by_raster(scene.ground_truth, f)
-        for oid, vis in zip(scene.ground_truth.tracker_id[m], scene.ground_truth.data["visibility"][m],
-                            strict=True):
+        for oid, vis in zip(
+            scene.ground_truth.tracker_id[m], scene.ground_truth.data["visibility"][m], strict=True
+        ):
             assert vis == pytest.approx(expected[int(oid)], abs=0.03)
 
 
@@ -191,9 +205,17 @@ def test_make_scene_100_tracks_is_fast():
     assert time.perf_counter() - start < 0.5
 
 
-@pytest.mark.parametrize("kwargs", [dict(n_tracks=-1), dict(n_tracks=3, n_frames=0),
-                                    dict(n_tracks=3, overlap=1.5), dict(n_tracks=3, miss_rate=2.0),
-                                    dict(n_tracks=3, classes=()), dict(n_tracks=10_000)])
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        dict(n_tracks=-1),
+        dict(n_tracks=3, n_frames=0),
+        dict(n_tracks=3, overlap=1.5),
+        dict(n_tracks=3, miss_rate=2.0),
+        dict(n_tracks=3, classes=()),
+        dict(n_tracks=10_000),
+    ],
+)
 def test_make_scene_rejects_bad_arguments(kwargs):
     with pytest.raises(ValueError):
         make_scene(**kwargs)
@@ -234,7 +256,10 @@ def test_crossing_scene_hides_the_far_object_for_exactly_gap_frames(gap, seed):
     far, near = gt[gt.tracker_id == 1], gt[gt.tracker_id == 2]
     assert np.all(far.xyxy[:, 3] < near.xyxy[:, 3])
     # clear view at the start and at the end
-    assert iou(far.xyxy[:1], near.xyxy[:1])[0, 0] == 0 and iou(far.xyxy[-1:], near.xyxy[-1:])[0, 0] == 0
+    assert (
+        iou(far.xyxy[:1], near.xyxy[:1])[0, 0] == 0
+        and iou(far.xyxy[-1:], near.xyxy[-1:])[0, 0] == 0
+    )
 
 
 def test_default_crossing_defeats_iou_matching_with_the_last_box():
@@ -254,7 +279,9 @@ def test_default_crossing_defeats_iou_matching_with_the_last_box():
 
 @pytest.mark.parametrize("direction", [1, -1])
 def test_crossing_scene_directions(direction):
-    scene = crossing_scene(0, direction=direction, far_speed=3.0, gap=4)  # they walk towards each other
+    scene = crossing_scene(
+        0, direction=direction, far_speed=3.0, gap=4
+    )  # they walk towards each other
     gt = scene.ground_truth
     far = gt.xyxy[gt.tracker_id == 1]
     near = gt.xyxy[gt.tracker_id == 2]
@@ -284,8 +311,10 @@ def test_occlusion_suite(seed):
     names = {s.name: s for s in suite}
     # Figure 1: the cyclist is hidden by the turning car, then seen again
     fig1 = names["car_turns_right_hiding_cyclist"]
-    cyclist = int(fig1.ground_truth.tracker_id[fig1.ground_truth.class_id == CLASS_IDS["cyclist"]][0])
-    (start, gap), = _missing_runs(fig1, cyclist)
+    cyclist = int(
+        fig1.ground_truth.tracker_id[fig1.ground_truth.class_id == CLASS_IDS["cyclist"]][0]
+    )
+    ((start, gap),) = _missing_runs(fig1, cyclist)
     assert start + gap < fig1.n_frames - 5
     # a car leaves at the right border, the other cars come and go
     border = names["leave_and_enter_at_border"]

@@ -53,7 +53,8 @@ VEHICLES: Final[frozenset[int]] = frozenset(
 )
 #: classes that are people (vulnerable road users)
 PEOPLE: Final[frozenset[int]] = frozenset(
-    CLASS_IDS[n] for n in ("pedestrian", "person_on_vehicle", "static_person", "cyclist", "person_sitting")
+    CLASS_IDS[n]
+    for n in ("pedestrian", "person_on_vehicle", "static_person", "cyclist", "person_sitting")
 )
 
 

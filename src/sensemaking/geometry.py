@@ -4,8 +4,19 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["iou", "intersection", "coverage", "box_area", "safe_ratio", "iou_from_intersection", "xywh_to_xyxy",
-           "xyxy_to_xywh", "xyxy_to_cxcywh", "cxcywh_to_xyxy", "clip_to_image"]
+__all__ = [
+    "iou",
+    "intersection",
+    "coverage",
+    "box_area",
+    "safe_ratio",
+    "iou_from_intersection",
+    "xywh_to_xyxy",
+    "xyxy_to_xywh",
+    "xyxy_to_cxcywh",
+    "cxcywh_to_xyxy",
+    "clip_to_image",
+]
 
 
 def intersection(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -44,7 +55,7 @@ def iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def coverage(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """(N, M) fraction of each box of ``a`` covered by each box of ``b`` (intersection / area of a)."""
+    """(N, M) fraction of each box of ``a`` covered by each box of ``b`` (intersection / area)."""
     a = np.asarray(a, dtype=np.float64).reshape(-1, 4)
     b = np.asarray(b, dtype=np.float64).reshape(-1, 4)
     return safe_ratio(intersection(a, b), box_area(a)[:, None])

@@ -67,8 +67,14 @@ class KalmanConfig:
     init_velocity_std: float = 1.0
 
     def __post_init__(self) -> None:
-        for name in ("position_std", "velocity_std", "measurement_std", "min_size",
-                     "init_position_std", "init_velocity_std"):
+        for name in (
+            "position_std",
+            "velocity_std",
+            "measurement_std",
+            "min_size",
+            "init_position_std",
+            "init_velocity_std",
+        ):
             value = getattr(self, name)
             if not np.isfinite(value) or value <= 0:
                 raise ValueError(f"KalmanConfig.{name} must be finite and > 0, got {value!r}")
@@ -115,9 +121,9 @@ class KalmanBank:
         """Hold the (T, 20) state array and its column views: one array, so that a row
         gather, scatter, append or delete is one numpy call for all five quantities."""
         self._s = state
-        self._x = state[:, _X]    # (T, 4) cx, cy, w, h
+        self._x = state[:, _X]  # (T, 4) cx, cy, w, h
         self._pv = state[:, _PV]  # (T, 4) covariance coordinate-velocity
-        self._v = state[:, _V]    # (T, 4) their velocities
+        self._v = state[:, _V]  # (T, 4) their velocities
         self._vv = state[:, _VV]  # (T, 4) variance of each velocity
         self._pp = state[:, _PP]  # (T, 4) variance of each coordinate
 
@@ -186,7 +192,11 @@ class KalmanBank:
         cfg = self.config
         s = self._scale(z)
         start = len(self)
-        v0 = np.zeros_like(z) if velocity is None else np.broadcast_to(np.asarray(velocity, float), z.shape)
+        v0 = (
+            np.zeros_like(z)
+            if velocity is None
+            else np.broadcast_to(np.asarray(velocity, float), z.shape)
+        )
         if not np.all(np.isfinite(v0)):
             raise ValueError("KalmanBank.add: velocities must be finite")
         new = np.zeros((z.shape[0], _COLUMNS))
@@ -240,7 +250,7 @@ class KalmanBank:
         self._clamp_size(self._x, self._v)
 
     def update(self, index: np.ndarray, xyxy: np.ndarray) -> None:
-        """Correct rows ``index`` (K,) with measured boxes ``xyxy`` (K, 4) pixels (rows must be distinct)."""
+        """Correct rows ``index`` (K,), distinct, with measured boxes ``xyxy`` (K, 4) pixels."""
         idx = self._rows(index)
         z = _to_cxcywh(xyxy)
         if z.shape[0] != idx.size:

@@ -53,17 +53,23 @@ class Event:
 
     frame: int
     name: str
-    args: tuple[int, ...]
+    args: tuple[int | str, ...]
 
     def to_json(self) -> dict[str, Any]:
         """The JSON-lines record ``{"frame": ..., "event": ..., "args": [...]}``."""
-        return {"frame": int(self.frame), "event": self.name,
-                "args": [a if isinstance(a, str) else int(a) for a in self.args]}
+        return {
+            "frame": int(self.frame),
+            "event": self.name,
+            "args": [a if isinstance(a, str) else int(a) for a in self.args],
+        }
 
     @classmethod
     def from_json(cls, record: dict[str, Any]) -> Event:
-        return cls(int(record["frame"]), str(record["event"]),
-                   tuple(a if isinstance(a, str) else int(a) for a in record["args"]))
+        return cls(
+            int(record["frame"]),
+            str(record["event"]),
+            tuple(a if isinstance(a, str) else int(a) for a in record["args"]),
+        )
 
     def __str__(self) -> str:
         return f"{self.name}({', '.join(map(str, self.args))})@{self.frame}"

@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
+from typing import TypedDict, Unpack
 
 import numpy as np
 
@@ -29,7 +30,14 @@ from sensemaking.classes import CLASS_IDS
 from sensemaking.detections import Detections
 from sensemaking.geometry import iou
 
-__all__ = ["SyntheticScene", "make_scene", "crossing_scene", "occlusion_suite", "overlap_fraction", "figure1_scene"]
+__all__ = [
+    "SyntheticScene",
+    "make_scene",
+    "crossing_scene",
+    "occlusion_suite",
+    "overlap_fraction",
+    "figure1_scene",
+]
 
 #: fraction of a box that must be inside the image for the object to be in the scene
 MIN_INSIDE = 0.3
@@ -85,17 +93,22 @@ class SyntheticScene:
     def frames(self) -> Iterator[tuple[int, Detections]]:
         """Yield ``(frame, detections)`` for every frame 0..n_frames-1 in order; frames
         without detections give an empty Detections (same ``data`` keys)."""
-        det = self.detections
-        if np.any(np.diff(det.frame) < 0):
-            det = det[np.argsort(det.frame, kind="stable")]
-        cuts = np.searchsorted(det.frame, np.arange(self.n_frames + 1), side="left")
+        det, frame = self.detections, self.detections.frame
+        assert frame is not None  # Detections fills every column
+        if np.any(np.diff(frame) < 0):
+            order = np.argsort(frame, kind="stable")
+            det, frame = det[order], frame[order]
+        cuts = np.searchsorted(frame, np.arange(self.n_frames + 1), side="left")
         for f in range(self.n_frames):
-            yield f, det[cuts[f]:cuts[f + 1]]
+            yield f, det[cuts[f] : cuts[f + 1]]
 
     def __repr__(self) -> str:
-        return (f"SyntheticScene({self.name!r}, n_frames={self.n_frames}, "
-                f"objects={np.unique(self.ground_truth.tracker_id).size}, "
-                f"detections={len(self.detections)})")
+        assert self.ground_truth.tracker_id is not None
+        return (
+            f"SyntheticScene({self.name!r}, n_frames={self.n_frames}, "
+            f"objects={np.unique(self.ground_truth.tracker_id).size}, "
+            f"detections={len(self.detections)})"
+        )
 
 
 def overlap_fraction(boxes: Detections) -> float:
@@ -126,8 +139,12 @@ def _union_area(rects: np.ndarray) -> float:
     ys = np.unique(rects[:, [1, 3]])
     cx = 0.5 * (xs[:-1] + xs[1:])
     cy = 0.5 * (ys[:-1] + ys[1:])
-    inside = ((rects[:, None, None, 0] <= cx[None, :, None]) & (cx[None, :, None] <= rects[:, None, None, 2])
-              & (rects[:, None, None, 1] <= cy[None, None, :]) & (cy[None, None, :] <= rects[:, None, None, 3]))
+    inside = (
+        (rects[:, None, None, 0] <= cx[None, :, None])
+        & (cx[None, :, None] <= rects[:, None, None, 2])
+        & (rects[:, None, None, 1] <= cy[None, None, :])
+        & (cy[None, None, :] <= rects[:, None, None, 3])
+    )
     cell = np.diff(xs)[:, None] * np.diff(ys)[None, :]
     return float(cell[inside.any(axis=0)].sum())
 
@@ -147,7 +164,7 @@ def _render(
     rng: np.random.Generator,
     name: str,
 ) -> SyntheticScene:
-    """Render trajectories ``cxcywh`` (F, N, 4) pixels, alive where ``exists`` (F, N), into a scene."""
+    """A scene from trajectories ``cxcywh`` (F, N, 4) pixels, alive where ``exists`` (F, N)."""
     n_frames, n_obj = exists.shape
     c = cxcywh
     full = np.concatenate([c[..., :2] - c[..., 2:] / 2, c[..., :2] + c[..., 2:] / 2], axis=-1)
@@ -168,26 +185,32 @@ def _render(
     hull = np.concatenate([big[..., :2].min(axis=0), big[..., 2:].max(axis=0)], axis=1)  # (N, 4)
     first, second = np.nonzero(np.triu(_intersects(hull, hull), k=1))
     if first.size:
-        a, b = clipped[:, first], clipped[:, second]                          # (F, P, 4)
+        a, b = clipped[:, first], clipped[:, second]  # (F, P, 4)
         iw = np.minimum(a[..., 2], b[..., 2]) - np.maximum(a[..., 0], b[..., 0])
         ih = np.minimum(a[..., 3], b[..., 3]) - np.maximum(a[..., 1], b[..., 1])
         meet = (iw > 0) & (ih > 0) & present[:, first] & present[:, second]
         inter = np.where(meet, iw * ih, 0.0)
         y2 = full[..., 3]
-        b_hides_a = meet & (y2[:, second] > y2[:, first])                   # (F, P)
+        b_hides_a = meet & (y2[:, second] > y2[:, first])  # (F, P)
         a_hides_b = meet & (y2[:, first] > y2[:, second])
         for hidden, hides in ((first, b_hides_a), (second, a_hides_b)):
-            np.add.at(covered, (slice(None), hidden), np.where(hides, inter, 0.0))
-            np.add.at(n_occluders, (slice(None), hidden), hides.astype(np.int64))
+            cols = (slice(None), hidden)
+            # numpy's stubs omit the tuple-with-slices index that ufunc.at documents and accepts
+            np.add.at(covered, cols, np.where(hides, inter, 0.0))  # type: ignore[arg-type]
+            np.add.at(n_occluders, cols, hides.astype(np.int64))  # type: ignore[arg-type]
         for f, i in zip(*np.nonzero(n_occluders > 1), strict=True):  # overlapping occluders
-            others = np.concatenate([second[(first == i) & b_hides_a[f]], first[(second == i) & a_hides_b[f]]])
+            others = np.concatenate(
+                [second[(first == i) & b_hides_a[f]], first[(second == i) & a_hides_b[f]]]
+            )
             box = clipped[f, i]
             parts = clipped[f, others].copy()
             parts[:, :2] = np.maximum(parts[:, :2], box[:2])
             parts[:, 2:] = np.minimum(parts[:, 2:], box[2:])
             covered[f, i] = _union_area(parts)
     with np.errstate(divide="ignore", invalid="ignore"):
-        covered_frac = np.where(present, np.clip(covered / np.where(area > 0, area, 1.0), 0.0, 1.0), 0.0)
+        covered_frac = np.where(
+            present, np.clip(covered / np.where(area > 0, area, 1.0), 0.0, 1.0), 0.0
+        )
     visibility = 1.0 - covered_frac
 
     # random draws with fixed shapes, so one rate does not change the others' randomness
@@ -225,6 +248,7 @@ def _render(
         f_d = np.concatenate([f_d, f_fp])
         boxes = np.concatenate([boxes, fp_boxes])
         conf = np.concatenate([conf, rng.uniform(0.05, 0.5, total)])
+        assert ground_truth.class_id is not None
         det_class = np.concatenate([det_class, ground_truth.class_id[template]])
         det_gt = np.concatenate([det_gt, np.full(total, -1, dtype=np.int64)])
 
@@ -236,8 +260,15 @@ def _render(
         frame=f_d[order],
         data={"gt_id": det_gt[order]},
     )
-    return SyntheticScene(detections=detections, ground_truth=ground_truth, width=int(width),
-                          height=int(height), fps=float(fps), n_frames=int(n_frames), name=name)
+    return SyntheticScene(
+        detections=detections,
+        ground_truth=ground_truth,
+        width=int(width),
+        height=int(height),
+        fps=float(fps),
+        n_frames=int(n_frames),
+        name=name,
+    )
 
 
 def _clean_boxes(xyxy: np.ndarray, width: float, height: float) -> np.ndarray:
@@ -253,8 +284,9 @@ def _clean_boxes(xyxy: np.ndarray, width: float, height: float) -> np.ndarray:
     return out
 
 
-def _check_rates(occlusion_threshold: float, miss_rate: float, false_positive_rate: float,
-                 noise_px: float) -> None:
+def _check_rates(
+    occlusion_threshold: float, miss_rate: float, false_positive_rate: float, noise_px: float
+) -> None:
     if not 0.0 <= occlusion_threshold <= 1.0:
         raise ValueError(f"occlusion_threshold must be in [0, 1], got {occlusion_threshold}")
     if not 0.0 <= miss_rate <= 1.0:
@@ -266,10 +298,10 @@ def _check_rates(occlusion_threshold: float, miss_rate: float, false_positive_ra
 
 
 # scalability scenes ----------------------------------------------------------------------
-_DY = 0.12      # bottom offset between depth levels in a group, fraction of box height
-_GROW = 0.05    # size increase per depth level in a group (nearer = larger)
-_SWING = 0.45   # max horizontal offset of a group member from the group centre, x box width
-_FILL = 0.8     # max fraction of a cell's side taken by a unit's envelope (rest: motion)
+_DY = 0.12  # bottom offset between depth levels in a group, fraction of box height
+_GROW = 0.05  # size increase per depth level in a group (nearer = larger)
+_SWING = 0.45  # max horizontal offset of a group member from the group centre, x box width
+_FILL = 0.8  # max fraction of a cell's side taken by a unit's envelope (rest: motion)
 
 
 def make_scene(
@@ -317,7 +349,11 @@ def make_scene(
     _check_rates(occlusion_threshold, miss_rate, false_positive_rate, noise_px)
     rng = np.random.default_rng(seed)
 
-    n_over = 0 if overlap == 0 or n_tracks < 2 else min(n_tracks, max(2, math.ceil(overlap * n_tracks - 1e-9)))
+    n_over = (
+        0
+        if overlap == 0 or n_tracks < 2
+        else min(n_tracks, max(2, math.ceil(overlap * n_tracks - 1e-9)))
+    )
     groups = [2] * (n_over // 2)
     if n_over % 2:
         groups[-1] = 3
@@ -325,8 +361,10 @@ def make_scene(
     rng.shuffle(sizes)
     n_units = sizes.size
     unit_class = np.asarray(classes, dtype=np.int64)[rng.integers(0, len(classes), n_units)]
-    aspect = np.array([_ASPECT.get(int(k), 1.0) for k in unit_class]) * rng.uniform(0.9, 1.1, n_units)
-    hfac = 1.0 + _DY * (sizes - 1)                                      # envelope height / h
+    aspect = np.array([_ASPECT.get(int(k), 1.0) for k in unit_class]) * rng.uniform(
+        0.9, 1.1, n_units
+    )
+    hfac = 1.0 + _DY * (sizes - 1)  # envelope height / h
     wfac = 1.0 + _GROW * (sizes - 1) + np.where(sizes > 1, 2 * _SWING, 0.0)  # envelope width / w
 
     # grid of cells roughly shaped like the units
@@ -351,15 +389,15 @@ def make_scene(
     env_h = hfac * h_ends
     u = rng.random((4, 2, n_units))
     margin = 1.0
-    ecx = x_lo + margin + half_w + u[0] * (cw - 2 * margin - 2 * half_w)       # (2, U) start, end
+    ecx = x_lo + margin + half_w + u[0] * (cw - 2 * margin - 2 * half_w)  # (2, U) start, end
     ebot = y_lo + margin + env_h + u[1] * (ch - 2 * margin - env_h)
 
     # members: depth level k = 0 (farthest) .. g-1 (nearest)
     unit = np.repeat(np.arange(n_units), sizes)
     level = np.arange(unit.size) - np.repeat(np.cumsum(sizes) - sizes, sizes)
     g = sizes[unit]
-    off = rng.uniform(-_SWING, _SWING, (2, unit.size)) * (g > 1)             # x w, start and end
-    tau = (np.arange(n_frames) / max(n_frames - 1, 1))[:, None]              # (F, 1)
+    off = rng.uniform(-_SWING, _SWING, (2, unit.size)) * (g > 1)  # x w, start and end
+    tau = (np.arange(n_frames) / max(n_frames - 1, 1))[:, None]  # (F, 1)
 
     def lerp(ends: np.ndarray) -> np.ndarray:
         return ends[0][None, :] + tau * (ends[1] - ends[0])[None, :]
@@ -371,10 +409,20 @@ def make_scene(
     bottom = lerp(ebot[:, unit]) - (g - 1 - level) * _DY * h_u
     cxcywh = np.stack([cx, bottom - h_m / 2, a_u * h_m, h_m], axis=-1)
     exists = np.ones((n_frames, unit.size), dtype=bool)
-    return _render(cxcywh, exists, unit_class[unit], width=width, height=height, fps=fps,
-                   occlusion_threshold=occlusion_threshold, miss_rate=miss_rate,
-                   false_positive_rate=false_positive_rate, noise_px=noise_px, rng=rng,
-                   name=f"synthetic_{n_tracks}tracks_{round(100 * overlap)}pct_seed{seed}")
+    return _render(
+        cxcywh,
+        exists,
+        unit_class[unit],
+        width=width,
+        height=height,
+        fps=fps,
+        occlusion_threshold=occlusion_threshold,
+        miss_rate=miss_rate,
+        false_positive_rate=false_positive_rate,
+        noise_px=noise_px,
+        rng=rng,
+        name=f"synthetic_{n_tracks}tracks_{round(100 * overlap)}pct_seed{seed}",
+    )
 
 
 # hand-made occlusion scenes -------------------------------------------------------------
@@ -387,18 +435,30 @@ def _keyframed(n_frames: int, keys: Sequence[Sequence[float]]) -> tuple[np.ndarr
     return np.stack([cx, bottom - h / 2, w, h], axis=1), (t >= k[0, 0]) & (t <= k[-1, 0])
 
 
+class _RenderOptions(TypedDict):
+    """The keyword arguments of :func:`_render` that a hand-made scene passes through."""
+
+    width: int
+    height: int
+    fps: float
+    occlusion_threshold: float
+    miss_rate: float
+    false_positive_rate: float
+    noise_px: float
+
+
 def _scene_from_keys(
     objects: Sequence[tuple[int, Sequence[Sequence[float]]]],
     n_frames: int,
     name: str,
     rng: np.random.Generator,
-    **render: float,
+    **render: Unpack[_RenderOptions],
 ) -> SyntheticScene:
     parts = [_keyframed(n_frames, keys) for _, keys in objects]
     cxcywh = np.stack([p[0] for p in parts], axis=1)
     exists = np.stack([p[1] for p in parts], axis=1)
     class_id = np.array([cls for cls, _ in objects], dtype=np.int64)
-    return _render(cxcywh, exists, class_id, rng=rng, name=name, **render)  # type: ignore[arg-type]
+    return _render(cxcywh, exists, class_id, rng=rng, name=name, **render)
 
 
 def crossing_scene(
@@ -450,7 +510,7 @@ def crossing_scene(
     need = occlusion_threshold / vertical * w_b if vertical > 0 else math.inf
     if need >= min(w_a, w_b):
         raise ValueError("the near object is too small to hide the far one at this threshold")
-    span = w_a + w_b - 2 * need      # range of centre offsets (px) during which it is hidden
+    span = w_a + w_b - 2 * need  # range of centre offsets (px) during which it is hidden
     v_rel = span / gap
     v_b = direction * far_speed
     v_a = v_b - direction * v_rel
@@ -466,10 +526,21 @@ def crossing_scene(
         return [[t0, x_c + v * (t0 - t_c), bottom, w, h], [t1, x_c + v * (t1 - t_c), bottom, w, h]]
 
     return _scene_from_keys(
-        [(far_class, straight(v_b, bot_b, w_b, h_b)), (near_class, straight(v_a, bot_a, w_a, h_a))],
-        n_frames, f"crossing_gap{gap}_seed{seed}", rng, width=width, height=height, fps=fps,
-        occlusion_threshold=occlusion_threshold, miss_rate=miss_rate,
-        false_positive_rate=false_positive_rate, noise_px=noise_px)
+        [
+            (far_class, straight(v_b, bot_b, w_b, h_b)),
+            (near_class, straight(v_a, bot_a, w_a, h_a)),
+        ],
+        n_frames,
+        f"crossing_gap{gap}_seed{seed}",
+        rng,
+        width=width,
+        height=height,
+        fps=fps,
+        occlusion_threshold=occlusion_threshold,
+        miss_rate=miss_rate,
+        false_positive_rate=false_positive_rate,
+        noise_px=noise_px,
+    )
 
 
 def _turning_car_hides_cyclist(rng: np.random.Generator) -> SyntheticScene:
@@ -489,8 +560,13 @@ def _turning_car_hides_cyclist(rng: np.random.Generator) -> SyntheticScene:
         [n - 1, 860 + 8 * j[1], 240, 42 * (1 + 0.03 * j[2]), 64 * (1 + 0.03 * j[2])],
     ]
     oncoming = [[5, 420 + 5 * j[3], 200, 50, 30], [n - 1, 300 + 5 * j[3], 225, 80, 48]]
-    return _scene_from_keys([(cyc, cyc_keys), (car, car_keys), (car, oncoming)], n,
-                            "car_turns_right_hiding_cyclist", rng, **_SUITE_RENDER)
+    return _scene_from_keys(
+        [(cyc, cyc_keys), (car, car_keys), (car, oncoming)],
+        n,
+        "car_turns_right_hiding_cyclist",
+        rng,
+        **_SUITE_RENDER,
+    )
 
 
 def figure1_scene(seed: int = 0) -> SyntheticScene:
@@ -515,8 +591,9 @@ def _turning_car_hides_car(rng: np.random.Generator) -> SyntheticScene:
         [0, 700 + 6 * j[1], 205, 70 * (1 + 0.03 * j[2]), 42 * (1 + 0.03 * j[2])],
         [n - 1, 560 + 6 * j[1], 262, 135 * (1 + 0.03 * j[2]), 80 * (1 + 0.03 * j[2])],
     ]
-    return _scene_from_keys([(car, oncoming), (car, turning)], n, "car_turns_left_hiding_car",
-                            rng, **_SUITE_RENDER)
+    return _scene_from_keys(
+        [(car, oncoming), (car, turning)], n, "car_turns_left_hiding_car", rng, **_SUITE_RENDER
+    )
 
 
 def _leave_and_enter(rng: np.random.Generator) -> SyntheticScene:
@@ -527,16 +604,39 @@ def _leave_and_enter(rng: np.random.Generator) -> SyntheticScene:
     ped, car = CLASS_IDS["pedestrian"], CLASS_IDS["car"]
     n = 50
     leaving = [[0, 1080 + 10 * j[0], 300, 44, 108], [25, 1080 + 10 * j[0] + 25 * 8, 300, 44, 108]]
-    entering = [[22, 1262, 296 + 4 * j[1], 42, 104], [n - 1, 1262 - 27 * 7, 296 + 4 * j[1], 42, 104]]
+    entering = [
+        [22, 1262, 296 + 4 * j[1], 42, 104],
+        [n - 1, 1262 - 27 * 7, 296 + 4 * j[1], 42, 104],
+    ]
     car_keys = [[10, -60, 260 + 5 * j[2], 130, 76], [n - 1, -60 + 39 * 9, 262 + 5 * j[2], 136, 80]]
-    return _scene_from_keys([(ped, leaving), (ped, entering), (car, car_keys)], n,
-                            "leave_and_enter_at_border", rng, **_SUITE_RENDER)
+    return _scene_from_keys(
+        [(ped, leaving), (ped, entering), (car, car_keys)],
+        n,
+        "leave_and_enter_at_border",
+        rng,
+        **_SUITE_RENDER,
+    )
 
 
-_SUITE_RENDER: dict[str, float] = {
-    "width": 1242, "height": 375, "fps": 10.0, "occlusion_threshold": 0.6,
-    "miss_rate": 0.0, "false_positive_rate": 0.0, "noise_px": 1.0,
+_SUITE_RENDER: _RenderOptions = {
+    "width": 1242,
+    "height": 375,
+    "fps": 10.0,
+    "occlusion_threshold": 0.6,
+    "miss_rate": 0.0,
+    "false_positive_rate": 0.0,
+    "noise_px": 1.0,
 }
+
+
+class _CrossingOptions(TypedDict, total=False):
+    """Keyword arguments of :func:`crossing_scene` that the suite varies."""
+
+    gap: int
+    far_speed: float
+    direction: int
+    near_class: int
+    far_class: int
 
 
 def occlusion_suite(seed: int = 0) -> list[SyntheticScene]:
@@ -545,22 +645,40 @@ def occlusion_suite(seed: int = 0) -> list[SyntheticScene]:
     car, ped, truck, cyc = (CLASS_IDS[k] for k in ("car", "pedestrian", "truck", "cyclist"))
     rng = np.random.default_rng(seed)
     seeds = rng.integers(0, 2**31 - 1, 9)
-    specs = [
+    specs: list[tuple[str, _CrossingOptions]] = [
         ("pedestrian_overtakes_behind", dict(gap=8, far_speed=8.0, direction=1)),
         ("pedestrians_cross", dict(gap=4, far_speed=3.0, direction=-1)),
-        ("car_overtakes_behind_car_long_gap",
-         dict(gap=12, far_speed=14.0, direction=-1, near_class=car, far_class=car)),
-        ("car_crosses_behind_truck_gap15",
-         dict(gap=15, far_speed=3.0, direction=1, near_class=truck, far_class=car)),
-        ("fast_cars_cross_gap3", dict(gap=3, far_speed=20.0, direction=1, near_class=car, far_class=car)),
-        ("cyclist_behind_van_gap6",
-         dict(gap=6, far_speed=10.0, direction=-1, near_class=CLASS_IDS["van"], far_class=cyc)),
+        (
+            "car_overtakes_behind_car_long_gap",
+            dict(gap=12, far_speed=14.0, direction=-1, near_class=car, far_class=car),
+        ),
+        (
+            "car_crosses_behind_truck_gap15",
+            dict(gap=15, far_speed=3.0, direction=1, near_class=truck, far_class=car),
+        ),
+        (
+            "fast_cars_cross_gap3",
+            dict(gap=3, far_speed=20.0, direction=1, near_class=car, far_class=car),
+        ),
+        (
+            "cyclist_behind_van_gap6",
+            dict(gap=6, far_speed=10.0, direction=-1, near_class=CLASS_IDS["van"], far_class=cyc),
+        ),
     ]
     scenes = []
     for (name, kwargs), s in zip(specs, seeds[:6], strict=True):
-        scene = crossing_scene(int(s), **kwargs)  # type: ignore[arg-type]
-        scenes.append(SyntheticScene(scene.detections, scene.ground_truth, scene.width, scene.height,
-                                     scene.fps, scene.n_frames, name=name))
+        scene = crossing_scene(int(s), **kwargs)
+        scenes.append(
+            SyntheticScene(
+                scene.detections,
+                scene.ground_truth,
+                scene.width,
+                scene.height,
+                scene.fps,
+                scene.n_frames,
+                name=name,
+            )
+        )
     scenes.append(_turning_car_hides_cyclist(np.random.default_rng(int(seeds[6]))))
     scenes.append(_turning_car_hides_car(np.random.default_rng(int(seeds[7]))))
     scenes.append(_leave_and_enter(np.random.default_rng(int(seeds[8]))))

@@ -22,9 +22,17 @@ class TrackTable:
     """
 
     #: the columns, with their dtypes
-    COLUMNS: dict[str, type] = {"id": np.int64, "cls": np.int64, "state": np.int64, "occluder": np.int64,
-                                "vis": np.int64, "unseen": np.int64, "hits": np.int64,
-                                "conf": np.float64, "confirmed": bool}
+    COLUMNS: dict[str, type] = {
+        "id": np.int64,
+        "cls": np.int64,
+        "state": np.int64,
+        "occluder": np.int64,
+        "vis": np.int64,
+        "unseen": np.int64,
+        "hits": np.int64,
+        "conf": np.float64,
+        "confirmed": bool,
+    }
 
     id: np.ndarray
     cls: np.ndarray
@@ -48,17 +56,36 @@ class TrackTable:
         """``track id -> row`` for the current rows."""
         return {t: i for i, t in enumerate(self.id.tolist())}
 
-    def add(self, ids: np.ndarray, xyxy: np.ndarray, cls: np.ndarray, conf: np.ndarray, vis: np.ndarray,
-            velocity: np.ndarray | None = None) -> None:
+    def add(
+        self,
+        ids: np.ndarray,
+        xyxy: np.ndarray,
+        cls: np.ndarray,
+        conf: np.ndarray,
+        vis: np.ndarray,
+        velocity: np.ndarray | None = None,
+    ) -> None:
         """Append K new visible tracks seen once: (K,) ids, (K, 4) boxes in pixels, classes,
         scores, visibility indices; ``velocity`` (4,) their prior velocity (pixels per frame)."""
         k = len(ids)
         self.kf.add(xyxy, velocity=velocity)
-        new = {"id": ids, "cls": cls, "state": np.full(k, TrackState.VISIBLE), "occluder": np.full(k, -1),
-               "vis": vis, "unseen": np.zeros(k), "hits": np.ones(k), "conf": conf,
-               "confirmed": np.zeros(k, dtype=bool)}
+        new = {
+            "id": ids,
+            "cls": cls,
+            "state": np.full(k, TrackState.VISIBLE),
+            "occluder": np.full(k, -1),
+            "vis": vis,
+            "unseen": np.zeros(k),
+            "hits": np.ones(k),
+            "conf": conf,
+            "confirmed": np.zeros(k, dtype=bool),
+        }
         for name, dtype in self.COLUMNS.items():
-            setattr(self, name, np.concatenate([getattr(self, name), np.asarray(new[name]).astype(dtype)]))
+            setattr(
+                self,
+                name,
+                np.concatenate([getattr(self, name), np.asarray(new[name]).astype(dtype)]),
+            )
 
     def drop(self, keep: np.ndarray) -> None:
         """Keep only the rows where the (T,) mask ``keep`` is True."""

@@ -25,7 +25,18 @@ from sensemaking.evaluation.report import COMBINED, Report, SequenceMetrics
 from sensemaking.evaluation.rules import DatasetRules, get_rules, rules_for_benchmark
 
 __all__ = [
-    "ALPHAS", "COMBINED", "IDSW_MODES", "DatasetRules", "Report", "SequenceInput", "SequenceMetrics",
-    "evaluate", "evaluate_sequence", "get_rules", "load_kitti_benchmark", "load_mot_benchmark",
-    "read_seqmap", "rules_for_benchmark",
+    "ALPHAS",
+    "COMBINED",
+    "IDSW_MODES",
+    "DatasetRules",
+    "Report",
+    "SequenceInput",
+    "SequenceMetrics",
+    "evaluate",
+    "evaluate_sequence",
+    "get_rules",
+    "load_kitti_benchmark",
+    "load_mot_benchmark",
+    "read_seqmap",
+    "rules_for_benchmark",
 ]

@@ -91,8 +91,12 @@ class PairSet:
         a_fi = np.repeat(np.arange(T), np.diff(self.a_off))
         b_fi = np.repeat(np.arange(T), np.diff(self.b_off))
         return PairSet(
-            a_off=offsets(a_fi[keep_a], T), b_off=offsets(b_fi[keep_b], T), pair_off=offsets(pf, T),
-            pf=pf, pa=new_a[self.pa[mask]], pb=new_b[self.pb[mask]],
+            a_off=offsets(a_fi[keep_a], T),
+            b_off=offsets(b_fi[keep_b], T),
+            pair_off=offsets(pf, T),
+            pf=pf,
+            pa=new_a[self.pa[mask]],
+            pb=new_b[self.pb[mask]],
         ), mask
 
 
@@ -156,6 +160,7 @@ class Prepared:
 # -------------------------------------------------------------------------------------------
 # small vectorised helpers
 
+
 def offsets(frame_idx_sorted: np.ndarray, n_frames: int) -> np.ndarray:
     """(T + 1,) start of each frame in a frame-sorted index array."""
     return np.searchsorted(frame_idx_sorted, np.arange(n_frames + 1), side="left").astype(np.int64)
@@ -165,8 +170,14 @@ def offsets(frame_idx_sorted: np.ndarray, n_frames: int) -> np.ndarray:
 _CHUNK = 1 << 21
 
 
-def overlap_pairs(a: np.ndarray, a_off: np.ndarray, b: np.ndarray, b_off: np.ndarray,
-                  kind: str = "iou") -> tuple[PairSet, np.ndarray]:
+def _concat(parts: list[np.ndarray], dtype: type[np.generic]) -> np.ndarray:
+    """Concatenate 1-D ``parts`` as ``dtype`` (an empty array of that dtype when there is none)."""
+    return np.concatenate(parts).astype(dtype) if parts else np.zeros(0, dtype=dtype)
+
+
+def overlap_pairs(
+    a: np.ndarray, a_off: np.ndarray, b: np.ndarray, b_off: np.ndarray, kind: str = "iou"
+) -> tuple[PairSet, np.ndarray]:
     """Same-frame pairs of corner boxes with positive IoU (or IoA: intersection / area of a).
 
     ``a`` (N, 4) and ``b`` (M, 4) are sorted by frame with offsets ``a_off`` / ``b_off`` (T + 1,).
@@ -210,11 +221,16 @@ def overlap_pairs(a: np.ndarray, a_off: np.ndarray, b: np.ndarray, b_off: np.nda
             pas.append(ga[ok])
             pbs.append(gb[ok])
             vals.append(iw[flat[ok]] * ih[ok])
-    cat = (lambda xs, dt: np.concatenate(xs).astype(dt) if xs else np.zeros(0, dtype=dt))
-    pf = cat(pfs, np.int64)
-    ps = PairSet(a_off=a_off, b_off=b_off, pair_off=offsets(pf, T), pf=pf,
-                 pa=cat(pas, np.int64), pb=cat(pbs, np.int64))
-    inter = cat(vals, np.float64)
+    pf = _concat(pfs, np.int64)
+    ps = PairSet(
+        a_off=a_off,
+        b_off=b_off,
+        pair_off=offsets(pf, T),
+        pf=pf,
+        pa=_concat(pas, np.int64),
+        pb=_concat(pbs, np.int64),
+    )
+    inter = _concat(vals, np.float64)
     area_a = (a[:, 2] - a[:, 0]) * (a[:, 3] - a[:, 1])
     aa = area_a[ps.pa]
     if kind == "ioa":
@@ -229,13 +245,21 @@ def overlap_pairs(a: np.ndarray, a_off: np.ndarray, b: np.ndarray, b_off: np.nda
     keep = value > 0
     if not keep.all():
         pf = pf[keep]
-        ps = PairSet(a_off=a_off, b_off=b_off, pair_off=offsets(pf, T), pf=pf, pa=ps.pa[keep], pb=ps.pb[keep])
+        ps = PairSet(
+            a_off=a_off,
+            b_off=b_off,
+            pair_off=offsets(pf, T),
+            pf=pf,
+            pa=ps.pa[keep],
+            pb=ps.pb[keep],
+        )
         value = value[keep]
     return ps, value
 
 
 def conflict_frames(ps: PairSet, positive: np.ndarray) -> np.ndarray:
-    """(T,) bool: frames where some box has more than one positive pair (a real assignment problem).
+    """(T,) bool: frames where some box has more than one positive pair (a real assignment
+    problem).
 
     Elsewhere the positive pairs already are the unique optimal assignment.
     """
@@ -248,8 +272,13 @@ def conflict_frames(ps: PairSet, positive: np.ndarray) -> np.ndarray:
     return out
 
 
-def max_assignment(ps: PairSet, score: np.ndarray, positive: np.ndarray, frames_lsa: np.ndarray,
-                   frame_mask: np.ndarray | None = None) -> np.ndarray:
+def max_assignment(
+    ps: PairSet,
+    score: np.ndarray,
+    positive: np.ndarray,
+    frames_lsa: np.ndarray,
+    frame_mask: np.ndarray | None = None,
+) -> np.ndarray:
     """Indices of the pairs in the optimal assignment (maximum total ``score``) that are positive.
 
     ``positive`` pairs must be exactly those whose score could count as a match. In frames not in
@@ -261,8 +290,9 @@ def max_assignment(ps: PairSet, score: np.ndarray, positive: np.ndarray, frames_
     take = positive if frame_mask is None else positive & np.repeat(frame_mask, counts)
     chosen = [np.flatnonzero(take & ~np.repeat(frames_lsa, counts))]
     solve = lsa()
-    for t in np.flatnonzero(frames_lsa if frame_mask is None else frames_lsa & frame_mask):
-        mat, index = ps.dense(t, score[ps.pair_off[t]:ps.pair_off[t + 1]])
+    lsa_mask = frames_lsa if frame_mask is None else frames_lsa & frame_mask
+    for t in np.flatnonzero(lsa_mask).tolist():
+        mat, index = ps.dense(t, score[ps.pair_off[t] : ps.pair_off[t + 1]])
         rows, cols = solve(-mat)
         idx = index[rows, cols]
         idx = idx[idx >= 0]  # cells without a pair score 0: never positive
@@ -275,7 +305,9 @@ def max_assignment(ps: PairSet, score: np.ndarray, positive: np.ndarray, frames_
 # -------------------------------------------------------------------------------------------
 # validation
 
+
 def _line(det: Detections, i: int) -> int | None:
+    assert det.source_row is not None  # Detections fills every column on construction
     row = int(det.source_row[i])
     return row if row >= 0 else None
 
@@ -296,16 +328,30 @@ def _check_boxes(det: Detections, path: PathLike, what: str) -> None:
 
 def _check_frames(det: Detections, first: int, n_frames: int, path: PathLike, what: str) -> None:
     f = det.frame
+    assert f is not None
     bad = (f < first) | (f >= first + n_frames)
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
         last = first + n_frames - 1
-        raise _fail(f"frame {int(f[i])} is outside the sequence (frames {first}..{last}, "
-                    f"{n_frames} frames)", det, i, path, what)
+        raise _fail(
+            f"frame {int(f[i])} is outside the sequence (frames {first}..{last}, "
+            f"{n_frames} frames)",
+            det,
+            i,
+            path,
+            what,
+        )
 
 
-def _check_unique(frame_idx: np.ndarray, ids: np.ndarray, det: Detections, rows: np.ndarray,
-                  first: int, path: PathLike, what: str) -> None:
+def _check_unique(
+    frame_idx: np.ndarray,
+    ids: np.ndarray,
+    det: Detections,
+    rows: np.ndarray,
+    first: int,
+    path: PathLike,
+    what: str,
+) -> None:
     """Ids must be unique within a frame (TrackEval raises too)."""
     if ids.shape[0] < 2:
         return
@@ -314,8 +360,14 @@ def _check_unique(frame_idx: np.ndarray, ids: np.ndarray, det: Detections, rows:
     dup = np.flatnonzero((f[1:] == f[:-1]) & (i[1:] == i[:-1]))
     if dup.size:
         k = int(rows[order[dup[0] + 1]])
-        raise _fail(f"id {int(ids[order[dup[0]]])} occurs more than once in frame {int(f[dup[0]]) + first}",
-                    det, k, path, what)
+        raise _fail(
+            f"id {int(ids[order[dup[0]]])} occurs more than once "
+            f"in frame {int(f[dup[0]]) + first}",
+            det,
+            k,
+            path,
+            what,
+        )
 
 
 def _column(det: Detections, key: str, default: float) -> np.ndarray:
@@ -331,35 +383,60 @@ def _file_order(det: Detections) -> np.ndarray:
     breaks exact ties (duplicate boxes) by position, so the order can change a result.
     """
     rows = det.source_row
+    assert rows is not None
     return rows if len(rows) and bool((rows >= 0).all()) else np.arange(len(det))
 
 
 def infer_n_frames(gt: Detections, tracks: Detections, first: int) -> int:
     """Frames spanned by the boxes: ``max frame - first + 1`` (0 if there are none)."""
-    last = max([first - 1] + [int(d.frame.max()) for d in (gt, tracks) if len(d)])
+    assert gt.frame is not None and tracks.frame is not None
+    last = max([first - 1] + [int(f.max()) for f in (gt.frame, tracks.frame) if len(f)])
     return last - first + 1
 
 
 # -------------------------------------------------------------------------------------------
 
-def prepare(gt: Detections, tracks: Detections, rules: DatasetRules, n_frames: int | None = None,
-            gt_path: PathLike = None, tracks_path: PathLike = None) -> Prepared:
+
+def prepare(
+    gt: Detections,
+    tracks: Detections,
+    rules: DatasetRules,
+    n_frames: int | None = None,
+    gt_path: PathLike = None,
+    tracks_path: PathLike = None,
+) -> Prepared:
     """Apply ``rules`` to one sequence (see :mod:`sensemaking.evaluation.rules`).
 
     ``n_frames`` is the sequence length; boxes outside frames ``first .. first + n_frames - 1``
     raise :class:`InputError` (None: inferred from the boxes). Paths only improve error messages.
     """
     first = rules.first_frame
-    for det, path, what in ((gt, gt_path, "ground truth"), (tracks, tracks_path, "tracker output")):
+    assert gt.frame is not None and gt.tracker_id is not None and gt.class_id is not None
+    assert tracks.frame is not None and tracks.tracker_id is not None
+    assert tracks.class_id is not None
+    for det, path, what in (
+        (gt, gt_path, "ground truth"),
+        (tracks, tracks_path, "tracker output"),
+    ):
         _check_boxes(det, path, what)
         if n_frames is None:
-            bad = det.frame < first
-            if bad.any():
-                i = int(np.flatnonzero(bad)[0])
-                raise _fail(f"frame {int(det.frame[i])} is before the first frame {first}", det, i, path, what)
+            assert det.frame is not None
+            early = det.frame < first
+            if early.any():
+                i = int(np.flatnonzero(early)[0])
+                raise _fail(
+                    f"frame {int(det.frame[i])} is before the first frame {first}",
+                    det,
+                    i,
+                    path,
+                    what,
+                )
     if n_frames is None:
         n_frames = infer_n_frames(gt, tracks, first)
-    for det, path, what in ((gt, gt_path, "ground truth"), (tracks, tracks_path, "tracker output")):
+    for det, path, what in (
+        (gt, gt_path, "ground truth"),
+        (tracks, tracks_path, "tracker output"),
+    ):
         _check_frames(det, first, n_frames, path, what)
 
     # ---- which rows take part -----------------------------------------------------------
@@ -376,13 +453,25 @@ def prepare(gt: Detections, tracks: Detections, rules: DatasetRules, n_frames: i
     else:
         neg = np.flatnonzero(gt.tracker_id < 0)
         if neg.size:
-            raise _fail(f"negative object id {int(gt.tracker_id[neg[0]])}", gt, int(neg[0]), gt_path, "ground truth")
+            raise _fail(
+                f"negative object id {int(gt.tracker_id[neg[0]])}",
+                gt,
+                int(neg[0]),
+                gt_path,
+                "ground truth",
+            )
     if rules.valid_gt_classes is not None:
         bad = np.flatnonzero(~np.isin(g_cls, rules.valid_gt_classes))
         if bad.size:
-            raise _fail(f"ground-truth class {int(g_cls[bad[0]])} is not a {rules.benchmark.upper()} class "
-                        f"(1..13); is this {rules.benchmark.upper()} ground truth? (MOT15 has no class column)",
-                        gt, int(bad[0]), gt_path, "ground truth")
+            raise _fail(
+                f"ground-truth class {int(g_cls[bad[0]])} "
+                f"is not a {rules.benchmark.upper()} class (1..13); "
+                f"is this {rules.benchmark.upper()} ground truth? (MOT15 has no class column)",
+                gt,
+                int(bad[0]),
+                gt_path,
+                "ground truth",
+            )
 
     t_rows = np.arange(len(tracks))
     use_t = np.ones(len(tracks), dtype=bool)
@@ -393,14 +482,26 @@ def prepare(gt: Detections, tracks: Detections, rules: DatasetRules, n_frames: i
     else:
         neg = np.flatnonzero(tracks.tracker_id < 0)
         if neg.size:
-            raise _fail(f"negative track id {int(tracks.tracker_id[neg[0]])} (every tracker box needs an id >= 0)",
-                        tracks, int(neg[0]), tracks_path, "tracker output")
+            raise _fail(
+                f"negative track id {int(tracks.tracker_id[neg[0]])} "
+                "(every tracker box needs an id >= 0)",
+                tracks,
+                int(neg[0]),
+                tracks_path,
+                "tracker output",
+            )
     if rules.max_tracker_class is not None and len(tracks):
         bad = np.flatnonzero(tracks.class_id > rules.max_tracker_class)
         if bad.size:
             c = int(tracks.class_id[bad[0]])
-            raise _fail(f"{rules.benchmark.upper()} scores only pedestrians, but a track has class {c} "
-                        f"({class_name(c)})", tracks, int(bad[0]), tracks_path, "tracker output")
+            raise _fail(
+                f"{rules.benchmark.upper()} scores only pedestrians, but a track has class {c} "
+                f"({class_name(c)})",
+                tracks,
+                int(bad[0]),
+                tracks_path,
+                "tracker output",
+            )
 
     g_sel, t_sel = g_rows[use_g], t_rows[use_t]
     g_fi = gt.frame[g_sel] - first
@@ -426,7 +527,11 @@ def prepare(gt: Detections, tracks: Detections, rules: DatasetRules, n_frames: i
     consider = _column(gt, "consider", 1.0)[g_sel]
     occl = _column(gt, "occluded", 0.0)[g_sel].astype(np.int64)
     trunc = _column(gt, "truncated", 0.0)[g_sel].astype(np.int64)
-    in_class = np.ones(g_sel.shape[0], dtype=bool) if rules.gt_class is None else cls_sel == rules.gt_class
+    in_class = (
+        np.ones(g_sel.shape[0], dtype=bool)
+        if rules.gt_class is None
+        else cls_sel == rules.gt_class
+    )
     keep_g = in_class.copy()
     if rules.use_consider_flag:
         keep_g &= consider != 0
@@ -485,8 +590,14 @@ def prepare(gt: Detections, tracks: Detections, rules: DatasetRules, n_frames: i
 
     ign = in_class & ~keep_g
     return Prepared(
-        n_frames=int(n_frames), pairs=kept, sim=sim[pair_mask],
-        gt_id=gt_new.reshape(-1).astype(np.int64), tr_id=tr_new.reshape(-1).astype(np.int64),
-        gt_orig_id=gt_orig.astype(np.int64), tr_orig_id=tr_orig.astype(np.int64),
-        ign_frame=g_fi[ign].astype(np.int64), ign_gt=g_ids[ign].astype(np.int64), ign_tr=ign_match_tr[ign],
+        n_frames=int(n_frames),
+        pairs=kept,
+        sim=sim[pair_mask],
+        gt_id=gt_new.reshape(-1).astype(np.int64),
+        tr_id=tr_new.reshape(-1).astype(np.int64),
+        gt_orig_id=gt_orig.astype(np.int64),
+        tr_orig_id=tr_orig.astype(np.int64),
+        ign_frame=g_fi[ign].astype(np.int64),
+        ign_gt=g_ids[ign].astype(np.int64),
+        ign_tr=ign_match_tr[ign],
     )

@@ -4,11 +4,16 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Union
 
 from sensemaking.detections import Detections
 from sensemaking.evaluation._prepare import PathLike, prepare
-from sensemaking.evaluation.metrics import IDSW_MODES, clear_metrics, count_metrics, hota_metrics, identity_metrics
+from sensemaking.evaluation.metrics import (
+    IDSW_MODES,
+    clear_metrics,
+    count_metrics,
+    hota_metrics,
+    identity_metrics,
+)
 from sensemaking.evaluation.report import COMBINED, Report, SequenceMetrics
 from sensemaking.evaluation.rules import DatasetRules, get_rules, rules_for_benchmark
 
@@ -27,8 +32,8 @@ class SequenceInput:
     tracks_path: PathLike = None
 
 
-SequenceArg = Union[SequenceInput, tuple[Detections, Detections], tuple[Detections, Detections, int]]
-RulesArg = Union[DatasetRules, str, Sequence[Union[DatasetRules, str]]]
+SequenceArg = SequenceInput | tuple[Detections, Detections] | tuple[Detections, Detections, int]
+RulesArg = DatasetRules | str | Sequence[DatasetRules | str]
 
 
 def _check_mode(idsw_mode: str) -> None:
@@ -58,7 +63,8 @@ def evaluate_sequence(
             ``kitti-car``, ``kitti-pedestrian``.
         n_frames: sequence length; frames outside ``first .. first + n_frames - 1`` raise
             :class:`~sensemaking.errors.InputError` (None: inferred from the boxes).
-        idsw_mode: ``"trackeval"`` or ``"kitti_legacy"`` (see :mod:`~sensemaking.evaluation.metrics`).
+        idsw_mode: ``"trackeval"`` or ``"kitti_legacy"``
+            (see :mod:`~sensemaking.evaluation.metrics`).
         name: sequence name for the result.
         gt_path, tracks_path: source files, only to name them in errors.
 
@@ -107,7 +113,7 @@ def evaluate(
     """Score several sequences and combine them (per class: each sequence plus ``"COMBINED"``).
 
     Args:
-        sequences: name -> :class:`SequenceInput` or ``(gt, tracks)`` or ``(gt, tracks, n_frames)``.
+        sequences: name -> :class:`SequenceInput`, ``(gt, tracks)`` or ``(gt, tracks, n_frames)``.
         rules: rules, a rules name, a benchmark name (``"kitti"`` scores car and pedestrian) or a
             list of rules (one report block each).
         idsw_mode: ``"trackeval"`` or ``"kitti_legacy"``; the report records it.
@@ -123,8 +129,16 @@ def evaluate(
     results: dict[str, dict[str, SequenceMetrics]] = {}
     for r in rules_list:
         per_seq = {
-            name: evaluate_sequence(s.gt, s.tracks, r, n_frames=s.n_frames, idsw_mode=idsw_mode, name=name,
-                                    gt_path=s.gt_path, tracks_path=s.tracks_path)
+            name: evaluate_sequence(
+                s.gt,
+                s.tracks,
+                r,
+                n_frames=s.n_frames,
+                idsw_mode=idsw_mode,
+                name=name,
+                gt_path=s.gt_path,
+                tracks_path=s.tracks_path,
+            )
             for name, s in inputs.items()
         }
         per_seq[COMBINED] = SequenceMetrics.combine(list(per_seq.values()))
@@ -133,6 +147,8 @@ def evaluate(
     benchmarks = {r.benchmark for r in rules_list}
     thresholds = {r.threshold for r in rules_list}
     return Report(
-        benchmark="+".join(sorted(benchmarks)), idsw_mode=idsw_mode, results=results,
+        benchmark="+".join(sorted(benchmarks)),
+        idsw_mode=idsw_mode,
+        results=results,
         threshold=thresholds.pop() if len(thresholds) == 1 else rules_list[0].threshold,
     )

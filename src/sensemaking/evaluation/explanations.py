@@ -25,6 +25,7 @@ import math
 from collections import Counter, defaultdict
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -87,8 +88,8 @@ class ExplanationConfig:
             (0 fully visible, 1 partly, 2 largely occluded, 3 unknown).
         kitti_visible_max: KITTI level up to which an object counts as visible again (HIDDEN_ENTITY
             reappearance: a partly occluded object is what a detector sees).
-        visibility_max: MOT17 visibility ratio below which a pedestrian counts as occluded (and from
-            which on it counts as visible again).
+        visibility_max: MOT17 visibility ratio below which a pedestrian counts as occluded
+            (and from which on it counts as visible again).
         min_cover: fraction of the hidden object's ground-truth box the occluder's box must cover.
         window_s: tolerance (seconds) between an enter/leave/start/end event and the ground-truth
             track's first/last frame at the border.
@@ -171,6 +172,8 @@ class GroundTruth:
         """KITTI ``label_02`` rows (``io.kitti.read_kitti_labels``); DontCare rows are dropped.
         ``classes``: the tracked classes (``car`` matches Car and Van, ``pedestrian``
         Pedestrian and Person_sitting)."""
+        # Detections fills every column on construction
+        assert labels.tracker_id is not None and labels.class_id is not None
         keep = (labels.tracker_id >= 0) & (labels.class_id != CLASS_IDS["dontcare"])
         boxes = labels[keep]
         wanted: set[int] = set()
@@ -184,6 +187,7 @@ class GroundTruth:
                 wanted.add(CLASS_IDS[c])
             else:
                 raise ValueError(f"unknown class {c!r}")
+        assert boxes.class_id is not None
         return cls._make(
             boxes, np.isin(boxes.class_id, sorted(wanted)), "kitti", image_size, fps, 0, n_frames
         )
@@ -213,6 +217,7 @@ class GroundTruth:
                     "reflection",
                 )
             ]
+            assert gt.class_id is not None  # Detections fills every column on construction
             matchable = np.isin(gt.class_id, person)
         else:
             consider = np.asarray(gt.data.get("consider", np.ones(len(gt))))
@@ -235,6 +240,7 @@ class GroundTruth:
         if fps <= 0:
             raise ValueError(f"fps must be positive, got {fps}")
         if n_frames is None:
+            assert boxes.frame is not None  # Detections fills every column on construction
             n_frames = int(boxes.frame.max()) - first + 1 if len(boxes) else 0
         return cls(
             boxes,
@@ -253,9 +259,10 @@ class _Truth:
     def __init__(self, gt: GroundTruth, config: ExplanationConfig):
         self.gt, self.c = gt, config
         b = gt.boxes
+        assert b.tracker_id is not None and b.frame is not None  # filled on construction
         self.row: dict[tuple[int, int], int] = {}
         frames: dict[int, list[int]] = defaultdict(list)
-        for i, (g, f) in enumerate(zip(b.tracker_id.tolist(), b.frame.tolist())):
+        for i, (g, f) in enumerate(zip(b.tracker_id.tolist(), b.frame.tolist(), strict=True)):
             self.row[(g, f)] = i
             frames[g].append(f)
         self.frames = {g: sorted(fs) for g, fs in frames.items()}
@@ -313,6 +320,9 @@ def match_tracks(
     preprocessing match, :func:`~sensemaking.evaluation._prepare.max_assignment`)."""
     if not len(gt) or not len(tracks):
         return {}
+    # Detections fills every column on construction
+    assert gt.frame is not None and gt.tracker_id is not None
+    assert tracks.frame is not None and tracks.tracker_id is not None
     first = int(min(gt.frame.min(), tracks.frame.min()))
     n = int(max(gt.frame.max(), tracks.frame.max())) - first + 1
     go = np.argsort(gt.frame, kind="stable")
@@ -327,7 +337,7 @@ def match_tracks(
     frames = tracks.frame[to][ps.pb[chosen]]
     return {
         (int(t), int(f)): int(g)
-        for t, f, g in zip(t_ids.tolist(), frames.tolist(), g_ids.tolist())
+        for t, f, g in zip(t_ids.tolist(), frames.tolist(), g_ids.tolist(), strict=True)
     }
 
 
@@ -520,15 +530,18 @@ class _Judge:
         self.match = match_tracks(sel, tracks, config.iou_threshold)
         self.visible: dict[int, list[int]] = defaultdict(list)
         self.box: dict[tuple[int, int], np.ndarray] = {}
-        for i, (tid, f) in enumerate(zip(tracks.tracker_id.tolist(), tracks.frame.tolist())):
+        assert tracks.tracker_id is not None and tracks.frame is not None  # filled on construction
+        for i, (tid, f) in enumerate(
+            zip(tracks.tracker_id.tolist(), tracks.frame.tolist(), strict=True)
+        ):
             self.visible[tid].append(f)
             self.box[(tid, f)] = tracks.xyxy[i]
         for fs in self.visible.values():
             fs.sort()
 
     # track helpers
-    def last_visible(self, t: int, f: int, inclusive: bool = False) -> int | None:
-        fs = self.visible.get(t, [])
+    def last_visible(self, t: int | None, f: int, inclusive: bool = False) -> int | None:
+        fs = [] if t is None else self.visible.get(t, [])
         k = bisect.bisect_right(fs, f) if inclusive else bisect.bisect_left(fs, f)
         return fs[k - 1] if k else None
 
@@ -537,14 +550,18 @@ class _Judge:
         k = bisect.bisect_left(fs, f)
         return fs[k] if k < len(fs) else None
 
-    def gt_before(self, t: int, f: int, inclusive: bool = False) -> tuple[int | None, int | None]:
+    def gt_before(
+        self, t: int | None, f: int, inclusive: bool = False
+    ) -> tuple[int | None, int | None]:
         """(object, frame) of ``t``'s last visible box before ``f``, matched or not (None)."""
         fv = self.last_visible(t, f, inclusive)
-        return (None, None) if fv is None else (self.match.get((t, fv)), fv)
+        return (None, None) if t is None or fv is None else (self.match.get((t, fv)), fv)
 
-    def gt_from(self, t: int, f: int) -> tuple[int | None, int | None]:
+    def gt_from(self, t: int | None, f: int) -> tuple[int | None, int | None]:
         """(object, frame) of ``t`` at its first matched visible frame from ``f`` on, within the
         window (the track of a tentative start is output a few frames after its event)."""
+        if t is None:
+            return None, None
         fs = self.visible.get(t, [])
         k = bisect.bisect_left(fs, f)
         while k < len(fs) and fs[k] - f <= self.window:
@@ -588,11 +605,11 @@ class _Judge:
 
     # events
     def hides(self, ev: Event, unhide: Event | None) -> Verdict:
-        t, o = ev.args[0], ev.args[1]
+        t, o = _track(ev, 0), _track(ev, 1)
         f = ev.frame
         g_t, f_t = self.gt_before(t, f)
         g_o, _ = self.gt_before(o, f, inclusive=True)
-        border = f_t is not None and self.border_box(self.box[(t, f_t)])
+        border = t is not None and f_t is not None and self.border_box(self.box[(t, f_t)])
         ident = self._identity(g_t, unhide)
         gts = (g_t, g_o)
         if g_t is None or g_o is None:
@@ -638,16 +655,17 @@ class _Judge:
     def _identity(self, g_t: int | None, unhide: Event | None) -> str:
         if unhide is None:
             return "not_resumed"
-        g2 = self.match.get((unhide.args[0], unhide.frame))
+        t2 = _track(unhide)
+        g2 = None if t2 is None else self.match.get((t2, unhide.frame))
         if g_t is None or g2 is None:
             return "unknown"
         return "kept" if g2 == g_t else "switched"
 
     def same_identity(self, ev: Event) -> Verdict:
         """unhides_from_behind / reappears: the same object before and after the gap."""
-        t, f = ev.args[0], ev.frame
+        t, f = _track(ev), ev.frame
         g1, _ = self.gt_before(t, f)
-        g2 = self.match.get((t, f))
+        g2 = None if t is None else self.match.get((t, f))
         if g1 is None or g2 is None:
             return Verdict(ev, UNDECIDABLE, "unmatched", (g1, g2))
         if g1 != g2:
@@ -655,7 +673,7 @@ class _Judge:
         return Verdict(ev, PLAUSIBLE, "same_object", (g1, g2))
 
     def enters(self, ev: Event) -> Verdict:
-        g, _ = self.gt_from(ev.args[0], ev.frame)
+        g, _ = self.gt_from(_track(ev), ev.frame)
         if g is None:
             return Verdict(ev, UNDECIDABLE, "unmatched", (g,))
         if self.entered_at_border(g, ev.frame):
@@ -663,7 +681,7 @@ class _Judge:
         return Verdict(ev, IMPLAUSIBLE, "inside_image", (g,))
 
     def starts(self, ev: Event) -> Verdict:
-        g, _ = self.gt_from(ev.args[0], ev.frame)
+        g, _ = self.gt_from(_track(ev), ev.frame)
         if g is None:
             return Verdict(ev, UNDECIDABLE, "unmatched", (g,))
         if ev.frame == self.gt.first_frame:
@@ -673,7 +691,7 @@ class _Judge:
         return Verdict(ev, PLAUSIBLE, "appeared_inside", (g,))
 
     def leaves(self, ev: Event) -> Verdict:
-        g, f_v = self.gt_before(ev.args[0], ev.frame, inclusive=True)
+        g, f_v = self.gt_before(_track(ev), ev.frame, inclusive=True)
         if g is None:
             return Verdict(ev, UNDECIDABLE, "unmatched", (g,))
         if self.left_at_border(g, ev.frame) or (f_v is not None and self.left_at_border(g, f_v)):
@@ -681,7 +699,7 @@ class _Judge:
         return Verdict(ev, IMPLAUSIBLE, "inside_image", (g,))
 
     def ends(self, ev: Event) -> Verdict:
-        g, f_v = self.gt_before(ev.args[0], ev.frame, inclusive=True)
+        g, f_v = self.gt_before(_track(ev), ev.frame, inclusive=True)
         if g is None:
             return Verdict(ev, UNDECIDABLE, "unmatched", (g,))
         if self.left_at_border(g, ev.frame) or (f_v is not None and self.left_at_border(g, f_v)):
@@ -689,7 +707,7 @@ class _Judge:
         return Verdict(ev, PLAUSIBLE, "lost_inside", (g,))
 
     def missing(self, ev: Event) -> Verdict:
-        g, _ = self.gt_before(ev.args[0], ev.frame)
+        g, _ = self.gt_before(_track(ev), ev.frame)
         if g is None:
             return Verdict(ev, UNDECIDABLE, "unmatched", (g,))
         if (g, ev.frame) in self.t.row:
@@ -703,26 +721,23 @@ class _Judge:
     def hidden_entity(self, w: Mapping[str, Any]) -> WarningVerdict:
         f, objs = int(w["frame"]), tuple(int(o) for o in w["objects"])
         details = w.get("details") or {}
-        base = {"frame": f, "situation": "HIDDEN_ENTITY", "objects": objs}
+        judged = partial(WarningVerdict, f, "HIDDEN_ENTITY", objs)
         g, _ = self.gt_before(objs[0], f)
         ant = details.get("anticipation") or {}
         pred_frame = details.get("reappear_frame", ant.get("reappear_frame"))
         pos = ant.get("position")
         if g is None:
-            return WarningVerdict(**base, verdict=UNDECIDABLE, reason="unmatched")
-        try:
-            pred_frame = int(pred_frame)  # type: ignore[arg-type]
-            px_pred, py_pred = float(pos[0]), float(pos[1])  # type: ignore[index]
-        except (TypeError, ValueError, IndexError):  # no anticipation in the record
-            return WarningVerdict(**base, verdict=UNDECIDABLE, reason="no_prediction", gt=g)
+            return judged(verdict=UNDECIDABLE, reason="unmatched")
+        prediction = _prediction(pred_frame, pos)
+        if prediction is None:  # no anticipation in the record
+            return judged(verdict=UNDECIDABLE, reason="no_prediction", gt=g)
+        pred_frame, px_pred, py_pred = prediction
         tr = self.t
         back = next(
             (h for h in tr.frames.get(g, []) if h > f and tr.visible(tr.row[(g, h)])), None
         )
         if back is None:
-            return WarningVerdict(
-                **base, verdict=IMPLAUSIBLE, reason="never_reappeared", gt=g, reappeared=False
-            )
+            return judged(verdict=IMPLAUSIBLE, reason="never_reappeared", gt=g, reappeared=False)
         i = tr.row[(g, back)]
         x1, _, x2, y2 = tr.xyxy[i]
         px = float(math.hypot((x1 + x2) / 2 - px_pred, y2 - py_pred))
@@ -734,8 +749,7 @@ class _Judge:
             if ok
             else ("late_or_early" if abs(ferr) > self.c.reappear_frames else "elsewhere")
         )
-        return WarningVerdict(
-            **base,
+        return judged(
             verdict=PLAUSIBLE if ok else IMPLAUSIBLE,
             reason=reason,
             gt=g,
@@ -750,69 +764,69 @@ class _Judge:
         """A overtakes B: in 3D, A was nearer than B at ``details.nearer_until`` (else one window
         before) and is farther now, the two side by side (``|X_A - X_B|`` >= ``min_side_m``)."""
         f, objs = int(w["frame"]), tuple(int(o) for o in w["objects"])
-        base = {"frame": f, "situation": "OVERTAKING", "objects": objs}
+        judged = partial(WarningVerdict, f, "OVERTAKING", objs)
         if len(objs) != 2:
-            return WarningVerdict(**base, verdict=UNDECIDABLE, reason="unmatched")
+            return judged(verdict=UNDECIDABLE, reason="unmatched")
         g_a, _ = self.gt_before(objs[0], f, inclusive=True)
         g_b, _ = self.gt_before(objs[1], f, inclusive=True)
         tr = self.t
         if g_a is None or g_b is None:
-            return WarningVerdict(**base, verdict=UNDECIDABLE, reason="unmatched", gt=g_a)
+            return judged(verdict=UNDECIDABLE, reason="unmatched", gt=g_a)
         if g_a == g_b:
-            return WarningVerdict(**base, verdict=IMPLAUSIBLE, reason="self", gt=g_a)
+            return judged(verdict=IMPLAUSIBLE, reason="self", gt=g_a)
         if tr.loc is None:
-            return WarningVerdict(**base, verdict=UNDECIDABLE, reason="no_3d", gt=g_a)
+            return judged(verdict=UNDECIDABLE, reason="no_3d", gt=g_a)
         until = (w.get("details") or {}).get("nearer_until")
         f0 = int(until) if isinstance(until, (int, float)) else f - self.window
-        frames = [(tr.last_before(g, h), g) for h in (f0, f) for g in (g_a, g_b)]
-        if any(h is None for h, _ in frames):
-            return WarningVerdict(**base, verdict=UNDECIDABLE, reason="no_history", gt=g_a)
+        history = [(tr.last_before(g, h), g) for h in (f0, f) for g in (g_a, g_b)]
+        frames = [(h, g) for h, g in history if h is not None]
+        if len(frames) < len(history):
+            return judged(verdict=UNDECIDABLE, reason="no_history", gt=g_a)
         za0, zb0, za1, zb1 = (tr.loc[tr.row[(g, h)], 2] for h, g in frames)
         side = abs(tr.loc[tr.row[(g_a, frames[2][0])], 0] - tr.loc[tr.row[(g_b, frames[3][0])], 0])
-        common = {"gt": g_a, "lateral_m": round(float(side), 2)}
+        judged_pair = partial(judged, gt=g_a, lateral_m=round(float(side), 2))
         if not (za0 < zb0 and za1 > zb1):
-            return WarningVerdict(**base, verdict=IMPLAUSIBLE, reason="no_depth_flip", **common)
+            return judged_pair(verdict=IMPLAUSIBLE, reason="no_depth_flip")
         if side < self.c.min_side_m:
-            return WarningVerdict(**base, verdict=IMPLAUSIBLE, reason="same_lane", **common)
-        return WarningVerdict(**base, verdict=PLAUSIBLE, reason="passed_in_depth", **common)
+            return judged_pair(verdict=IMPLAUSIBLE, reason="same_lane")
+        return judged_pair(verdict=PLAUSIBLE, reason="passed_in_depth")
 
     def sudden_stop(self, w: Mapping[str, Any]) -> WarningVerdict:
         f, objs = int(w["frame"]), tuple(int(o) for o in w["objects"])
         details = w.get("details") or {}
         warned = details.get("ttc_s")
-        base = {
-            "frame": f,
-            "situation": "SUDDEN_STOP",
-            "objects": objs,
-            "warned_ttc_s": None if warned is None else float(warned),
-        }
+        judged = partial(
+            WarningVerdict,
+            f,
+            "SUDDEN_STOP",
+            objs,
+            warned_ttc_s=None if warned is None else float(warned),
+        )
         g, _ = self.gt_before(objs[0], f, inclusive=True)
         tr = self.t
         if g is None:
-            return WarningVerdict(**base, verdict=UNDECIDABLE, reason="unmatched")
+            return judged(verdict=UNDECIDABLE, reason="unmatched")
         if tr.loc is None:
-            return WarningVerdict(**base, verdict=UNDECIDABLE, reason="no_3d", gt=g)
+            return judged(verdict=UNDECIDABLE, reason="no_3d", gt=g)
         now = tr.last_before(g, f)
         span = max(1, int(round(self.c.ttc_span_s * self.gt.fps)))
         before = tr.first_after(g, f - span) if now is not None else None
         if now is None or before is None or before >= now:
-            return WarningVerdict(**base, verdict=UNDECIDABLE, reason="no_history", gt=g)
+            return judged(verdict=UNDECIDABLE, reason="no_history", gt=g)
         i, j = tr.row[(g, now)], tr.row[(g, before)]
         z, closing = tr.loc[i, 2], (tr.loc[j, 2] - tr.loc[i, 2]) * self.gt.fps / (now - before)
         ttc = float(z / closing) if closing > 0 else math.inf
         lateral = float(abs(tr.loc[i, 0]))
         ttc_r = round(ttc, 2) if math.isfinite(ttc) else ttc
-        common = {"gt": g, "ttc_s": ttc_r, "lateral_m": round(lateral, 2)}
+        judged_ttc = partial(judged, gt=g, ttc_s=ttc_r, lateral_m=round(lateral, 2))
         if lateral > self.c.lane_half_width_m:
-            return WarningVerdict(**base, verdict=IMPLAUSIBLE, reason="to_the_side", **common)
+            return judged_ttc(verdict=IMPLAUSIBLE, reason="to_the_side")
         if ttc > self.c.ttc_max_s:
-            return WarningVerdict(
-                **base,
+            return judged_ttc(
                 verdict=IMPLAUSIBLE,
                 reason="not_closing" if closing <= 0 else "ttc_long",
-                **common,
             )
-        return WarningVerdict(**base, verdict=PLAUSIBLE, reason="closing_in_lane", **common)
+        return judged_ttc(verdict=PLAUSIBLE, reason="closing_in_lane")
 
     # recall
     def recall(self, events: list[Event]) -> dict[str, tuple[int, int]]:
@@ -822,16 +836,16 @@ class _Judge:
         at the border) at the first frame the track is not output. enters_fov / leaves_fov: a
         labelled track that begins / ends at the border (not at the sequence's first / last
         frame) and is matched by a track within the window of that frame."""
-        names = defaultdict(set)
+        names: dict[str, set[tuple[int | str, int]]] = defaultdict(set)
+        by_track: dict[int | str, set[str]] = defaultdict(set)
         for e in events:
-            names[e.name].add((e.args[0], e.frame))
-        by_track: dict[int, set[str]] = defaultdict(set)
-        for e in events:
-            by_track[e.args[0]].add(e.name)
+            if e.args:  # a user's encoding may abduce events without arguments
+                names[e.name].add((e.args[0], e.frame))
+                by_track[e.args[0]].add(e.name)
         tr = self.t
         hide_hit = hide_all = 0
         for t, fs in self.visible.items():
-            for a, b in zip(fs, fs[1:] + [None]):
+            for a, b in zip(fs, fs[1:] + [None], strict=True):
                 f = a + 1
                 if b == f or f >= self.gt.first_frame + self.gt.n_frames:
                     continue
@@ -867,18 +881,43 @@ class _Judge:
         return out
 
 
+def _prediction(frame: Any, position: Any) -> tuple[int, float, float] | None:
+    """``(frame, x, y)`` pixels of a warning record's predicted reappearance (None: none there,
+    or not numbers)."""
+    if frame is None or position is None:
+        return None
+    try:
+        return int(frame), float(position[0]), float(position[1])
+    except (TypeError, ValueError, IndexError):
+        return None
+
+
+def _track(ev: Event, k: int = 0) -> int | None:
+    """Argument ``k`` of an event as a track id (None: a constant, which names no track)."""
+    arg = ev.args[k]
+    return None if isinstance(arg, str) else arg
+
+
+def _event_order(e: Event) -> tuple[int, str, tuple[tuple[bool, int | str], ...]]:
+    """Events' own order (frame, name, args), with constants after track ids: never compares
+    a constant with a number."""
+    return e.frame, e.name, tuple((isinstance(a, str), a) for a in e.args)
+
+
 def late_start_events(tracks: Detections, events: Iterable[Event]) -> tuple[int, int]:
     """``(late, total)``: ``starts`` and ``enters_fov`` events dated before the first frame their
     track is output (tentative tracks: the event log and the tracks disagree), and all of them."""
     first: dict[int, int] = {}
-    for t, f in zip(tracks.tracker_id.tolist(), tracks.frame.tolist()):
+    assert tracks.tracker_id is not None and tracks.frame is not None  # filled on construction
+    for t, f in zip(tracks.tracker_id.tolist(), tracks.frame.tolist(), strict=True):
         if t not in first or f < first[t]:
             first[t] = f
     late = total = 0
     for e in events:
         if e.name in ("starts", "enters_fov"):
             total += 1
-            late += e.frame < first.get(e.args[0], e.frame + 1)
+            t = _track(e)
+            late += t is None or e.frame < first.get(t, e.frame + 1)
     return late, total
 
 
@@ -929,9 +968,9 @@ def evaluate_explanations(
         name: the sequence name. config: thresholds (default :class:`ExplanationConfig`).
     """
     config = config or ExplanationConfig()
-    events = sorted(events)
+    events = sorted(events, key=_event_order)
     judge = _Judge(gt, tracks, config)
-    unhides: dict[int, list[Event]] = defaultdict(list)
+    unhides: dict[int | str, list[Event]] = defaultdict(list)
     for e in events:
         if e.name == "unhides_from_behind":
             unhides[e.args[0]].append(e)
@@ -962,8 +1001,12 @@ def evaluate_explanations(
         elif w.get("situation") == "OVERTAKING":
             out.warnings.append(judge.overtaking(w))
     out.late_starts, out.starts_total = late_start_events(tracks, events)
-    log.debug("%s: %d events and %d warnings judged", name or "sequence", len(out.events),
-              len(out.warnings))
+    log.debug(
+        "%s: %d events and %d warnings judged",
+        name or "sequence",
+        len(out.events),
+        len(out.warnings),
+    )
     out.recall = judge.recall(events)
     return out
 
@@ -1033,15 +1076,26 @@ def explanation_table(
 
 
 def _row(bench: str, kind: str, row: dict[str, Any], recall: str, notes: str) -> str:
-    cells = [bench, kind, row["total"], row[PLAUSIBLE], row[IMPLAUSIBLE], row[UNDECIDABLE],
-             _pct(row["precision"]), _pct(row["plausible_of_all"]), recall, notes]
+    cells = [
+        bench,
+        kind,
+        row["total"],
+        row[PLAUSIBLE],
+        row[IMPLAUSIBLE],
+        row[UNDECIDABLE],
+        _pct(row["precision"]),
+        _pct(row["plausible_of_all"]),
+        recall,
+        notes,
+    ]
     return "| " + " | ".join(str(c) for c in cells) + " |"
 
 
 def _implausible_reasons(row: dict[str, Any]) -> list[str]:
     """``"reason count"`` of the implausible verdicts of a summary row, most frequent first."""
-    found = [(n, k.split(":", 1)[1]) for k, n in row["reasons"].items()
-             if k.startswith(IMPLAUSIBLE)]
+    found = [
+        (n, k.split(":", 1)[1]) for k, n in row["reasons"].items() if k.startswith(IMPLAUSIBLE)
+    ]
     return [f"{reason} {n}" for n, reason in sorted(found, key=lambda x: (-x[0], x[1]))]
 
 

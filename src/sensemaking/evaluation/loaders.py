@@ -1,6 +1,7 @@
 """Load whole benchmarks (ground truth + one tracker's results) from the usual folder layouts.
 
-- MOTChallenge: ``<gt>/<seq>/gt/gt.txt`` and ``<gt>/<seq>/seqinfo.ini``; results ``<results>/<seq>.txt``.
+- MOTChallenge: ``<gt>/<seq>/gt/gt.txt`` and ``<gt>/<seq>/seqinfo.ini``;
+  results ``<results>/<seq>.txt``.
 - KITTI: ``<gt>/label_02/<seq>.txt`` and ``<gt>/seqinfo.csv``; results ``<results>/<seq>.txt``.
 
 Either side may also be a single file (one sequence). Which sequences: the seqmap when given
@@ -49,7 +50,9 @@ def _seqmap_entries(path: PathLike) -> list[tuple[str, int]]:
         if not out and not seen and name.lower() == "name":
             continue  # MOTChallenge header
         if name in seen:
-            raise InputError(f"sequence {name!r} listed twice (first on line {seen[name]})", p, lineno)
+            raise InputError(
+                f"sequence {name!r} listed twice (first on line {seen[name]})", p, lineno
+            )
         seen[name] = lineno
         out.append((name, lineno))
     if not out:
@@ -71,17 +74,26 @@ def _select(available: dict[str, Path], seqmap: PathLike | None, where: str) -> 
     for name, line in _seqmap_entries(seqmap):
         if name not in available:
             known = ", ".join(sorted(available)[:8]) + (", ..." if len(available) > 8 else "")
-            raise InputError(f"unknown sequence {name!r}: not in the ground truth ({where}; "
-                             f"known: {known or 'none'})", seqmap, line)
+            raise InputError(
+                f"unknown sequence {name!r}: not in the ground truth ({where}; "
+                f"known: {known or 'none'})",
+                seqmap,
+                line,
+            )
         names.append(name)
     return names
 
 
-def _results_for(results: Path, names: list[str], missing_as_empty: bool) -> dict[str, Path | None]:
+def _results_for(
+    results: Path, names: list[str], missing_as_empty: bool
+) -> dict[str, Path | None]:
     if results.is_file():
         if len(names) != 1:
-            raise InputError(f"is a single file, but {len(names)} sequences are to be evaluated; "
-                             "give a folder of <sequence>.txt files", results)
+            raise InputError(
+                f"is a single file, but {len(names)} sequences are to be evaluated; "
+                "give a folder of <sequence>.txt files",
+                results,
+            )
         return {names[0]: results}
     if not results.is_dir():
         raise InputError("no such results file or folder", results)
@@ -98,16 +110,24 @@ def _results_for(results: Path, names: list[str], missing_as_empty: bool) -> dic
             missing.append(name)
     if missing:
         listed = ", ".join(f"{n}.txt" for n in missing[:6]) + (", ..." if len(missing) > 6 else "")
-        raise InputError(f"no results for {len(missing)} sequence(s): {listed} "
-                         "(use missing_as_empty / --missing-as-empty to score them as empty)", results)
+        raise InputError(
+            f"no results for {len(missing)} sequence(s): {listed} "
+            "(use missing_as_empty / --missing-as-empty to score them as empty)",
+            results,
+        )
     extra = sorted(p.stem for p in results.glob("*.txt") if p.stem not in names)
     if extra:
         log.info("%s: ignoring results of sequences not evaluated: %s", results, ", ".join(extra))
     return out
 
 
-def load_mot_benchmark(gt: PathLike, results: PathLike, *, seqmap: PathLike | None = None,
-                       missing_as_empty: bool = False) -> dict[str, SequenceInput]:
+def load_mot_benchmark(
+    gt: PathLike,
+    results: PathLike,
+    *,
+    seqmap: PathLike | None = None,
+    missing_as_empty: bool = False,
+) -> dict[str, SequenceInput]:
     """Ground truth and results of a MOTChallenge-layout benchmark, by sequence name.
 
     ``gt`` is a benchmark folder (``<seq>/gt/gt.txt`` inside), one sequence folder, or one
@@ -138,18 +158,27 @@ def load_mot_benchmark(gt: PathLike, results: PathLike, *, seqmap: PathLike | No
         ini = available[name] / "seqinfo.ini"
         n_frames = read_seqinfo(ini).length if ini.is_file() else None
         if n_frames is None:
-            log.info("%s: no seqinfo.ini, sequence length inferred from the boxes", available[name])
+            log.info(
+                "%s: no seqinfo.ini, sequence length inferred from the boxes", available[name]
+            )
         rp = res[name]
         out[name] = SequenceInput(
             gt=read_mot(gt_files[name], kind="gt"),
             tracks=Detections.empty() if rp is None else read_mot(rp, kind="results"),
-            n_frames=n_frames, gt_path=gt_files[name], tracks_path=rp,
+            n_frames=n_frames,
+            gt_path=gt_files[name],
+            tracks_path=rp,
         )
     return out
 
 
-def load_kitti_benchmark(gt: PathLike, results: PathLike, *, seqmap: PathLike | None = None,
-                         missing_as_empty: bool = False) -> dict[str, SequenceInput]:
+def load_kitti_benchmark(
+    gt: PathLike,
+    results: PathLike,
+    *,
+    seqmap: PathLike | None = None,
+    missing_as_empty: bool = False,
+) -> dict[str, SequenceInput]:
     """Ground truth and results of a KITTI-tracking-layout benchmark, by sequence name.
 
     ``gt`` is the folder holding ``label_02/`` (and ``seqinfo.csv``), the ``label_02`` folder
@@ -181,11 +210,15 @@ def load_kitti_benchmark(gt: PathLike, results: PathLike, *, seqmap: PathLike | 
     for name in names:
         n_frames = info[name].length if name in info else None
         if n_frames is None:
-            log.info("%s: not in a seqinfo.csv, sequence length inferred from the boxes", labels[name])
+            log.info(
+                "%s: not in a seqinfo.csv, sequence length inferred from the boxes", labels[name]
+            )
         rp = res[name]
         out[name] = SequenceInput(
             gt=read_kitti_labels(labels[name]),
             tracks=Detections.empty() if rp is None else read_kitti_labels(rp),
-            n_frames=n_frames, gt_path=labels[name], tracks_path=rp,
+            n_frames=n_frames,
+            gt_path=labels[name],
+            tracks_path=rp,
         )
     return out

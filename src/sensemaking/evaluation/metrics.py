@@ -29,7 +29,7 @@ ID switches (``idsw_mode``):
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -37,23 +37,60 @@ import numpy as np
 from sensemaking.evaluation._prepare import EPS, Prepared, conflict_frames, lsa, max_assignment
 
 __all__ = [
-    "ALPHAS", "IDSW_MODES", "CLEAR_FIELDS", "IDENTITY_FIELDS", "HOTA_FIELDS", "HOTA_ARRAY_FIELDS",
-    "COUNT_FIELDS", "clear_metrics", "identity_metrics", "hota_metrics", "count_metrics",
-    "combine_clear", "combine_identity", "combine_hota", "combine_count",
+    "ALPHAS",
+    "IDSW_MODES",
+    "CLEAR_FIELDS",
+    "IDENTITY_FIELDS",
+    "HOTA_FIELDS",
+    "HOTA_ARRAY_FIELDS",
+    "COUNT_FIELDS",
+    "clear_metrics",
+    "identity_metrics",
+    "hota_metrics",
+    "count_metrics",
+    "combine_clear",
+    "combine_identity",
+    "combine_hota",
+    "combine_count",
 ]
 
 #: HOTA localisation thresholds alpha = 0.05, 0.10, ..., 0.95 (19 values, TrackEval's exact floats)
 ALPHAS = np.arange(0.05, 0.99, 0.05)
 IDSW_MODES = ("trackeval", "kitti_legacy")
 
-CLEAR_FLOAT = ("MOTA", "MOTP", "MODA", "CLR_Re", "CLR_Pr", "MTR", "PTR", "MLR", "sMOTA",
-               "CLR_F1", "FP_per_frame", "MOTAL", "MOTP_sum")
+CLEAR_FLOAT = (
+    "MOTA",
+    "MOTP",
+    "MODA",
+    "CLR_Re",
+    "CLR_Pr",
+    "MTR",
+    "PTR",
+    "MLR",
+    "sMOTA",
+    "CLR_F1",
+    "FP_per_frame",
+    "MOTAL",
+    "MOTP_sum",
+)
 CLEAR_INT = ("CLR_TP", "CLR_FN", "CLR_FP", "IDSW", "MT", "PT", "ML", "Frag", "CLR_Frames")
 CLEAR_FIELDS = CLEAR_FLOAT + CLEAR_INT
 IDENTITY_FIELDS = ("IDF1", "IDR", "IDP", "IDTP", "IDFN", "IDFP")
 #: per-alpha HOTA fields: arrays of shape (19,); their scalar value is the mean over alpha
-HOTA_ARRAY_FIELDS = ("HOTA", "DetA", "AssA", "DetRe", "DetPr", "AssRe", "AssPr", "LocA", "OWTA",
-                     "HOTA_TP", "HOTA_FN", "HOTA_FP")
+HOTA_ARRAY_FIELDS = (
+    "HOTA",
+    "DetA",
+    "AssA",
+    "DetRe",
+    "DetPr",
+    "AssRe",
+    "AssPr",
+    "LocA",
+    "OWTA",
+    "HOTA_TP",
+    "HOTA_FN",
+    "HOTA_FP",
+)
 HOTA_FIELDS = HOTA_ARRAY_FIELDS + ("HOTA(0)", "LocA(0)", "HOTALocA(0)")
 COUNT_FIELDS = ("Dets", "GT_Dets", "IDs", "GT_IDs")
 
@@ -62,6 +99,7 @@ Result = dict[str, Any]
 
 # -------------------------------------------------------------------------------------------
 # CLEAR
+
 
 def _clear_matches(d: Prepared, threshold: float) -> np.ndarray:
     """Indices of the matched pairs, TrackEval's CLEAR matching (prefer last frame's track)."""
@@ -80,11 +118,15 @@ def _clear_matches(d: Prepared, threshold: float) -> np.ndarray:
     prev_tid = np.full(d.num_gt_ids, -1, dtype=np.int64)
     solve = lsa()
     po = ps.pair_off
-    for t in np.flatnonzero(lsa_frames):
+    for t in np.flatnonzero(lsa_frames).tolist():
         p = prev_of[t]
         prev_g = np.empty(0, dtype=np.int64)
         if p >= 0:
-            pm = solved[p] if lsa_frames[p] else fast[np.searchsorted(fast, po[p]):np.searchsorted(fast, po[p + 1])]
+            pm = (
+                solved[p]
+                if lsa_frames[p]
+                else fast[np.searchsorted(fast, po[p]) : np.searchsorted(fast, po[p + 1])]
+            )
             prev_g = d.gt_id[ps.pa[pm]]
             prev_tid[prev_g] = d.tr_id[ps.pb[pm]]
         lo, hi = po[t], po[t + 1]
@@ -103,7 +145,9 @@ def _clear_matches(d: Prepared, threshold: float) -> np.ndarray:
     return out
 
 
-def legacy_idsw_frag(key: np.ndarray, frame: np.ndarray, value: np.ndarray, ignored: np.ndarray) -> tuple[int, int]:
+def legacy_idsw_frag(
+    key: np.ndarray, frame: np.ndarray, value: np.ndarray, ignored: np.ndarray
+) -> tuple[int, int]:
     """ID switches and fragmentations by the old KITTI devkit's trajectory rules.
 
     One entry per labelled (gt object, frame): ``key`` (E,) gt object, ``frame`` (E,), ``value``
@@ -146,7 +190,9 @@ def _legacy_idsw_frag(d: Prepared, m_gbox: np.ndarray, m_tbox: np.ndarray) -> tu
         key=np.concatenate([d.gt_orig_id[d.gt_id], d.ign_gt]),
         frame=np.concatenate([d.gt_frame, d.ign_frame]),
         value=np.concatenate([value, d.ign_tr]),
-        ignored=np.concatenate([np.zeros(d.num_gt_dets, dtype=bool), np.ones(d.ign_gt.shape[0], dtype=bool)]),
+        ignored=np.concatenate(
+            [np.zeros(d.num_gt_dets, dtype=bool), np.ones(d.ign_gt.shape[0], dtype=bool)]
+        ),
     )
 
 
@@ -215,7 +261,7 @@ def clear_metrics(d: Prepared, threshold: float = 0.5, idsw_mode: str = "trackev
     return _clear_final(res)
 
 
-def combine_clear(results: Sequence[Result]) -> Result:
+def combine_clear(results: Sequence[Mapping[str, Any]]) -> Result:
     """CLEAR over several sequences: counts summed, ratios recomputed."""
     res: Result = {f: sum(r[f] for r in results) for f in CLEAR_INT}
     res["MOTP_sum"] = float(sum(r["MOTP_sum"] for r in results))
@@ -224,6 +270,7 @@ def combine_clear(results: Sequence[Result]) -> Result:
 
 # -------------------------------------------------------------------------------------------
 # Identity
+
 
 def _identity_final(res: Result) -> Result:
     tp, fn, fp = res["IDTP"], res["IDFN"], res["IDFP"]
@@ -234,7 +281,7 @@ def _identity_final(res: Result) -> Result:
 
 
 def identity_metrics(d: Prepared, threshold: float = 0.5) -> Result:
-    """Identity fields of one sequence (IDF1, IDR, IDP, IDTP, IDFN, IDFP): one global id matching."""
+    """Identity fields of one sequence (IDF1, IDR, IDP, IDTP, IDFN, IDFP): one global matching."""
     res: Result = {"IDF1": 0.0, "IDR": 0.0, "IDP": 0.0, "IDTP": 0, "IDFN": 0, "IDFP": 0}
     if d.num_tracker_dets == 0:
         res["IDFN"] = d.num_gt_dets
@@ -245,7 +292,11 @@ def identity_metrics(d: Prepared, threshold: float = 0.5) -> Result:
     G, R = d.num_gt_ids, d.num_tracker_ids
     pg, pt = d.pairs.pa, d.pairs.pb
     ok = d.sim >= threshold
-    potential = np.bincount(d.gt_id[pg[ok]] * R + d.tr_id[pt[ok]], minlength=G * R).reshape(G, R).astype(float)
+    potential = (
+        np.bincount(d.gt_id[pg[ok]] * R + d.tr_id[pt[ok]], minlength=G * R)
+        .reshape(G, R)
+        .astype(float)
+    )
     gt_count = np.bincount(d.gt_id, minlength=G).astype(float)
     tr_count = np.bincount(d.tr_id, minlength=R).astype(float)
     n = G + R
@@ -266,13 +317,14 @@ def identity_metrics(d: Prepared, threshold: float = 0.5) -> Result:
     return _identity_final(res)
 
 
-def combine_identity(results: Sequence[Result]) -> Result:
+def combine_identity(results: Sequence[Mapping[str, Any]]) -> Result:
     """Identity over several sequences: counts summed, ratios recomputed."""
     return _identity_final({f: sum(r[f] for r in results) for f in ("IDTP", "IDFN", "IDFP")})
 
 
 # -------------------------------------------------------------------------------------------
 # HOTA
+
 
 def _hota_final(res: Result) -> Result:
     tp, fn, fp = res["HOTA_TP"], res["HOTA_FN"], res["HOTA_FP"]
@@ -341,14 +393,18 @@ def hota_metrics(d: Prepared) -> Result:
         ass_re[a] = np.sum(mc * (mc / np.maximum(1, gc))) / t
         ass_pr[a] = np.sum(mc * (mc / np.maximum(1, tc))) / t
     res: Result = {
-        "HOTA_TP": tp, "HOTA_FN": d.num_gt_dets - tp, "HOTA_FP": d.num_tracker_dets - tp,
-        "AssA": ass_a, "AssRe": ass_re, "AssPr": ass_pr,
+        "HOTA_TP": tp,
+        "HOTA_FN": d.num_gt_dets - tp,
+        "HOTA_FP": d.num_tracker_dets - tp,
+        "AssA": ass_a,
+        "AssRe": ass_re,
+        "AssPr": ass_pr,
         "LocA": np.maximum(1e-10, loc_sum) / np.maximum(1e-10, tp),
     }
     return _hota_final(res)
 
 
-def combine_hota(results: Sequence[Result]) -> Result:
+def combine_hota(results: Sequence[Mapping[str, Any]]) -> Result:
     """HOTA over several sequences: TP/FN/FP summed per alpha, association and localisation
     averaged weighted by each sequence's TP per alpha, then the rest recomputed."""
     res: Result = {f: sum(r[f] for r in results) for f in ("HOTA_TP", "HOTA_FN", "HOTA_FP")}
@@ -363,12 +419,17 @@ def combine_hota(results: Sequence[Result]) -> Result:
 # -------------------------------------------------------------------------------------------
 # Count
 
+
 def count_metrics(d: Prepared) -> Result:
     """Numbers of scored tracker boxes, gt boxes, tracker ids and gt ids."""
-    return {"Dets": d.num_tracker_dets, "GT_Dets": d.num_gt_dets,
-            "IDs": d.num_tracker_ids, "GT_IDs": d.num_gt_ids}
+    return {
+        "Dets": d.num_tracker_dets,
+        "GT_Dets": d.num_gt_dets,
+        "IDs": d.num_tracker_ids,
+        "GT_IDs": d.num_gt_ids,
+    }
 
 
-def combine_count(results: Sequence[Result]) -> Result:
+def combine_count(results: Sequence[Mapping[str, Any]]) -> Result:
     """Count over several sequences: sums."""
     return {f: sum(r[f] for r in results) for f in COUNT_FIELDS}

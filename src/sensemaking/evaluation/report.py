@@ -1,4 +1,4 @@
-"""Results: :class:`SequenceMetrics` (one sequence, or COMBINED) and :class:`Report` (a benchmark)."""
+"""Results: :class:`SequenceMetrics` (one sequence, or COMBINED), :class:`Report` (a benchmark)."""
 
 from __future__ import annotations
 
@@ -21,26 +21,73 @@ from sensemaking.evaluation.metrics import (
     combine_identity,
 )
 
-__all__ = ["SequenceMetrics", "Report", "COMBINED", "SCALAR_FIELDS", "TABLE_FIELDS", "INTEGER_FIELDS"]
+__all__ = [
+    "SequenceMetrics",
+    "Report",
+    "COMBINED",
+    "SCALAR_FIELDS",
+    "TABLE_FIELDS",
+    "INTEGER_FIELDS",
+]
 
 #: key of the combined result among the sequences of a :class:`Report`
 COMBINED = "COMBINED"
-_HOTA_SCALAR_ARRAYS = tuple(f for f in HOTA_ARRAY_FIELDS if f not in ("HOTA_TP", "HOTA_FN", "HOTA_FP"))
+_HOTA_SCALAR_ARRAYS = tuple(
+    f for f in HOTA_ARRAY_FIELDS if f not in ("HOTA_TP", "HOTA_FN", "HOTA_FP")
+)
 #: every scalar field, in report order (per-alpha HOTA fields give their mean over alpha)
 SCALAR_FIELDS = (
-    _HOTA_SCALAR_ARRAYS + ("HOTA(0)", "LocA(0)", "HOTALocA(0)")
-    + CLEAR_FIELDS + IDENTITY_FIELDS + COUNT_FIELDS
+    _HOTA_SCALAR_ARRAYS
+    + ("HOTA(0)", "LocA(0)", "HOTALocA(0)")
+    + CLEAR_FIELDS
+    + IDENTITY_FIELDS
+    + COUNT_FIELDS
 )
 #: fields that count things (printed as integers, never as percentages)
 INTEGER_FIELDS = frozenset(
-    ("CLR_TP", "CLR_FN", "CLR_FP", "IDSW", "MT", "PT", "ML", "Frag", "CLR_Frames",
-     "IDTP", "IDFN", "IDFP") + COUNT_FIELDS
+    (
+        "CLR_TP",
+        "CLR_FN",
+        "CLR_FP",
+        "IDSW",
+        "MT",
+        "PT",
+        "ML",
+        "Frag",
+        "CLR_Frames",
+        "IDTP",
+        "IDFN",
+        "IDFP",
+    )
+    + COUNT_FIELDS
 )
 #: fields that are not fractions although they are floats
 _PLAIN_FLOATS = frozenset(("MOTP_sum", "FP_per_frame"))
 #: default columns of :meth:`Report.table`
-TABLE_FIELDS = ("HOTA", "DetA", "AssA", "LocA", "MOTA", "MOTP", "IDF1", "IDR", "IDP", "CLR_Re", "CLR_Pr",
-                "IDSW", "Frag", "CLR_FP", "CLR_FN", "MT", "PT", "ML", "Dets", "GT_Dets", "IDs", "GT_IDs")
+TABLE_FIELDS = (
+    "HOTA",
+    "DetA",
+    "AssA",
+    "LocA",
+    "MOTA",
+    "MOTP",
+    "IDF1",
+    "IDR",
+    "IDP",
+    "CLR_Re",
+    "CLR_Pr",
+    "IDSW",
+    "Frag",
+    "CLR_FP",
+    "CLR_FN",
+    "MT",
+    "PT",
+    "ML",
+    "Dets",
+    "GT_Dets",
+    "IDs",
+    "GT_IDs",
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -56,7 +103,8 @@ class SequenceMetrics(Mapping[str, float]):
         name: sequence name, or ``"COMBINED"``.
         class_name: the scored class (``"pedestrian"``, ``"car"``).
         idsw_mode: ``"trackeval"`` or ``"kitti_legacy"``.
-        parts: raw per-family results (``clear``, ``identity``, ``hota``, ``count``), used to combine.
+        parts: raw per-family results (``clear``, ``identity``, ``hota``, ``count``), used to
+            combine.
     """
 
     name: str
@@ -87,7 +135,9 @@ class SequenceMetrics(Mapping[str, float]):
     @property
     def per_alpha(self) -> dict[str, np.ndarray]:
         """Per-alpha HOTA arrays, each (19,), for alpha = 0.05 .. 0.95."""
-        return {f: np.asarray(self.parts["hota"][f], dtype=float).copy() for f in HOTA_ARRAY_FIELDS}
+        return {
+            f: np.asarray(self.parts["hota"][f], dtype=float).copy() for f in HOTA_ARRAY_FIELDS
+        }
 
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON-ready dict: every scalar field plus ``per_alpha`` lists."""
@@ -111,11 +161,15 @@ class SequenceMetrics(Mapping[str, float]):
             "hota": combine_hota([m.parts["hota"] for m in items]),
             "count": combine_count([m.parts["count"] for m in items]),
         }
-        return cls(name=name, class_name=items[0].class_name, idsw_mode=items[0].idsw_mode, parts=parts)
+        return cls(
+            name=name, class_name=items[0].class_name, idsw_mode=items[0].idsw_mode, parts=parts
+        )
 
     def __repr__(self) -> str:
-        return (f"SequenceMetrics({self.name!r}, {self.class_name}, HOTA={self['HOTA']:.4f}, "
-                f"MOTA={self['MOTA']:.4f}, IDF1={self['IDF1']:.4f}, idsw_mode={self.idsw_mode!r})")
+        return (
+            f"SequenceMetrics({self.name!r}, {self.class_name}, HOTA={self['HOTA']:.4f}, "
+            f"MOTA={self['MOTA']:.4f}, IDF1={self['IDF1']:.4f}, idsw_mode={self.idsw_mode!r})"
+        )
 
 
 def _fmt(field_name: str, value: float) -> str:
@@ -201,13 +255,25 @@ class Report:
             widths = [max(len(f), 8) for f in fields]
             if lines:
                 lines.append("")
-            lines.append(f"{self.benchmark} / {cls}  (idsw_mode: {self.idsw_mode}; "
-                         f"percentages except counts; IoU threshold {self.threshold:g})")
-            lines.append("  ".join(["sequence".ljust(w0)] + [f.rjust(w) for f, w in zip(fields, widths)]))
+            lines.append(
+                f"{self.benchmark} / {cls}  (idsw_mode: {self.idsw_mode}; "
+                f"percentages except counts; IoU threshold {self.threshold:g})"
+            )
+            lines.append(
+                "  ".join(
+                    ["sequence".ljust(w0)]
+                    + [f.rjust(w) for f, w in zip(fields, widths, strict=True)]
+                )
+            )
             ordered = [n for n in names if n != COMBINED] + [COMBINED]
             for n in ordered:
                 if n == COMBINED:
                     lines.append("-" * len(lines[-1]))
                 m = res[n]
-                lines.append("  ".join([n.ljust(w0)] + [_fmt(f, m[f]).rjust(w) for f, w in zip(fields, widths)]))
+                lines.append(
+                    "  ".join(
+                        [n.ljust(w0)]
+                        + [_fmt(f, m[f]).rjust(w) for f, w in zip(fields, widths, strict=True)]
+                    )
+                )
         return "\n".join(lines) + "\n"

@@ -95,16 +95,24 @@ class DatasetRules:
 def _mot(benchmark: str) -> DatasetRules:
     if benchmark == "mot15":
         return DatasetRules(
-            benchmark="mot15", class_name="pedestrian", gt_class=None, match_distractors=False,
-            max_tracker_class=1, first_frame=1,
+            benchmark="mot15",
+            class_name="pedestrian",
+            gt_class=None,
+            match_distractors=False,
+            max_tracker_class=1,
+            first_frame=1,
         )
     distractors = _MOT_DISTRACTORS
     if benchmark == "mot20":
         distractors = tuple(sorted(distractors + (CLASS_IDS["non_motorized_vehicle"],)))
     return DatasetRules(
-        benchmark=benchmark, class_name="pedestrian", gt_class=CLASS_IDS["pedestrian"],
-        distractor_classes=distractors, valid_gt_classes=tuple(range(1, 14)),
-        max_tracker_class=1, first_frame=1,
+        benchmark=benchmark,
+        class_name="pedestrian",
+        gt_class=CLASS_IDS["pedestrian"],
+        distractor_classes=distractors,
+        valid_gt_classes=tuple(range(1, 14)),
+        max_tracker_class=1,
+        first_frame=1,
     )
 
 
@@ -116,10 +124,19 @@ def _kitti(class_name: str) -> DatasetRules:
     else:
         raise ValueError(f"KITTI scores only {', '.join(KITTI_CLASSES)}, not {class_name!r}")
     return DatasetRules(
-        benchmark="kitti", class_name=class_name, gt_class=cls, distractor_classes=(distractor,),
-        gt_classes_used=(cls, distractor), tracker_class=cls, use_consider_flag=False,
-        max_occlusion=2, max_truncation=0, min_height=25.0, use_dontcare=True,
-        drop_negative_ids=True, first_frame=0,
+        benchmark="kitti",
+        class_name=class_name,
+        gt_class=cls,
+        distractor_classes=(distractor,),
+        gt_classes_used=(cls, distractor),
+        tracker_class=cls,
+        use_consider_flag=False,
+        max_occlusion=2,
+        max_truncation=0,
+        min_height=25.0,
+        use_dontcare=True,
+        drop_negative_ids=True,
+        first_frame=0,
     )
 
 
@@ -128,7 +145,8 @@ def _norm(name: str) -> str:
 
 
 def get_rules(name: str | DatasetRules) -> DatasetRules:
-    """Rules by name: ``mot17``, ``mot16``, ``mot20``, ``mot15``, ``kitti-car``, ``kitti-pedestrian``.
+    """Rules by name: ``mot17``, ``mot16``, ``mot20``, ``mot15``, ``kitti-car``,
+    ``kitti-pedestrian``.
 
     Raises ValueError for an unknown name (or bare ``kitti``, which has two classes).
     """
@@ -138,18 +156,24 @@ def get_rules(name: str | DatasetRules) -> DatasetRules:
     if key in ("mot17", "mot16", "mot20", "mot15"):
         return _mot(key)
     if key.startswith("kitti-"):
-        return _kitti(key[len("kitti-"):])
+        return _kitti(key[len("kitti-") :])
     if key == "kitti":
-        raise ValueError("KITTI scores car and pedestrian separately: use 'kitti-car' or 'kitti-pedestrian'")
-    raise ValueError(f"unknown dataset rules {name!r}; expected one of mot17, mot16, mot20, mot15, "
-                     "kitti-car, kitti-pedestrian")
+        raise ValueError(
+            "KITTI scores car and pedestrian separately: use 'kitti-car' or 'kitti-pedestrian'"
+        )
+    raise ValueError(
+        f"unknown dataset rules {name!r}; expected one of mot17, mot16, mot20, mot15, "
+        "kitti-car, kitti-pedestrian"
+    )
 
 
-def rules_for_benchmark(benchmark: str, classes: list[str] | tuple[str, ...] | None = None) -> list[DatasetRules]:
+def rules_for_benchmark(
+    benchmark: str, classes: list[str] | tuple[str, ...] | None = None
+) -> list[DatasetRules]:
     """All rules of a benchmark: one per scored class (KITTI default: car and pedestrian)."""
     key = _norm(benchmark)
     if key.startswith("kitti-"):
-        classes, key = [key[len("kitti-"):]], "kitti"
+        classes, key = [key[len("kitti-") :]], "kitti"
     if key == "kitti":
         names = [c.strip().lower() for c in (classes or KITTI_CLASSES)]
         return [_kitti(c) for c in names]

@@ -11,8 +11,17 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-__all__ = ["render_scene", "render_frame", "RenderOptions", "FrameDrawer", "write_report", "build_report",
-           "Run", "as_run", "read_warnings"]
+__all__ = [
+    "render_scene",
+    "render_frame",
+    "RenderOptions",
+    "FrameDrawer",
+    "write_report",
+    "build_report",
+    "Run",
+    "as_run",
+    "read_warnings",
+]
 
 if TYPE_CHECKING:  # pragma: no cover
     from sensemaking.viz._run import Run, as_run, read_warnings
@@ -20,8 +29,15 @@ if TYPE_CHECKING:  # pragma: no cover
     from sensemaking.viz.report import build_report, write_report
 
 _WHERE = {
-    "render_scene": "render", "render_frame": "render", "RenderOptions": "render", "FrameDrawer": "render",
-    "write_report": "report", "build_report": "report", "Run": "_run", "as_run": "_run", "read_warnings": "_run",
+    "render_scene": "render",
+    "render_frame": "render",
+    "RenderOptions": "render",
+    "FrameDrawer": "render",
+    "write_report": "report",
+    "build_report": "report",
+    "Run": "_run",
+    "as_run": "_run",
+    "read_warnings": "_run",
 }
 
 

@@ -82,7 +82,11 @@ class Run:
         """Track id -> its most frequent class id."""
         counts: dict[int, Counter] = defaultdict(Counter)
         for r in self.results:
-            for tid, cid in zip(r.tracks.tracker_id.tolist(), r.tracks.class_id.tolist(), strict=True):
+            # Detections fills every column on construction
+            assert r.tracks.tracker_id is not None and r.tracks.class_id is not None
+            for tid, cid in zip(
+                r.tracks.tracker_id.tolist(), r.tracks.class_id.tolist(), strict=True
+            ):
                 counts[tid][cid] += 1
         return {tid: c.most_common(1)[0][0] for tid, c in counts.items()}
 
@@ -91,6 +95,7 @@ class Run:
         """Track ids ordered by first appearance (then id)."""
         first: dict[int, int] = {}
         for r in self.results:
+            assert r.tracks.tracker_id is not None
             for tid in r.tracks.tracker_id.tolist():
                 first.setdefault(tid, int(r.frame))
         return sorted(first, key=lambda t: (first[t], t))
@@ -105,7 +110,10 @@ class Run:
             t = r.tracks
             states = _column(t, "state", TrackState.VISIBLE)
             occl = _column(t, "occluder", -1)
-            for tid, st, oc in zip(t.tracker_id.tolist(), states.tolist(), occl.tolist(), strict=True):
+            assert t.tracker_id is not None
+            for tid, st, oc in zip(
+                t.tracker_id.tolist(), states.tolist(), occl.tolist(), strict=True
+            ):
                 cur = open_.get(tid)
                 if cur is not None and cur[1] == f - 1 and cur[2] == st and cur[3] == oc:
                     cur[1] = f
@@ -164,8 +172,15 @@ def as_run(
         path_name = Path(source).stem
         source = _load_scene(Path(source))
     if isinstance(source, Run):
-        run = Run(list(source.results), list(source.warnings), source.width, source.height,
-                  source.fps, source.name, source.scene)
+        run = Run(
+            list(source.results),
+            list(source.warnings),
+            source.width,
+            source.height,
+            source.fps,
+            source.name,
+            source.scene,
+        )
         if warnings == "auto":
             warnings = run.warnings
     elif isinstance(source, Sequence) and all(isinstance(r, FrameResult) for r in source):
@@ -242,7 +257,8 @@ def _from_scene(scene: Any) -> Run:
     results = getattr(scene, "frame_results", None)
     if results is None:
         raise TypeError(
-            f"cannot draw a {type(scene).__name__}: give a Scene, a scene JSON path or a list of FrameResult"
+            f"cannot draw a {type(scene).__name__}: "
+            "give a Scene, a scene JSON path or a list of FrameResult"
         )
     size = getattr(scene, "image_size", None)
     fps = getattr(scene, "fps", None)

@@ -9,7 +9,7 @@ every run, the video and the report.
 from __future__ import annotations
 
 import colorsys
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from functools import lru_cache
 from typing import Any
 
@@ -120,10 +120,14 @@ def track_label(track_id: int, class_id: int | None) -> str:
 
 
 def track_caption(track_id: int, class_id: int | None, state: int, occluder: int = -1) -> str:
-    """The chip drawn on a box: ``#5 cyclist``, ``#5 cyclist hidden behind #2``, ``#5 car missing``."""
+    """The chip on a box: ``#5 cyclist``, ``#5 cyclist hidden behind #2``, ``#5 car missing``."""
     label = track_label(track_id, class_id)
     if state == 1:  # TrackState.HIDDEN
-        return label + (f" hidden behind #{int(occluder)}" if occluder is not None and occluder >= 0 else " hidden")
+        return label + (
+            f" hidden behind #{int(occluder)}"
+            if occluder is not None and occluder >= 0
+            else " hidden"
+        )
     if state == 2:  # TrackState.MISSING
         return label + " missing"
     return label
@@ -141,12 +145,17 @@ _EVENT_PHRASES: dict[str, Callable[[list[str]], str]] = {
 }
 
 
-def event_sentence(name: str, args: tuple[int, ...] | list[int], classes: Mapping[int, int] | None = None) -> str:
-    """An event in words, e.g. ``#5 cyclist is hidden behind #2 car``; unknown names verbatim."""
+def event_sentence(
+    name: str, args: Sequence[int | str], classes: Mapping[int, int] | None = None
+) -> str:
+    """An event in words, e.g. ``#5 cyclist is hidden behind #2 car``; unknown names verbatim.
+    ``args`` are track ids, or constants (a user's encoding), which are shown as they are."""
     classes = classes or {}
-    labels = [track_label(a, classes.get(int(a))) for a in args]
+    labels = [a if isinstance(a, str) else track_label(a, classes.get(int(a))) for a in args]
     phrase = _EVENT_PHRASES.get(name)
-    if phrase is None or len(labels) < (2 if name in ("hides_behind", "unhides_from_behind") else 1):
+    if phrase is None or len(labels) < (
+        2 if name in ("hides_behind", "unhides_from_behind") else 1
+    ):
         return f"{name}({', '.join(map(str, args))})"
     return phrase(labels)
 
@@ -162,7 +171,8 @@ def warning_sentence(warning: Any) -> str:
 
 
 def is_note(warning: Any) -> bool:
-    """True for a note that a situation could not be checked (``details["skipped"]``), not a warning."""
+    """True for a note that a situation could not be checked (``details["skipped"]``), not a
+    warning."""
     details = _get(warning, "details", None) or {}
     return bool(isinstance(details, Mapping) and details.get("skipped"))
 

@@ -60,7 +60,7 @@ class RenderOptions:
 
 
 def default_scale(width: int, with_images: bool) -> float:
-    """Output / source size: at most 640 px wide on a plain canvas, 1280 px over images, never > 1."""
+    """Output / source size: at most 640 px wide on a plain canvas, 1280 px over images, <= 1."""
     return min(1.0, (1280.0 if with_images else 640.0) / max(int(width), 1))
 
 
@@ -182,8 +182,14 @@ class FrameDrawer:
         size: source image size ``(width, height)`` px (default: the run's).
     """
 
-    def __init__(self, run: Run, scale: float | None = None, options: RenderOptions | None = None,
-                 with_images: bool = False, size: tuple[int, int] | None = None):
+    def __init__(
+        self,
+        run: Run,
+        scale: float | None = None,
+        options: RenderOptions | None = None,
+        with_images: bool = False,
+        size: tuple[int, int] | None = None,
+    ):
         self.run = run
         self.options = options or RenderOptions()
         self.src_size = size or run.size()
@@ -192,8 +198,10 @@ class FrameDrawer:
         o = self.options
         self.text = _Text(o.font_size, "L" if with_images else "1")
         self.line_h = self.text.height + 3
-        self.image_size = (max(int(round(self.src_size[0] * self.scale)), 16),
-                           max(int(round(self.src_size[1] * self.scale)), 16))
+        self.image_size = (
+            max(int(round(self.src_size[0] * self.scale)), 16),
+            max(int(round(self.src_size[1] * self.scale)), 16),
+        )
         self.strip_h = self.line_h * (1 + o.caption_lines) + 8
         self.size = (_even(self.image_size[0]), _even(self.image_size[1] + self.strip_h))
         fps = run.fps or 10.0
@@ -209,12 +217,12 @@ class FrameDrawer:
                 self._expected.extend(_anticipation(w))
         self._classes = run.classes
 
-    # colours --------------------------------------------------------------------------------------
+    # colours -------------------------------------------------------------------------------------
     def ink(self, slot: int) -> Any:
         """A palette slot as this canvas' ink (the slot itself in palette mode, RGB otherwise)."""
         return slot if self.mode == "P" else self._pal[slot]
 
-    # canvas ---------------------------------------------------------------------------------------
+    # canvas --------------------------------------------------------------------------------------
     def blank(self) -> Any:
         """A fresh canvas: plain background (with guide lines) above an empty caption strip."""
         if self._blank is None:
@@ -248,7 +256,7 @@ class FrameDrawer:
         im.paste(picture.convert("RGB"), (0, 0))
         return im
 
-    # data -----------------------------------------------------------------------------------------
+    # data ----------------------------------------------------------------------------------------
     def _centres_at(self, frame: int) -> dict[int, tuple[float, float]]:
         c = self._centres.get(frame)
         if c is None:
@@ -257,13 +265,20 @@ class FrameDrawer:
             if r is not None and len(r.tracks):
                 xy = r.tracks.xyxy * self.scale
                 cx, cy = (xy[:, 0] + xy[:, 2]) / 2, (xy[:, 1] + xy[:, 3]) / 2
-                c = dict(zip(r.tracks.tracker_id.tolist(), zip(cx.tolist(), cy.tolist(), strict=True), strict=True))
+                assert r.tracks.tracker_id is not None  # Detections fills every column
+                c = dict(
+                    zip(
+                        r.tracks.tracker_id.tolist(),
+                        zip(cx.tolist(), cy.tolist(), strict=True),
+                        strict=True,
+                    )
+                )
             if len(self._centres) > 4 * max(self.options.trail, 1) + 64:
                 self._centres.clear()
             self._centres[frame] = c
         return c
 
-    # drawing --------------------------------------------------------------------------------------
+    # drawing -------------------------------------------------------------------------------------
     def draw(self, frame: int, picture: Any = None) -> Any:
         """The drawn frame as a Pillow image (``size`` px; mode "P" or "RGB")."""
         _, draw = _pil()
@@ -272,6 +287,7 @@ class FrameDrawer:
         r = self.run.by_frame.get(frame)
         warned = self._warned_objects(frame)
         if r is not None and len(r.tracks):
+            assert r.tracks.tracker_id is not None
             self._draw_trails(d, frame, r.tracks.tracker_id.tolist())
             self._draw_expected(im, d, frame, r)
             self._draw_tracks(im, d, r.tracks, warned)
@@ -303,7 +319,9 @@ class FrameDrawer:
         states = tracks.data.get("state")
         occluders = tracks.data.get("occluder")
         n = len(tracks)
-        states = np.zeros(n, dtype=np.int64) if states is None else np.asarray(states).astype(np.int64)
+        states = (
+            np.zeros(n, dtype=np.int64) if states is None else np.asarray(states).astype(np.int64)
+        )
         occluders = np.full(n, -1) if occluders is None else np.asarray(occluders).astype(np.int64)
         boxes = tracks.xyxy * s
         # hidden / missing first, so visible boxes are drawn on top
@@ -322,17 +340,28 @@ class FrameDrawer:
             elif state == TrackState.HIDDEN:
                 _dashed_rect(d, (x1, y1, x2, y2), self.ink(slot), lw, dash=7, gap=5, bounds=(w, h))
             else:
-                _dashed_rect(d, (x1, y1, x2, y2), self.ink(slot), max(lw - 1, 1), dash=2, gap=4, bounds=(w, h))
+                _dashed_rect(
+                    d,
+                    (x1, y1, x2, y2),
+                    self.ink(slot),
+                    max(lw - 1, 1),
+                    dash=2,
+                    gap=4,
+                    bounds=(w, h),
+                )
             if tid in warned:
-                d.rectangle((x1 - lw - 2, y1 - lw - 2, x2 + lw + 2, y2 + lw + 2),
-                            outline=self.ink(st.WARNING), width=lw)
+                d.rectangle(
+                    (x1 - lw - 2, y1 - lw - 2, x2 + lw + 2, y2 + lw + 2),
+                    outline=self.ink(st.WARNING),
+                    width=lw,
+                )
             if state == TrackState.VISIBLE:
                 self._chip(im, d, label, x1, y1, y2, slot, solid=True)
             else:  # below the box: the occluder's chip is usually above
                 self._chip(im, d, label, x1, y1, y2, slot, solid=False)
 
     def _draw_expected(self, im: Any, d: Any, frame: int, r: Any) -> None:
-        """Where a hidden object is anticipated to reappear (HIDDEN_ENTITY warnings), while hidden."""
+        """Where a hidden object is expected to reappear (HIDDEN_ENTITY warning), while hidden."""
         if not self._expected:
             return
         states = r.tracks.data.get("state")
@@ -342,13 +371,40 @@ class FrameDrawer:
         for start, end, tid, box in self._expected:
             if start <= frame <= end and tid in hidden:
                 x1, y1, x2, y2 = (v * self.scale for v in box)
-                _dashed_rect(d, (x1, y1, x2, y2), self.ink(st.WARNING), 1, dash=3, gap=3, bounds=self.image_size)
-                self._chip(im, d, f"#{tid} may reappear here (frame {end})", x1, y1, y1 - 1, st.WARNING,
-                           solid=False, above=True)
+                _dashed_rect(
+                    d,
+                    (x1, y1, x2, y2),
+                    self.ink(st.WARNING),
+                    1,
+                    dash=3,
+                    gap=3,
+                    bounds=self.image_size,
+                )
+                self._chip(
+                    im,
+                    d,
+                    f"#{tid} may reappear here (frame {end})",
+                    x1,
+                    y1,
+                    y1 - 1,
+                    st.WARNING,
+                    solid=False,
+                    above=True,
+                )
 
-    def _chip(self, im: Any, d: Any, text: str, x: float, y1: float, y2: float, slot: int,
-              solid: bool, above: bool | None = None) -> None:
-        """A label above the box, filled in the track colour (visible), or below it and outlined."""
+    def _chip(
+        self,
+        im: Any,
+        d: Any,
+        text: str,
+        x: float,
+        y1: float,
+        y2: float,
+        slot: int,
+        solid: bool,
+        above: bool | None = None,
+    ) -> None:
+        """A label above the box, filled in the track colour (visible), or below it, outlined."""
         tw, th = self.text.width(text), self.text.height
         w, h = self.image_size
         cx = int(min(max(x, 0), max(w - tw - 4, 0)))
@@ -378,7 +434,9 @@ class FrameDrawer:
         x = self._text(im, f"frame {frame}", x, y, st.TEXT)
         if r is not None and len(r.tracks):
             states = r.tracks.data.get("state")
-            states = np.zeros(len(r.tracks), dtype=np.int64) if states is None else np.asarray(states)
+            states = (
+                np.zeros(len(r.tracks), dtype=np.int64) if states is None else np.asarray(states)
+            )
             nv = int(np.sum(states == TrackState.VISIBLE))
             nh = int(np.sum(states == TrackState.HIDDEN))
             nm = int(np.sum(states == TrackState.MISSING))
@@ -387,7 +445,9 @@ class FrameDrawer:
             summary = "   no tracks"
         x = self._text(im, summary, x, y, st.TEXT_DIM)
         if self.run.name:
-            self._text(im, self.run.name, max(w - self.text.width(self.run.name) - 6, x), y, st.TEXT_DIM)
+            self._text(
+                im, self.run.name, max(w - self.text.width(self.run.name) - 6, x), y, st.TEXT_DIM
+            )
         lines = self._captions(frame)
         n = self.options.caption_lines
         if len(lines) > n:
@@ -439,13 +499,27 @@ def _anticipation(warning: Any) -> list[tuple[int, int, int, list[float]]]:
         return []
     try:
         box = [float(v) for v in a["box"]]
-        return [(int(_get(warning, "frame", a.get("frame", 0))), int(a["reappear_frame"]), int(a["track"]), box)]
+        return [
+            (
+                int(_get(warning, "frame", a.get("frame", 0))),
+                int(a["reappear_frame"]),
+                int(a["track"]),
+                box,
+            )
+        ]
     except (KeyError, TypeError, ValueError):
         return []
 
 
-def _dashed_rect(d: Any, box: tuple[float, float, float, float], ink: Any, width: int,
-                 dash: int, gap: int, bounds: tuple[int, int] | None = None) -> None:
+def _dashed_rect(
+    d: Any,
+    box: tuple[float, float, float, float],
+    ink: Any,
+    width: int,
+    dash: int,
+    gap: int,
+    bounds: tuple[int, int] | None = None,
+) -> None:
     """A dashed rectangle; with ``bounds = (w, h)`` only the parts inside the image are drawn
     (dashes keep their phase, so a clipped edge looks the same)."""
     x1, y1, x2, y2 = box
@@ -456,7 +530,11 @@ def _dashed_rect(d: Any, box: tuple[float, float, float, float], ink: Any, width
     def run(lo: float, hi: float, limit: float) -> range:
         # indices k of the dashes lo + k * step that overlap [-m, limit + m]
         first = max(0, int((-m - lo - dash) // step))
-        last = int((min(hi, limit + m) - lo) // step) if limit != float("inf") else int((hi - lo) // step)
+        last = (
+            int((min(hi, limit + m) - lo) // step)
+            if limit != float("inf")
+            else int((hi - lo) // step)
+        )
         return range(first, last + 1)
 
     for y in (y1, y2):
@@ -474,8 +552,12 @@ def _dashed_rect(d: Any, box: tuple[float, float, float, float], ink: Any, width
 
 
 # public API ------------------------------------------------------------------------------------
-def _source(images: str | os.PathLike[str] | None, video: str | os.PathLike[str] | None,
-            first_frame: int | None, run: Run) -> Any:
+def _source(
+    images: str | os.PathLike[str] | None,
+    video: str | os.PathLike[str] | None,
+    first_frame: int | None,
+    run: Run,
+) -> Any:
     from sensemaking.viz._media import ImageFolder, VideoFrames
 
     if images is not None and video is not None:
@@ -528,10 +610,22 @@ def render_scene(
     source = _source(images, video, first_frame, run)
     try:
         size = source.size if source is not None else None
-        if size is not None and run.width and run.height and tuple(size) != (run.width, run.height):
-            log.warning("the pictures are %dx%d px but the scene's boxes are for %dx%d px images",
-                        size[0], size[1], run.width, run.height)
-        drawer = FrameDrawer(run, scale=scale, options=options, with_images=source is not None, size=size)
+        if (
+            size is not None
+            and run.width
+            and run.height
+            and tuple(size) != (run.width, run.height)
+        ):
+            log.warning(
+                "the pictures are %dx%d px but the scene's boxes are for %dx%d px images",
+                size[0],
+                size[1],
+                run.width,
+                run.height,
+            )
+        drawer = FrameDrawer(
+            run, scale=scale, options=options, with_images=source is not None, size=size
+        )
         rate = float(fps or run.fps or 10.0)
         todo: Sequence[int] = list(frames) if frames is not None else run.frames
         if not len(todo):
@@ -549,13 +643,25 @@ def render_scene(
     return Path(output)
 
 
-def render_frame(scene: Any, frame: int, *, images: str | os.PathLike[str] | None = None,
-                 scale: float | None = None, warnings: Iterable[Any] | str | None = "auto",
-                 options: RenderOptions | None = None, first_frame: int | None = None) -> Any:
+def render_frame(
+    scene: Any,
+    frame: int,
+    *,
+    images: str | os.PathLike[str] | None = None,
+    scale: float | None = None,
+    warnings: Iterable[Any] | str | None = "auto",
+    options: RenderOptions | None = None,
+    first_frame: int | None = None,
+) -> Any:
     """One drawn frame as an RGB Pillow image (e.g. for ``docs/demo-frame.png``)."""
     run = as_run(scene, warnings=warnings)
     source = _source(images, None, first_frame, run)
-    drawer = FrameDrawer(run, scale=scale, options=options, with_images=source is not None,
-                         size=None if source is None else source.size)
+    drawer = FrameDrawer(
+        run,
+        scale=scale,
+        options=options,
+        with_images=source is not None,
+        size=None if source is None else source.size,
+    )
     picture = source.get(frame, drawer.image_size) if source is not None else None
     return drawer.draw(frame, picture).convert("RGB")
