@@ -75,6 +75,18 @@ def test_a_replaced_encoding_is_used_and_rules_may_come_from_a_file(tmp_path):
     assert "leaves_fov" in names
 
 
+def test_events_with_constants_and_without_arguments_are_reported():
+    rules = "occurs(lane_change(T,left)) :- track(T), speed(T,S), S > 100. occurs(busy) :- 2 #count{ T : track(T) }."
+    tracker = Tracker(TrackerConfig(fps=10, image_size=(1000, 500)), rules=rules)
+    seen = []
+    for f, dets in _frames(20):
+        result = tracker.update(dets, frame=f)
+        seen += [e for e in result.events if e.name in ("lane_change", "busy")]
+        assert [e.to_json()["args"] for e in result.events if e.name == "busy"] in ([], [[]])
+    assert {e.name for e in seen} == {"lane_change", "busy"}
+    assert all(e.args[1:] == ("left",) for e in seen if e.name == "lane_change")
+
+
 def test_a_broken_encoding_is_a_clear_error_naming_the_file(tmp_path):
     path = tmp_path / "broken.lp"
     path.write_text("occurs(stops(T)) :- track(T)\n")  # no final dot

@@ -639,7 +639,7 @@ class Tracker:
             self._tracks.drop(np.array([t not in ended for t in self._tracks.id.tolist()], dtype=bool))
             for t in ended:
                 self._pending.pop(t, None)
-        events.sort()
+        events.sort(key=Event.sort_key)
         return events, observed
 
     def _scene_velocity(self) -> np.ndarray:
