@@ -1,1 +1,2 @@
-"""Per-frame abduction: numpy gating into facts (:mod:`.problem`), clingo solving (:mod:`.solver`)."""
+"""Per-frame abduction: gated facts by component (:mod:`.problem`), clingo (:mod:`.solver`),
+the cache of its answers (:mod:`.components`)."""

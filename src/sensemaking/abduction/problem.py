@@ -83,17 +83,17 @@ class Component:
             return _number(t0 + i)
 
         for i, (active, *flags, cls, vis, speed) in enumerate(self.tracks):
-            t = track(i)
-            add(Function("track", [t]))
-            add(Function("ttype", [t, _number(cls)]))
-            add(Function("active" if active else "halted", [t]))
-            for name, on in zip(TRACK_FLAGS, flags):
+            ti = track(i)
+            add(Function("track", [ti]))
+            add(Function("ttype", [ti, _number(cls)]))
+            add(Function("active" if active else "halted", [ti]))
+            for name, on in zip(TRACK_FLAGS, flags, strict=True):
                 if on:
-                    add(Function(name, [t]))
-            add(Function("holds", [Function("in_fov", [t]), _TRUE, _ZERO]))
-            add(Function("holds", [Function("visibility", [t]), _VISIBILITY[vis], _ZERO]))
+                    add(Function(name, [ti]))
+            add(Function("holds", [Function("in_fov", [ti]), _TRUE, _ZERO]))
+            add(Function("holds", [Function("visibility", [ti]), _VISIBILITY[vis], _ZERO]))
             if with_speed and speed >= 0:
-                add(Function("speed", [t, _number(speed)]))
+                add(Function("speed", [ti, _number(speed)]))
         for j, (conf, cls, border, overlapped) in enumerate(self.dets):
             d = det(j)
             add(Function("det", [d, _number(conf)]))
@@ -211,7 +211,8 @@ class FrameProblem:
         if self.covers_exact is None or len(self.covers) < 2:
             return ranks
         by_track: dict[int, list[tuple[float, int, int]]] = {}
-        for row, ((d, t), c) in enumerate(zip(self.covers.tolist(), self.covers_exact.tolist())):
+        pairs = zip(self.covers.tolist(), self.covers_exact.tolist(), strict=True)
+        for row, ((d, t), c) in enumerate(pairs):
             by_track.setdefault(t, []).append((-c, d, row))
         for rows in by_track.values():
             if len(rows) > 1:
@@ -256,19 +257,39 @@ class FrameProblem:
                 g[1].append(x - nt)
         return self._describe(list(groups.values()))
 
-    def _describe(self, groups: list[tuple[list[int], list[int]]]
-                  ) -> list[tuple[Component, list[int], list[int]]]:
+    def _describe(
+        self, groups: list[tuple[list[int], list[int]]]
+    ) -> list[tuple[Component, list[int], list[int]]]:
         nt = self.n_tracks
-        flags = [self.active, self.tentative,
-                 self.uncertain if self.uncertain is not None else np.zeros(nt, dtype=bool),
-                 self.expired, self.outside, self.at_border, self.overlapped]
+        flags = [
+            self.active,
+            self.tentative,
+            self.uncertain if self.uncertain is not None else np.zeros(nt, dtype=bool),
+            self.expired,
+            self.outside,
+            self.at_border,
+            self.overlapped,
+        ]
         vis = self.visibility if self.visibility is not None else np.zeros(nt, dtype=np.int64)
         speed = self.speed if self.speed is not None else np.full(nt, -1, dtype=np.int64)
-        track_rows = list(zip(*[np.asarray(f, dtype=bool).tolist() for f in flags],
-                              self.track_class.tolist(), vis.tolist(), speed.tolist()))
-        det_rows = list(zip(self.det_conf.tolist(), self.det_class.tolist(),
-                            np.asarray(self.det_border, dtype=bool).tolist(),
-                            np.asarray(self.det_overlapped, dtype=bool).tolist()))
+        track_rows = list(
+            zip(
+                *[np.asarray(f, dtype=bool).tolist() for f in flags],
+                self.track_class.tolist(),
+                vis.tolist(),
+                speed.tolist(),
+                strict=True,
+            )
+        )
+        det_rows = list(
+            zip(
+                self.det_conf.tolist(),
+                self.det_class.tolist(),
+                np.asarray(self.det_border, dtype=bool).tolist(),
+                np.asarray(self.det_overlapped, dtype=bool).tolist(),
+                strict=True,
+            )
+        )
         preferred = {(t, d) for t, d in self.preferred_pairs().tolist()}
         ids = self.track_id.tolist()
         index = {t: i for i, t in enumerate(ids)}
@@ -278,10 +299,11 @@ class FrameProblem:
             where_t.update(dict.fromkeys(ts, g))
             where_d.update(dict.fromkeys(ds, g))
         parts: list[dict[str, list]] = [
-            {"cand": [], "covers": [], "keeps": [], "emerges": [], "hidden": []} for _ in groups]
+            {"cand": [], "covers": [], "keeps": [], "emerges": [], "hidden": []} for _ in groups
+        ]
         for t, d, lik in self.cand.tolist():
             parts[where_t[t]]["cand"].append((t, d, lik, (t, d) in preferred))
-        for (d, t), r in zip(self.covers.tolist(), self.cover_ranks().tolist()):
+        for (d, t), r in zip(self.covers.tolist(), self.cover_ranks().tolist(), strict=True):
             parts[where_t[t]]["covers"].append((d, t, r))
         for name, rel in (("keeps", self.keeps_covering), ("emerges", self.emerges)):
             for d, t in rel.tolist():
@@ -291,27 +313,27 @@ class FrameProblem:
             if t is not None and t in where_t:
                 parts[where_t[t]]["hidden"].append((t, oid))
         out = []
-        for (ts, ds), rel in zip(groups, parts):
+        for (ts, ds), found in zip(groups, parts, strict=True):
             lt = {t: i for i, t in enumerate(ts)}
             ld = {d: j for j, d in enumerate(ds)}
             local_ids = [ids[t] for t in ts]
             hidden = []
-            for t, oid in rel["hidden"]:
+            for t, oid in found["hidden"]:
                 o = index.get(oid)
                 if o is not None and o in lt:
                     hidden.append((lt[t], lt[o]))
                     continue
-                if oid not in local_ids[len(ts):]:
+                if oid not in local_ids[len(ts) :]:
                     local_ids.append(oid)  # an occluder outside the component: named, no facts
-                hidden.append((lt[t], len(ts) + local_ids[len(ts):].index(oid)))
+                hidden.append((lt[t], len(ts) + local_ids[len(ts) :].index(oid)))
             component = Component(
                 first_frame=bool(self.first_frame),
                 tracks=tuple(track_rows[t] for t in ts),
                 dets=tuple(det_rows[d] for d in ds),
-                cand=tuple((lt[t], ld[d], lik, p) for t, d, lik, p in rel["cand"]),
-                covers=tuple((ld[d], lt[t], r) for d, t, r in rel["covers"]),
-                keeps_covering=tuple((ld[d], lt[t]) for d, t in rel["keeps"]),
-                emerges=tuple((ld[d], lt[t]) for d, t in rel["emerges"]),
+                cand=tuple((lt[t], ld[d], lik, p) for t, d, lik, p in found["cand"]),
+                covers=tuple((ld[d], lt[t], r) for d, t, r in found["covers"]),
+                keeps_covering=tuple((ld[d], lt[t]) for d, t in found["keeps"]),
+                emerges=tuple((ld[d], lt[t]) for d, t in found["emerges"]),
                 hidden_by=tuple(hidden),
             )
             out.append((component, local_ids, list(ds)))

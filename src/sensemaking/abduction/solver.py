@@ -12,7 +12,7 @@ import logging
 import time
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import cache, lru_cache
 from importlib import resources
 from pathlib import Path
 from typing import NamedTuple
@@ -23,8 +23,15 @@ from clingo.ast import ASTType, ProgramBuilder, parse_string
 
 from sensemaking.abduction.problem import FrameProblem
 
-__all__ = ["Answer", "AbductionSolver", "Det", "Ref", "load_encoding", "encoding_constants",
-           "read_encoding"]
+__all__ = [
+    "Answer",
+    "AbductionSolver",
+    "Det",
+    "Ref",
+    "load_encoding",
+    "encoding_constants",
+    "read_encoding",
+]
 
 log = logging.getLogger(__name__)
 
@@ -45,7 +52,7 @@ Ref = int | Det | str
 
 @lru_cache(maxsize=16)
 def _parsed(encoding: str) -> tuple:
-    """The encoding parsed once into AST statements (re-adding them is ~3x cheaper than parsing)."""
+    """The encoding parsed once into AST statements (re-adding them: ~3x cheaper than parsing)."""
     statements: list = []
     parse_string(encoding, statements.append)
     return tuple(statements)
@@ -74,10 +81,14 @@ def _mentioned(encoding: str) -> frozenset[str]:
     return frozenset(names)
 
 
-@lru_cache(maxsize=None)
+@cache
 def load_encoding(name: str = "tracking.lp") -> str:
     """Text of an encoding shipped as package data in ``sensemaking/abduction/encodings``."""
-    return resources.files("sensemaking.abduction").joinpath("encodings", name).read_text(encoding="utf-8")
+    return (
+        resources.files("sensemaking.abduction")
+        .joinpath("encodings", name)
+        .read_text(encoding="utf-8")
+    )
 
 
 def read_encoding(source: str | Path) -> str:
@@ -99,7 +110,9 @@ def read_encoding(source: str | Path) -> str:
         parse_string(text, lambda _: None, logger=lambda _c, m: messages.append(m.strip()))
     except RuntimeError:
         where = f"{path}: " if path is not None else ""
-        raise InputError(f"{where}the encoding does not parse: {'; '.join(messages) or 'syntax error'}")
+        raise InputError(
+            f"{where}the encoding does not parse: {'; '.join(messages) or 'syntax error'}"
+        ) from None
     return text
 
 
@@ -110,8 +123,11 @@ def encoding_constants(encoding: str | None = None) -> dict[str, int]:
 
 @lru_cache(maxsize=8)
 def _constants(encoding: str) -> tuple[tuple[str, int], ...]:
-    return tuple((stmt.name, int(stmt.value.symbol.number)) for stmt in _parsed(encoding)
-                 if stmt.ast_type == ASTType.Definition)
+    return tuple(
+        (stmt.name, int(stmt.value.symbol.number))
+        for stmt in _parsed(encoding)
+        if stmt.ast_type == ASTType.Definition
+    )
 
 
 @dataclass
@@ -143,12 +159,15 @@ class Answer:
 
     def atoms(self) -> list[str]:
         """Sorted readable atoms (for tests and debugging)."""
+
         def fmt(x: Ref) -> str:
             return f"d({x.row})" if isinstance(x, Det) else str(x)
 
         out = [f"assign({t},d({d}))" for t, d in self.assign.items()]
         out += [f"resume({t},d({d}))" for t, d in self.resume.items()]
-        out += [f"start(d({d}))" for d in self.start] + [f"ignore_det(d({d}))" for d in self.ignore_det]
+        out += [f"start(d({d}))" for d in self.start] + [
+            f"ignore_det(d({d}))" for d in self.ignore_det
+        ]
         out += [f"{n}({t})" for n in ("end", "halt", "ignore_trk") for t in getattr(self, n)]
         out += [f"{n}({','.join(map(fmt, a))})" for n, a in self.events]
         return sorted(out)
@@ -156,6 +175,7 @@ class Answer:
     def mapped(self, track_ids: list[int], det_rows: list[int]) -> Answer:
         """This answer of a component, in the frame's terms: local track ``i`` becomes
         ``track_ids[i]``, local detection ``j`` becomes ``det_rows[j]``."""
+
         def ref(x: Ref) -> Ref:
             if isinstance(x, Det):
                 return Det(det_rows[x.row])
@@ -167,13 +187,19 @@ class Answer:
         return Answer(
             assign={tid(t): row(d) for t, d in self.assign.items()},
             resume={tid(t): row(d) for t, d in self.resume.items()},
-            start=[row(d) for d in self.start], end=[tid(t) for t in self.end],
-            halt=[tid(t) for t in self.halt], ignore_trk=[tid(t) for t in self.ignore_trk],
+            start=[row(d) for d in self.start],
+            end=[tid(t) for t in self.end],
+            halt=[tid(t) for t in self.halt],
+            ignore_trk=[tid(t) for t in self.ignore_trk],
             ignore_det=[row(d) for d in self.ignore_det],
             events=[(n, tuple(ref(a) for a in args)) for n, args in self.events],
             fluents=[(n, tuple(ref(a) for a in args), v) for n, args, v in self.fluents],
-            cost=self.cost, optimal=self.optimal, budget_hit=self.budget_hit,
-            timed_out=self.timed_out, solve_ms=self.solve_ms)
+            cost=self.cost,
+            optimal=self.optimal,
+            budget_hit=self.budget_hit,
+            timed_out=self.timed_out,
+            solve_ms=self.solve_ms,
+        )
 
     def merge(self, part: Answer) -> None:
         """Add the answer of another component (in the frame's terms)."""
@@ -200,9 +226,14 @@ class AbductionSolver:
             same input gives the same answer on any machine. None: no limit.
     """
 
-    def __init__(self, constants: Mapping[str, int] | None = None,
-                 options: tuple[str, ...] = DEFAULT_OPTIONS, encoding: str | None = None,
-                 rules: Iterable[str] = (), max_conflicts: int | None = None):
+    def __init__(
+        self,
+        constants: Mapping[str, int] | None = None,
+        options: tuple[str, ...] = DEFAULT_OPTIONS,
+        encoding: str | None = None,
+        rules: Iterable[str] = (),
+        max_conflicts: int | None = None,
+    ):
         self.constants = {k: int(v) for k, v in (constants or {}).items()}
         self.options = list(options) + [f"-c{k}={v}" for k, v in sorted(self.constants.items())]
         if max_conflicts is not None:
@@ -218,7 +249,9 @@ class AbductionSolver:
         answer = self.solve_facts(component.facts(self.uses), budget_ms)
         return None if answer is None else answer.mapped(track_ids, det_rows)
 
-    def solve_facts(self, facts: Iterable[Symbol], budget_ms: float | None = None) -> Answer | None:
+    def solve_facts(
+        self, facts: Iterable[Symbol], budget_ms: float | None = None
+    ) -> Answer | None:
         """Abduce the optimal hypothesis for the facts; None if no model was found in budget.
 
         ``budget_ms`` bounds grounding plus solving in wall-clock time; past it the best model
@@ -241,7 +274,8 @@ class AbductionSolver:
         def on_model(model: clingo.Model) -> None:
             best[:] = model.symbols(shown=True)
             # the cost of the main objective; the tie-break levels (priority < 0) are not a cost
-            info["cost"] = sum(c for c, p in zip(model.cost, model.priority) if p >= 0)
+            levels = zip(model.cost, model.priority, strict=True)
+            info["cost"] = sum(c for c, p in levels if p >= 0)
 
         timed_out = False
         if budget_ms is None:
@@ -292,7 +326,9 @@ def _decode(symbols: list[Symbol]) -> Answer:
             ans.events.append((args[0].name, tuple(_ref(a) for a in args[0].arguments)))
         elif name == "value" and len(args) == 2:
             fluent, value = args
-            ans.fluents.append((fluent.name, tuple(_ref(a) for a in fluent.arguments), str(_ref(value))))
+            ans.fluents.append(
+                (fluent.name, tuple(_ref(a) for a in fluent.arguments), str(_ref(value)))
+            )
         elif name in ("assign", "resume") and len(args) == 2:
             getattr(ans, name)[args[0].number] = args[1].arguments[0].number
         elif name in ("start", "ignore_det") and len(args) == 1:
