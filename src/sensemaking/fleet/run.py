@@ -157,6 +157,9 @@ def _score(spec: SequenceSpec, scene: Scene, n_frames: int) -> dict[str, float]:
     tracks = Detections.concatenate(parts) if parts else Detections.empty()
     if len(tracks):
         tracks = tracks[np.argsort(tracks.frame, kind="stable")]
+        if str(spec.rules).startswith("mot"):
+            # MOT rules score one class (their "pedestrian"): the sequence's one class here
+            tracks = tracks.with_(class_id=np.ones(len(tracks), dtype=np.int64))
     m = evaluate_sequence(gt, tracks, str(spec.rules), n_frames=n_frames, name=spec.sequence,
                           gt_path=spec.gt_path)
     out: dict[str, float] = {}
