@@ -82,6 +82,11 @@ def test_batch_archives_every_table_then_skips_then_forces(ray_local, fleet: Pat
     forced = run_batch(specs, arc, workers=2, force=True)
     assert (forced.archived, forced.skipped) == (4, 0)
     assert _dirs(arc) == dirs  # same keys, replaced: one copy each
+    # the segment written by the first batch holds the replaced folders: queries read them once
+    assert first.compacted == 4 and again.compacted == 0 and forced.compacted == 4
+    assert len(list((arc / "_segments").iterdir())) == 2
+    assert run_query(arc, "SELECT count(*) FROM tracks").rows == [(len(_rows(arc, "tracks")),)]
+    assert run_query(arc, f"SELECT count(*) FROM runs WHERE run_id = '{forced.run_id}'").rows == [(4,)]
     runs = _rows(arc, "runs")
     assert len(runs) == 4 and {r["run_id"] for r in runs} == {forced.run_id}
     assert all(json.loads(r["inputs"])["det"] and r["clingo_version"] for r in runs)

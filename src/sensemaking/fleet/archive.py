@@ -439,3 +439,86 @@ def load_scene(root: str | Path, dataset: str, sequence: str, key: str | None = 
     return Scene(tracks, events, frame_numbers, fps=float(runs["fps"] or 10.0), image_size=size,
                  metadata={"dataset": dataset, "sequence": sequence, "source": runs["det_path"],
                            "key": runs["key"], "archive": str(root)})
+
+
+# -- segments: the published folders compacted into a few files, for fast queries ---------------
+SEGMENTS = "_segments"
+#: rows buffered per table before a row group is written while compacting
+_ROW_GROUP = 65536
+
+
+def _folder_id(path: Path) -> tuple[int, int]:
+    st = path.stat()
+    return st.st_ino, st.st_mtime_ns
+
+
+def published(root: str | Path) -> Iterator[tuple[str, str, str, Path]]:
+    """``(dataset, sequence, key, folder)`` of every published result folder."""
+    for d in Path(root).glob("dataset=*/sequence=*/key=*"):
+        if (d / DONE).is_file():
+            yield (d.parent.parent.name[len("dataset="):], d.parent.name[len("sequence="):],
+                   d.name[len("key="):], d)
+
+
+def segment_members(root: str | Path) -> Iterator[tuple[Path, dict[str, list]]]:
+    """Each segment folder with its members' columns (dataset, sequence, key, ino, mtime_ns)."""
+    pq = require("pyarrow.parquet", "fleet")
+    for seg in sorted((Path(root) / SEGMENTS).glob("seg-*")):
+        yield seg, pq.read_table(seg / "members.parquet").to_pydict()
+
+
+def compact(root: str | Path) -> int:
+    """Copy every published folder not yet in a segment into one new segment
+    (``_segments/seg-<time>/<table>.parquet`` and ``members.parquet``), written in ``_staging``
+    and renamed into place. Memory: at most ``_ROW_GROUP`` buffered rows per table. A folder
+    replaced later (``--force``) is recognised by its inode and time and read from the folder
+    again. Segments are derived: deleting ``_segments`` loses nothing. Returns the folders added.
+    """
+    pa = _pa()
+    pq = require("pyarrow.parquet", "fleet")
+    root = Path(root)
+    known: set[tuple[str, str, str, int, int]] = set()
+    for _, m in segment_members(root):
+        known.update(zip(m["dataset"], m["sequence"], m["key"], m["ino"], m["mtime_ns"]))
+    loose = []
+    for dataset, sequence, key, folder in published(root):
+        ino, mtime = _folder_id(folder)
+        if (dataset, sequence, key, ino, mtime) not in known:
+            loose.append((dataset, sequence, key, ino, mtime, folder))
+    if not loose:
+        return 0
+    name = "seg-" + dt.datetime.now(dt.timezone.utc).strftime("%Y%m%dT%H%M%S%f") + "-" + uuid.uuid4().hex[:6]
+    staged = root / STAGING / name
+    staged.mkdir(parents=True)
+    sch = schemas()
+    writers = {t: pq.ParquetWriter(staged / f"{t}.parquet", sch[t], compression="zstd") for t in TABLES}
+    buffers: dict[str, list[Any]] = {t: [] for t in TABLES}
+    counts = dict.fromkeys(TABLES, 0)
+
+    def flush(table: str) -> None:
+        if buffers[table]:
+            writers[table].write_table(pa.concat_tables(buffers[table]))
+            buffers[table], counts[table] = [], 0
+
+    try:
+        for *_, folder in loose:
+            for table in TABLES:
+                f = folder / f"{table}.parquet"
+                if f.is_file():
+                    part = pq.read_table(f, schema=sch[table])
+                    buffers[table].append(part)
+                    counts[table] += part.num_rows
+                    if counts[table] >= _ROW_GROUP:
+                        flush(table)
+        for table in TABLES:
+            flush(table)
+    finally:
+        for w in writers.values():
+            w.close()
+    cols = list(zip(*[row[:5] for row in loose]))
+    members = pa.table({"dataset": list(cols[0]), "sequence": list(cols[1]), "key": list(cols[2]),
+                        "ino": pa.array(cols[3], pa.int64()), "mtime_ns": pa.array(cols[4], pa.int64())})
+    pq.write_table(members, staged / "members.parquet")
+    (root / SEGMENTS).mkdir(exist_ok=True)
+    os.rename(staged, root / SEGMENTS / name)
+    return len(loose)

@@ -6,7 +6,8 @@ a summary of a few fields; at most ``max_in_flight`` tasks are submitted at a ti
 already archived with the same result key are skipped (``force`` redoes them); a sequence whose
 run fails is archived as failed with its error, and the others go on. A worker process that
 dies is retried by Ray (``max_retries``); its half-written folder stays in ``_staging`` and
-is never published.
+is never published. At the end the new folders are compacted into one segment of the
+archive (a few files for queries to read instead of five per sequence).
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from sensemaking.errors import InputError, require
-from sensemaking.fleet.archive import Archive, archive_sequence, result_key
+from sensemaking.fleet.archive import Archive, archive_sequence, compact, result_key
 from sensemaking.fleet.run import RunParams
 from sensemaking.fleet.specs import SequenceSpec, input_checksums
 
@@ -54,6 +55,8 @@ class BatchSummary:
         failed: ``(dataset, sequence, error)`` of each sequence that failed.
         seconds: wall time. nodes: Ray node id -> sequences run there.
         rss_mb: ``(sequences finished, driver resident memory in MB)`` sampled over the run.
+        compacted, compact_seconds: folders copied into a new segment at the end, and the time
+            it took (:func:`~sensemaking.fleet.archive.compact`).
     """
 
     run_id: str
@@ -64,6 +67,8 @@ class BatchSummary:
     seconds: float = 0.0
     nodes: Counter = field(default_factory=Counter)
     rss_mb: list[tuple[int, float]] = field(default_factory=list)
+    compacted: int = 0
+    compact_seconds: float = 0.0
 
     @property
     def ok(self) -> bool:
@@ -196,5 +201,8 @@ def run_batch(specs: Iterable[SequenceSpec], archive: str | Path, params: RunPar
         while pending:
             ready, _ = ray.wait(list(pending), num_returns=1)
             collect(ready)
+        t1 = time.perf_counter()
+        summary.compacted = compact(arc.root)
+        summary.compact_seconds = time.perf_counter() - t1
     summary.seconds = time.perf_counter() - t0
     return summary

@@ -184,28 +184,57 @@ def _cell(v: Any) -> str:
     return str(v)
 
 
+def _sql_list(paths: Sequence[Path]) -> str:
+    return "[" + ", ".join("'" + str(p).replace("'", "''") + "'" for p in paths) + "]"
+
+
 def connect(root: str | Path) -> Any:
-    """A DuckDB connection with one view per table of the archive at ``root``.
+    """A DuckDB connection with one view per table of the archive at ``root``: the segments
+    (:func:`~sensemaking.fleet.archive.compact`), less their members replaced since, plus the
+    folders not in a segment yet.
 
     Raises:
         InputError: ``root`` is not an archive.
     """
+    from sensemaking.fleet.archive import _folder_id, published, segment_members
+
     duckdb = require("duckdb", "fleet")
-    root = Path(root)
+    pa = require("pyarrow", "fleet")
+    root = Path(root).resolve()
     if not (root / "_fleet.json").is_file():
         raise InputError("not a sensemaking archive (no _fleet.json; write one with "
                          "`sensemaking batch --archive DIR`)", root)
+    current = {}
+    for dataset, sequence, key, folder in published(root):
+        current[(dataset, sequence, key, *_folder_id(folder))] = folder
+    segments: list[tuple[Path, list[tuple]]] = []  # (segment, its members replaced since)
+    in_segment = set()
+    for seg, m in segment_members(root):
+        stale = []
+        for member in zip(m["dataset"], m["sequence"], m["key"], m["ino"], m["mtime_ns"]):
+            (in_segment.add if member in current else stale.append)(member)
+        segments.append((seg, stale))
+    loose = [folder for member, folder in current.items() if member not in in_segment]
     con = duckdb.connect(":memory:")
-    pa = require("pyarrow", "fleet")
+    for i, (_, stale) in enumerate(segments):
+        if stale:
+            con.register(f"_stale{i}", pa.table({"dataset": [m[0] for m in stale],
+                                                 "sequence": [m[1] for m in stale],
+                                                 "key": [m[2] for m in stale]}))
     for table in TABLES:
-        pattern = f"dataset=*/sequence=*/key=*/{table}.parquet"
-        if next(iter(root.glob(pattern)), None) is None:
-            con.register(f"_empty_{table}", pa.Table.from_pylist([], schema=schemas()[table]))
-            con.execute(f"CREATE VIEW {table} AS SELECT * FROM _empty_{table}")
-            continue
-        glob = str(root.resolve() / pattern).replace("'", "''")
-        con.execute(f"CREATE VIEW {table} AS SELECT * FROM read_parquet('{glob}', "
-                    "hive_partitioning = false, union_by_name = true)")
+        con.register(f"_empty_{table}", pa.Table.from_pylist([], schema=schemas()[table]))
+        parts = [f"SELECT * FROM _empty_{table}"]
+        plain = [seg / f"{table}.parquet" for seg, stale in segments if not stale]
+        if plain:
+            parts.append(f"SELECT * FROM read_parquet({_sql_list(plain)})")
+        for i, (seg, stale) in enumerate(segments):
+            if stale:
+                parts.append(f"SELECT * FROM read_parquet({_sql_list([seg / f'{table}.parquet'])}) "
+                             f"ANTI JOIN _stale{i} USING (dataset, sequence, key)")
+        files = [f / f"{table}.parquet" for f in loose if (f / f"{table}.parquet").is_file()]
+        if files:
+            parts.append(f"SELECT * FROM read_parquet({_sql_list(files)})")
+        con.execute(f"CREATE VIEW {table} AS " + " UNION ALL ".join(parts))
     return con
 
 
