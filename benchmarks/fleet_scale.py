@@ -37,19 +37,35 @@ def workers(args: argparse.Namespace) -> None:
         for rep in range(args.repeat):
             for n in (1, 2):
                 arc = Path(tmp) / f"arc-{n}-{rep}"
-                cmd = [sys.executable, "-m", "sensemaking", "-q", "batch", "--data", str(data),
-                       "--archive", str(arc), "--workers", str(n)]
+                cmd = [
+                    sys.executable,
+                    "-m",
+                    "sensemaking",
+                    "-q",
+                    "batch",
+                    "--data",
+                    str(data),
+                    "--archive",
+                    str(arc),
+                    "--workers",
+                    str(n),
+                ]
                 t0 = time.perf_counter()
                 proc = subprocess.run(cmd, capture_output=True, text=True)
                 wall = time.perf_counter() - t0
                 if proc.returncode != 0:
                     sys.exit(f"batch failed ({proc.returncode}): {proc.stderr.strip()[-500:]}")
                 times[n].append(wall)
-                print(f"repeat {rep + 1}: {n} worker{'s' if n > 1 else ' '} {wall:7.1f} s   "
-                      f"(load average {_load()})", flush=True)
+                print(
+                    f"repeat {rep + 1}: {n} worker{'s' if n > 1 else ' '} {wall:7.1f} s   "
+                    f"(load average {_load()})",
+                    flush=True,
+                )
                 shutil.rmtree(arc)
     m1, m2 = statistics.median(times[1]), statistics.median(times[2])
-    print(f"median: 1 worker {m1:.1f} s, 2 workers {m2:.1f} s, ratio {m2 / m1:.2f} (target <= 0.60)")
+    print(
+        f"median: 1 worker {m1:.1f} s, 2 workers {m2:.1f} s, ratio {m2 / m1:.2f} (target <= 0.60)"
+    )
 
 
 def scale(args: argparse.Namespace) -> None:
@@ -62,21 +78,38 @@ def scale(args: argparse.Namespace) -> None:
         t0 = time.perf_counter()
         manifest = write_synthetic_fleet(tmp / "fleet", args.n, n_frames=args.frames)
         specs = read_manifest(manifest)
-        print(f"{args.n} synthetic sequences of {args.frames} frames written in "
-              f"{time.perf_counter() - t0:.1f} s; driver RSS before the batch {rss_mb():.0f} MB")
+        print(
+            f"{args.n} synthetic sequences of {args.frames} frames written in "
+            f"{time.perf_counter() - t0:.1f} s; driver RSS before the batch {rss_mb():.0f} MB"
+        )
         arc = tmp / "archive"
         summary = run_batch(specs, arc, workers=args.workers)
-        print(f"batch: {summary.archived} archived, {len(summary.failed)} failed in "
-              f"{summary.seconds:.1f} s ({summary.seconds / max(args.n, 1) * 1000:.0f} ms per "
-              f"sequence, {args.workers} workers; load average {_load()})")
+        print(
+            f"batch: {summary.archived} archived, {len(summary.failed)} failed in "
+            f"{summary.seconds:.1f} s ({summary.seconds / max(args.n, 1) * 1000:.0f} ms per "
+            f"sequence, {args.workers} workers; load average {_load()})"
+        )
+        print(
+            f"  of which compacting {summary.compacted} folders into a segment: "
+            f"{summary.compact_seconds:.1f} s; "
+            f"driver RSS after it {summary.rss_after_compact_mb:.0f} MB"
+        )
         samples = summary.rss_mb
-        print("driver RSS (sequences done: MB): "
-              + ", ".join(f"{k}: {v:.0f}" for k, v in samples[:: max(1, len(samples) // 10)]))
+        print(
+            "driver RSS (sequences done: MB): "
+            + ", ".join(f"{k}: {v:.0f}" for k, v in samples[:: max(1, len(samples) // 10)])
+        )
         if samples:
             tail = [v for k, v in samples if k >= args.n // 10]
-            print(f"driver RSS after 10 % of the batch: min {min(tail):.0f} MB, max {max(tail):.0f} MB")
+            print(
+                f"driver RSS after 10 % of the batch: min {min(tail):.0f} MB, "
+                f"max {max(tail):.0f} MB"
+            )
         size = sum(p.stat().st_size for p in arc.rglob("*") if p.is_file())
-        print(f"archive: {size / 1e6:.1f} MB in {sum(1 for _ in arc.rglob('*.parquet'))} Parquet files")
+        print(
+            f"archive: {size / 1e6:.1f} MB in "
+            f"{sum(1 for _ in arc.rglob('*.parquet'))} Parquet files"
+        )
         time_queries(arc)
     finally:
         if args.keep:
@@ -101,7 +134,9 @@ def time_queries(arc: Path) -> None:
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     sub = p.add_subparsers(dest="what", required=True)
     w = sub.add_parser("workers", help="1 vs 2 workers on the shared benchmarks")
     default_data = Path(__file__).resolve().parents[1].parent / "shared" / "data"

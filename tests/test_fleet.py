@@ -16,7 +16,6 @@ pytest.importorskip("duckdb")
 
 from sensemaking.cli import main  # noqa: E402
 from sensemaking.errors import InputError  # noqa: E402
-from sensemaking.fleet import archive as archive_mod  # noqa: E402
 from sensemaking.fleet.archive import TABLES, load_scene  # noqa: E402
 from sensemaking.fleet.batch import run_batch  # noqa: E402
 from sensemaking.fleet.query import NAMED_QUERIES, run_query  # noqa: E402
@@ -29,8 +28,13 @@ DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 
 @pytest.fixture(scope="module")
 def ray_local():
-    ray.init(num_cpus=2, include_dashboard=False, configure_logging=False, log_to_driver=False,
-             object_store_memory=100 * 2**20)
+    ray.init(
+        num_cpus=2,
+        include_dashboard=False,
+        configure_logging=False,
+        log_to_driver=False,
+        object_store_memory=100 * 2**20,
+    )
     yield
     ray.shutdown()
 
@@ -50,7 +54,9 @@ def _rows(root: Path, table: str) -> list[dict]:
     return [r for f in files for r in pq.read_table(f).to_pylist()]
 
 
-def test_batch_archives_every_table_then_skips_then_forces(ray_local, fleet: Path, tmp_path: Path) -> None:
+def test_batch_archives_every_table_then_skips_then_forces(
+    ray_local, fleet: Path, tmp_path: Path
+) -> None:
     arc = tmp_path / "arc"
     specs = read_manifest(fleet)
     seen: list[str] = []
@@ -59,10 +65,14 @@ def test_batch_archives_every_table_then_skips_then_forces(ray_local, fleet: Pat
     dirs = _dirs(arc)
     assert len(dirs) == 4 and not list((arc / "_staging").iterdir())
     for d in dirs:
-        assert sorted(p.name for p in d.iterdir()) == sorted([f"{t}.parquet" for t in TABLES] + ["_DONE.json"])
+        assert sorted(p.name for p in d.iterdir()) == sorted(
+            [f"{t}.parquet" for t in TABLES] + ["_DONE.json"]
+        )
     for table in TABLES:
         rows = _rows(arc, table)
-        assert {(r["dataset"], r["sequence"]) for r in rows} <= {("synthetic", s.sequence) for s in specs}
+        assert {(r["dataset"], r["sequence"]) for r in rows} <= {
+            ("synthetic", s.sequence) for s in specs
+        }
         assert all(r["class"] in ("car", "pedestrian", "cyclist") for r in rows)
     # the archive holds what the tracker produced, every box (visible and hidden)
     direct = run_sequence(specs[0])
@@ -77,7 +87,9 @@ def test_batch_archives_every_table_then_skips_then_forces(ray_local, fleet: Pat
 
     again = run_batch(specs, arc, workers=2)
     assert (again.archived, again.skipped) == (0, 4)
-    assert _dirs(arc) == dirs and [(d / "_DONE.json").stat().st_mtime_ns for d in dirs] == done_times
+    assert (
+        _dirs(arc) == dirs and [(d / "_DONE.json").stat().st_mtime_ns for d in dirs] == done_times
+    )
 
     forced = run_batch(specs, arc, workers=2, force=True)
     assert (forced.archived, forced.skipped) == (4, 0)
@@ -86,7 +98,9 @@ def test_batch_archives_every_table_then_skips_then_forces(ray_local, fleet: Pat
     assert first.compacted == 4 and again.compacted == 0 and forced.compacted == 4
     assert len(list((arc / "_segments").iterdir())) == 2
     assert run_query(arc, "SELECT count(*) FROM tracks").rows == [(len(_rows(arc, "tracks")),)]
-    assert run_query(arc, f"SELECT count(*) FROM runs WHERE run_id = '{forced.run_id}'").rows == [(4,)]
+    assert run_query(arc, f"SELECT count(*) FROM runs WHERE run_id = '{forced.run_id}'").rows == [
+        (4,)
+    ]
     runs = _rows(arc, "runs")
     assert len(runs) == 4 and {r["run_id"] for r in runs} == {forced.run_id}
     assert all(json.loads(r["inputs"])["det"] and r["clingo_version"] for r in runs)
@@ -100,24 +114,27 @@ def test_batch_archives_every_table_then_skips_then_forces(ray_local, fleet: Pat
     assert len(across.rows) == 8
 
 
-def test_bad_sequence_is_archived_as_failed_and_the_others_go_on(ray_local, fleet: Path,
-                                                                   tmp_path: Path) -> None:
+def test_bad_sequence_is_archived_as_failed_and_the_others_go_on(
+    ray_local, fleet: Path, tmp_path: Path
+) -> None:
     bad = tmp_path / "bad.txt"
     bad.write_text("this is not a detections file\n")
     manifest = tmp_path / "manifest.csv"
     good = read_manifest(fleet)[1]
-    manifest.write_text("dataset,sequence,path,format,class\n"
-                        f"mixed,good,{good.det_path},mot,pedestrian\nmixed,bad,bad.txt,mot,car\n")
+    manifest.write_text(
+        "dataset,sequence,path,format,class\n"
+        f"mixed,good,{good.det_path},mot,pedestrian\nmixed,bad,bad.txt,mot,car\n"
+    )
     specs, _ = find_sequences([manifest])
     arc = tmp_path / "arc"
     summary = run_batch(specs, arc, workers=2)
     assert summary.archived == 1 and not summary.ok
-    (dataset, sequence, error), = summary.failed
+    ((dataset, sequence, error),) = summary.failed
     assert (dataset, sequence) == ("mixed", "bad") and "bad.txt" in error
     runs = {r["sequence"]: r for r in _rows(arc, "runs")}
     assert runs["bad"]["status"] == "failed" and "bad.txt" in runs["bad"]["error"]
     assert runs["good"]["status"] == "ok" and runs["good"]["error"] is None
-    failed_dir, = (arc / "dataset=mixed" / "sequence=bad").glob("key=*")
+    (failed_dir,) = (arc / "dataset=mixed" / "sequence=bad").glob("key=*")
     assert sorted(p.name for p in failed_dir.iterdir()) == ["_DONE.json", "runs.parquet"]
     statuses = {(row[1], row[4]) for row in run_query(arc, "sequences").rows}
     assert statuses == {("good", "ok"), ("bad", "failed")}
@@ -125,8 +142,9 @@ def test_bad_sequence_is_archived_as_failed_and_the_others_go_on(ray_local, flee
     assert run_batch(specs, arc, workers=2).skipped == 1
 
 
-def test_worker_killed_mid_sequence_is_retried_and_archived_once(ray_local, fleet: Path,
-                                                                   tmp_path: Path) -> None:
+def test_worker_killed_mid_sequence_is_retried_and_archived_once(
+    ray_local, fleet: Path, tmp_path: Path
+) -> None:
     marker = tmp_path / "killed-once"
     arc = tmp_path / "arc"
 
@@ -164,19 +182,25 @@ def test_worker_killed_mid_sequence_is_retried_and_archived_once(ray_local, flee
     assert len(list((arc / "_staging").iterdir())) == 1
 
 
-def test_scene_from_archive_equals_the_recorded_scene(ray_local, fleet: Path, tmp_path: Path) -> None:
+def test_scene_from_archive_equals_the_recorded_scene(
+    ray_local, fleet: Path, tmp_path: Path
+) -> None:
     specs = read_manifest(fleet)[:1]
     arc = tmp_path / "arc"
     run_batch(specs, arc, workers=1)
     got = load_scene(arc, "synthetic", specs[0].sequence)
     want = run_sequence(specs[0]).scene
     assert list(got.tracks) == list(want.tracks) and got.events == want.events
-    assert np.array_equal(got.frame_numbers, want.frame_numbers) and got.image_size == want.image_size
+    assert (
+        np.array_equal(got.frame_numbers, want.frame_numbers) and got.image_size == want.image_size
+    )
     for tid, t in want.tracks.items():
         g = got.tracks[tid]
         assert g.class_id == t.class_id and np.array_equal(g.frames, t.frames)
         assert np.array_equal(g.xyxy, t.xyxy) and np.array_equal(g.state, t.state)
-        assert np.array_equal(g.occluder, t.occluder) and np.array_equal(g.visibility, t.visibility)
+        assert np.array_equal(g.occluder, t.occluder) and np.array_equal(
+            g.visibility, t.visibility
+        )
     with pytest.raises(InputError, match="no successful result"):
         load_scene(arc, "synthetic", "nope")
 
@@ -191,7 +215,9 @@ def test_queries_answer_and_fail_cleanly(ray_local, fleet: Path, tmp_path: Path)
         if all(d is not None for _, d in q.args):
             assert run_query(arc, name).columns, name
     by_lead = run_query(arc, "warnings-by-lead")
-    assert sum(r[by_lead.columns.index("warnings")] for r in by_lead.rows) == len(_rows(arc, "warnings"))
+    assert sum(r[by_lead.columns.index("warnings")] for r in by_lead.rows) == len(
+        _rows(arc, "warnings")
+    )
     assert json.loads(res.format("json")) == [{"n": n_tracks}]
     assert res.format("csv") == f"n\n{n_tracks}\n"
     with pytest.raises(InputError, match="query failed"):
@@ -204,23 +230,57 @@ def test_queries_answer_and_fail_cleanly(ray_local, fleet: Path, tmp_path: Path)
 
 def test_cli_batch_query_ask_explain(ray_local, fleet: Path, tmp_path: Path, capsys) -> None:
     arc = tmp_path / "arc"
-    assert main(["-q", "batch", "--data", str(fleet), "--archive", str(arc), "--workers", "2",
-                 "--only", "synthetic/00000[01]"]) == 0
+    assert (
+        main(
+            [
+                "-q",
+                "batch",
+                "--data",
+                str(fleet),
+                "--archive",
+                str(arc),
+                "--workers",
+                "2",
+                "--only",
+                "synthetic/00000[01]",
+            ]
+        )
+        == 0
+    )
     assert len(_dirs(arc)) == 2
     assert main(["query", str(arc), "sequences", "--format", "csv"]) == 0
     out = capsys.readouterr().out.splitlines()
     assert out[0].startswith("dataset,sequence,class,run,status") and len(out) == 3
-    assert main(["explain", "--archive", str(arc), "--sequence", "synthetic/000000", "--json"]) == 0
+    assert (
+        main(["explain", "--archive", str(arc), "--sequence", "synthetic/000000", "--json"]) == 0
+    )
     stories = json.loads(capsys.readouterr().out)
     scene = load_scene(arc, "synthetic", "000000")
     assert sorted(int(k) for k in stories) == sorted(scene.tracks)
     first = min(scene.tracks)
-    assert main(["ask", "--archive", str(arc), "--sequence", "synthetic/000000",
-                 f"q(T) :- track(T,_), T = {first}. #show q/1."]) == 0
+    assert (
+        main(
+            [
+                "ask",
+                "--archive",
+                str(arc),
+                "--sequence",
+                "synthetic/000000",
+                f"q(T) :- track(T,_), T = {first}. #show q/1.",
+            ]
+        )
+        == 0
+    )
     assert capsys.readouterr().out.strip() == f"q({first})"
     # bad input: one line, exit status 2, nothing written
-    assert main(["batch", "--data", str(tmp_path / "missing"), "--archive", str(tmp_path / "a2")]) == 2
-    assert main(["batch", "--data", str(fleet), "--archive", str(tmp_path / "a3"), "--workers", "0"]) == 2
+    assert (
+        main(["batch", "--data", str(tmp_path / "missing"), "--archive", str(tmp_path / "a2")])
+        == 2
+    )
+    assert (
+        main(["batch", "--data", str(fleet), "--archive", str(tmp_path / "a3"), "--workers", "0"])
+        == 2
+    )
     assert main(["query", str(tmp_path), "sequences"]) == 2
     assert main(["explain", "--archive", str(arc), "--sequence", "nodataset"]) == 2
     err = capsys.readouterr().err
@@ -246,10 +306,28 @@ def test_manifest_errors_name_file_and_line(tmp_path: Path) -> None:
 def test_readme_lines_on_a_few_shared_sequences(ray_local, tmp_path: Path, capsys) -> None:
     """The README's two lines, restricted to three sequences."""
     arc = tmp_path / "archive"
-    assert main(["-q", "batch", "--data", str(DATA), "--archive", str(arc), "--only", "kitti-rrc-car/000[56]",
-                 "--only", "mot15/TUD-Campus"]) == 0
+    assert (
+        main(
+            [
+                "-q",
+                "batch",
+                "--data",
+                str(DATA),
+                "--archive",
+                str(arc),
+                "--only",
+                "kitti-rrc-car/000[56]",
+                "--only",
+                "mot15/TUD-Campus",
+            ]
+        )
+        == 0
+    )
     assert main(["query", str(arc), "metrics-across-runs", "--format", "json"]) == 0
     rows = json.loads(capsys.readouterr().out)
     assert {(r["dataset"], r["sequence"]) for r in rows} == {
-        ("kitti-rrc-car", "0005"), ("kitti-rrc-car", "0006"), ("mot15", "TUD-Campus")}
+        ("kitti-rrc-car", "0005"),
+        ("kitti-rrc-car", "0006"),
+        ("mot15", "TUD-Campus"),
+    }
     assert all(30 < r["HOTA"] <= 100 for r in rows)

@@ -22,8 +22,10 @@ from sensemaking.fleet.specs import read_manifest  # noqa: E402
 from sensemaking.fleet.synthetic import write_synthetic_fleet  # noqa: E402
 
 #: columns that say when, where and by which process, not what
-VOLATILE = {"runs": {"run_id", "host", "node_id", "worker_pid", "started", "ended", "seconds"},
-            "metrics": {"seconds", "ms_per_frame", "solve_ms", "monitor_ms"}}
+VOLATILE = {
+    "runs": {"run_id", "host", "node_id", "worker_pid", "started", "ended", "seconds"},
+    "metrics": {"seconds", "ms_per_frame", "solve_ms", "monitor_ms"},
+}
 
 
 def _published(root: Path) -> list[Path]:
@@ -36,7 +38,9 @@ def _content(root: Path) -> dict[str, list[tuple]]:
         rows = []
         for f in sorted(root.glob(f"dataset=*/sequence=*/key=*/{table}.parquet")):
             for r in pq.read_table(f).to_pylist():
-                rows.append(tuple((k, repr(v)) for k, v in r.items() if k not in VOLATILE.get(table, ())))
+                rows.append(
+                    tuple((k, repr(v)) for k, v in r.items() if k not in VOLATILE.get(table, ()))
+                )
         out[table] = sorted(rows)
     return out
 
@@ -44,10 +48,22 @@ def _content(root: Path) -> dict[str, list[tuple]]:
 def test_driver_killed_mid_run_leaves_an_archive_a_second_batch_completes(tmp_path: Path) -> None:
     manifest = write_synthetic_fleet(tmp_path / "fleet", 10, n_frames=60)
     arc = tmp_path / "arc"
-    cmd = [sys.executable, "-m", "sensemaking", "-q", "batch", "--data", str(manifest),
-           "--archive", str(arc), "--workers", "1"]
-    driver = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                              start_new_session=True)
+    cmd = [
+        sys.executable,
+        "-m",
+        "sensemaking",
+        "-q",
+        "batch",
+        "--data",
+        str(manifest),
+        "--archive",
+        str(arc),
+        "--workers",
+        "1",
+    ]
+    driver = subprocess.Popen(
+        cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
+    )
     try:
         deadline = time.monotonic() + 120
         while len(_published(arc)) < 2 and time.monotonic() < deadline and driver.poll() is None:
@@ -62,13 +78,21 @@ def test_driver_killed_mid_run_leaves_an_archive_a_second_batch_completes(tmp_pa
     before = _published(arc)
     assert 2 <= len(before) < 10
     for d in before:  # every published folder is whole
-        assert sorted(p.name for p in d.iterdir()) == sorted([f"{t}.parquet" for t in TABLES] + ["_DONE.json"])
+        assert sorted(p.name for p in d.iterdir()) == sorted(
+            [f"{t}.parquet" for t in TABLES] + ["_DONE.json"]
+        )
     second = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert second.returncode == 0, second.stderr
     after = _published(arc)
     assert len(after) == 10 and set(before) <= set(after)
-    runs = [r for f in arc.glob("dataset=*/sequence=*/key=*/runs.parquet") for r in pq.read_table(f).to_pylist()]
-    assert len(runs) == 10 and len({r["run_id"] for r in runs}) == 2  # the first run's results kept
+    runs = [
+        r
+        for f in arc.glob("dataset=*/sequence=*/key=*/runs.parquet")
+        for r in pq.read_table(f).to_pylist()
+    ]
+    assert (
+        len(runs) == 10 and len({r["run_id"] for r in runs}) == 2
+    )  # the first run's results kept
     assert not list((arc / "_staging").iterdir())
 
 
@@ -77,8 +101,14 @@ def test_two_node_cluster_spreads_tasks_and_writes_the_single_node_archive(tmp_p
 
     manifest = write_synthetic_fleet(tmp_path / "fleet", 6, n_frames=30)
     specs = read_manifest(manifest)
-    cluster = Cluster(initialize_head=True, head_node_args={
-        "num_cpus": 1, "include_dashboard": False, "object_store_memory": 100 * 2**20})
+    cluster = Cluster(
+        initialize_head=True,
+        head_node_args={
+            "num_cpus": 1,
+            "include_dashboard": False,
+            "object_store_memory": 100 * 2**20,
+        },
+    )
     try:
         cluster.add_node(num_cpus=1, object_store_memory=100 * 2**20)
         cluster.wait_for_nodes()

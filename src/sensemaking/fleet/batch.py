@@ -56,7 +56,8 @@ class BatchSummary:
         seconds: wall time. nodes: Ray node id -> sequences run there.
         rss_mb: ``(sequences finished, driver resident memory in MB)`` sampled over the run.
         compacted, compact_seconds: folders copied into a new segment at the end, and the time
-            it took (:func:`~sensemaking.fleet.archive.compact`).
+            it took (:func:`~sensemaking.fleet.archive.compact`); rss_after_compact_mb: the
+            driver's resident memory after it.
     """
 
     run_id: str
@@ -69,14 +70,22 @@ class BatchSummary:
     rss_mb: list[tuple[int, float]] = field(default_factory=list)
     compacted: int = 0
     compact_seconds: float = 0.0
+    rss_after_compact_mb: float = 0.0
 
     @property
     def ok(self) -> bool:
         return not self.failed
 
 
-def _task(spec: SequenceSpec, root: str, params: RunParams, key: str, checksums: dict[str, str],
-          run_id: str, label: str | None) -> dict[str, Any]:
+def _task(
+    spec: SequenceSpec,
+    root: str,
+    params: RunParams,
+    key: str,
+    checksums: dict[str, str],
+    run_id: str,
+    label: str | None,
+) -> dict[str, Any]:
     """The Ray task: one sequence into the archive (runs in a worker process)."""
     import ray
 
@@ -97,13 +106,19 @@ class ray_session:
     def __enter__(self) -> Any:
         ray = require("ray", "fleet")
         if not ray.is_initialized():
-            common = {"include_dashboard": False, "configure_logging": False, "log_to_driver": False,
-                      "logging_level": logging.WARNING}
+            common = {
+                "include_dashboard": False,
+                "configure_logging": False,
+                "log_to_driver": False,
+                "logging_level": logging.WARNING,
+            }
             if self.address:
                 try:
                     ray.init(address=self.address, **common)
                 except (ConnectionError, ValueError, RuntimeError) as exc:
-                    raise InputError(f"cannot join the Ray cluster at {self.address}: {exc}") from None
+                    raise InputError(
+                        f"cannot join the Ray cluster at {self.address}: {exc}"
+                    ) from None
             else:
                 ray.init(num_cpus=self.workers or os.cpu_count() or 1, **common)
             self._started = True
@@ -114,11 +129,19 @@ class ray_session:
             require("ray", "fleet").shutdown()
 
 
-def run_batch(specs: Iterable[SequenceSpec], archive: str | Path, params: RunParams | None = None, *,
-              workers: int | None = None, address: str | None = None, force: bool = False,
-              label: str | None = None, max_retries: int = 3,
-              progress: Callable[[dict[str, Any]], None] | None = None,
-              task: Callable[..., dict[str, Any]] | None = None) -> BatchSummary:
+def run_batch(
+    specs: Iterable[SequenceSpec],
+    archive: str | Path,
+    params: RunParams | None = None,
+    *,
+    workers: int | None = None,
+    address: str | None = None,
+    force: bool = False,
+    label: str | None = None,
+    max_retries: int = 3,
+    progress: Callable[[dict[str, Any]], None] | None = None,
+    task: Callable[..., dict[str, Any]] | None = None,
+) -> BatchSummary:
     """Track every sequence of ``specs`` into ``archive`` on Ray.
 
     Args:
@@ -148,8 +171,9 @@ def run_batch(specs: Iterable[SequenceSpec], archive: str | Path, params: RunPar
     t0 = time.perf_counter()
     sample_every = max(1, len(ordered) // 50)
     with Archive(archive) as arc, ray_session(workers, address) as ray:
-        remote = ray.remote(task or _task).options(num_cpus=1, max_retries=max_retries,
-                                                   retry_exceptions=False)
+        remote = ray.remote(task or _task).options(
+            num_cpus=1, max_retries=max_retries, retry_exceptions=False
+        )
         if workers is not None:
             limit = workers * (1 if address else IN_FLIGHT_PER_WORKER)
         else:
@@ -175,8 +199,9 @@ def run_batch(specs: Iterable[SequenceSpec], archive: str | Path, params: RunPar
                     info = ray.get(ref)
                 except Exception as exc:  # noqa: BLE001 - the task died beyond its retries
                     error = f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
-                    info = archive_sequence(spec, root, params, key, sums, run_id, label,
-                                            failed=error)
+                    info = archive_sequence(
+                        spec, root, params, key, sums, run_id, label, failed=error
+                    )
                 if info["status"] == "ok":
                     summary.archived += 1
                     summary.nodes[info.get("node_id")] += 1
@@ -189,8 +214,15 @@ def run_batch(specs: Iterable[SequenceSpec], archive: str | Path, params: RunPar
             key = result_key(spec, sums, params)
             if not force and arc.status(spec, key) == "ok":
                 summary.skipped += 1
-                done({"dataset": spec.dataset, "sequence": spec.sequence, "key": key,
-                      "status": "skipped", "error": None})
+                done(
+                    {
+                        "dataset": spec.dataset,
+                        "sequence": spec.sequence,
+                        "key": key,
+                        "status": "skipped",
+                        "error": None,
+                    }
+                )
                 continue
             while len(pending) >= limit:
                 ready, _ = ray.wait(list(pending), num_returns=1)
@@ -204,5 +236,6 @@ def run_batch(specs: Iterable[SequenceSpec], archive: str | Path, params: RunPar
         t1 = time.perf_counter()
         summary.compacted = compact(arc.root)
         summary.compact_seconds = time.perf_counter() - t1
+        summary.rss_after_compact_mb = round(rss_mb(), 1)
     summary.seconds = time.perf_counter() - t0
     return summary

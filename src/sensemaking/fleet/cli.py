@@ -17,11 +17,20 @@ __all__ = ["add_archive_options", "scene_from_args"]
 def add_archive_options(parser: argparse.ArgumentParser) -> None:
     """Add ``--archive``, ``--sequence`` and ``--key`` (the scene then comes from the archive)."""
     g = parser.add_argument_group("scene from a fleet archive (instead of SCENE; 'fleet' extra)")
-    g.add_argument("--archive", metavar="DIR", default=None, help="archive from `sensemaking batch`")
-    g.add_argument("--sequence", metavar="DATASET/SEQUENCE", default=None,
-                   help="the archived sequence, e.g. kitti-rrc-car/0005 (with --archive)")
-    g.add_argument("--key", default=None,
-                   help="which archived result of the sequence (default: the newest successful)")
+    g.add_argument(
+        "--archive", metavar="DIR", default=None, help="archive from `sensemaking batch`"
+    )
+    g.add_argument(
+        "--sequence",
+        metavar="DATASET/SEQUENCE",
+        default=None,
+        help="the archived sequence, e.g. kitti-rrc-car/0005 (with --archive)",
+    )
+    g.add_argument(
+        "--key",
+        default=None,
+        help="which archived result of the sequence (default: the newest successful)",
+    )
 
 
 def scene_from_args(args: argparse.Namespace) -> Scene:

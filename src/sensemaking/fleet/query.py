@@ -53,35 +53,39 @@ _LEAD_BUCKET = """CASE WHEN w.lead_s IS NULL THEN 'none'
          WHEN w.lead_s < 0.5 THEN '<0.5 s' WHEN w.lead_s < 1 THEN '0.5-1 s'
          WHEN w.lead_s < 2 THEN '1-2 s' ELSE '>=2 s' END"""
 
-NAMED_QUERIES: dict[str, NamedQuery] = {q.name: q for q in (
-    NamedQuery(
-        "warnings-by-lead",
-        "warnings by situation, class of the object and lead time (HIDDEN_ENTITY: seconds "
-        "between the warning and the anticipated reappearance), per run",
-        f"""SELECT {_RUN} AS run, w.situation, w.track_class AS class,
+NAMED_QUERIES: dict[str, NamedQuery] = {
+    q.name: q
+    for q in (
+        NamedQuery(
+            "warnings-by-lead",
+            "warnings by situation, class of the object and lead time (HIDDEN_ENTITY: seconds "
+            "between the warning and the anticipated reappearance), per run",
+            f"""SELECT {_RUN} AS run, w.situation, w.track_class AS class,
        {_LEAD_BUCKET} AS lead_time, count(*) AS warnings,
        count(DISTINCT w.dataset || '/' || w.sequence) AS sequences,
        round(min(w.lead_s), 2) AS min_lead_s
 FROM warnings w JOIN runs r USING (dataset, sequence, key)
-GROUP BY ALL ORDER BY run, situation, class, min(coalesce(w.lead_s, 1e9))"""),
-    NamedQuery(
-        "late-hidden-warnings",
-        "HIDDEN_ENTITY warnings about an object of CLASS (any: all) anticipated to reappear "
-        "less than SECONDS ahead",
-        f"""SELECT w.dataset, w.sequence, {_RUN} AS run, w.frame, round(w.time_s, 2) AS time_s,
+GROUP BY ALL ORDER BY run, situation, class, min(coalesce(w.lead_s, 1e9))""",
+        ),
+        NamedQuery(
+            "late-hidden-warnings",
+            "HIDDEN_ENTITY warnings about an object of CLASS (any: all) anticipated to reappear "
+            "less than SECONDS ahead",
+            f"""SELECT w.dataset, w.sequence, {_RUN} AS run, w.frame, round(w.time_s, 2) AS time_s,
        w.track_id, w.track_class AS class, w.other_id AS occluder, w.other_class AS occluder_class,
        w.lead_s
 FROM warnings w JOIN runs r USING (dataset, sequence, key)
 WHERE w.situation = 'HIDDEN_ENTITY' AND w.lead_s < CAST($2 AS DOUBLE)
   AND ($1 = 'any' OR w.track_class = $1)
 ORDER BY w.lead_s, w.dataset, w.sequence, w.frame""",
-        (("CLASS", "any"), ("SECONDS", "1.0"))),
-    NamedQuery(
-        "identity-losses",
-        "tracks the tracker gave up (an `ends` event, not leaving the view) while hidden or "
-        "missing, by their class and the class of the occluder they were last hidden behind, "
-        "per run",
-        f"""WITH last AS (
+            (("CLASS", "any"), ("SECONDS", "1.0")),
+        ),
+        NamedQuery(
+            "identity-losses",
+            "tracks the tracker gave up (an `ends` event, not leaving the view) while hidden or "
+            "missing, by their class and the class of the occluder they were last hidden behind, "
+            "per run",
+            f"""WITH last AS (
   SELECT dataset, sequence, key, track_id, arg_max(state, frame) AS state,
          arg_max(occluder, frame) AS occluder
   FROM tracks GROUP BY ALL),
@@ -98,22 +102,24 @@ LEFT JOIN cls o ON o.dataset = l.dataset AND o.sequence = l.sequence AND o.key =
                 AND o.track_id = l.occluder AND l.state = 'hidden'
 JOIN runs r ON r.dataset = l.dataset AND r.sequence = l.sequence AND r.key = l.key
 WHERE l.state IN ('hidden', 'missing')
-GROUP BY ALL ORDER BY run, losses DESC, class, occluder_class"""),
-    NamedQuery(
-        "metrics-across-runs",
-        "per sequence: the scores of every run (percent; IDSW counts), oldest first",
-        f"""SELECT m.dataset, m.sequence, {_RUN} AS run, r.software_version AS version,
+GROUP BY ALL ORDER BY run, losses DESC, class, occluder_class""",
+        ),
+        NamedQuery(
+            "metrics-across-runs",
+            "per sequence: the scores of every run (percent; IDSW counts), oldest first",
+            f"""SELECT m.dataset, m.sequence, {_RUN} AS run, r.software_version AS version,
        strftime(r.ended, '%Y-%m-%d %H:%M') AS ended,
        round(100 * m.HOTA, 2) AS HOTA, round(100 * m.MOTA, 2) AS MOTA,
        round(100 * m.IDF1, 2) AS IDF1, CAST(m.IDSW AS BIGINT) AS IDSW, m.warnings,
        round(m.ms_per_frame, 2) AS ms_per_frame
 FROM metrics m JOIN runs r USING (dataset, sequence, key)
-ORDER BY m.dataset, m.sequence, r.ended"""),
-    NamedQuery(
-        "compare",
-        "two runs compared per sequence (B minus A): HOTA and IDF1 in points, ID switches, "
-        "warnings, identity-relevant events",
-        f"""WITH sel AS (
+ORDER BY m.dataset, m.sequence, r.ended""",
+        ),
+        NamedQuery(
+            "compare",
+            "two runs compared per sequence (B minus A): HOTA and IDF1 in points, ID switches, "
+            "warnings and events",
+            """WITH sel AS (
   SELECT m.*, r.label, r.params_id, r.run_id, r.ended FROM metrics m
   JOIN runs r USING (dataset, sequence, key)),
 a AS (SELECT * FROM sel WHERE label = $1 OR params_id LIKE $1 || '%' OR run_id = $1
@@ -128,15 +134,18 @@ SELECT dataset, sequence,
        a.warnings AS warnings_a, b.warnings AS warnings_b, a.events AS events_a,
        b.events AS events_b
 FROM a JOIN b USING (dataset, sequence) ORDER BY dataset, sequence""",
-        (("A", None), ("B", None))),
-    NamedQuery(
-        "sequences",
-        "every archived result: status, run, frames, seconds, error",
-        f"""SELECT r.dataset, r.sequence, r.class, {_RUN} AS run, r.status, m.frames,
+            (("A", None), ("B", None)),
+        ),
+        NamedQuery(
+            "sequences",
+            "every archived result: status, run, frames, seconds, error",
+            f"""SELECT r.dataset, r.sequence, r.class, {_RUN} AS run, r.status, m.frames,
        round(r.seconds, 2) AS seconds, r.error
 FROM runs r LEFT JOIN metrics m USING (dataset, sequence, key)
-ORDER BY r.status DESC, r.dataset, r.sequence"""),
-)}
+ORDER BY r.status DESC, r.dataset, r.sequence""",
+        ),
+    )
+}
 
 
 @dataclass
@@ -149,8 +158,14 @@ class QueryResult:
     def format(self, fmt: str = "table") -> str:
         """``table`` (aligned text), ``csv`` or ``json`` (a list of objects)."""
         if fmt == "json":
-            return json.dumps([dict(zip(self.columns, (_plain(v) for v in row))) for row in self.rows],
-                              indent=1, default=str) + "\n"
+            return (
+                json.dumps(
+                    [dict(zip(self.columns, (_plain(v) for v in row))) for row in self.rows],
+                    indent=1,
+                    default=str,
+                )
+                + "\n"
+            )
         if fmt == "csv":
             out = io.StringIO()
             w = csv.writer(out, lineterminator="\n")
@@ -202,8 +217,11 @@ def connect(root: str | Path) -> Any:
     pa = require("pyarrow", "fleet")
     root = Path(root).resolve()
     if not (root / "_fleet.json").is_file():
-        raise InputError("not a sensemaking archive (no _fleet.json; write one with "
-                         "`sensemaking batch --archive DIR`)", root)
+        raise InputError(
+            "not a sensemaking archive (no _fleet.json; write one with "
+            "`sensemaking batch --archive DIR`)",
+            root,
+        )
     current = {}
     for dataset, sequence, key, folder in published(root):
         current[(dataset, sequence, key, *_folder_id(folder))] = folder
@@ -218,9 +236,16 @@ def connect(root: str | Path) -> Any:
     con = duckdb.connect(":memory:")
     for i, (_, stale) in enumerate(segments):
         if stale:
-            con.register(f"_stale{i}", pa.table({"dataset": [m[0] for m in stale],
-                                                 "sequence": [m[1] for m in stale],
-                                                 "key": [m[2] for m in stale]}))
+            con.register(
+                f"_stale{i}",
+                pa.table(
+                    {
+                        "dataset": [m[0] for m in stale],
+                        "sequence": [m[1] for m in stale],
+                        "key": [m[2] for m in stale],
+                    }
+                ),
+            )
     for table in TABLES:
         con.register(f"_empty_{table}", pa.Table.from_pylist([], schema=schemas()[table]))
         parts = [f"SELECT * FROM _empty_{table}"]
@@ -229,8 +254,10 @@ def connect(root: str | Path) -> Any:
             parts.append(f"SELECT * FROM read_parquet({_sql_list(plain)})")
         for i, (seg, stale) in enumerate(segments):
             if stale:
-                parts.append(f"SELECT * FROM read_parquet({_sql_list([seg / f'{table}.parquet'])}) "
-                             f"ANTI JOIN _stale{i} USING (dataset, sequence, key)")
+                parts.append(
+                    f"SELECT * FROM read_parquet({_sql_list([seg / f'{table}.parquet'])}) "
+                    f"ANTI JOIN _stale{i} USING (dataset, sequence, key)"
+                )
         files = [f / f"{table}.parquet" for f in loose if (f / f"{table}.parquet").is_file()]
         if files:
             parts.append(f"SELECT * FROM read_parquet({_sql_list(files)})")
@@ -251,12 +278,14 @@ def run_query(root: str | Path, query: str, args: Sequence[str] = ()) -> QueryRe
     if named is not None:
         if len(args) > len(named.args) or len(args) < sum(d is None for _, d in named.args):
             raise InputError(f"usage: {named.usage}")
-        params = list(args) + [d for _, d in named.args[len(args):]]  # type: ignore[misc]
+        params = list(args) + [d for _, d in named.args[len(args) :]]  # type: ignore[misc]
         sql = named.sql
     else:
         if args:
-            raise InputError(f"{query.split()[0] if query.split() else query!r} is not a named query "
-                             f"({', '.join(NAMED_QUERIES)}); give SQL as one argument")
+            raise InputError(
+                f"{query.split()[0] if query.split() else query!r} is not a named query "
+                f"({', '.join(NAMED_QUERIES)}); give SQL as one argument"
+            )
         sql = query
     con = connect(root)
     try:

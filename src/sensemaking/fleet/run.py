@@ -43,12 +43,16 @@ class RunParams:
     max_solve_ms: float | None = None
 
     def to_json(self) -> dict[str, Any]:
-        return {"abduction": self.abduction, "overrides": dict(self.overrides),
-                "max_solve_ms": self.max_solve_ms}
+        return {
+            "abduction": self.abduction,
+            "overrides": dict(self.overrides),
+            "max_solve_ms": self.max_solve_ms,
+        }
 
     @classmethod
-    def from_strings(cls, items: list[str], abduction: bool = True,
-                     max_solve_ms: float | None = None) -> RunParams:
+    def from_strings(
+        cls, items: list[str], abduction: bool = True, max_solve_ms: float | None = None
+    ) -> RunParams:
         """From ``KEY=VALUE`` strings (values read as JSON, else as text).
 
         Raises:
@@ -61,13 +65,17 @@ class RunParams:
         for item in items:
             key, sep, value = item.partition("=")
             if not sep or key not in fields:
-                raise InputError(f"--set {item!r}: expected KEY=VALUE with KEY one of {', '.join(fields)}")
+                raise InputError(
+                    f"--set {item!r}: expected KEY=VALUE with KEY one of {', '.join(fields)}"
+                )
             try:
                 out[key] = json.loads(value)
             except json.JSONDecodeError:
                 out[key] = value
         params = cls(abduction, tuple(sorted(out.items())), max_solve_ms)
-        tracker_config(SequenceSpec("check", "check", "-", "mot"), params)  # fail early on bad values
+        tracker_config(
+            SequenceSpec("check", "check", "-", "mot"), params
+        )  # fail early on bad values
         return params
 
 
@@ -124,7 +132,8 @@ def _detections(spec: SequenceSpec):
     from sensemaking.classes import class_id
     from sensemaking.io.formats import read_detections
 
-    dets = read_detections(spec.det_path, spec.fmt, class_name=spec.class_name)  # type: ignore[arg-type]
+    fmt: Any = spec.fmt
+    dets = read_detections(spec.det_path, fmt, class_name=spec.class_name)
     if spec.class_name and len(dets):
         dets = dets.with_(class_id=np.full(len(dets), class_id(spec.class_name), dtype=np.int64))
     if spec.logit_scores and len(dets):
@@ -151,17 +160,24 @@ def _score(spec: SequenceSpec, scene: Scene, n_frames: int) -> dict[str, float]:
         seen = t.state == int(TrackState.VISIBLE)
         if seen.any():
             k = int(seen.sum())
-            parts.append(Detections(xyxy=t.xyxy[seen], confidence=t.confidence[seen],
-                                    class_id=np.full(k, t.class_id), tracker_id=np.full(k, t.id),
-                                    frame=t.frames[seen]))
+            parts.append(
+                Detections(
+                    xyxy=t.xyxy[seen],
+                    confidence=t.confidence[seen],
+                    class_id=np.full(k, t.class_id),
+                    tracker_id=np.full(k, t.id),
+                    frame=t.frames[seen],
+                )
+            )
     tracks = Detections.concatenate(parts) if parts else Detections.empty()
     if len(tracks):
         tracks = tracks[np.argsort(tracks.frame, kind="stable")]
         if str(spec.rules).startswith("mot"):
             # MOT rules score one class (their "pedestrian"): the sequence's one class here
             tracks = tracks.with_(class_id=np.ones(len(tracks), dtype=np.int64))
-    m = evaluate_sequence(gt, tracks, str(spec.rules), n_frames=n_frames, name=spec.sequence,
-                          gt_path=spec.gt_path)
+    m = evaluate_sequence(
+        gt, tracks, str(spec.rules), n_frames=n_frames, name=spec.sequence, gt_path=spec.gt_path
+    )
     out: dict[str, float] = {}
     for key in PER_SEQUENCE_FIELDS:
         if key in m:
@@ -192,9 +208,11 @@ def run_sequence(spec: SequenceSpec, params: RunParams | None = None) -> Sequenc
         raise InputError("no detections and no sequence length: nothing to track", spec.det_path)
     by_frame = dict(dets.frames())
     tracker = Tracker(config)
-    recorder = SceneRecorder(fps=config.fps, image_size=config.image_size,
-                             metadata={"dataset": spec.dataset, "sequence": spec.sequence,
-                                       "source": spec.det_path})
+    recorder = SceneRecorder(
+        fps=config.fps,
+        image_size=config.image_size,
+        metadata={"dataset": spec.dataset, "sequence": spec.sequence, "source": spec.det_path},
+    )
     monitor = SituationMonitor(fps=config.fps, image_size=config.image_size)
     warnings: list[Warning] = []
     empty = Detections.empty()
@@ -205,11 +223,17 @@ def run_sequence(spec: SequenceSpec, params: RunParams | None = None) -> Sequenc
     scene = recorder.scene()
     n_frames = last - first + 1
     metrics = _score(spec, scene, n_frames) if spec.gt_path else None
-    stats = {"frames": float(n_frames), "detections": float(len(dets)),
-             "seconds": time.perf_counter() - t0, "solve_ms": float(tracker.stats["solve_ms"]),
-             "monitor_ms": float(monitor.stats["ms"]), "timed_out": float(tracker.stats["timed_out"])}
-    return SequenceResult(spec, _jsonable(config.to_dict()), scene, warnings, metrics, stats,
-                          dict(monitor.skipped))
+    stats = {
+        "frames": float(n_frames),
+        "detections": float(len(dets)),
+        "seconds": time.perf_counter() - t0,
+        "solve_ms": float(tracker.stats["solve_ms"]),
+        "monitor_ms": float(monitor.stats["ms"]),
+        "timed_out": float(tracker.stats["timed_out"]),
+    }
+    return SequenceResult(
+        spec, _jsonable(config.to_dict()), scene, warnings, metrics, stats, dict(monitor.skipped)
+    )
 
 
 def _jsonable(x: Any) -> Any:

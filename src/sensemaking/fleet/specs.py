@@ -29,13 +29,31 @@ from pathlib import Path
 
 from sensemaking.errors import InputError
 
-__all__ = ["SequenceSpec", "find_sequences", "read_manifest", "input_checksums", "MANIFEST_COLUMNS"]
+__all__ = [
+    "SequenceSpec",
+    "find_sequences",
+    "read_manifest",
+    "input_checksums",
+    "MANIFEST_COLUMNS",
+]
 
 log = logging.getLogger(__name__)
 
 #: every column a manifest may have, in the documented order
-MANIFEST_COLUMNS = ("dataset", "sequence", "path", "format", "class", "fps", "width", "height",
-                    "frames", "gt", "rules", "logit_scores")
+MANIFEST_COLUMNS = (
+    "dataset",
+    "sequence",
+    "path",
+    "format",
+    "class",
+    "fps",
+    "width",
+    "height",
+    "frames",
+    "gt",
+    "rules",
+    "logit_scores",
+)
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._+-]*")
 _RULES = ("mot17", "mot16", "mot20", "mot15", "kitti-car", "kitti-pedestrian")
 
@@ -109,8 +127,9 @@ def input_checksums(spec: SequenceSpec) -> dict[str, str]:
 
 def _check_name(value: str, what: str, where: Path, line: int | None = None) -> str:
     if not _NAME.fullmatch(value):
-        raise InputError(f"{what} {value!r} must be letters, digits and ._+- (it names a folder)",
-                         where, line)
+        raise InputError(
+            f"{what} {value!r} must be letters, digits and ._+- (it names a folder)", where, line
+        )
     return value
 
 
@@ -131,19 +150,30 @@ def _from_layout(root: Path) -> tuple[list[SequenceSpec], list[str]]:
                     kitti_infos[src.seqinfo_path] = read_kitti_seqinfo(src.seqinfo_path)
                 info = kitti_infos[src.seqinfo_path].get(src.name)
                 if info is None:
-                    skipped.append(f"{bench.name}: sequence {src.name} skipped, not in "
-                                   f"{src.seqinfo_path.name}")
+                    skipped.append(
+                        f"{bench.name}: sequence {src.name} skipped, not in "
+                        f"{src.seqinfo_path.name}"
+                    )
                     continue
                 rules = f"kitti-{bench.class_name}"
             else:
                 info = read_seqinfo(src.seqinfo_path)
                 rules = bench.rules
-            specs.append(SequenceSpec(
-                dataset=bench.name, sequence=src.name, det_path=str(src.det_path),
-                fmt=bench.output_format, class_name=bench.class_name or "pedestrian",
-                fps=float(info.fps), image_size=(int(info.width), int(info.height)),
-                n_frames=int(info.length), gt_path=str(src.gt_path), rules=rules,
-                logit_scores=bench.logit_scores))
+            specs.append(
+                SequenceSpec(
+                    dataset=bench.name,
+                    sequence=src.name,
+                    det_path=str(src.det_path),
+                    fmt=bench.output_format,
+                    class_name=bench.class_name or "pedestrian",
+                    fps=float(info.fps),
+                    image_size=(int(info.width), int(info.height)),
+                    n_frames=int(info.length),
+                    gt_path=str(src.gt_path),
+                    rules=rules,
+                    logit_scores=bench.logit_scores,
+                )
+            )
     return specs, skipped
 
 
@@ -181,12 +211,20 @@ def read_manifest(path: str | Path) -> list[SequenceSpec]:
     columns = [c.strip() for c in reader.fieldnames or []]
     missing = [c for c in ("path", "format") if c not in columns]
     if missing:
-        raise InputError(f"manifest header must name columns path and format (missing "
-                         f"{', '.join(missing)}); known columns: {', '.join(MANIFEST_COLUMNS)}", p, 1)
+        raise InputError(
+            f"manifest header must name columns path and format (missing "
+            f"{', '.join(missing)}); known columns: {', '.join(MANIFEST_COLUMNS)}",
+            p,
+            1,
+        )
     unknown = [c for c in columns if c not in MANIFEST_COLUMNS]
     if unknown:
-        raise InputError(f"unknown manifest column(s) {', '.join(unknown)}; known: "
-                         f"{', '.join(MANIFEST_COLUMNS)}", p, 1)
+        raise InputError(
+            f"unknown manifest column(s) {', '.join(unknown)}; known: "
+            f"{', '.join(MANIFEST_COLUMNS)}",
+            p,
+            1,
+        )
     specs: list[SequenceSpec] = []
     base = p.parent
     for raw in reader:
@@ -196,13 +234,17 @@ def read_manifest(path: str | Path) -> list[SequenceSpec]:
             raise InputError("more fields than the header names", p, line)
         fmt = row.get("format", "").lower()
         if fmt not in ("mot", "kitti"):
-            raise InputError(f"column 'format' must be mot or kitti, got {row.get('format')!r}", p, line)
+            raise InputError(
+                f"column 'format' must be mot or kitti, got {row.get('format')!r}", p, line
+            )
         if not row.get("path"):
             raise InputError("column 'path' is empty", p, line)
         det = base / row["path"]
         cls = row.get("class") or None
         if cls is not None and cls.lower() not in CLASS_IDS:
-            raise InputError(f"unknown class {cls!r} (known: {', '.join(sorted(CLASS_IDS))})", p, line)
+            raise InputError(
+                f"unknown class {cls!r} (known: {', '.join(sorted(CLASS_IDS))})", p, line
+            )
         width = _opt_number(row, "width", int, p, line)
         height = _opt_number(row, "height", int, p, line)
         if (width is None) != (height is None):
@@ -211,23 +253,32 @@ def read_manifest(path: str | Path) -> list[SequenceSpec]:
         rules = (row.get("rules") or "").lower() or None
         if gt and rules is None:
             if fmt != "kitti" or cls is None:
-                raise InputError("column 'rules' is needed with 'gt' (one of "
-                                 f"{', '.join(_RULES)})", p, line)
+                raise InputError(
+                    f"column 'rules' is needed with 'gt' (one of {', '.join(_RULES)})", p, line
+                )
             rules = f"kitti-{cls.lower()}"
         if rules is not None and rules not in _RULES:
-            raise InputError(f"column 'rules' must be one of {', '.join(_RULES)}, got {rules!r}", p, line)
+            raise InputError(
+                f"column 'rules' must be one of {', '.join(_RULES)}, got {rules!r}", p, line
+            )
         logit = (row.get("logit_scores") or "0").lower()
         if logit not in ("0", "1", "true", "false", "yes", "no"):
             raise InputError(f"column 'logit_scores' must be 0 or 1, got {logit!r}", p, line)
-        specs.append(SequenceSpec(
-            dataset=_check_name(row.get("dataset") or base.resolve().name, "dataset", p, line),
-            sequence=_check_name(row.get("sequence") or det.stem, "sequence", p, line),
-            det_path=str(det), fmt=fmt, class_name=cls.lower() if cls else None,
-            fps=_opt_number(row, "fps", float, p, line),
-            image_size=None if width is None else (width, height),
-            n_frames=_opt_number(row, "frames", int, p, line),
-            gt_path=str(base / gt) if gt else None, rules=rules,
-            logit_scores=logit in ("1", "true", "yes")))
+        specs.append(
+            SequenceSpec(
+                dataset=_check_name(row.get("dataset") or base.resolve().name, "dataset", p, line),
+                sequence=_check_name(row.get("sequence") or det.stem, "sequence", p, line),
+                det_path=str(det),
+                fmt=fmt,
+                class_name=cls.lower() if cls else None,
+                fps=_opt_number(row, "fps", float, p, line),
+                image_size=None if width is None else (width, height),
+                n_frames=_opt_number(row, "frames", int, p, line),
+                gt_path=str(base / gt) if gt else None,
+                rules=rules,
+                logit_scores=logit in ("1", "true", "yes"),
+            )
+        )
     return specs
 
 
@@ -251,16 +302,21 @@ def find_sequences(roots: Iterable[str | Path]) -> tuple[list[SequenceSpec], lis
         else:
             raise InputError("data root not found (a folder or a manifest .csv)", r)
         if not found:
-            raise InputError("no sequences found (expected kitti/, mot17/, mot15/ as in "
-                             "../shared/data, or a manifest.csv)", r)
+            raise InputError(
+                "no sequences found (expected kitti/, mot17/, mot15/ as in "
+                "../shared/data, or a manifest.csv)",
+                r,
+            )
         specs.extend(found)
         skipped.extend(why)
     seen: dict[tuple[str, str], str] = {}
     for s in specs:
         key = (s.dataset, s.sequence)
         if key in seen:
-            raise InputError(f"dataset {s.dataset!r} sequence {s.sequence!r} is listed twice "
-                             f"({seen[key]} and {s.det_path})")
+            raise InputError(
+                f"dataset {s.dataset!r} sequence {s.sequence!r} is listed twice "
+                f"({seen[key]} and {s.det_path})"
+            )
         seen[key] = s.det_path
     for msg in skipped:
         log.info("skipped: %s", msg)

@@ -14,8 +14,14 @@ __all__ = ["write_synthetic_fleet", "FLEET_CLASSES"]
 FLEET_CLASSES = ("car", "pedestrian", "cyclist")
 
 
-def write_synthetic_fleet(folder: str | Path, n_sequences: int, n_frames: int = 40, n_tracks: int = 4,
-                          seed: int = 0, dataset: str = "synthetic") -> Path:
+def write_synthetic_fleet(
+    folder: str | Path,
+    n_sequences: int,
+    n_frames: int = 40,
+    n_tracks: int = 4,
+    seed: int = 0,
+    dataset: str = "synthetic",
+) -> Path:
     """Write ``n_sequences`` rendered scenes (:func:`sensemaking.synthetic.make_scene`, KITTI-like
     1242x375 px at 10 fps, occlusions, 5 % missed detections, a few false positives) as
     ``det/NNNNNN.txt`` and ``gt/NNNNNN.txt`` (MOT15 layout, frames from 1) and a
@@ -31,17 +37,37 @@ def write_synthetic_fleet(folder: str | Path, n_sequences: int, n_frames: int = 
     rows = []
     for i in range(n_sequences):
         cls = FLEET_CLASSES[i % len(FLEET_CLASSES)]
-        scene = make_scene(n_tracks, n_frames=n_frames, overlap=0.5, miss_rate=0.05,
-                           false_positive_rate=0.05, classes=(CLASS_IDS[cls],), seed=seed + i)
+        scene = make_scene(
+            n_tracks,
+            n_frames=n_frames,
+            overlap=0.5,
+            miss_rate=0.05,
+            false_positive_rate=0.05,
+            classes=(CLASS_IDS[cls],),
+            seed=seed + i,
+        )
         name = f"{i:06d}"
         det = scene.detections
         write_mot(root / "det" / f"{name}.txt", det.with_(frame=det.frame + 1))
         gt = scene.ground_truth
-        write_mot(root / "gt" / f"{name}.txt",
-                  gt.with_(frame=gt.frame + 1, confidence=np.ones(len(gt))))
-        rows.append({"dataset": dataset, "sequence": name, "path": f"det/{name}.txt", "format": "mot",
-                     "class": cls, "fps": scene.fps, "width": scene.width, "height": scene.height,
-                     "frames": n_frames, "gt": f"gt/{name}.txt", "rules": "mot15"})
+        write_mot(
+            root / "gt" / f"{name}.txt", gt.with_(frame=gt.frame + 1, confidence=np.ones(len(gt)))
+        )
+        rows.append(
+            {
+                "dataset": dataset,
+                "sequence": name,
+                "path": f"det/{name}.txt",
+                "format": "mot",
+                "class": cls,
+                "fps": scene.fps,
+                "width": scene.width,
+                "height": scene.height,
+                "frames": n_frames,
+                "gt": f"gt/{name}.txt",
+                "rules": "mot15",
+            }
+        )
     manifest = root / "manifest.csv"
     with open(manifest, "w", newline="", encoding="utf-8") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]) if rows else ["path", "format"])
