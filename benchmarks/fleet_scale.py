@@ -30,6 +30,24 @@ def _load() -> str:
     return " ".join(f"{x:.2f}" for x in os.getloadavg())
 
 
+def _schedule_bound(arc: Path) -> None:
+    """From a 1-worker archive: the tasks' total and longest time, and the best 2-worker
+    schedule of those same task times (longest first), i.e. the ratio 2 free cores could give."""
+    from sensemaking.fleet.query import run_query
+
+    secs = sorted((r[0] for r in run_query(arc, "SELECT seconds FROM runs").rows), reverse=True)
+    loads = [0.0, 0.0]
+    for t in secs:
+        loads[loads.index(min(loads))] += t
+    total = sum(secs)
+    print(
+        f"  1-worker tasks: {len(secs)}, {total:.1f} s in all, longest {secs[0]:.1f} s; "
+        f"longest-first on 2 workers: {max(loads):.1f} s ({max(loads) / total:.2f} of the "
+        "tasks' total)",
+        flush=True,
+    )
+
+
 def workers(args: argparse.Namespace) -> None:
     data = Path(args.data).resolve()
     times: dict[int, list[float]] = {1: [], 2: []}
@@ -61,6 +79,8 @@ def workers(args: argparse.Namespace) -> None:
                     f"(load average {_load()})",
                     flush=True,
                 )
+                if n == 1 and rep == 0:
+                    _schedule_bound(arc)
                 shutil.rmtree(arc)
     m1, m2 = statistics.median(times[1]), statistics.median(times[2])
     print(

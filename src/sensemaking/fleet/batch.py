@@ -12,6 +12,7 @@ archive (a few files for queries to read instead of five per sequence).
 
 from __future__ import annotations
 
+import contextlib
 import datetime as dt
 import logging
 import os
@@ -170,17 +171,8 @@ def run_batch(
     summary = BatchSummary(run_id, total=len(ordered))
     t0 = time.perf_counter()
     sample_every = max(1, len(ordered) // 50)
-    with Archive(archive) as arc, ray_session(workers, address) as ray:
-        remote = ray.remote(task or _task).options(
-            num_cpus=1, max_retries=max_retries, retry_exceptions=False
-        )
-        if workers is not None:
-            limit = workers * (1 if address else IN_FLIGHT_PER_WORKER)
-        else:
-            limit = IN_FLIGHT_PER_WORKER * max(1, int(ray.cluster_resources().get("CPU", 1)))
+    with Archive(archive) as arc, contextlib.ExitStack() as stack:
         root = str(arc.root.resolve())
-        pending: dict[Any, SequenceSpec] = {}
-        keys: dict[int, tuple[str, dict[str, str]]] = {}
         finished = 0
 
         def done(info: dict[str, Any]) -> None:
@@ -191,10 +183,32 @@ def run_batch(
             if progress is not None:
                 progress(info)
 
+        # the skip check first: a batch with nothing to do starts no Ray
+        todo: list[tuple[SequenceSpec, str, dict[str, str]]] = []
+        for spec in ordered:
+            sums = input_checksums(spec)
+            key = result_key(spec, sums, params)
+            if not force and arc.status(spec, key) == "ok":
+                summary.skipped += 1
+                info = {"dataset": spec.dataset, "sequence": spec.sequence, "key": key}
+                done({**info, "status": "skipped", "error": None})
+            else:
+                todo.append((spec, key, sums))
+        if todo:
+            ray = stack.enter_context(ray_session(workers, address))
+            remote = ray.remote(task or _task).options(
+                num_cpus=1, max_retries=max_retries, retry_exceptions=False
+            )
+            if workers is not None:
+                limit = workers * (1 if address else IN_FLIGHT_PER_WORKER)
+            else:
+                cpus = int(ray.cluster_resources().get("CPU", 1))
+                limit = IN_FLIGHT_PER_WORKER * max(1, cpus)
+        pending: dict[Any, tuple[SequenceSpec, str, dict[str, str]]] = {}
+
         def collect(ready: list[Any]) -> None:
             for ref in ready:
-                spec = pending.pop(ref)
-                key, sums = keys.pop(id(spec))
+                spec, key, sums = pending.pop(ref)
                 try:
                     info = ray.get(ref)
                 except Exception as exc:  # noqa: BLE001 - the task died beyond its retries
@@ -209,27 +223,12 @@ def run_batch(
                     summary.failed.append((spec.dataset, spec.sequence, str(info["error"])))
                 done(info)
 
-        for spec in ordered:
-            sums = input_checksums(spec)
-            key = result_key(spec, sums, params)
-            if not force and arc.status(spec, key) == "ok":
-                summary.skipped += 1
-                done(
-                    {
-                        "dataset": spec.dataset,
-                        "sequence": spec.sequence,
-                        "key": key,
-                        "status": "skipped",
-                        "error": None,
-                    }
-                )
-                continue
+        for item in todo:
             while len(pending) >= limit:
                 ready, _ = ray.wait(list(pending), num_returns=1)
                 collect(ready)
-            ref = remote.remote(spec, root, params, key, sums, run_id, label)
-            pending[ref] = spec
-            keys[id(spec)] = (key, sums)
+            spec, key, sums = item
+            pending[remote.remote(spec, root, params, key, sums, run_id, label)] = item
         while pending:
             ready, _ = ray.wait(list(pending), num_returns=1)
             collect(ready)
