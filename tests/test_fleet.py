@@ -285,10 +285,12 @@ def test_cli_batch_query_ask_explain(ray_local, fleet: Path, tmp_path: Path, cap
         == 2
     )
     assert main(["query", str(tmp_path), "sequences"]) == 2
+    nobody = ["--address", "127.0.0.1:9", "--archive", str(tmp_path / "a4")]
+    assert main(["batch", "--data", str(fleet), *nobody]) == 2
     assert main(["explain", "--archive", str(arc), "--sequence", "nodataset"]) == 2
     err = capsys.readouterr().err
-    assert "Traceback" not in err and err.count("error:") == 4
-    assert not (tmp_path / "a2").exists() and not (tmp_path / "a3").exists()
+    assert "Traceback" not in err and err.count("error:") == 5
+    assert not any((tmp_path / a).exists() for a in ("a2", "a3", "a4"))
 
 
 def test_manifest_errors_name_file_and_line(tmp_path: Path) -> None:

@@ -16,6 +16,7 @@ import contextlib
 import datetime as dt
 import logging
 import os
+import socket
 import time
 import uuid
 from collections import Counter
@@ -94,6 +95,25 @@ def _task(
     return archive_sequence(spec, root, params, key, checksums, run_id, label, node_id=node)
 
 
+def check_address(address: str, timeout_s: float = 5.0) -> None:
+    """Fail fast when nothing listens at a cluster address (``ray.init`` would wait minutes).
+
+    Raises:
+        InputError: ``address`` is not ``host:port`` (or ``ray://host:port``), or no connection.
+    """
+    if address == "auto":
+        return
+    hostport = address.split("://", 1)[-1]
+    host, sep, port = hostport.rpartition(":")
+    if not sep or not host or not port.isdigit():
+        raise InputError(f"--address must be host:port or ray://host:port, got {address!r}")
+    try:
+        with socket.create_connection((host, int(port)), timeout=timeout_s):
+            pass
+    except OSError as exc:
+        raise InputError(f"cannot reach the Ray cluster at {address}: {exc}") from None
+
+
 class ray_session:
     """``with ray_session(workers, address):`` connects to Ray: the running session if there is
     one, the cluster at ``address``, else a new local Ray with ``workers`` CPUs (no dashboard);
@@ -166,6 +186,8 @@ def run_batch(
     params = params or RunParams()
     if workers is not None and workers < 1:
         raise InputError(f"--workers must be >= 1, got {workers}")
+    if address:
+        check_address(address)
     ordered = sorted(specs, key=lambda s: -s.cost)
     run_id = dt.datetime.now(dt.timezone.utc).strftime("%Y%m%dT%H%M%SZ-") + uuid.uuid4().hex[:6]
     summary = BatchSummary(run_id, total=len(ordered))
