@@ -336,3 +336,23 @@ def test_readme_lines_on_a_few_shared_sequences(ray_local, tmp_path: Path, capsy
         ("mot15", "TUD-Campus"),
     }
     assert all(30 < r["HOTA"] <= 100 for r in rows)
+
+
+def test_a_huge_stated_length_does_not_make_work(fleet: Path, tmp_path: Path) -> None:
+    """Work is bounded by the files: frames past the content only while a track can live on."""
+    det = read_manifest(fleet)[0].det_path
+    m = tmp_path / "manifest.csv"
+    m.write_text(f"path,format,class,fps,frames\n{det},mot,car,10,1000000000\n")
+    spec = read_manifest(m)[0]
+    result = run_sequence(spec)
+    from sensemaking.tracker import TrackerConfig
+
+    config = TrackerConfig.for_dataset("mot", fps=10.0)
+    from sensemaking.io.formats import read_detections
+
+    last_det = int(read_detections(det, "mot").frame.max())
+    horizon = config.max_hidden_frames + config.max_missing_frames + 1
+    assert last_det < result.scene.last_frame <= last_det + horizon
+    assert not result.scene.tracks or max(t.last for t in result.scene.tracks.values()) < (
+        result.scene.last_frame
+    )

@@ -141,20 +141,22 @@ def _detections(spec: SequenceSpec):
     return dets
 
 
-def _score(spec: SequenceSpec, scene: Scene, n_frames: int) -> dict[str, float]:
+def _ground_truth(spec: SequenceSpec) -> Any:
+    if spec.fmt == "kitti":
+        from sensemaking.io.kitti import read_kitti_labels
+
+        return read_kitti_labels(str(spec.gt_path))
+    from sensemaking.io.mot import read_mot
+
+    return read_mot(str(spec.gt_path), kind="gt")
+
+
+def _score(spec: SequenceSpec, gt: Any, scene: Scene, n_frames: int) -> dict[str, float]:
     from sensemaking.benchmark.runner import PER_SEQUENCE_FIELDS
     from sensemaking.detections import Detections
     from sensemaking.evaluation import evaluate_sequence
     from sensemaking.results import TrackState
 
-    if spec.fmt == "kitti":
-        from sensemaking.io.kitti import read_kitti_labels
-
-        gt = read_kitti_labels(str(spec.gt_path))
-    else:
-        from sensemaking.io.mot import read_mot
-
-        gt = read_mot(str(spec.gt_path), kind="gt")
     parts = []
     for t in scene.tracks.values():
         seen = t.state == int(TrackState.VISIBLE)
@@ -200,10 +202,15 @@ def run_sequence(spec: SequenceSpec, params: RunParams | None = None) -> Sequenc
     t0 = time.perf_counter()
     dets = _detections(spec)
     config = tracker_config(spec, params)
+    gt = _ground_truth(spec) if spec.gt_path else None
     first = spec.first_frame
     last = int(dets.frame.max()) if len(dets) else first - 1
     if spec.n_frames is not None:
-        last = max(last, first + int(spec.n_frames) - 1)
+        # the stated length, but no further than the content and the longest a track can live
+        # on without detections: work is bounded by the files, not by a number in them
+        content = max(last, int(gt.frame.max()) if gt is not None and len(gt) else last)
+        horizon = content + config.max_hidden_frames + config.max_missing_frames + 1
+        last = max(last, min(first + int(spec.n_frames) - 1, horizon))
     if last < first:
         raise InputError("no detections and no sequence length: nothing to track", spec.det_path)
     by_frame = dict(dets.frames())
@@ -222,7 +229,7 @@ def run_sequence(spec: SequenceSpec, params: RunParams | None = None) -> Sequenc
         warnings.extend(w for w in monitor.update(result) if w.objects)
     scene = recorder.scene()
     n_frames = last - first + 1
-    metrics = _score(spec, scene, n_frames) if spec.gt_path else None
+    metrics = _score(spec, gt, scene, n_frames) if gt is not None else None
     stats = {
         "frames": float(n_frames),
         "detections": float(len(dets)),
