@@ -301,6 +301,9 @@ def test_manifest_errors_name_file_and_line(tmp_path: Path) -> None:
     m.write_text("path,format,gt\nx.txt,mot,gt.txt\n")
     with pytest.raises(InputError, match="'rules' is needed"):
         read_manifest(m)
+    m.write_text("path,format\n" + "x" * 200_000 + ",mot\n")  # over the csv module's field limit
+    with pytest.raises(InputError, match="manifest.csv:2: not a valid CSV file"):
+        read_manifest(m)
     m.write_text("path,colour\nx.txt,red\n")
     with pytest.raises(InputError, match="format"):
         read_manifest(m)

@@ -198,8 +198,6 @@ def read_manifest(path: str | Path) -> list[SequenceSpec]:
         InputError: the file is missing or unreadable, a required column is absent, or a line
             has a bad value (naming the file and line).
     """
-    from sensemaking.classes import CLASS_IDS
-
     p = Path(path)
     try:
         text = p.read_text(encoding="utf-8-sig")
@@ -208,6 +206,15 @@ def read_manifest(path: str | Path) -> list[SequenceSpec]:
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"cannot read manifest: {exc}", p) from None
     reader = csv.DictReader(io.StringIO(text))
+    try:
+        return _manifest_rows(p, reader)
+    except csv.Error as exc:
+        raise InputError(f"not a valid CSV file: {exc}", p, reader.line_num + 1) from None
+
+
+def _manifest_rows(p: Path, reader: csv.DictReader) -> list[SequenceSpec]:
+    from sensemaking.classes import CLASS_IDS
+
     columns = [c.strip() for c in reader.fieldnames or []]
     missing = [c for c in ("path", "format") if c not in columns]
     if missing:
