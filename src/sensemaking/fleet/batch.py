@@ -30,7 +30,7 @@ from sensemaking.fleet.archive import Archive, archive_sequence, compact, result
 from sensemaking.fleet.run import RunParams
 from sensemaking.fleet.specs import SequenceSpec, input_checksums
 
-__all__ = ["BatchSummary", "run_batch", "ray_session", "rss_mb"]
+__all__ = ["BatchSummary", "run_batch", "RaySession", "rss_mb"]
 
 log = logging.getLogger(__name__)
 
@@ -114,8 +114,8 @@ def check_address(address: str, timeout_s: float = 5.0) -> None:
         raise InputError(f"cannot reach the Ray cluster at {address}: {exc}") from None
 
 
-class ray_session:
-    """``with ray_session(workers, address):`` connects to Ray: the running session if there is
+class RaySession:
+    """``with RaySession(workers, address):`` connects to Ray: the running session if there is
     one, the cluster at ``address``, else a new local Ray with ``workers`` CPUs (no dashboard);
     shuts down only what it started."""
 
@@ -217,7 +217,7 @@ def run_batch(
             else:
                 todo.append((spec, key, sums))
         if todo:
-            ray = stack.enter_context(ray_session(workers, address))
+            ray = stack.enter_context(RaySession(workers, address))
             remote = ray.remote(task or _task).options(
                 num_cpus=1, max_retries=max_retries, retry_exceptions=False
             )
