@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from sensemaking.errors import InputError
+from sensemaking.fleet.cli import add_archive_options, scene_from_args
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -26,7 +27,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "yes or no. A file name ending in .lp is read as the query.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("scene", type=Path, help="scene JSON (from `sensemaking track --scene`)")
+    p.add_argument("scene", type=Path, nargs="?", help="scene JSON (from `sensemaking track --scene`)")
     p.add_argument("query", nargs="+", help="a named question (e.g. `reappeared 7`) or ASP text or a .lp file")
     p.add_argument("--models", type=int, default=1, metavar="N", help="answer sets to show for ASP queries (0: all)")
     p.add_argument("--lanes", type=Path, help="lanes JSON (for `warnings`; format in sensemaking.reasoning.context)")
@@ -35,6 +36,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--labels", type=Path, help='label names JSON {"0": "road", ...} (default: Cityscapes ids)')
     p.add_argument("--corridor", help='ego corridor polygon, "x,y x,y x,y ..." (fractions of the image or pixels)')
     p.add_argument("--json", action="store_true", help="print the answer as JSON")
+    add_archive_options(p)
     p.set_defaults(func=run)
 
 
@@ -51,11 +53,10 @@ def _query_text(parts: list[str]) -> str:
 def run(args: argparse.Namespace) -> int:
     from sensemaking.reasoning.context import SceneContext
     from sensemaking.reasoning.questions import ask
-    from sensemaking.scene import Scene
 
     if args.models < 0:
         raise InputError(f"--models must be >= 0, got {args.models}")
-    scene = Scene.load(args.scene)
+    scene = scene_from_args(args)
     context = SceneContext.load(lanes=args.lanes, segmentation=args.segmentation, labels=args.labels,
                                 corridor=args.corridor)
     answer = ask(scene, _query_text(args.query), context=context, max_models=args.models)

@@ -6,6 +6,8 @@ import argparse
 import json
 from pathlib import Path
 
+from sensemaking.fleet.cli import add_archive_options, scene_from_args
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
@@ -14,17 +16,17 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="Explain a scene written by `sensemaking track --scene PATH`: one paragraph per "
         "track, in order of appearance, built from the abduced events.",
     )
-    p.add_argument("scene", type=Path, help="scene JSON (from `sensemaking track --scene`)")
+    p.add_argument("scene", type=Path, nargs="?", help="scene JSON (from `sensemaking track --scene`)")
     p.add_argument("--track", type=int, default=None, metavar="K", help="only the story of track K")
     p.add_argument("--json", action="store_true", help='print {"track id": [sentences]} as JSON')
+    add_archive_options(p)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from sensemaking.reasoning.questions import explain, stories
-    from sensemaking.scene import Scene
 
-    scene = Scene.load(args.scene)
+    scene = scene_from_args(args)
     if args.track is not None:
         sentences = explain(scene, args.track)
         if args.json:
