@@ -48,7 +48,8 @@ EVENT_NAMES: dict[str, int] = {
 
 @dataclass(frozen=True, order=True)
 class Event:
-    """One abduced event: ``name(args...)`` occurring at ``frame``; args are track ids."""
+    """One abduced event: ``name(args...)`` occurring at ``frame``; args are track ids (or
+    constants, in events of a user's encoding)."""
 
     frame: int
     name: str
@@ -56,11 +57,13 @@ class Event:
 
     def to_json(self) -> dict[str, Any]:
         """The JSON-lines record ``{"frame": ..., "event": ..., "args": [...]}``."""
-        return {"frame": int(self.frame), "event": self.name, "args": [int(a) for a in self.args]}
+        return {"frame": int(self.frame), "event": self.name,
+                "args": [a if isinstance(a, str) else int(a) for a in self.args]}
 
     @classmethod
     def from_json(cls, record: dict[str, Any]) -> Event:
-        return cls(int(record["frame"]), str(record["event"]), tuple(int(a) for a in record["args"]))
+        return cls(int(record["frame"]), str(record["event"]),
+                   tuple(a if isinstance(a, str) else int(a) for a in record["args"]))
 
     def __str__(self) -> str:
         return f"{self.name}({', '.join(map(str, self.args))})@{self.frame}"

@@ -12,14 +12,16 @@ import logging
 import time
 from functools import lru_cache
 from dataclasses import asdict, dataclass, field, replace
+from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from sensemaking.abduction.components import ComponentSolver
 from sensemaking.abduction.problem import VISIBILITY_VALUES, FrameProblem
-from sensemaking.abduction.settle import settle
-from sensemaking.abduction.solver import AbductionSolver, Answer
+from sensemaking.abduction.solver import AbductionSolver, Answer, Det, read_encoding
 from sensemaking.detections import Detections
 from sensemaking.geometry import box_area, intersection, iou, iou_from_intersection, safe_ratio
 from sensemaking.motion import KalmanBank, KalmanConfig
@@ -112,11 +114,17 @@ class TrackerConfig:
             (IoU and score are rounded to multiples of 1/levels). Core-guided optimisation slows
             with the number of distinct weights: with full resolution a crowded frame of 100
             tracks took 25 s, with 40 levels 30 ms. Higher: finer preferences, slower worst case.
-        decompose: settle isolated track/detection pairs (one candidate each, no occlusion
-            relation) in Python, where the optimum is forced, and give only the rest to the
-            solver. Exact (same answers); off only to check that.
-        max_solve_ms: per-frame budget for grounding + solving (milliseconds). Past it the best
-            answer found so far is used (or Hungarian matching if none) and counted. None: no limit.
+        decompose: solve the independent components of a frame (objects linked by candidate
+            or occlusion facts) separately, each answered by clingo or by the cache of its
+            earlier answers to the same facts. Exact for the packaged encoding. None (default):
+            on with the packaged encoding, off with a user's encoding or rules (whose rules may
+            relate unconnected objects); set True when yours only relate linked objects.
+        max_conflicts: deterministic per-component work budget of the solver, in conflicts:
+            past it the best answer found so far is used and counted. The same input gives the
+            same output on any machine. None: no limit.
+        max_solve_ms: per-frame wall-clock budget for grounding + solving (milliseconds). Past
+            it the best answer found so far is used (or Hungarian matching if none) and counted;
+            results then depend on the machine's load. None: no limit.
         velocity_prior: std of a new track's velocity before its detections show it, in box sizes
             per second (width for x, height for y); sets ``kalman.init_velocity_std`` to
             ``velocity_prior / fps``, so one value fits every frame rate. The velocity after the
@@ -152,7 +160,8 @@ class TrackerConfig:
     inherit_motion: bool = True
     confidence_sigmoid: bool = False
     likelihood_levels: int = 40
-    decompose: bool = True
+    decompose: bool | None = None
+    max_conflicts: int | None = 100_000
     max_solve_ms: float | None = None
     velocity_prior: float | None = 3.0
     costs: AbductionCosts = field(default_factory=AbductionCosts)
@@ -224,21 +233,37 @@ class Tracker:
     ``update(detections)`` once per frame, in order; ``reset()`` before a new sequence.
     """
 
-    def __init__(self, config: TrackerConfig | None = None, **overrides: Any):
+    def __init__(self, config: TrackerConfig | None = None, *, encoding: str | Path | None = None,
+                 rules: str | Path | Sequence[str | Path] = (), **overrides: Any):
+        """Args:
+            config: the parameters (default :class:`TrackerConfig`); ``overrides`` change some.
+            encoding: an encoding (a ``.lp`` path or its text) that replaces the packaged
+                ``tracking.lp``; it reads the same facts and shows the same atoms.
+            rules: more rules (``.lp`` paths or text) added to the encoding, e.g. your own
+                events: ``occurs(stops(T)) :- track(T), speed(T,S), S < 5.`` is reported as an
+                event ``stops`` on every frame where it holds (see ``tracking.lp``'s facts).
+        """
         self.config = replace(config or TrackerConfig(), **overrides) if overrides else (config or TrackerConfig())
         c = self.config
-        self._solver = AbductionSolver(constants={
-            # thresholds on the likelihood grid, rounded down so that every pair the numpy gate
-            # admits also passes the encoding's constraint
-            "iou_assign": self._quantize(np.array([c.iou_assign]), np.floor)[0],
-            "iou_resume": self._quantize(np.array([c.iou_resume]), np.floor)[0],
-            # confidence gates are applied in numpy in the detector's own units: detections too
-            # weak to start a track get confidence 0 in the facts, all others at least 1
-            "conf_assign": 0,
-            "conf_start": 1,
-            # every event cost is tracking.lp's #const cost_<name>
-            **{f"cost_{name}": value for name, value in asdict(c.costs).items()},
-        })
+        extra = [rules] if isinstance(rules, (str, Path)) else list(rules)
+        solver = AbductionSolver(
+            constants={
+                # thresholds on the likelihood grid, rounded down so that every pair the numpy
+                # gate admits also passes the encoding's constraint
+                "iou_assign": self._quantize(np.array([c.iou_assign]), np.floor)[0],
+                "iou_resume": self._quantize(np.array([c.iou_resume]), np.floor)[0],
+                # confidence gates are applied in numpy in the detector's own units: detections
+                # too weak to start a track get confidence 0 in the facts, all others >= 1
+                "conf_assign": 0,
+                "conf_start": 1,
+                # every event cost is tracking.lp's #const cost_<name>
+                **{f"cost_{name}": value for name, value in asdict(c.costs).items()},
+            },
+            encoding=None if encoding is None else read_encoding(encoding),
+            rules=[read_encoding(r) for r in extra], max_conflicts=c.max_conflicts)
+        packaged = encoding is None and not extra
+        decompose = packaged if c.decompose is None else c.decompose
+        self._solver = ComponentSolver(solver, decompose=decompose)
         self.reset()
 
     def _quantize(self, x: np.ndarray, rounding=np.rint) -> np.ndarray:
@@ -449,8 +474,13 @@ class Tracker:
             hidden_by=_int_columns(self._id[hid], self._occluder[hid]),
             emerges=emerges,
             visibility=self._vis, first_frame=self._frames_seen == 1, cand_exact=cand_exact,
-            covers_exact=covers_exact,
+            covers_exact=covers_exact, speed=self._speed() if "speed" in self._solver.solver.uses else None,
         )
+
+    def _speed(self) -> np.ndarray:
+        """(T,) predicted speed of each track's box centre, pixels per second (``speed/2``)."""
+        v = self._kf.velocity()[:, :2] if len(self._id) else np.zeros((0, 2))
+        return np.rint(np.hypot(v[:, 0], v[:, 1]) * self.config.fps).astype(np.int64)
 
     def _expired(self) -> np.ndarray:
         """(T,) bool: unseen tracks that would pass their time limit (hidden or missing) now."""
@@ -480,62 +510,17 @@ class Tracker:
         return _int_columns(d, tracks[h])
 
     def _abduce(self, pred: np.ndarray, dets: Detections) -> tuple[Answer, bool]:
-        trivial = self._trivial(pred, dets)
-        if trivial is not None:
-            return trivial, False
-        problem = self._problem(pred, dets)
-        # Exact decomposition: isolated pairs have a forced optimum (see isolated_pairs), so
-        # only the rest goes to the solver -- on most frames of real sequences, nothing.
-        pairs = problem.isolated_pairs() if self.config.decompose else np.zeros((0, 2), np.int64)
-        t_rest = np.ones(problem.n_tracks, dtype=bool)
-        d_rest = np.ones(problem.n_dets, dtype=bool)
-        t_rest[pairs[:, 0]] = False
-        d_rest[pairs[:, 1]] = False
-        ignored = problem.forced_ignores() if self.config.decompose else np.zeros(0, np.int64)
-        d_rest[ignored] = False
-        answer: Answer | None = Answer()
-        if t_rest.any() or d_rest.any():
-            reduced = len(pairs) or len(ignored)
-            # the rest in closed form if each of its components has a unique optimum (exact, see
-            # abduction.settle); else the solver takes all of it. All or nothing: where the
-            # optimum is tied, the solver's pick depends on the whole program it is given
-            settled = None
-            if self.config.decompose:
-                settled, t_left, d_left = settle(problem, self._solver.constants, whole=True,
-                                                 tracks=t_rest, dets=d_rest)
-                if t_left.any() or d_left.any():
-                    settled = None
-            if settled is not None:
-                answer = settled
-            else:
-                answer = self._solver_solve(problem.subset(t_rest, d_rest) if reduced else problem)
-                if answer is not None and reduced:
-                    answer = _renumber_detections(answer, np.flatnonzero(d_rest))
+        """Abduce the frame through the encoding (component by component, see
+        :mod:`sensemaking.abduction.components`); Hungarian matching if no model in budget."""
+        answer = self._solver.solve(self._problem(pred, dets), budget_ms=self.config.max_solve_ms)
         if answer is None:
             self.stats["timed_out"] += 1
             self.stats["fallback"] += 1
             return self._hungarian(pred, dets), True
-        answer.ignore_det = sorted(answer.ignore_det + ignored.tolist())
-        for ti, dj in pairs.tolist():
-            tid = int(problem.track_id[ti])
-            answer.assign[tid] = dj
-            value = "partially_occluded" if problem.overlapped[ti] else "fully_visible"
-            if VISIBILITY_VALUES[int(problem.visibility[ti])] != value:
-                answer.fluents.append(("visibility", (tid,), value))
-        if answer.timed_out:
+        cut = answer.timed_out or answer.budget_hit
+        if cut:
             self.stats["timed_out"] += 1
-        return answer, answer.timed_out
-
-    def _trivial(self, pred: np.ndarray, dets: Detections) -> Answer | None:
-        """The answer of a frame without tracks whose detections are all too weak to start one
-        (every detection a forced ignore, see ``FrameProblem.forced_ignores``), else None: such
-        frames are common on sparse sequences, and the general path gives the same answer."""
-        if len(pred) or (dets.confidence >= self.config.start_confidence).any():
-            return None
-        return Answer(ignore_det=list(range(len(dets))))  # nothing to explain if no detection either
-
-    def _solver_solve(self, problem: FrameProblem) -> Answer | None:
-        return self._solver.solve(problem, budget_ms=self.config.max_solve_ms)
+        return answer, cut
 
     def _hungarian(self, pred: np.ndarray, dets: Detections) -> Answer:
         """Plain Hungarian IoU matching with the same gates; events only start/end/missing."""
@@ -572,7 +557,7 @@ class Tracker:
                 continue
             if dets.confidence[k] >= c.start_confidence:
                 ans.start.append(k)
-                ans.events.append(("starts", (f"d{k}",)))
+                ans.events.append(("starts", (Det(k),)))
             else:
                 ans.ignore_det.append(k)
         return ans
@@ -597,30 +582,32 @@ class Tracker:
             self._conf[rows] = dets.confidence[cols]
         observed = dict(matched)
         # new tracks (first, so that fluents and events can name them)
-        new_vis = {a[0]: v for n, a, v in ans.fluents if n == "visibility" and isinstance(a[0], str)}
-        new_ids: dict[str, int] = {}
+        new_vis = {a[0].row: v for n, a, v in ans.fluents if n == "visibility" and isinstance(a[0], Det)}
+        new_ids: dict[Det, int] = {}
         if ans.start:
             cols = np.array(sorted(ans.start), dtype=np.int64)  # new ids in detection order
             ids = np.arange(self._next_id, self._next_id + len(cols), dtype=np.int64)
             self._next_id += len(cols)
-            new_ids = {f"d{k}": int(t) for k, t in zip(cols.tolist(), ids.tolist())}
+            new_ids = {Det(k): int(t) for k, t in zip(cols.tolist(), ids.tolist())}
             self._kf.add(dets.xyxy[cols], velocity=self._scene_velocity())
             k = len(cols)
-            vis = [VISIBILITY_VALUES.index(new_vis.get(f"d{j}", "fully_visible")) for j in cols.tolist()]
+            vis = [VISIBILITY_VALUES.index(new_vis.get(j, "fully_visible")) for j in cols.tolist()]
             new = {"_id": ids, "_cls": dets.class_id[cols], "_state": np.full(k, TrackState.VISIBLE),
                    "_occluder": np.full(k, -1), "_vis": np.array(vis), "_unseen": np.zeros(k),
                    "_hits": np.ones(k), "_conf": dets.confidence[cols], "_confirmed": np.zeros(k, bool)}
             for name in _TRACK_COLUMNS:  # confirmation of new tracks: by the general rule below
                 old = getattr(self, name)
                 setattr(self, name, np.concatenate([old, new[name].astype(old.dtype)]))
-            observed.update({new_ids[f"d{j}"]: j for j in cols.tolist()})
+            observed.update({new_ids[Det(j)]: j for j in cols.tolist()})
         # fluents: the answer holds the values that changed; the others carry on (inertia)
         for fname, fargs, value in ans.fluents:
+            if fname not in ("hidden_by", "visibility"):
+                continue  # the tracker carries these two (and in_fov, true while live)
             i = index.get(fargs[0])  # None for ended tracks and new ones (done above)
             if i is None:
                 continue
             if fname == "hidden_by":
-                occluder = new_ids[fargs[1]] if isinstance(fargs[1], str) else fargs[1]
+                occluder = new_ids[fargs[1]] if isinstance(fargs[1], Det) else fargs[1]
                 if value == "true":
                     self._occluder[i] = occluder
                 elif self._occluder[i] == occluder:
@@ -651,9 +638,12 @@ class Tracker:
         confirmed = set(self._id[self._confirmed].tolist()) if ans.events else set()
         ended = set(ans.end)
         for name, args in ans.events:
-            ids_ = tuple(new_ids[a] if isinstance(a, str) else int(a) for a in args)
+            if any(isinstance(a, Det) and a not in new_ids for a in args):
+                log.debug("event %s names a detection that starts no track: not reported", name)
+                continue
+            ids_ = tuple(new_ids[a] if isinstance(a, Det) else a for a in args)
             ev = Event(frame, name, ids_)
-            if ids_[0] in confirmed:
+            if not ids_ or ids_[0] in confirmed or not isinstance(ids_[0], int):
                 events.append(ev)
             elif name in ("enters_fov", "starts"):
                 self._pending[ids_[0]] = ev
@@ -756,20 +746,6 @@ def _widen(boxes: np.ndarray, factor: np.ndarray) -> np.ndarray:
     c = (boxes[:, :2] + boxes[:, 2:]) / 2
     half = (boxes[:, 2:] - boxes[:, :2]) / 2 * factor[:, None]
     return np.concatenate([c - half, c + half], axis=1)
-
-
-def _renumber_detections(answer: Answer, index: np.ndarray) -> Answer:
-    """Map detection rows of a sub-problem (0..k-1) back to the frame's rows ``index[k]``."""
-    def det(x: int | str) -> int | str:
-        return f"d{index[int(x[1:])]}" if isinstance(x, str) else x
-
-    answer.assign = {t: int(index[d]) for t, d in answer.assign.items()}
-    answer.resume = {t: int(index[d]) for t, d in answer.resume.items()}
-    answer.start = [int(index[d]) for d in answer.start]
-    answer.ignore_det = [int(index[d]) for d in answer.ignore_det]
-    answer.events = [(n, tuple(det(a) for a in args)) for n, args in answer.events]
-    answer.fluents = [(n, tuple(det(a) for a in args), v) for n, args, v in answer.fluents]
-    return answer
 
 
 def _coerce(obj: Any) -> Detections:

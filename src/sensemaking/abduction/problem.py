@@ -1,23 +1,113 @@
-"""One frame's abduction problem: gated numpy arrays, written as ASP facts.
+"""One frame's abduction problem: gated numpy arrays, cut into independent components.
 
-The vocabulary of the facts is documented in ``encodings/tracking.lp``. Gating happens here (in
-numpy) so that the solver only grounds admissible pairs; the encoding's integrity constraints
-state the same thresholds, so the gate is an optimisation, never a change of the answer.
+The vocabulary of the facts is documented in ``encodings/tracking.lp``. Gating happens in the
+tracker (numpy) so that the solver only grounds admissible pairs; the encoding's integrity
+constraints state the same thresholds, so the gate is an optimisation, never a change of the
+answer.
+
+A frame falls apart into *components*: tracks and detections linked by ``cand``, ``covers``,
+``keeps_covering`` and ``emerges`` facts. :meth:`FrameProblem.components` describes each one
+canonically (:class:`Component`: local indices, so the same facts give the same key), and
+:meth:`Component.facts` writes its facts as clingo symbols.
 """
 
 from __future__ import annotations
 
+from collections.abc import Collection
 from dataclasses import dataclass, field
 
 import numpy as np
+from clingo import Function, Number, Symbol
 
-__all__ = ["FrameProblem", "VISIBILITY_VALUES"]
+__all__ = ["FrameProblem", "Component", "VISIBILITY_VALUES", "TRACK_FLAGS"]
 
 VISIBILITY_VALUES = ("fully_visible", "partially_occluded", "fully_occluded")
+#: the per-track flags of the facts, in the order of :attr:`Component.tracks` rows
+TRACK_FLAGS = ("tentative", "uncertain", "expired", "outside", "at_border", "overlapped")
+
+_TRUE = Function("true")
+_VISIBILITY = tuple(Function(v) for v in VISIBILITY_VALUES)
 
 
-def _ids(mask: np.ndarray, ids: np.ndarray) -> list[int]:
-    return [int(i) for i in ids[mask]]
+def _empty_rows(width: int = 2) -> np.ndarray:
+    return np.zeros((0, width), dtype=np.int64)
+
+
+@dataclass(frozen=True)
+class Component:
+    """The canonical facts of one independent part of a frame; hashable, the cache's key.
+
+    Tracks are numbered ``0..len(tracks)-1`` in the frame's track order, then the occluders
+    named by ``hidden_by`` that lie outside the component; detections ``0..len(dets)-1``.
+
+    Attributes:
+        first_frame: the ``first_frame`` fact.
+        tracks: per track ``(active, tentative, uncertain, expired, outside, at_border,
+            overlapped, class, visibility index, speed in px/s or -1)``.
+        dets: per detection ``(confidence 0..1000, class, at border, overlapped)``.
+        cand: ``(track, detection, likelihood 0..1000, preferred)``.
+        covers: ``(detection, track, rank or -1)``.
+        keeps_covering: ``(detection, track)``.
+        emerges: ``(detection, track)``.
+        hidden_by: ``(track, occluder)``.
+    """
+
+    first_frame: bool
+    tracks: tuple[tuple[int, ...], ...]
+    dets: tuple[tuple[int, ...], ...]
+    cand: tuple[tuple[int, int, int, bool], ...]
+    covers: tuple[tuple[int, int, int], ...]
+    keeps_covering: tuple[tuple[int, int], ...]
+    emerges: tuple[tuple[int, int], ...]
+    hidden_by: tuple[tuple[int, int], ...]
+
+    def facts(self, uses: Collection[str] = ()) -> list[Symbol]:
+        """The component's facts as symbols. ``uses``: optional predicates to include (``speed``
+        only when the encoding mentions it: a fact no rule reads cannot change the answer)."""
+        out: list[Symbol] = []
+        add = out.append
+        with_speed = "speed" in uses
+        for i, (active, *flags, cls, vis, speed) in enumerate(self.tracks):
+            t = Number(i)
+            add(Function("track", [t]))
+            add(Function("ttype", [t, Number(cls)]))
+            add(Function("active" if active else "halted", [t]))
+            for name, on in zip(TRACK_FLAGS, flags):
+                if on:
+                    add(Function(name, [t]))
+            add(Function("holds", [Function("in_fov", [t]), _TRUE, Number(0)]))
+            add(Function("holds", [Function("visibility", [t]), _VISIBILITY[vis], Number(0)]))
+            if with_speed and speed >= 0:
+                add(Function("speed", [t, Number(speed)]))
+        for j, (conf, cls, border, overlapped) in enumerate(self.dets):
+            d = _det(j)
+            add(Function("det", [d, Number(conf)]))
+            add(Function("dtype", [d, Number(cls)]))
+            if border:
+                add(Function("det_border", [d]))
+            if overlapped:
+                add(Function("det_overlapped", [d]))
+        for t, j, lik, preferred in self.cand:
+            add(Function("cand", [Number(t), _det(j), Number(lik)]))
+            if preferred:
+                add(Function("prefer", [Number(t), _det(j)]))
+        for j, t, rank in self.covers:
+            add(Function("covers", [_det(j), Number(t)]))
+            if rank >= 0:
+                add(Function("cover_rank", [_det(j), Number(t), Number(rank)]))
+        for j, t in self.keeps_covering:
+            add(Function("keeps_covering", [_det(j), Number(t)]))
+        for j, t in self.emerges:
+            add(Function("emerges", [_det(j), Number(t)]))
+        for t, o in self.hidden_by:
+            add(Function("holds", [Function("hidden_by", [Number(t), Number(o)]), _TRUE, Number(0)]))
+        if self.first_frame:
+            add(Function("first_frame"))
+        return out
+
+
+def _det(j: int) -> Symbol:
+    return Function("d", [Number(j)])
 
 
 @dataclass
@@ -28,7 +118,6 @@ class FrameProblem:
         track_id: (T,) int track ids.
         active: (T,) bool, matched in the previous frame.
         tentative: (T,) bool, not yet confirmed.
-        uncertain: (T,) bool, seen only once: widened prediction, gated like a halted track.
         expired: (T,) bool, unobserved too long: must end.
         outside: (T,) bool, predicted box outside the field of view: must end.
         at_border: (T,) bool, predicted box touches the border.
@@ -39,6 +128,7 @@ class FrameProblem:
         det_border: (D,) bool, detection touches the border.
         det_overlapped: (D,) bool, detection partly covered by a detection in front.
         cand: (K, 3) int rows ``track index, detection index, likelihood 0..1000``.
+        uncertain: (T,) bool, seen only once: widened prediction, gated like a halted track.
         covers: (P, 2) int rows ``detection index, track index``: the detection is in front of
             the track's predicted box and covers at least the hiding fraction of it.
         keeps_covering: (Q, 2) int rows, as ``covers`` with the lower "stay hidden" fraction.
@@ -52,8 +142,9 @@ class FrameProblem:
             breaks ties between optima the quantised likelihoods cannot tell apart.
         covers_exact: (P,) float fraction of the track's predicted box covered by the detection,
             one per ``covers`` row, or None. With them the facts rank each track's covering
-            detections (``cover_rank/3``): a lowest-priority tie-break between occluders that
-            hide a track at the same cost.
+            detections (``cover_rank/3``): a lowest-priority tie-break between occluders.
+        speed: (T,) int predicted speed of each track's box centre, pixels per second, or None
+            (the ``speed/2`` facts, for encodings that read them).
     """
 
     track_id: np.ndarray
@@ -70,14 +161,15 @@ class FrameProblem:
     det_overlapped: np.ndarray
     cand: np.ndarray
     uncertain: np.ndarray | None = None
-    covers: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=np.int64))
-    keeps_covering: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=np.int64))
-    hidden_by: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=np.int64))
-    emerges: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=np.int64))
+    covers: np.ndarray = field(default_factory=_empty_rows)
+    keeps_covering: np.ndarray = field(default_factory=_empty_rows)
+    hidden_by: np.ndarray = field(default_factory=_empty_rows)
+    emerges: np.ndarray = field(default_factory=_empty_rows)
     visibility: np.ndarray | None = None
     first_frame: bool = False
     cand_exact: np.ndarray | None = None
     covers_exact: np.ndarray | None = None
+    speed: np.ndarray | None = None
 
     @property
     def n_tracks(self) -> int:
@@ -87,49 +179,11 @@ class FrameProblem:
     def n_dets(self) -> int:
         return int(self.det_conf.shape[0])
 
-    def isolated_pairs(self) -> np.ndarray:
-        """(K, 2) rows ``track index, detection index`` whose optimum is forced: an active,
-        unexpired, inside track with exactly one candidate detection that is no other track's
-        candidate, likelihood > 0, and whose detection covers no *other* track.
-
-        With non-negative costs, assigning such a pair costs ``1000 - L < 1000``, while any
-        alternative costs at least 1000 (the unmatched track) plus non-negative event costs. So
-        the track never halts (its own covers facts do not matter) and the only way the pair
-        touches the rest is through its detection occluding another track -- excluded here.
-        """
-        if self.cand.size == 0:
-            return np.zeros((0, 2), dtype=np.int64)
-        # plain Python over the rows: a frame has a few dozen at most, where numpy's per-call
-        # cost dominates (tests/test_settle.py checks it against the array formulation)
-        rows = self.cand.tolist()
-        t_deg: dict[int, int] = {}
-        d_deg: dict[int, int] = {}
-        partner: dict[int, int] = {}  # meaningful where the detection has one candidate track
-        for t, d, _ in rows:
-            t_deg[t] = t_deg.get(t, 0) + 1
-            d_deg[d] = d_deg.get(d, 0) + 1
-            partner[d] = t
-        couples = {d for rel in (self.covers, self.keeps_covering) for d, t in rel.tolist() if t != partner.get(d, -1)}
-        active, expired, outside = self.active.tolist(), self.expired.tolist(), self.outside.tolist()
-        pairs = [(t, d) for t, d, lik in rows
-                 if t_deg[t] == 1 and d_deg[d] == 1 and lik > 0 and active[t] and not expired[t]
-                 and not outside[t] and d not in couples]
-        return np.array(pairs, dtype=np.int64).reshape(-1, 2)
-
-    def forced_ignores(self) -> np.ndarray:
-        """(K,) indices of detections whose only possible action is ``ignore_det``: too weak to
-        start a track (confidence fact 0) and no track's candidate. Such a detection can be
-        neither an occluder (that needs it matched or started) nor anything else."""
-        weak = self.det_conf == 0
-        if self.cand.size:
-            weak[self.cand[:, 1]] = False
-        return np.flatnonzero(weak)
-
     def preferred_pairs(self) -> np.ndarray:
         """(P, 2) rows ``track index, detection index``: a matching of maximum summed exact
         likelihood over the candidate pairs (Hungarian); empty without ``cand_exact``."""
         if self.cand_exact is None or self.cand.size == 0:
-            return np.zeros((0, 2), dtype=np.int64)
+            return _empty_rows()
         from scipy.optimize import linear_sum_assignment
 
         w = np.zeros((self.n_tracks, self.n_dets))
@@ -154,83 +208,100 @@ class FrameProblem:
                     ranks[row] = r
         return ranks
 
-    def subset(self, tracks: np.ndarray, dets: np.ndarray) -> FrameProblem:
-        """The problem restricted to the tracks and detections whose masks are True
-        (indices renumbered; relations touching a removed object are dropped)."""
-        t_new = np.cumsum(tracks) - 1
-        d_new = np.cumsum(dets) - 1
+    def whole(self) -> tuple[Component, list[int], list[int]]:
+        """The whole frame as one component (for checks, and encodings not known to be local)."""
+        return self._describe([(list(range(self.n_tracks)), list(range(self.n_dets)))])[0]
 
-        def rel(rows: np.ndarray, t_col: int | None, d_col: int | None) -> np.ndarray:
-            keep = np.ones(len(rows), dtype=bool)
-            if t_col is not None:
-                keep &= tracks[rows[:, t_col]]
-            if d_col is not None:
-                keep &= dets[rows[:, d_col]]
-            out = rows[keep].copy()
-            if t_col is not None:
-                out[:, t_col] = t_new[out[:, t_col]]
-            if d_col is not None:
-                out[:, d_col] = d_new[out[:, d_col]]
-            return out
+    def components(self) -> list[tuple[Component, list[int], list[int]]]:
+        """The independent parts of the frame: ``(component, track ids of its local tracks
+        (occluders outside it included), detection rows of its local detections)``.
 
-        cand_kept = tracks[self.cand[:, 0]] & dets[self.cand[:, 1]] if len(self.cand) else np.zeros(0, bool)
-        covers_kept = (tracks[self.covers[:, 1]] & dets[self.covers[:, 0]] if len(self.covers)
-                       else np.zeros(0, bool))
-        kept_ids = self.track_id[tracks]
-        hidden = self.hidden_by[np.isin(self.hidden_by[:, 0], kept_ids)] if len(self.hidden_by) else self.hidden_by
-        return FrameProblem(
-            track_id=self.track_id[tracks], active=self.active[tracks], tentative=self.tentative[tracks],
-            expired=self.expired[tracks], outside=self.outside[tracks], at_border=self.at_border[tracks],
-            overlapped=self.overlapped[tracks], track_class=self.track_class[tracks],
-            det_conf=self.det_conf[dets], det_class=self.det_class[dets], det_border=self.det_border[dets],
-            det_overlapped=self.det_overlapped[dets], cand=rel(self.cand, 0, 1),
-            uncertain=None if self.uncertain is None else self.uncertain[tracks],
-            covers=rel(self.covers, 1, 0), keeps_covering=rel(self.keeps_covering, 1, 0),
-            emerges=rel(self.emerges, 1, 0),
-            hidden_by=hidden, visibility=None if self.visibility is None else self.visibility[tracks],
-            first_frame=self.first_frame,
-            cand_exact=None if self.cand_exact is None else self.cand_exact[cand_kept],
-            covers_exact=None if self.covers_exact is None else self.covers_exact[covers_kept],
-        )
+        No rule of ``tracking.lp`` joins atoms of two parts: its rules relate a track to a
+        detection only through ``cand``, ``covers``, ``keeps_covering`` and ``emerges`` facts
+        (``hidden_by`` names an occluder, which can only keep covering through such a fact), and
+        its weak constraints are sums over objects. So an optimal answer of the frame is an
+        optimal answer of each part, side by side.
+        """
+        nt, nd = self.n_tracks, self.n_dets
+        parent = list(range(nt + nd))
 
-    def to_facts(self) -> str:
-        """The problem as ASP facts (one string; deterministic order)."""
-        tid = self.track_id.astype(np.int64)
-        out: list[str] = []
-        add = out.append
-        for t, k, a in zip(tid.tolist(), self.track_class.tolist(), self.active.tolist()):
-            add(f"track({t}).ttype({t},{k}).{'active' if a else 'halted'}({t}).")
-        uncertain = self.uncertain if self.uncertain is not None else np.zeros(len(tid), dtype=bool)
-        for name, mask in (("tentative", self.tentative), ("uncertain", uncertain),
-                           ("expired", self.expired), ("outside", self.outside),
-                           ("at_border", self.at_border), ("overlapped", self.overlapped)):
-            for t in _ids(mask, tid):
-                add(f"{name}({t}).")
-        for j, (c, k) in enumerate(zip(self.det_conf.tolist(), self.det_class.tolist())):
-            add(f"det(d({j}),{c}).dtype(d({j}),{k}).")
-        for j in np.flatnonzero(self.det_border).tolist():
-            add(f"det_border(d({j})).")
-        for j in np.flatnonzero(self.det_overlapped).tolist():
-            add(f"det_overlapped(d({j})).")
-        for ti, dj, lik in self.cand.tolist():
-            add(f"cand({tid[ti]},d({dj}),{lik}).")
-        for ti, dj in self.preferred_pairs().tolist():
-            add(f"prefer({tid[ti]},d({dj})).")
-        for (dj, ti), r in zip(self.covers.tolist(), self.cover_ranks().tolist()):
-            add(f"covers(d({dj}),{tid[ti]}).")
-            if r >= 0:
-                add(f"cover_rank(d({dj}),{tid[ti]},{r}).")
-        for dj, ti in self.keeps_covering.tolist():
-            add(f"keeps_covering(d({dj}),{tid[ti]}).")
-        for t in tid.tolist():
-            add(f"holds(in_fov({t}),true,0).")
-        for t, o in self.hidden_by.tolist():
-            add(f"holds(hidden_by({t},{o}),true,0).")
-        for dj, ti in self.emerges.tolist():
-            add(f"emerges(d({dj}),{tid[ti]}).")
-        if self.visibility is not None:
-            for t, v in zip(tid.tolist(), self.visibility.tolist()):
-                add(f"holds(visibility({t}),{VISIBILITY_VALUES[v]},0).")
-        if self.first_frame:
-            add("first_frame.")
-        return "\n".join(out)
+        def find(x: int) -> int:
+            while parent[x] != x:
+                parent[x] = parent[parent[x]]
+                x = parent[x]
+            return x
+
+        for t, d, _ in self.cand.tolist():
+            parent[find(t)] = find(nt + d)
+        for rel in (self.covers, self.keeps_covering, self.emerges):
+            for d, t in rel.tolist():
+                parent[find(t)] = find(nt + d)
+        groups: dict[int, tuple[list[int], list[int]]] = {}
+        for x in range(nt + nd):
+            g = groups.setdefault(find(x), ([], []))
+            if x < nt:
+                g[0].append(x)
+            else:
+                g[1].append(x - nt)
+        return self._describe(list(groups.values()))
+
+    def _describe(self, groups: list[tuple[list[int], list[int]]]
+                  ) -> list[tuple[Component, list[int], list[int]]]:
+        nt = self.n_tracks
+        flags = [self.active, self.tentative,
+                 self.uncertain if self.uncertain is not None else np.zeros(nt, dtype=bool),
+                 self.expired, self.outside, self.at_border, self.overlapped]
+        vis = self.visibility if self.visibility is not None else np.zeros(nt, dtype=np.int64)
+        speed = self.speed if self.speed is not None else np.full(nt, -1, dtype=np.int64)
+        track_rows = list(zip(*[np.asarray(f, dtype=bool).tolist() for f in flags],
+                              self.track_class.tolist(), vis.tolist(), speed.tolist()))
+        det_rows = list(zip(self.det_conf.tolist(), self.det_class.tolist(),
+                            np.asarray(self.det_border, dtype=bool).tolist(),
+                            np.asarray(self.det_overlapped, dtype=bool).tolist()))
+        preferred = {(t, d) for t, d in self.preferred_pairs().tolist()}
+        ids = self.track_id.tolist()
+        index = {t: i for i, t in enumerate(ids)}
+        where_t: dict[int, int] = {}
+        where_d: dict[int, int] = {}
+        for g, (ts, ds) in enumerate(groups):
+            where_t.update(dict.fromkeys(ts, g))
+            where_d.update(dict.fromkeys(ds, g))
+        parts: list[dict[str, list]] = [
+            {"cand": [], "covers": [], "keeps": [], "emerges": [], "hidden": []} for _ in groups]
+        for t, d, lik in self.cand.tolist():
+            parts[where_t[t]]["cand"].append((t, d, lik, (t, d) in preferred))
+        for (d, t), r in zip(self.covers.tolist(), self.cover_ranks().tolist()):
+            parts[where_t[t]]["covers"].append((d, t, r))
+        for name, rel in (("keeps", self.keeps_covering), ("emerges", self.emerges)):
+            for d, t in rel.tolist():
+                parts[where_t[t]][name].append((d, t))
+        for tid, oid in self.hidden_by.tolist():
+            t = index.get(tid)
+            if t is not None and t in where_t:
+                parts[where_t[t]]["hidden"].append((t, oid))
+        out = []
+        for (ts, ds), rel in zip(groups, parts):
+            lt = {t: i for i, t in enumerate(ts)}
+            ld = {d: j for j, d in enumerate(ds)}
+            local_ids = [ids[t] for t in ts]
+            hidden = []
+            for t, oid in rel["hidden"]:
+                o = index.get(oid)
+                if o is not None and o in lt:
+                    hidden.append((lt[t], lt[o]))
+                    continue
+                if oid not in local_ids[len(ts):]:
+                    local_ids.append(oid)  # an occluder outside the component: named, no facts
+                hidden.append((lt[t], len(ts) + local_ids[len(ts):].index(oid)))
+            component = Component(
+                first_frame=bool(self.first_frame),
+                tracks=tuple(track_rows[t] for t in ts),
+                dets=tuple(det_rows[d] for d in ds),
+                cand=tuple((lt[t], ld[d], lik, p) for t, d, lik, p in rel["cand"]),
+                covers=tuple((ld[d], lt[t], r) for d, t, r in rel["covers"]),
+                keeps_covering=tuple((ld[d], lt[t]) for d, t in rel["keeps"]),
+                emerges=tuple((ld[d], lt[t]) for d, t in rel["emerges"]),
+                hidden_by=tuple(hidden),
+            )
+            out.append((component, local_ids, list(ds)))
+        return out

@@ -1,27 +1,30 @@
-"""Solve one frame's abduction problem with clingo (a fresh Control per frame).
+"""Solve abduction problems with clingo: one fresh Control per problem, facts as symbols.
 
-Measured facts behind the choices (see DESIGN.md): core-guided optimisation (``usc``) instead of
-clingo's default branch-and-bound is what keeps per-frame abduction in milliseconds; a fresh
-``Control`` per frame costs ~0.06 ms and never accumulates atoms; fluent values are carried in
-Python and given as facts, never re-grounded.
+Measured facts behind the choices (see ../shared/DESIGN.md): core-guided optimisation (``usc``)
+instead of clingo's default branch-and-bound keeps per-frame abduction in milliseconds; a fresh
+``Control`` costs ~0.06 ms and never accumulates atoms (a long-lived one slowed 10x over 400
+frames); fluent values are carried in Python and given as facts, never re-grounded.
 """
 
 from __future__ import annotations
 
 import logging
-import re
 import time
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from functools import lru_cache
 from importlib import resources
+from pathlib import Path
+from typing import NamedTuple
 
 import clingo
+from clingo import Symbol, SymbolType
 from clingo.ast import ASTType, ProgramBuilder, parse_string
 
 from sensemaking.abduction.problem import FrameProblem
 
-__all__ = ["Answer", "AbductionSolver", "load_encoding", "encoding_constants"]
+__all__ = ["Answer", "AbductionSolver", "Det", "Ref", "load_encoding", "encoding_constants",
+           "read_encoding"]
 
 log = logging.getLogger(__name__)
 
@@ -30,7 +33,17 @@ log = logging.getLogger(__name__)
 DEFAULT_OPTIONS: tuple[str, ...] = ("--opt-strategy=usc,stratify", "--warn=none")
 
 
-@lru_cache(maxsize=8)
+class Det(NamedTuple):
+    """A detection of the frame, by its row in the frame's detections."""
+
+    row: int
+
+
+#: an object an event or fluent names: a track id, a detection, or a constant (``true``, ...)
+Ref = int | Det | str
+
+
+@lru_cache(maxsize=16)
 def _parsed(encoding: str) -> tuple:
     """The encoding parsed once into AST statements (re-adding them is ~3x cheaper than parsing)."""
     statements: list = []
@@ -38,27 +51,56 @@ def _parsed(encoding: str) -> tuple:
     return tuple(statements)
 
 
-_DET = re.compile(r"\bd\((\d+)\)")
+@lru_cache(maxsize=16)
+def _mentioned(encoding: str) -> frozenset[str]:
+    """Names of every predicate or function the encoding mentions (an over-approximation of
+    what its rules read: a fact whose name is not here cannot change an answer)."""
+    names: set[str] = set()
 
+    def visit(node: object) -> None:
+        if isinstance(node, clingo.ast.AST):
+            if node.ast_type == ASTType.Function:
+                names.add(node.name)
+            elif node.ast_type == ASTType.SymbolicTerm and node.symbol.type == SymbolType.Function:
+                names.add(node.symbol.name)
+            for key in node.child_keys:
+                visit(getattr(node, key))
+        elif isinstance(node, (list, tuple, clingo.ast.ASTSequence)):
+            for child in node:
+                visit(child)
 
-def _value(token: str) -> int | str:
-    token = token.strip()
-    try:
-        return int(token)
-    except ValueError:
-        return token
-
-
-def _term(text: str) -> tuple[str, tuple[int | str, ...]]:
-    """``name(a,b)`` -> (name, (a, b)); integers become int, ``d<J>`` stays a string."""
-    name, _, rest = text.partition("(")
-    return name, tuple(_value(a) for a in rest[:-1].split(",")) if rest else ()
+    for statement in _parsed(encoding):
+        visit(statement)
+    return frozenset(names)
 
 
 @lru_cache(maxsize=None)
 def load_encoding(name: str = "tracking.lp") -> str:
     """Text of an encoding shipped as package data in ``sensemaking/abduction/encodings``."""
     return resources.files("sensemaking.abduction").joinpath("encodings", name).read_text(encoding="utf-8")
+
+
+def read_encoding(source: str | Path) -> str:
+    """An encoding's text from a path (``.lp`` file) or the text itself. Raises a
+    :class:`~sensemaking.errors.InputError` naming the file and clingo's message when it does
+    not parse."""
+    from sensemaking.errors import InputError
+
+    path = Path(source) if isinstance(source, Path) or str(source).endswith(".lp") else None
+    if path is not None:
+        try:
+            text = path.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as exc:
+            raise InputError(f"cannot read the encoding: {exc}", path) from None
+    else:
+        text = str(source)
+    messages: list[str] = []
+    try:
+        parse_string(text, lambda _: None, logger=lambda _c, m: messages.append(m.strip()))
+    except RuntimeError:
+        where = f"{path}: " if path is not None else ""
+        raise InputError(f"{where}the encoding does not parse: {'; '.join(messages) or 'syntax error'}")
+    return text
 
 
 def encoding_constants(encoding: str | None = None) -> dict[str, int]:
@@ -74,10 +116,11 @@ def _constants(encoding: str) -> tuple[tuple[str, int], ...]:
 
 @dataclass
 class Answer:
-    """The abduced hypothesis for one frame.
+    """The abduced hypothesis for one frame (or one component of it).
 
-    Track ids are ints; detections are ``"d<J>"`` strings (J = row in the frame's detections).
-    ``events`` are ``(name, args)``; ``fluents`` are ``(name, args, value)`` holding this frame.
+    Tracks are ints (ids; local indices inside a component), detections are rows. ``events``
+    are ``(name, args)``, ``fluents`` ``(name, args, value)`` for the values that changed;
+    their arguments are :data:`Ref`: an int names a track, :class:`Det` a detection.
     """
 
     assign: dict[int, int] = field(default_factory=dict)  # track id -> detection row
@@ -87,17 +130,20 @@ class Answer:
     halt: list[int] = field(default_factory=list)
     ignore_trk: list[int] = field(default_factory=list)
     ignore_det: list[int] = field(default_factory=list)
-    events: list[tuple[str, tuple[int | str, ...]]] = field(default_factory=list)
-    fluents: list[tuple[str, tuple[int | str, ...], str]] = field(default_factory=list)
-    cost: int | None = None
-    optimal: bool = False
+    events: list[tuple[str, tuple[Ref, ...]]] = field(default_factory=list)
+    fluents: list[tuple[str, tuple[Ref, ...], str]] = field(default_factory=list)
+    cost: int = 0
+    optimal: bool = True
+    #: the deterministic work budget (``max_conflicts``) ended the search: best answer so far
+    budget_hit: bool = False
+    #: the wall-clock budget ended the search (the answer then depends on machine load)
     timed_out: bool = False
     solve_ms: float = 0.0
 
     def atoms(self) -> list[str]:
         """Sorted readable atoms (for tests and debugging)."""
-        def fmt(x: int | str) -> str:
-            return f"d({x[1:]})" if isinstance(x, str) and x.startswith("d") else str(x)
+        def fmt(x: Ref) -> str:
+            return f"d({x.row})" if isinstance(x, Det) else str(x)
 
         out = [f"assign({t},d({d}))" for t, d in self.assign.items()]
         out += [f"resume({t},d({d}))" for t, d in self.resume.items()]
@@ -106,62 +152,114 @@ class Answer:
         out += [f"{n}({','.join(map(fmt, a))})" for n, a in self.events]
         return sorted(out)
 
+    def mapped(self, track_ids: list[int], det_rows: list[int]) -> Answer:
+        """This answer of a component, in the frame's terms: local track ``i`` becomes
+        ``track_ids[i]``, local detection ``j`` becomes ``det_rows[j]``."""
+        def ref(x: Ref) -> Ref:
+            if isinstance(x, Det):
+                return Det(det_rows[x.row])
+            if isinstance(x, int) and 0 <= x < len(track_ids):
+                return track_ids[x]
+            return x
+
+        tid, row = track_ids.__getitem__, det_rows.__getitem__
+        return Answer(
+            assign={tid(t): row(d) for t, d in self.assign.items()},
+            resume={tid(t): row(d) for t, d in self.resume.items()},
+            start=[row(d) for d in self.start], end=[tid(t) for t in self.end],
+            halt=[tid(t) for t in self.halt], ignore_trk=[tid(t) for t in self.ignore_trk],
+            ignore_det=[row(d) for d in self.ignore_det],
+            events=[(n, tuple(ref(a) for a in args)) for n, args in self.events],
+            fluents=[(n, tuple(ref(a) for a in args), v) for n, args, v in self.fluents],
+            cost=self.cost, optimal=self.optimal, budget_hit=self.budget_hit,
+            timed_out=self.timed_out, solve_ms=self.solve_ms)
+
+    def merge(self, part: Answer) -> None:
+        """Add the answer of another component (in the frame's terms)."""
+        self.assign.update(part.assign)
+        self.resume.update(part.resume)
+        for name in ("start", "end", "halt", "ignore_trk", "ignore_det", "events", "fluents"):
+            getattr(self, name).extend(getattr(part, name))
+        self.cost += part.cost
+        self.optimal &= part.optimal
+        self.budget_hit |= part.budget_hit
+        self.timed_out |= part.timed_out
+
 
 class AbductionSolver:
-    """Grounds and solves ``tracking.lp`` plus one frame's facts.
+    """Grounds and solves an encoding (default: the packaged ``tracking.lp``) plus facts.
 
     Args:
         constants: values for the encoding's ``#const`` (integers), e.g. ``{"cost_lost": 600}``.
         options: clingo command-line options (default: core-guided optimisation).
         encoding: encoding text (default: the packaged ``tracking.lp``).
+        rules: more rules (text) added to the encoding, e.g. a user's events.
+        max_conflicts: deterministic work budget per solve, in solver conflicts (clingo's
+            ``--solve-limit``): past it the best answer so far is used (``budget_hit``). The
+            same input gives the same answer on any machine. None: no limit.
     """
 
-    def __init__(self, constants: Mapping[str, int] | None = None, options: tuple[str, ...] = DEFAULT_OPTIONS,
-                 encoding: str | None = None):
+    def __init__(self, constants: Mapping[str, int] | None = None,
+                 options: tuple[str, ...] = DEFAULT_OPTIONS, encoding: str | None = None,
+                 rules: Iterable[str] = (), max_conflicts: int | None = None):
         self.constants = {k: int(v) for k, v in (constants or {}).items()}
         self.options = list(options) + [f"-c{k}={v}" for k, v in sorted(self.constants.items())]
-        self.encoding = encoding if encoding is not None else load_encoding()
+        if max_conflicts is not None:
+            self.options.append(f"--solve-limit={int(max_conflicts)}")
+        base = encoding if encoding is not None else load_encoding()
+        self.program = "\n".join([base, *rules])
+        #: names the program mentions: optional facts are only given when read
+        self.uses = _mentioned(self.program)
 
     def solve(self, problem: FrameProblem, budget_ms: float | None = None) -> Answer | None:
-        """Abduce the optimal hypothesis; None if no model was found within the budget.
+        """The whole frame in one program (no decomposition); None if no model in time."""
+        component, track_ids, det_rows = problem.whole()
+        answer = self.solve_facts(component.facts(self.uses), budget_ms)
+        return None if answer is None else answer.mapped(track_ids, det_rows)
 
-        ``budget_ms`` bounds grounding plus solving; past it the best model so far is used
-        (``Answer.timed_out``). None means not even one model was found in time (the caller
-        falls back) -- or the problem is unsatisfiable, which the encoding rules out.
+    def solve_facts(self, facts: Iterable[Symbol], budget_ms: float | None = None) -> Answer | None:
+        """Abduce the optimal hypothesis for the facts; None if no model was found in budget.
+
+        ``budget_ms`` bounds grounding plus solving in wall-clock time; past it the best model
+        so far is used (``Answer.timed_out``). None means not even one model was found within
+        the budgets (the caller falls back) -- or the problem is unsatisfiable, which the
+        packaged encoding rules out.
         """
         t0 = time.perf_counter()
         ctl = clingo.Control(self.options, logger=_quiet_logger)
         with ProgramBuilder(ctl) as builder:
-            for statement in _parsed(self.encoding):
+            for statement in _parsed(self.program):
                 builder.add(statement)
-        ctl.add("base", [], problem.to_facts())
+        with ctl.backend() as backend:
+            for fact in facts:
+                backend.add_rule([backend.add_atom(fact)])
         ctl.ground([("base", [])])
-        best: list[clingo.Symbol] = []
-        info: dict[str, object] = {}
+        best: list[Symbol] = []
+        info: dict[str, int] = {}
 
         def on_model(model: clingo.Model) -> None:
             best[:] = model.symbols(shown=True)
-            # the cost of the main objective; the tie-break level (priority < 0) is not a cost
+            # the cost of the main objective; the tie-break levels (priority < 0) are not a cost
             info["cost"] = sum(c for c, p in zip(model.cost, model.priority) if p >= 0)
-            info["optimal"] = model.optimality_proven
 
         timed_out = False
         if budget_ms is None:
-            ctl.solve(on_model=on_model)
+            result = ctl.solve(on_model=on_model)
         else:
             remaining = budget_ms / 1000.0 - (time.perf_counter() - t0)
             with ctl.solve(on_model=on_model, async_=True) as handle:
                 if not handle.wait(max(remaining, 0.0)):
                     handle.cancel()
                     timed_out = True
-                handle.get()
+                result = handle.get()
         ms = (time.perf_counter() - t0) * 1000.0
-        if not best and "cost" not in info:
-            log.debug("no model within %.1f ms (timed_out=%s)", ms, timed_out)
+        if "cost" not in info:
+            log.debug("no model within the budget (%.1f ms, timed out: %s)", ms, timed_out)
             return None
         answer = _decode(best)
-        answer.cost = int(info.get("cost", 0))  # type: ignore[arg-type]
-        answer.optimal = bool(info.get("optimal", False)) or not timed_out
+        answer.cost = info["cost"]
+        answer.optimal = bool(result.exhausted) and not timed_out
+        answer.budget_hit = not answer.optimal and not timed_out
         answer.timed_out = timed_out
         answer.solve_ms = ms
         return answer
@@ -171,28 +269,33 @@ def _quiet_logger(code: clingo.MessageCode, message: str) -> None:
     log.debug("clingo: %s", message.strip())
 
 
-def _decode(symbols: list[clingo.Symbol]) -> Answer:
-    """Read the shown atoms back (through their text: one call into clingo per atom)."""
+def _ref(sym: Symbol) -> Ref:
+    if sym.type == SymbolType.Number:
+        return sym.number
+    if sym.type == SymbolType.Function:
+        if sym.name == "d" and len(sym.arguments) == 1:
+            return Det(sym.arguments[0].number)
+        if not sym.arguments:
+            return sym.name
+    if sym.type == SymbolType.String:
+        return sym.string
+    return str(sym)
+
+
+def _decode(symbols: list[Symbol]) -> Answer:
+    """The shown atoms as an :class:`Answer` (read through the symbols' names and arguments)."""
     ans = Answer()
     for sym in symbols:
-        text = _DET.sub(r"d\1", str(sym))
-        name, _, rest = text.partition("(")
-        rest = rest[:-1]
-        if name == "occurs":
-            ans.events.append(_term(rest))
-        elif name == "value":
-            fluent, _, value = rest.rpartition(",")
-            fname, fargs = _term(fluent)
-            ans.fluents.append((fname, fargs, value))
-        elif name in ("assign", "resume"):
-            t, d = rest.split(",")
-            getattr(ans, name)[int(t)] = int(d[1:])
-        elif name in ("start", "ignore_det"):
-            getattr(ans, name).append(int(rest[1:]))
-        elif name in ("end", "halt", "ignore_trk"):
-            getattr(ans, name).append(int(rest))
-    for ints in (ans.start, ans.end, ans.halt, ans.ignore_trk, ans.ignore_det):
-        ints.sort()
-    ans.events.sort(key=str)
-    ans.fluents.sort(key=str)
+        name, args = sym.name, sym.arguments
+        if name == "occurs" and len(args) == 1:
+            ans.events.append((args[0].name, tuple(_ref(a) for a in args[0].arguments)))
+        elif name == "value" and len(args) == 2:
+            fluent, value = args
+            ans.fluents.append((fluent.name, tuple(_ref(a) for a in fluent.arguments), str(_ref(value))))
+        elif name in ("assign", "resume") and len(args) == 2:
+            getattr(ans, name)[args[0].number] = args[1].arguments[0].number
+        elif name in ("start", "ignore_det") and len(args) == 1:
+            getattr(ans, name).append(args[0].arguments[0].number)
+        elif name in ("end", "halt", "ignore_trk") and len(args) == 1:
+            getattr(ans, name).append(args[0].number)
     return ans

@@ -1,0 +1,88 @@
+"""Dump our tracker's answers on every shared benchmark, and time it, to compare two versions.
+
+For every sequence of every benchmark in ``../shared/data`` our tracker (the benchmark's
+parameter set) writes one line per output track and frame (id, box, state, occluder,
+visibility) and one line per event to ``OUT/<benchmark>/<sequence>.txt``. Two versions'
+directories compare with ``diff -r``; ``--compare DIR`` does that and names the first
+difference per sequence. It prints the mean and worst milliseconds per frame of
+``Tracker.update`` per benchmark.
+
+    python benchmarks/same_answers.py OUT [--data ../shared/data] [--only kitti-rrc-car ...]
+        [--compare OTHER_OUT] [--set key=value ...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def _lines(result) -> list[str]:
+    tracks = result.tracks
+    out = []
+    state = tracks.data.get("state", np.zeros(len(tracks), dtype=np.int64))
+    occ = tracks.data.get("occluder", np.full(len(tracks), -1))
+    vis = tracks.data.get("visibility", np.zeros(len(tracks), dtype=np.int64))
+    for i in np.argsort(tracks.tracker_id, kind="stable").tolist():
+        box = " ".join(f"{v:.2f}" for v in tracks.xyxy[i].tolist())
+        out.append(f"{result.frame} T {int(tracks.tracker_id[i])} {box} {int(state[i])} "
+                   f"{int(occ[i])} {int(vis[i])}")
+    for ev in result.events:
+        out.append(f"{result.frame} E {ev.name} {' '.join(map(str, ev.args))}")
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out", type=Path)
+    parser.add_argument("--data", type=Path, default=None)
+    parser.add_argument("--only", nargs="*", default=None)
+    parser.add_argument("--compare", type=Path, default=None)
+    args = parser.parse_args(argv)
+    from sensemaking.benchmark.datasets import iter_benchmarks
+    from sensemaking.benchmark.runner import ours_config
+    from sensemaking.detections import Detections
+    from sensemaking.tracker import Tracker
+
+    differ = 0
+    for bench in iter_benchmarks(args.data, args.only):
+        times: list[float] = []
+        for seq in bench.sequences:
+            config = ours_config(bench.spec.family, fps=seq.info.fps,
+                                 image_size=(seq.info.width, seq.info.height))
+            tracker = Tracker(config)
+            frames = dict(seq.detections.frames())
+            lines: list[str] = []
+            for f in seq.frame_numbers:
+                dets = frames.get(f, Detections.empty())
+                t0 = time.perf_counter()
+                result = tracker.update(dets, frame=f)
+                times.append(time.perf_counter() - t0)
+                lines += _lines(result)
+            path = args.out / bench.name / f"{seq.name}.txt"
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text("\n".join(lines) + "\n")
+            if args.compare is not None:
+                other = (args.compare / bench.name / f"{seq.name}.txt").read_text().splitlines()
+                first = next((i for i, (a, b) in enumerate(zip(lines, other)) if a != b), None)
+                if first is None and len(lines) != len(other):
+                    first = min(len(lines), len(other))
+                if first is not None:
+                    differ += 1
+                    print(f"  {bench.name}/{seq.name}: first difference at line {first + 1}: "
+                          f"{lines[first] if first < len(lines) else '<end>'!r} vs "
+                          f"{other[first] if first < len(other) else '<end>'!r}")
+        ms = np.array(times) * 1000.0
+        print(f"{bench.name:28s} frames {len(ms):6d}  mean {ms.mean():6.2f} ms  "
+              f"p95 {np.percentile(ms, 95):6.2f} ms  worst {ms.max():7.2f} ms", flush=True)
+    if args.compare is not None:
+        print(f"{differ} sequences differ")
+    return 1 if differ else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
