@@ -19,6 +19,7 @@ from __future__ import annotations
 import logging
 import threading
 import time
+from collections import OrderedDict
 from collections.abc import Iterable
 from dataclasses import dataclass, replace
 
@@ -37,8 +38,8 @@ log = logging.getLogger(__name__)
 #: not on the components solved before it in the same Control
 _FORGET = "--forget-on-step=varScores,signs,lemmaScores,lemmas"
 _UNSEEN: tuple[int, ...] = (-1,)  # the memo's "not looked up yet" (no literal is -1 alone)
-#: bound of the memo of each shape's pieces (their literals)
-_MAX_PIECES = 200_000
+#: bound of the memo of each shape's pieces (their literals); past it the memo starts afresh
+_MAX_PIECES = 20_000
 
 
 @dataclass(frozen=True)
@@ -73,7 +74,8 @@ def vocabulary(shape: Shape, classes: Iterable[int], numbers: Iterable[int],
                 parts.append(Component(True, (row,) * nt, (), (), (), (), (), ()))
     for number in numbers:
         for cls in classes:
-            parts.append(Component(False, (), ((number, cls, True, True),) * nd, (), (), (), (), ()))
+            det_row = (number, cls, True, True)
+            parts.append(Component(False, (), (det_row,) * nd, (), (), (), (), ()))
         parts.append(Component(False, (), (), tuple((t, d, number, True) for t, d in pairs),
                                (), (), (), ()))
     parts.append(Component(
@@ -129,7 +131,8 @@ class _Grounded:
         with ProgramBuilder(self.ctl) as builder:
             for statement in _parsed(solver.program):
                 builder.add(statement)
-        self.ctl.add("base", [], "\n".join(f"#external {fact}. [free]" for fact in sorted(universe)))
+        externals = "\n".join(f"#external {fact}. [free]" for fact in sorted(universe))
+        self.ctl.add("base", [], externals)
         self.ctl.ground([("base", [])])
         atoms = self.ctl.symbolic_atoms
         # a fact some rule also derives is no longer external: it cannot be set, so a component
@@ -156,7 +159,7 @@ class _Grounded:
             lits = known.get(piece, _UNSEEN)
             if lits is _UNSEEN:
                 if len(known) >= _MAX_PIECES:
-                    known.clear()  # memory bounded: the pieces of one shape are rarely this many
+                    known.clear()
                 lits = known[piece] = self._lookup(piece_facts(piece, self._uses))
             if lits is None:
                 return None
@@ -214,20 +217,24 @@ class SlotSolver:
         max_tracks, max_dets, max_occluders: the largest shape answered here.
         max_classes, max_numbers: bounds of the learnt universe (memory and grounding time);
             a component with a class or number past them goes to the fresh Control.
+        max_controls: ground shapes kept (least recently used out): bounds the memory.
         ground_after: a shape is ground at its n-th component (grounding costs about as
             much as a few fresh solves: shapes met once or twice are not worth it).
     """
 
     def __init__(self, solver: AbductionSolver, numbers: Iterable[int] = (),
                  max_tracks: int = 6, max_dets: int = 6, max_occluders: int = 2,
-                 max_classes: int = 8, max_numbers: int = 128, ground_after: int = 3):
+                 max_classes: int = 8, max_numbers: int = 128, ground_after: int = 3,
+                 max_controls: int = 32):
         self.solver = solver
         self.max_shape = Shape(max_tracks, max_dets, max_occluders)
         self.max_classes, self.max_numbers = max_classes, max_numbers
         self.classes: set[int] = set()
         self.numbers: set[int] = {int(n) for n in numbers}
         self.ground_after = ground_after
-        self._grounded: dict[Shape, _Grounded] = {}
+        self.max_controls = max_controls
+        #: the ground shapes, least recently used first
+        self._grounded: OrderedDict[Shape, _Grounded] = OrderedDict()
         #: misses of shapes not ground yet
         self._misses: dict[Shape, int] = {}
         self._lock = threading.Lock()
@@ -254,6 +261,8 @@ class SlotSolver:
             return None
         with self._lock:
             grounded = self._grounded.get(shape)
+            if grounded is not None:
+                self._grounded.move_to_end(shape)
             true = None if grounded is None else grounded.literals_of(component)
             if true is None:
                 if grounded is None:
@@ -292,6 +301,9 @@ class SlotSolver:
         self.classes, self.numbers = classes, numbers
         grounded = _Grounded(self.solver, universe)
         self._grounded[shape] = grounded
+        self._grounded.move_to_end(shape)
+        while len(self._grounded) > self.max_controls:
+            self._grounded.popitem(last=False)
         self.stats["grounded"] += 1
         log.debug("ground shape %s: %d externals", shape, len(universe))
         return grounded
