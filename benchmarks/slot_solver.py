@@ -36,7 +36,7 @@ def main(argv: list[str] | None = None) -> int:
     pool = [random_component(rng, rng.randint(1, 3), rng.randint(1, 3), rng.randint(0, 1))
             for _ in range(args.pool)]
     solver = AbductionSolver()
-    slots = SlotSolver(solver, numbers=GRID + [1], ground_after=1)
+    slots = SlotSolver(solver, numbers=GRID + [1], misses_per_cell=0)
     for component in pool:  # ground every shape first
         slots.solve(component)
     done = 0
@@ -52,7 +52,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"calls {done:7d}  {ms:.3f} ms/call  peak RSS {rss:.0f} MB  "
               f"clasp size {_size(slots)}", flush=True)
     last = [pool[i % len(pool)] for i in range(done - args.block, done)]
-    new = SlotSolver(solver, numbers=GRID + [1], ground_after=1)
+    new = SlotSolver(solver, numbers=GRID + [1], misses_per_cell=0)
     for component in pool:
         new.solve(component)
     times = {"long-lived": 0.0, "new": 0.0}

@@ -125,8 +125,11 @@ def piece_facts(piece: tuple, uses: Iterable[str] = ()) -> frozenset[Symbol]:
 class _Grounded:
     """One shape's encoding, ground once with its universe of facts as free externals."""
 
-    def __init__(self, solver: AbductionSolver, universe: frozenset[Symbol]):
+    def __init__(self, solver: AbductionSolver, universe: frozenset[Symbol],
+                 classes: frozenset[int] = frozenset(), numbers: frozenset[int] = frozenset()):
         self.universe = universe
+        #: the classes and numbers the universe was made with
+        self.classes, self.numbers = classes, numbers
         self.ctl = clingo.Control([*solver.options, _FORGET], logger=_quiet_logger)
         with ProgramBuilder(self.ctl) as builder:
             for statement in _parsed(solver.program):
@@ -146,7 +149,10 @@ class _Grounded:
                 self.literal[fact] = 0
             elif atom.is_external:
                 self.literal[fact] = atom.literal
-        self.literals = [lit for lit in self.literal.values() if lit]
+        literals = [lit for lit in self.literal.values() if lit]
+        #: every external false: a component's assumptions are this with its facts made true
+        self._all_false = [-lit for lit in literals]
+        self._position = {lit: i for i, lit in enumerate(literals)}
         #: piece -> the literals of its facts, or None when one lies outside the universe
         self._piece_literals: dict[tuple, tuple[int, ...] | None] = {}
         self._uses = solver.uses
@@ -178,7 +184,11 @@ class _Grounded:
     def solve(self, true: set[int], budget_ms: float | None) -> Answer | None:
         """Solve with the externals of ``true`` (literals) true and all others false."""
         t0 = time.perf_counter()
-        assumptions = [lit if lit in true else -lit for lit in self.literals]
+        assumptions = self._all_false.copy()
+        position = self._position
+        for lit in true:
+            if lit:  # 0: a fact no rule reads
+                assumptions[position[lit]] = lit
         best: list[Symbol] = []
         info: dict[str, int] = {}
 
@@ -209,6 +219,12 @@ class _Grounded:
 class SlotSolver:
     """Answers components up to a small shape from Controls ground once per shape.
 
+    A shape is ground once its components declined so far would have cost about as much on
+    fresh Controls as grounding it costs (rent, then buy: never more than twice the better of
+    the two), so shapes met a few times stay on fresh Controls. The cost is counted in
+    components, not measured in time: which components take which path, and so how ties are
+    broken, does not depend on the machine's load.
+
     Args:
         solver: the program, constants and options (the answers are optimal answers of
             ``solver.solve_facts(component.facts())``, with the same cost).
@@ -217,25 +233,27 @@ class SlotSolver:
         max_tracks, max_dets, max_occluders: the largest shape answered here.
         max_classes, max_numbers: bounds of the learnt universe (memory and grounding time);
             a component with a class or number past them goes to the fresh Control.
-        max_controls: ground shapes kept (least recently used out): bounds the memory.
-        ground_after: a shape is ground at its n-th component (grounding costs about as
-            much as a few fresh solves: shapes met once or twice are not worth it).
+        max_controls: ground shapes kept (least recently used out): bounds the memory (the
+            largest shape, 6 x 6 with 2 occluders, 2 classes and 42 numbers: ~6 MB).
+        misses_per_cell: a shape is ground at its n-th component, n = this times
+            ``(tracks + 1) x (detections + 1)`` (grounding measured ~2 ms per such cell with
+            the 42 numbers of the tracker's grid, a fresh solve 2.5-5 ms); 0: at once.
     """
 
     def __init__(self, solver: AbductionSolver, numbers: Iterable[int] = (),
                  max_tracks: int = 6, max_dets: int = 6, max_occluders: int = 2,
-                 max_classes: int = 8, max_numbers: int = 128, ground_after: int = 3,
-                 max_controls: int = 32):
+                 max_classes: int = 8, max_numbers: int = 128, max_controls: int = 32,
+                 misses_per_cell: float = 0.5):
         self.solver = solver
         self.max_shape = Shape(max_tracks, max_dets, max_occluders)
         self.max_classes, self.max_numbers = max_classes, max_numbers
         self.classes: set[int] = set()
         self.numbers: set[int] = {int(n) for n in numbers}
-        self.ground_after = ground_after
         self.max_controls = max_controls
+        self.misses_per_cell = misses_per_cell
         #: the ground shapes, least recently used first
         self._grounded: OrderedDict[Shape, _Grounded] = OrderedDict()
-        #: misses of shapes not ground yet
+        #: components declined per shape not ground yet
         self._misses: dict[Shape, int] = {}
         self._lock = threading.Lock()
         self.stats = {"answered": 0, "outside": 0, "grounded": 0}
@@ -263,18 +281,15 @@ class SlotSolver:
             grounded = self._grounded.get(shape)
             if grounded is not None:
                 self._grounded.move_to_end(shape)
+            else:
+                self._misses[shape] = misses = self._misses.get(shape, 0) + 1
+                if misses > self.misses_per_cell * (shape.tracks + 1) * (shape.dets + 1):
+                    grounded = self._ground(shape, component)
             true = None if grounded is None else grounded.literals_of(component)
+            if true is None and grounded is not None and self._brings_values(component, grounded):
+                grounded = self._ground(shape, component)
+                true = grounded.literals_of(component)
             if true is None:
-                if grounded is None:
-                    self._misses[shape] = self._misses.get(shape, 0) + 1
-                    if self._misses[shape] < self.ground_after:
-                        self.stats["outside"] += 1
-                        return None
-                facts = frozenset(component.facts(self.solver.uses))
-                if grounded is None or not facts <= grounded.universe:
-                    grounded = self._extend(shape, component, facts)
-                true = None if grounded is None else grounded.literals_of(component)
-            if grounded is None or true is None:
                 self.stats["outside"] += 1
                 return None
             answer = grounded.solve(true, budget_ms)
@@ -285,26 +300,38 @@ class SlotSolver:
         self.stats["answered"] += 1
         return answer
 
-    def _extend(self, shape: Shape, component: Component,
-                facts: frozenset[Symbol]) -> _Grounded | None:
-        """Ground the shape anew with the component's classes and numbers added; None if they
-        exceed the bounds or its facts still lie outside the universe."""
-        classes = self.classes | {row[-3] for row in component.tracks}
-        classes |= {row[1] for row in component.dets}
-        numbers = self.numbers | {row[0] for row in component.dets}
-        numbers |= {row[2] for row in component.cand}
-        if len(classes) > self.max_classes or len(numbers) > self.max_numbers:
-            return None
-        universe = vocabulary(shape, classes, numbers, self.solver.uses)
-        if not facts <= universe:
-            return None
-        self.classes, self.numbers = classes, numbers
-        grounded = _Grounded(self.solver, universe)
+    def _values(self, component: Component) -> tuple[set[int], set[int]]:
+        """The classes and the numbers (confidences, likelihoods) of the component's facts."""
+        classes = {row[-3] for row in component.tracks} | {row[1] for row in component.dets}
+        numbers = {row[0] for row in component.dets} | {row[2] for row in component.cand}
+        return classes, numbers
+
+    def _brings_values(self, component: Component, grounded: _Grounded) -> bool:
+        """Whether the component has a class or number the shape was not ground with (and the
+        universe may grow by them)."""
+        classes, numbers = self._values(component)
+        if classes <= grounded.classes and numbers <= grounded.numbers:
+            return False
+        return (len(self.classes | classes) <= self.max_classes
+                and len(self.numbers | numbers) <= self.max_numbers)
+
+    def _ground(self, shape: Shape, component: Component) -> _Grounded:
+        """Ground the shape with the classes and numbers known, the component's added."""
+        t0 = time.perf_counter()
+        classes, numbers = self._values(component)
+        if len(self.classes | classes) <= self.max_classes:
+            self.classes |= classes
+        if len(self.numbers | numbers) <= self.max_numbers:
+            self.numbers |= numbers
+        universe = vocabulary(shape, self.classes, self.numbers, self.solver.uses)
+        grounded = _Grounded(self.solver, universe, frozenset(self.classes),
+                             frozenset(self.numbers))
         self._grounded[shape] = grounded
         self._grounded.move_to_end(shape)
         while len(self._grounded) > self.max_controls:
             self._grounded.popitem(last=False)
+        self._misses.pop(shape, None)
+        ms = (time.perf_counter() - t0) * 1000.0
         self.stats["grounded"] += 1
-        log.debug("ground shape %s: %d externals", shape, len(universe))
+        log.debug("ground shape %s: %d externals, %.1f ms", shape, len(universe), ms)
         return grounded
-
