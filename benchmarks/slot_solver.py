@@ -62,7 +62,8 @@ def main(argv: list[str] | None = None) -> int:
             for component in last:
                 which.solve(component)
             times[name] += (time.process_time() - t0) / (3 * len(last)) * 1e3
-    print(f"last block again: long-lived {times['long-lived']:.3f}, new {times['new']:.3f} ms/call")
+    print(f"last block again: long-lived {times['long-lived']:.3f}, "
+          f"new {times['new']:.3f} ms/call")
     t0 = time.process_time()
     sample = pool[: min(len(pool), 500)]
     for component in sample:

@@ -12,6 +12,13 @@ The universe comes from the fact vocabulary, never from the rules: it is the uni
 :meth:`Component.facts` writes for synthetic components of the shape. A component with a fact
 outside the universe (a larger shape, a class or number not seen yet, an optional predicate such
 as ``speed/2``) is not answered here (None): the caller solves it on a fresh Control.
+
+Measured on KITTI RRC car (misses of the answer cache, one process): a slot solve takes
+0.1-0.8 ms for 1x1 to 3x3 components where a fresh Control takes 2.5-5 ms; every answer had
+the fresh solve's cost and atoms. clasp forgets between solves, so an answer does not depend on
+the components solved before it; where several optima tie, it may differ from the fresh one's
+(1 of ~7,700 real components), and which of the two paths a component takes depends on the
+shapes met before it in the process.
 """
 
 from __future__ import annotations
@@ -30,14 +37,14 @@ from clingo.ast import ProgramBuilder
 from sensemaking.abduction.problem import TRACK_FLAGS, VISIBILITY_VALUES, Component
 from sensemaking.abduction.solver import AbductionSolver, Answer, _decode, _parsed, _quiet_logger
 
-__all__ = ["SlotSolver", "Shape", "shape_of"]
+__all__ = ["SlotSolver", "Shape", "shape_of", "vocabulary", "pieces", "piece_facts"]
 
 log = logging.getLogger(__name__)
 
 #: clasp forgets what one solve learnt before the next: an answer depends on its facts only,
 #: not on the components solved before it in the same Control
 _FORGET = "--forget-on-step=varScores,signs,lemmaScores,lemmas"
-_UNSEEN: tuple[int, ...] = (-1,)  # the memo's "not looked up yet" (no literal is -1 alone)
+_UNSEEN: tuple[int, ...] = (-1,)  # the memo's "not looked up yet", compared by identity
 #: bound of the memo of each shape's pieces (their literals); past it the memo starts afresh
 _MAX_PIECES = 20_000
 
