@@ -263,7 +263,8 @@ class Tracker:
             rules=[read_encoding(r) for r in extra], max_conflicts=c.max_conflicts)
         packaged = encoding is None and not extra
         decompose = packaged if c.decompose is None else c.decompose
-        self._solver = ComponentSolver(solver, decompose=decompose)
+        grid = self._quantize(np.linspace(0.0, 1.0, c.likelihood_levels + 1)).tolist()
+        self._solver = ComponentSolver(solver, decompose=decompose, numbers=grid)
         self.reset()
 
     def _quantize(self, x: np.ndarray, rounding=np.rint) -> np.ndarray:

@@ -1,6 +1,6 @@
 """A frame's abduction, component by component, with clingo's answers remembered.
 
-Three shortcuts, each forced by the structure of the problem rather than by any rule:
+Four shortcuts, each forced by the structure of the problem rather than by any rule:
 
 * **Independent components** are solved apart from each other's answers
   (:meth:`FrameProblem.components` gives the argument: no rule of ``tracking.lp`` joins atoms of
@@ -10,7 +10,11 @@ Three shortcuts, each forced by the structure of the problem rather than by any 
   canonical facts (:class:`~sensemaking.abduction.problem.Component`). Answers cut short by the
   wall-clock budget are not remembered (they depend on machine load); answers cut short by the
   deterministic conflict budget are (they do not).
-* **The components not in the cache are solved together**, in one program on one fresh
+* **A small component not in the cache** is answered by a ``Control`` ground once for its shape
+  (:class:`~sensemaking.abduction.slots.SlotSolver`): the facts are externals, and the ground
+  program with them fixed is the program of those facts, so the optimum and its cost are a fresh
+  solve's; where optima tie, the one chosen may differ (1 in ~7,700 real components).
+* **The other components not in the cache are solved together**, in one program on one fresh
   ``Control``: the grounder's fixed cost (~1.6 ms per ``Control``, whatever the facts) is paid
   once a frame. Their atoms are told apart by their numbers (each component gets its own range).
   An optimal answer of that program is optimal for each component at every priority, since each
@@ -21,14 +25,23 @@ Three shortcuts, each forced by the structure of the problem rather than by any 
 
 from __future__ import annotations
 
+import threading
 import time
 from bisect import bisect_right
 from collections import OrderedDict
+from collections.abc import Iterable
 
 from sensemaking.abduction.problem import Component, FrameProblem
+from sensemaking.abduction.slots import SlotSolver
 from sensemaking.abduction.solver import AbductionSolver, Answer, Det, Ref
 
 __all__ = ["ComponentSolver"]
+
+#: per (program, options): the Controls ground once for small components, shared by the
+#: process's trackers (grounding a shape costs far more than a solve; answers do not depend on
+#: what was solved before, as clasp forgets between solves)
+_SLOTS: dict[tuple[str, tuple[str, ...]], SlotSolver] = {}
+_LOCK = threading.Lock()
 
 
 class ComponentSolver:
@@ -40,14 +53,25 @@ class ComponentSolver:
             program (False; for encodings whose rules may relate unconnected objects).
         cache_size: components remembered (least recently used first out); 0 disables the
             cache. Memory stays bounded on runs of any length.
+        slots: answer small components missing from the cache with Controls ground once
+            (:class:`~sensemaking.abduction.slots.SlotSolver`) instead of a fresh Control.
+        numbers: the likelihoods and confidences (0..1000) the facts take, e.g. the tracker's
+            likelihood grid: ground into the slots up front (others are learnt as they come).
     """
 
-    def __init__(self, solver: AbductionSolver, decompose: bool = True, cache_size: int = 20_000):
+    def __init__(self, solver: AbductionSolver, decompose: bool = True, cache_size: int = 20_000,
+                 slots: bool = True, numbers: Iterable[int] = ()):
         self.solver = solver
         self.decompose = decompose
         self.cache_size = cache_size
         self._cache: OrderedDict[Component, Answer] = OrderedDict()
-        self.stats = {"components": 0, "cache_hits": 0, "solver_calls": 0}
+        self._slots: SlotSolver | None = None
+        if slots:
+            with _LOCK:
+                key = (solver.program, tuple(solver.options))
+                self._slots = _SLOTS.setdefault(key, SlotSolver(solver))
+                self._slots.expect(numbers)
+        self.stats = {"components": 0, "cache_hits": 0, "solver_calls": 0, "slot_calls": 0}
 
     def reset(self) -> None:
         """Forget the remembered answers (a new sequence)."""
@@ -68,20 +92,34 @@ class ComponentSolver:
             self._cache.move_to_end(component)
             self.stats["cache_hits"] += 1
             answer.merge(local.mapped(track_ids, det_rows))
+        if missed and self._slots is not None:
+            for component in list(missed):
+                remaining = None if budget_ms is None else budget_ms - (time.perf_counter() - t0) * 1e3
+                local = self._slots.solve(component, remaining)
+                if local is None:
+                    continue  # not a shape the slots take (yet): solved with the rest below
+                self.stats["slot_calls"] += 1
+                self._remember(component, local)
+                for track_ids, det_rows in missed.pop(component):
+                    answer.merge(local.mapped(track_ids, det_rows))
         if missed:
-            solved = self._solve_together(list(missed), budget_ms)
+            remaining = None if budget_ms is None else budget_ms - (time.perf_counter() - t0) * 1e3
+            solved = self._solve_together(list(missed), remaining)
             if solved is None:
                 return None
-            for (component, uses), local in zip(missed.items(), solved):
-                if not local.timed_out and self.cache_size > 0:
-                    self._cache[component] = local
-                    while len(self._cache) > self.cache_size:
-                        self._cache.popitem(last=False)
+            for (component, uses), local in zip(missed.items(), solved, strict=True):
+                self._remember(component, local)
                 for track_ids, det_rows in uses:
                     answer.merge(local.mapped(track_ids, det_rows))
         self.stats["components"] += len(parts)
         answer.solve_ms = (time.perf_counter() - t0) * 1e3
         return answer
+
+    def _remember(self, component: Component, local: Answer) -> None:
+        if not local.timed_out and self.cache_size > 0:
+            self._cache[component] = local
+            while len(self._cache) > self.cache_size:
+                self._cache.popitem(last=False)
 
     def _solve_together(self, components: list[Component], budget_ms: float | None) -> list[Answer] | None:
         """Each component's answer (in its own numbering), from one program for all of them."""
