@@ -349,6 +349,8 @@ def _document_params(doc: Any, where: str) -> dict[str, Any]:
     for key, value in _flatten(params, where).items():
         if key in _NESTED:
             raise ParameterError(f"{key}: expected a table of {key}.NAME values, got {value!r}", where)
+        if key not in PARAMETERS:
+            raise ParameterError(f"params: unknown parameter {key!r}{_suggest(key)}", where)
         if isinstance(value, list) and key in PARAMETERS and PARAMETERS[key].kind == "size":
             value = tuple(value)
         try:

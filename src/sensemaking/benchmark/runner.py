@@ -210,6 +210,8 @@ class RunSummary:
     total_seconds: float = 0.0
     machine: dict[str, Any] = field(default_factory=dict)
     peer_defaults: dict[str, dict[str, Any]] = field(default_factory=dict)
+    #: leave-one-video-out cross-validation of our parameters, one per family (may be empty)
+    crossval: list[Any] = field(default_factory=list)
 
     @property
     def errors(self) -> list[str]:
@@ -223,6 +225,7 @@ class RunSummary:
             "select_by": SELECT_BY, "machine": self.machine, "peer_defaults": self.peer_defaults,
             "skipped": self.skipped,
             "errors": self.errors, "benchmarks": [b.to_json() for b in self.benchmarks],
+            "crossval": [cv.to_json() for cv in self.crossval],
         }
 
 
@@ -550,9 +553,25 @@ def _run_one(spec: BenchmarkSpec, sources: list[Any], skipped: list[str] | None,
     return result, lines
 
 
+def _cross_validate(found: Any, out_dir: Path, say: Progress) -> list[Any]:
+    """Cross-validation of every family found (benchmarks loaded again: workers do not return
+    them)."""
+    from sensemaking.benchmark.crossval import cross_validate, family_of
+
+    families: dict[str, list[Benchmark]] = {}
+    for spec, sources in found.found:
+        families.setdefault(family_of(spec), []).append(load_benchmark(spec, sources, found.skipped.get(spec.name)))
+    out = []
+    for family, benches in families.items():
+        say(f"[crossval {family}] {len(benches)} benchmarks: leave one video out over a grid")
+        out.append(cross_validate(benches, out_dir, progress=say))
+    return out
+
+
 def run(data: str | Path | None = None, output: str | Path = "out/benchmark",
         only: Iterable[str] | None = None, trackers: Iterable[str] | str | None = None,
-        progress: Progress | None = None, command: str = "", jobs: int = 1, repeat: int = 1) -> RunSummary:
+        progress: Progress | None = None, command: str = "", jobs: int = 1, repeat: int = 1,
+        crossval: bool = True) -> RunSummary:
     """Discover, track, write, evaluate: the whole benchmark in one call.
 
     Args:
@@ -567,6 +586,8 @@ def run(data: str | Path | None = None, output: str | Path = "out/benchmark",
             ours compare like with like; with more jobs than idle cores the absolute times grow.
         repeat: runs of every tracker on every sequence; the fastest one's times count (the
             results are the same in every run). Trackers alternate sequence by sequence.
+        crossval: also cross-validate our parameters (leave one video out within each family,
+            :mod:`~sensemaking.benchmark.crossval`) when ``ours`` is among the trackers.
     """
     start = time.perf_counter()
     say = progress or (lambda msg: None)
@@ -617,6 +638,8 @@ def run(data: str | Path | None = None, output: str | Path = "out/benchmark",
                     say(line)
                 results[futures[fut].name] = bench_run
         summary.benchmarks = [results[spec.name] for spec, _ in found.found]
+    if crossval and "ours" in chosen:
+        summary.crossval = _cross_validate(found, out_dir, say)
     summary.total_seconds = time.perf_counter() - start
     summary.machine["load_average_end"] = _load_average()
     say(f"total {summary.total_seconds:.1f} s")
