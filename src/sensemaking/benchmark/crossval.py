@@ -96,6 +96,7 @@ class FamilyCV:
         sequences: benchmark -> its sequences.
         folds: fold (video) keys, sorted.
         choice: fold -> index of the grid point chosen without it.
+        fold_objective: fold -> per grid point, the training objective without that fold.
         objective_all: per grid point, the training objective on every sequence (mean HOTA over
             the family's benchmarks, fractions).
         in_sample: index of the grid point with the best objective on every sequence.
@@ -114,6 +115,7 @@ class FamilyCV:
     sequences: dict[str, list[str]]
     folds: list[str]
     choice: dict[str, int] = field(default_factory=dict)
+    fold_objective: dict[str, list[float]] = field(default_factory=dict)
     objective_all: list[float] = field(default_factory=list)
     in_sample: int = 0
     recommended: int = 0
@@ -141,7 +143,7 @@ class FamilyCV:
         return {
             "family": self.family, "grid": self.grid, "points": self.points,
             "benchmarks": self.benchmarks, "sequences": self.sequences, "folds": self.folds,
-            "choice": self.choice, "objective_all": self.objective_all, "in_sample": self.in_sample,
+            "choice": self.choice, "fold_objective": self.fold_objective, "objective_all": self.objective_all, "in_sample": self.in_sample,
             "recommended": self.recommended, "preset": self.preset, "heldout": self.heldout,
             "insample": self.insample, "preset_metrics": self.preset_metrics,
             "per_sequence": self.per_sequence, "seconds": self.seconds,
@@ -210,6 +212,8 @@ def cross_validate(benches: SequenceABC[Benchmark], output_dir: Path,
                   sequences={b.spec.name: [s.name for s in b.sequences] for b in benches}, folds=[])
     fold_of = {(b.spec.name, s.name): fold_key(b.spec, s.name) for b in benches for s in b.sequences}
     cv.folds = sorted(set(fold_of.values()))
+    if len(cv.folds) < 2:
+        raise ValueError(f"cross-validation needs two videos or more, got {cv.folds}")
     cv.preset = _preset_index(family, points)
     gts = {b.spec.name: {s.name: _read_gt(b.spec, s.gt_path) for s in b.sequences} for b in benches}
     frames = {(b.spec.name, s.name): dict(s.detections.frames()) for b in benches for s in b.sequences}
@@ -240,6 +244,7 @@ def cross_validate(benches: SequenceABC[Benchmark], output_dir: Path,
         train = {b.spec.name: [s.name for s in b.sequences if fold_of[(b.spec.name, s.name)] != fold]
                  for b in benches}
         objective = [_score(scores[i], train) for i in range(len(points))]
+        cv.fold_objective[fold] = objective
         cv.choice[fold] = int(np.nanargmax(objective))
     counts = Counter(cv.choice.values())
     cv.recommended = max(counts, key=lambda i: (counts[i], cv.objective_all[i]))

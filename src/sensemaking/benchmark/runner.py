@@ -556,13 +556,17 @@ def _run_one(spec: BenchmarkSpec, sources: list[Any], skipped: list[str] | None,
 def _cross_validate(found: Any, out_dir: Path, say: Progress) -> list[Any]:
     """Cross-validation of every family found (benchmarks loaded again: workers do not return
     them)."""
-    from sensemaking.benchmark.crossval import cross_validate, family_of
+    from sensemaking.benchmark.crossval import cross_validate, family_of, fold_key
 
     families: dict[str, list[Benchmark]] = {}
     for spec, sources in found.found:
         families.setdefault(family_of(spec), []).append(load_benchmark(spec, sources, found.skipped.get(spec.name)))
     out = []
     for family, benches in families.items():
+        folds = {fold_key(b.spec, s.name) for b in benches for s in b.sequences}
+        if len(folds) < 2:
+            say(f"[crossval {family}] skipped: one video only, nothing to hold out")
+            continue
         say(f"[crossval {family}] {len(benches)} benchmarks: leave one video out over a grid")
         out.append(cross_validate(benches, out_dir, progress=say))
     return out
