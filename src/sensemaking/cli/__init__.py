@@ -17,7 +17,7 @@ from sensemaking import __version__
 from sensemaking.errors import SensemakingError
 
 #: verb modules, in the order ``--help`` lists them
-VERBS = ("track", "demo", "evaluate", "benchmark", "ask", "explain", "render", "report")
+VERBS = ("track", "demo", "evaluate", "benchmark", "calibrate", "ask", "explain", "render", "report")
 
 
 def build_parser() -> argparse.ArgumentParser:
