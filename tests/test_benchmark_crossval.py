@@ -76,3 +76,34 @@ def test_one_video_is_not_cross_validated(tmp_path: Path) -> None:
         pytest.skip("needs ../shared/data/kitti")
     with pytest.raises(ValueError, match="two videos or more"):
         crossval.cross_validate([_bench(["0000"])], tmp_path, grid={"min_hits": (1, 2)})
+
+
+def test_reports_show_the_crossval_headline(tmp_path: Path) -> None:
+    from sensemaking.benchmark import report, runner
+
+    points = crossval.grid_points({"start_confidence": (0.5, 0.8), "min_hits": (1, 3)})
+    cv = crossval.FamilyCV(family="kitti", grid={"start_confidence": [0.5, 0.8], "min_hits": [1, 3]},
+                           points=points, benchmarks=["kitti-rrc-car"], sequences={"kitti-rrc-car": ["0000", "0001"]},
+                           folds=["KITTI-0000", "KITTI-0001"], choice={"KITTI-0000": 1, "KITTI-0001": 3},
+                           fold_regret={"KITTI-0000": [0.1, 0.0, 0.2, 0.3], "KITTI-0001": [0.1, 0.2, 0.2, 0.0]},
+                           mean_choice={"KITTI-0000": 1, "KITTI-0001": 1}, objective_all=[0.5, 0.7, 0.6, 0.65],
+                           in_sample=1, recommended=1, preset=3)
+    m = {"HOTA": 0.70, "MOTA": 0.8, "IDF1": 0.75, "IDSW": 4}
+    cv.heldout["kitti-rrc-car"] = {**m, "HOTA": 0.68}
+    cv.mean_heldout["kitti-rrc-car"] = {**m, "HOTA": 0.67}
+    cv.insample["kitti-rrc-car"] = m
+    cv.preset_metrics["kitti-rrc-car"] = {**m, "HOTA": 0.69}
+    cv.per_sequence["kitti-rrc-car"] = {"0000": {"fold": "KITTI-0000", "choice": 1, "cv": 0.7, "in_sample": 0.7},
+                                        "0001": {"fold": "KITTI-0001", "choice": 3, "cv": 0.6, "in_sample": 0.65}}
+    summary = runner.RunSummary(benchmarks=[], skipped=[], trackers=["ours"], data_root="d", output_dir="o",
+                                command="sensemaking benchmark", started="now", crossval=[cv])
+    md = report.render_markdown(summary)
+    head = md.index("## Headline: cross-validated")
+    assert head < md.index("## How to read the tables")
+    row = next(line for line in md.splitlines() if line.startswith("| kitti-rrc-car | 68.0"))
+    assert "| 70.0 / 80.0 / 75.0 / 4 |" in row and "-2.0 **✗**" in row and "-5.0 … +0.0" in row
+    params = report.render_parameters(summary)
+    assert "## Cross-validation" in params and "| KITTI-0001 | 0.8 | 3 | 0.0 |" in params
+    assert "`costs.resumes`" in params and "## Presets" in params
+    data = report.summary_json(summary)
+    assert data["crossval"][0]["choice"] == {"KITTI-0000": 1, "KITTI-0001": 3}

@@ -13,7 +13,10 @@ threshold our tracker needs to start a track (``prefilter``). Our tracker runs o
 and writes two results from that pass: the tracks matched to a detection in each frame
 (``visible``), and those plus the hidden / missing tracks at their predicted boxes
 (``predicted``). For every tracker the report shows the better variant by HOTA and says which one
-it is; every variant is in the JSON.
+it is; every variant is in the JSON. boxmot's peers run once, at their defaults only.
+
+After the tracking passes, our parameters are cross-validated within each family
+(:mod:`~sensemaking.benchmark.crossval`): the report's headline.
 """
 
 from __future__ import annotations
