@@ -10,8 +10,9 @@ import pytest
 from sensemaking.benchmark import peers
 from sensemaking.detections import Detections
 
-pytestmark = pytest.mark.skipif(importlib.util.find_spec("boxmot") is None,
-                                reason="needs the 'benchmark' extra (boxmot)")
+pytestmark = pytest.mark.skipif(
+    importlib.util.find_spec("boxmot") is None, reason="needs the 'benchmark' extra (boxmot)"
+)
 
 
 def _frames(n: int = 12) -> list[Detections]:
@@ -23,8 +24,15 @@ def _frames(n: int = 12) -> list[Detections]:
         if f % 2:
             boxes.append([900, 40, 930, 80])
             scores.append(0.2)
-        out.append(Detections(xyxy=np.array(boxes, float), confidence=scores, class_id=1, frame=f,
-                              source_row=np.arange(len(boxes)) + 10 * f))
+        out.append(
+            Detections(
+                xyxy=np.array(boxes, float),
+                confidence=scores,
+                class_id=1,
+                frame=f,
+                source_row=np.arange(len(boxes)) + 10 * f,
+            )
+        )
     return out
 
 
@@ -40,7 +48,9 @@ def test_boxmot_peer_keeps_ids_and_reports_input_rows(key: str) -> None:
     assert isinstance(adapter, peers.BoxmotAdapter) and adapter._img.shape == (375, 1242, 3)
     outs = _run(adapter, frames)
     late = outs[-1]
-    assert len(late) == 2 and (late.tracker_id >= 1).all() and len(set(late.tracker_id.tolist())) == 2
+    assert (
+        len(late) == 2 and (late.tracker_id >= 1).all() and len(set(late.tracker_id.tolist())) == 2
+    )
     ids_late = {tuple(b): t for b, t in zip(late.xyxy.round(1).tolist(), late.tracker_id.tolist())}
     assert all(tuple(b) in {tuple(x) for x in frames[-1].xyxy.tolist()} for b in ids_late)
     # the same two ids over the last four frames: identities are kept
@@ -58,4 +68,6 @@ def test_boxmot_defaults_name_what_is_switched_off() -> None:
     d = peers.peer_defaults("boxmot-botsort")
     assert d["use_embeddings"] is False and d["use_cmc"] is False and "track_high_thresh" in d
     assert set(peers.BOXMOT_LEFT_OUT) == {"strongsort", "occluboost", "sam2mot"}
-    assert set(peers.BOXMOT_PEERS) <= set(peers.TRACKER_NAMES) and set(peers.BOXMOT_PEERS) <= set(peers.PEERS)
+    assert set(peers.BOXMOT_PEERS) <= set(peers.TRACKER_NAMES) and set(peers.BOXMOT_PEERS) <= set(
+        peers.PEERS
+    )

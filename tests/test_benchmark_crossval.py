@@ -16,12 +16,18 @@ DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 
 def test_folds_are_videos() -> None:
     specs = {s.name: s for s in datasets.SPECS}
-    assert crossval.fold_key(specs["kitti-rrc-car"], "0003") == crossval.fold_key(
-        specs["kitti-pointrcnn-pedestrian"], "0003") == "KITTI-0003"
+    assert (
+        crossval.fold_key(specs["kitti-rrc-car"], "0003")
+        == crossval.fold_key(specs["kitti-pointrcnn-pedestrian"], "0003")
+        == "KITTI-0003"
+    )
     assert crossval.fold_key(specs["mot17-yolox-halfval"], "MOT17-05-YOLOX-half") == "MOT17-05"
     assert crossval.fold_key(specs["mot17-frcnn"], "MOT17-05-FRCNN") == "MOT17-05"
     assert crossval.fold_key(specs["mot15"], "TUD-Campus") == "TUD-Campus"
-    assert crossval.family_of(specs["mot15"]) == "mot" and crossval.family_of(specs["kitti-rrc-car"]) == "kitti"
+    assert (
+        crossval.family_of(specs["mot15"]) == "mot"
+        and crossval.family_of(specs["kitti-rrc-car"]) == "kitti"
+    )
 
 
 def test_grid_is_small_and_holds_the_presets() -> None:
@@ -35,7 +41,7 @@ def test_grid_is_small_and_holds_the_presets() -> None:
 
 def _bench(names: list[str]) -> datasets.Benchmark:
     found = datasets.discover(DATA, only=["kitti-rrc-pedestrian"])
-    (spec, sources), = found.found
+    ((spec, sources),) = found.found
     return datasets.load_benchmark(spec, [s for s in sources if s.name in names])
 
 
@@ -52,9 +58,13 @@ def test_a_fold_never_sees_its_own_video(tmp_path: Path) -> None:
         assert regret[cv.choice[fold]] == min(regret)  # least worst regret over training videos
     assert cv.in_sample == int(np.argmax(cv.objective_all))
     # wreck sequence 0002 (no detections at all): the choice made without it cannot change
-    wrecked = [s if s.name != "0002" else dataclasses.replace(s, detections=s.detections[:0])
-               for s in bench.sequences]
-    cv2 = crossval.cross_validate([dataclasses.replace(bench, sequences=wrecked)], tmp_path / "b", grid=grid)
+    wrecked = [
+        s if s.name != "0002" else dataclasses.replace(s, detections=s.detections[:0])
+        for s in bench.sequences
+    ]
+    cv2 = crossval.cross_validate(
+        [dataclasses.replace(bench, sequences=wrecked)], tmp_path / "b", grid=grid
+    )
     assert cv2.fold_objective["KITTI-0002"] == cv.fold_objective["KITTI-0002"]
     assert cv2.fold_regret["KITTI-0002"] == cv.fold_regret["KITTI-0002"]
     assert cv2.choice["KITTI-0002"] == cv.choice["KITTI-0002"]
@@ -82,21 +92,40 @@ def test_reports_show_the_crossval_headline(tmp_path: Path) -> None:
     from sensemaking.benchmark import report, runner
 
     points = crossval.grid_points({"start_confidence": (0.5, 0.8), "min_hits": (1, 3)})
-    cv = crossval.FamilyCV(family="kitti", grid={"start_confidence": [0.5, 0.8], "min_hits": [1, 3]},
-                           points=points, benchmarks=["kitti-rrc-car"], sequences={"kitti-rrc-car": ["0000", "0001"]},
-                           folds=["KITTI-0000", "KITTI-0001"], choice={"KITTI-0000": 1, "KITTI-0001": 3},
-                           fold_regret={"KITTI-0000": [0.1, 0.0, 0.2, 0.3], "KITTI-0001": [0.1, 0.2, 0.2, 0.0]},
-                           mean_choice={"KITTI-0000": 1, "KITTI-0001": 1}, objective_all=[0.5, 0.7, 0.6, 0.65],
-                           in_sample=1, recommended=1, preset=3)
+    cv = crossval.FamilyCV(
+        family="kitti",
+        grid={"start_confidence": [0.5, 0.8], "min_hits": [1, 3]},
+        points=points,
+        benchmarks=["kitti-rrc-car"],
+        sequences={"kitti-rrc-car": ["0000", "0001"]},
+        folds=["KITTI-0000", "KITTI-0001"],
+        choice={"KITTI-0000": 1, "KITTI-0001": 3},
+        fold_regret={"KITTI-0000": [0.1, 0.0, 0.2, 0.3], "KITTI-0001": [0.1, 0.2, 0.2, 0.0]},
+        mean_choice={"KITTI-0000": 1, "KITTI-0001": 1},
+        objective_all=[0.5, 0.7, 0.6, 0.65],
+        in_sample=1,
+        recommended=1,
+        preset=3,
+    )
     m = {"HOTA": 0.70, "MOTA": 0.8, "IDF1": 0.75, "IDSW": 4}
     cv.heldout["kitti-rrc-car"] = {**m, "HOTA": 0.68}
     cv.mean_heldout["kitti-rrc-car"] = {**m, "HOTA": 0.67}
     cv.insample["kitti-rrc-car"] = m
     cv.preset_metrics["kitti-rrc-car"] = {**m, "HOTA": 0.69}
-    cv.per_sequence["kitti-rrc-car"] = {"0000": {"fold": "KITTI-0000", "choice": 1, "cv": 0.7, "in_sample": 0.7},
-                                        "0001": {"fold": "KITTI-0001", "choice": 3, "cv": 0.6, "in_sample": 0.65}}
-    summary = runner.RunSummary(benchmarks=[], skipped=[], trackers=["ours"], data_root="d", output_dir="o",
-                                command="sensemaking benchmark", started="now", crossval=[cv])
+    cv.per_sequence["kitti-rrc-car"] = {
+        "0000": {"fold": "KITTI-0000", "choice": 1, "cv": 0.7, "in_sample": 0.7},
+        "0001": {"fold": "KITTI-0001", "choice": 3, "cv": 0.6, "in_sample": 0.65},
+    }
+    summary = runner.RunSummary(
+        benchmarks=[],
+        skipped=[],
+        trackers=["ours"],
+        data_root="d",
+        output_dir="o",
+        command="sensemaking benchmark",
+        started="now",
+        crossval=[cv],
+    )
     md = report.render_markdown(summary)
     head = md.index("## Headline: cross-validated")
     assert head < md.index("## How to read the tables")

@@ -1,4 +1,4 @@
-"""`sensemaking track` as a user runs it gives the benchmark runner's number (needs ../shared/data).
+"""`sensemaking track` as a user runs it gives the benchmark runner's number (../shared/data).
 
 One loading path: a PointRCNN file (15 columns) is mapped from logits to probabilities by
 ``read_detections`` for both; the parameters are the family preset for both.
@@ -18,26 +18,49 @@ from sensemaking.io.kitti import read_kitti_detections
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 
-pytestmark = [pytest.mark.integration,
-              pytest.mark.skipif(not DATA.is_dir(), reason="needs ../shared/data")]
+pytestmark = [
+    pytest.mark.integration,
+    pytest.mark.skipif(not DATA.is_dir(), reason="needs ../shared/data"),
+]
 
 
-@pytest.mark.parametrize("bench_name, sequence, fmt, gt_arg, extra", [
-    ("kitti-pointrcnn-car", "0001", "kitti", "kitti/training/label_02/0001.txt",
-     ["--benchmark", "kitti", "--classes", "car"]),
-    ("kitti-rrc-pedestrian", "0004", "kitti", "kitti/training/label_02/0004.txt",
-     ["--benchmark", "kitti", "--classes", "pedestrian"]),
-    ("mot15", "TUD-Campus", "mot", "mot15/TUD-Campus/gt/gt.txt", ["--benchmark", "mot15"]),
-    ("mot17-yolox-halfval", "MOT17-05-YOLOX-half", "mot", "mot17/MOT17-05-YOLOX-half/gt/gt.txt",
-     ["--benchmark", "mot17"]),
-])
-def test_track_then_evaluate_equals_the_runner(tmp_path: Path, bench_name: str, sequence: str, fmt: str,
-                                               gt_arg: str, extra: list[str]) -> None:
+@pytest.mark.parametrize(
+    "bench_name, sequence, fmt, gt_arg, extra",
+    [
+        (
+            "kitti-pointrcnn-car",
+            "0001",
+            "kitti",
+            "kitti/training/label_02/0001.txt",
+            ["--benchmark", "kitti", "--classes", "car"],
+        ),
+        (
+            "kitti-rrc-pedestrian",
+            "0004",
+            "kitti",
+            "kitti/training/label_02/0004.txt",
+            ["--benchmark", "kitti", "--classes", "pedestrian"],
+        ),
+        ("mot15", "TUD-Campus", "mot", "mot15/TUD-Campus/gt/gt.txt", ["--benchmark", "mot15"]),
+        (
+            "mot17-yolox-halfval",
+            "MOT17-05-YOLOX-half",
+            "mot",
+            "mot17/MOT17-05-YOLOX-half/gt/gt.txt",
+            ["--benchmark", "mot17"],
+        ),
+    ],
+)
+def test_track_then_evaluate_equals_the_runner(
+    tmp_path: Path, bench_name: str, sequence: str, fmt: str, gt_arg: str, extra: list[str]
+) -> None:
     found = datasets.discover(DATA, only=[bench_name])
-    (spec, sources), = found.found
+    ((spec, sources),) = found.found
     bench = datasets.load_benchmark(spec, [s for s in sources if s.name == sequence])
     result = runner.run_benchmark(bench, ["ours"], tmp_path / "runner")
-    expected = next(r for r in result.runs["ours"] if r.variant == "visible").per_sequence[sequence]
+    expected = next(r for r in result.runs["ours"] if r.variant == "visible").per_sequence[
+        sequence
+    ]
 
     seq = bench.sequences[0]
     if spec.logit_scores:  # the file holds logits; every tracker sees probabilities
@@ -45,13 +68,38 @@ def test_track_then_evaluate_equals_the_runner(tmp_path: Path, bench_name: str, 
         assert (raw.confidence < 0).any()
         np.testing.assert_allclose(seq.detections.confidence, 1 / (1 + np.exp(-raw.confidence)))
     out = tmp_path / "track" / f"{sequence}.txt"
-    args = ["-q", "track", "--detections", str(seq.det_path), "--format", fmt, "--output", str(out)]
+    args = [
+        "-q",
+        "track",
+        "--detections",
+        str(seq.det_path),
+        "--format",
+        fmt,
+        "--output",
+        str(out),
+    ]
     if fmt == "kitti" and spec.detector == "rrc":
         args += ["--class", str(spec.class_name)]
     assert main(args) == 0
     scores = tmp_path / "scores.json"
-    assert main(["-q", "evaluate", "--gt", str(DATA / gt_arg), "--results", str(out), "--format", fmt,
-                 "--json", str(scores), *extra]) == 0
+    assert (
+        main(
+            [
+                "-q",
+                "evaluate",
+                "--gt",
+                str(DATA / gt_arg),
+                "--results",
+                str(out),
+                "--format",
+                fmt,
+                "--json",
+                str(scores),
+                *extra,
+            ]
+        )
+        == 0
+    )
     got = _find_hota(json.loads(scores.read_text()), sequence)
     assert got is not None
     assert got == pytest.approx(expected["HOTA"], abs=1e-12)

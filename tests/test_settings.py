@@ -42,19 +42,22 @@ def test_every_parameter_has_a_row_and_every_row_a_parameter() -> None:
     assert "perfect IoU match" in table and "frames / s" in table
 
 
-@pytest.mark.parametrize("changes, message", [
-    ({"min_hits": 1.5}, "min_hits must be an integer"),
-    ({"min_hits": 0}, "min_hits must be in"),
-    ({"max_hidden_s": -1}, "max_hidden_s must be in"),
-    ({"fps": 0}, "fps must be in"),
-    ({"fps": float("nan")}, "fps must be a finite number"),
-    ({"abduction": "false"}, "abduction must be true or false"),
-    ({"iou_assign": 1.5}, "iou_assign must be in"),
-    ({"max_solve_ms": -1.0}, "max_solve_ms must be in"),
-    ({"keep_cover": 0.9}, "keep_cover (0.9) must not exceed hide_cover"),
-    ({"image_size": (0, 375)}, "image_size must be in"),
-    ({"start_confidence": float("inf")}, "start_confidence must be a finite number"),
-])
+@pytest.mark.parametrize(
+    "changes, message",
+    [
+        ({"min_hits": 1.5}, "min_hits must be an integer"),
+        ({"min_hits": 0}, "min_hits must be in"),
+        ({"max_hidden_s": -1}, "max_hidden_s must be in"),
+        ({"fps": 0}, "fps must be in"),
+        ({"fps": float("nan")}, "fps must be a finite number"),
+        ({"abduction": "false"}, "abduction must be true or false"),
+        ({"iou_assign": 1.5}, "iou_assign must be in"),
+        ({"max_solve_ms": -1.0}, "max_solve_ms must be in"),
+        ({"keep_cover": 0.9}, "keep_cover (0.9) must not exceed hide_cover"),
+        ({"image_size": (0, 375)}, "image_size must be in"),
+        ({"start_confidence": float("inf")}, "start_confidence must be a finite number"),
+    ],
+)
 def test_config_validation_names_the_parameter(changes: dict, message: str) -> None:
     with pytest.raises(ParameterError) as err:
         TrackerConfig(**changes)
@@ -69,27 +72,39 @@ def test_nested_values_are_validated_through_the_config() -> None:
         TrackerConfig(costs=costs)
 
 
-@pytest.mark.parametrize("key, text, value", [
-    ("abduction", "False", False), ("abduction", "false", False), ("abduction", "TRUE", True),
-    ("min_hits", "2", 2), ("max_hidden_s", "1.5", 1.5), ("confirm_confidence", "null", None),
-    ("image_size", "640x480", (640, 480)), ("costs.resumes", "200", 200),
-    ("kalman.velocity_std", "0.1", 0.1), ("max_solve_ms", "none", None),
-])
+@pytest.mark.parametrize(
+    "key, text, value",
+    [
+        ("abduction", "False", False),
+        ("abduction", "false", False),
+        ("abduction", "TRUE", True),
+        ("min_hits", "2", 2),
+        ("max_hidden_s", "1.5", 1.5),
+        ("confirm_confidence", "null", None),
+        ("image_size", "640x480", (640, 480)),
+        ("costs.resumes", "200", 200),
+        ("kalman.velocity_std", "0.1", 0.1),
+        ("max_solve_ms", "none", None),
+    ],
+)
 def test_set_values_are_typed(key: str, text: str, value) -> None:
     assert settings.parse_value(key, text) == value
 
 
-@pytest.mark.parametrize("key, text, message", [
-    ("min_hits", "1.5", "min_hits must be an integer"),
-    ("max_hidden_s", "-1", "max_hidden_s must be in [0, 3600]"),
-    ("fps", "0", "fps must be in (0, 1000]"),
-    ("fps", "nan", "fps must be a finite number"),
-    ("abduction", "maybe", "abduction must be true or false"),
-    ("max_hidden_s", "abc", "max_hidden_s must be a number"),
-    ("costs.resume", "1", "unknown parameter 'costs.resume' (did you mean 'costs.resumes'?)"),
-    ("kalman.xxx", "1", "unknown parameter 'kalman.xxx'"),
-    ("min_hits", "null", "min_hits must be an integer"),
-])
+@pytest.mark.parametrize(
+    "key, text, message",
+    [
+        ("min_hits", "1.5", "min_hits must be an integer"),
+        ("max_hidden_s", "-1", "max_hidden_s must be in [0, 3600]"),
+        ("fps", "0", "fps must be in (0, 1000]"),
+        ("fps", "nan", "fps must be a finite number"),
+        ("abduction", "maybe", "abduction must be true or false"),
+        ("max_hidden_s", "abc", "max_hidden_s must be a number"),
+        ("costs.resume", "1", "unknown parameter 'costs.resume' (did you mean 'costs.resumes'?)"),
+        ("kalman.xxx", "1", "unknown parameter 'kalman.xxx'"),
+        ("min_hits", "null", "min_hits must be an integer"),
+    ],
+)
 def test_bad_set_values_are_errors(key: str, text: str, message: str) -> None:
     with pytest.raises(ParameterError) as err:
         settings.parse_value(key, text)
@@ -98,10 +113,18 @@ def test_bad_set_values_are_errors(key: str, text: str, message: str) -> None:
 
 def test_layers_preset_file_facts_then_set(tmp_path: Path) -> None:
     path = tmp_path / "p.json"
-    path.write_text(json.dumps({"format": settings.FORMAT, "source": "test",
-                                "params": {"min_hits": 1, "costs": {"appears": 300},
-                                           "kalman.velocity_std": 0.05}}))
-    config = settings.load_config(path, "kitti", {"fps": 25.0}, ["costs.resumes=150", "min_hits=4"])
+    path.write_text(
+        json.dumps(
+            {
+                "format": settings.FORMAT,
+                "source": "test",
+                "params": {"min_hits": 1, "costs": {"appears": 300}, "kalman.velocity_std": 0.05},
+            }
+        )
+    )
+    config = settings.load_config(
+        path, "kitti", {"fps": 25.0}, ["costs.resumes=150", "min_hits=4"]
+    )
     assert config.start_confidence == 0.8  # from the kitti preset
     assert config.costs.appears == 300 and config.kalman.velocity_std == 0.05  # from the file
     assert config.fps == 25.0  # a fact of the input
@@ -120,19 +143,22 @@ def test_toml_files_are_read(tmp_path: Path) -> None:
     assert (config.min_hits, config.costs.resumes, config.start_confidence) == (2, 120, 0.8)
 
 
-@pytest.mark.parametrize("doc, message", [
-    ({"params": {"min_hit": 3}}, "unknown parameter 'min_hit'"),
-    ({"params": {"costs": {"resume": 3}}}, "unknown parameter 'costs.resume'"),
-    ({"params": {"min_hits": 1.5}}, "params.min_hits must be an integer"),
-    ({"params": {"max_hidden_s": "3s"}}, "params.max_hidden_s must be a finite number (s,"),
-    ({"params": {"abduction": "false"}}, "params.abduction must be true or false"),
-    ({"params": {"fps": 0}}, "params.fps must be in (0, 1000]"),
-    ({"params": {"costs": 5}}, "costs: expected a table"),
-    ({"parms": {}}, "unknown key 'parms'"),
-    ({"format": "other/2", "params": {}}, "format 'other/2'"),
-    ({"base": "nuscenes", "params": {}}, "base 'nuscenes' is not kitti, mot or defaults"),
-    ([1, 2], "must hold an object"),
-])
+@pytest.mark.parametrize(
+    "doc, message",
+    [
+        ({"params": {"min_hit": 3}}, "unknown parameter 'min_hit'"),
+        ({"params": {"costs": {"resume": 3}}}, "unknown parameter 'costs.resume'"),
+        ({"params": {"min_hits": 1.5}}, "params.min_hits must be an integer"),
+        ({"params": {"max_hidden_s": "3s"}}, "params.max_hidden_s must be a finite number (s,"),
+        ({"params": {"abduction": "false"}}, "params.abduction must be true or false"),
+        ({"params": {"fps": 0}}, "params.fps must be in (0, 1000]"),
+        ({"params": {"costs": 5}}, "costs: expected a table"),
+        ({"parms": {}}, "unknown key 'parms'"),
+        ({"format": "other/2", "params": {}}, "format 'other/2'"),
+        ({"base": "nuscenes", "params": {}}, "base 'nuscenes' is not kitti, mot or defaults"),
+        ([1, 2], "must hold an object"),
+    ],
+)
 def test_bad_parameter_files_name_the_file_and_key(tmp_path: Path, doc, message: str) -> None:
     path = tmp_path / "bad.json"
     path.write_text(json.dumps(doc))
@@ -156,8 +182,14 @@ def test_unreadable_files(tmp_path: Path) -> None:
 
 
 def test_write_params_round_trips(tmp_path: Path) -> None:
-    params = {"min_hits": 2, "start_confidence": 0.55, "confirm_confidence": None,
-              "costs.appears": 321, "kalman.velocity_std": 1 / 12, "image_size": (640, 480)}
+    params = {
+        "min_hits": 2,
+        "start_confidence": 0.55,
+        "confirm_confidence": None,
+        "costs.appears": 321,
+        "kalman.velocity_std": 1 / 12,
+        "image_size": (640, 480),
+    }
     path = settings.write_params(tmp_path / "out.json", params, source="a test", base="kitti")
     assert settings.load_params(path) == params
     config = settings.load_config(path)
@@ -176,22 +208,32 @@ def det_file(tmp_path: Path) -> Path:
     scene = crossing_scene(0, gap=12, far_speed=8.0)
     d = scene.detections
     order = np.argsort(d.frame, kind="stable")
-    lines = [f"{d.frame[i] + 1},-1,{x:.2f},{y:.2f},{w:.2f},{h:.2f},{d.confidence[i]:.3f},-1,-1,-1"
-             for i, (x, y, w, h) in zip(order, d.xywh[order])]
+    lines = [
+        f"{d.frame[i] + 1},-1,{x:.2f},{y:.2f},{w:.2f},{h:.2f},{d.confidence[i]:.3f},-1,-1,-1"
+        for i, (x, y, w, h) in zip(order, d.xywh[order])
+    ]
     (seq / "det" / "det.txt").write_text("\n".join(lines) + "\n")
-    (seq / "seqinfo.ini").write_text("[Sequence]\nname=CROSS-01\nframeRate=10\nseqLength=%d\n"
-                                     "imWidth=1242\nimHeight=375\n" % scene.n_frames)
+    (seq / "seqinfo.ini").write_text(
+        "[Sequence]\nname=CROSS-01\nframeRate=10\nseqLength=%d\n"
+        "imWidth=1242\nimHeight=375\n" % scene.n_frames
+    )
     return seq / "det" / "det.txt"
 
 
 def _track(det: Path, out: Path, *extra: str) -> int:
-    return main(["-q", "track", "--detections", str(det), "--format", "mot", "--output", str(out), *extra])
+    return main(
+        ["-q", "track", "--detections", str(det), "--format", "mot", "--output", str(out), *extra]
+    )
 
 
 def test_set_abduction_false_is_the_ablation(tmp_path: Path, det_file: Path) -> None:
     outs = {}
-    for name, extra in {"flag": ["--no-abduction"], "False": ["--set", "abduction=False"],
-                        "false": ["--set", "abduction=false"], "on": []}.items():
+    for name, extra in {
+        "flag": ["--no-abduction"],
+        "False": ["--set", "abduction=False"],
+        "false": ["--set", "abduction=false"],
+        "on": [],
+    }.items():
         out = tmp_path / f"{name}.txt"
         assert _track(det_file, out, *extra) == 0
         outs[name] = out.read_text()
@@ -205,7 +247,9 @@ def test_params_file_reaches_the_tracker(tmp_path: Path, det_file: Path) -> None
     params = settings.write_params(tmp_path / "p.json", {"max_hidden_s": 0.5}, source="test")
     assert _track(det_file, out_file, "--params", str(params)) == 0
     # a 12-frame occlusion at 10 fps outlasts 0.5 s: the hidden track is lost and comes back new
-    ids = {p: len(np.unique(read_mot(p, kind="results").tracker_id)) for p in (out_default, out_file)}
+    ids = {
+        p: len(np.unique(read_mot(p, kind="results").tracker_id)) for p in (out_default, out_file)
+    }
     assert ids[out_default] == 2 and ids[out_file] == 3
     # --set overrides the file
     out_set = tmp_path / "c.txt"
@@ -213,18 +257,23 @@ def test_params_file_reaches_the_tracker(tmp_path: Path, det_file: Path) -> None
     assert out_set.read_text() == out_default.read_text()
 
 
-@pytest.mark.parametrize("extra, message", [
-    (["--set", "min_hits=1.5"], "--set min_hits must be an integer"),
-    (["--set", "max_hidden_s=-1"], "--set max_hidden_s must be in [0, 3600]"),
-    (["--set", "fps=0"], "--set fps must be in (0, 1000]"),
-    (["--set", "max_hidden_s=abc"], "--set max_hidden_s must be a number"),
-    (["--set", "costs.resumes=2.5"], "--set costs.resumes must be an integer"),
-    (["--set", "nonsense"], "expected KEY=VALUE"),
-    (["--fps", "0"], "fps must be in (0, 1000]"),
-    (["--fps", "nan"], "fps must be a finite number"),
-    (["--max-solve-ms", "-1"], "max_solve_ms must be in"),
-])
-def test_bad_cli_parameters_exit_2_with_one_line(tmp_path: Path, det_file: Path, capsys, extra, message) -> None:
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        (["--set", "min_hits=1.5"], "--set min_hits must be an integer"),
+        (["--set", "max_hidden_s=-1"], "--set max_hidden_s must be in [0, 3600]"),
+        (["--set", "fps=0"], "--set fps must be in (0, 1000]"),
+        (["--set", "max_hidden_s=abc"], "--set max_hidden_s must be a number"),
+        (["--set", "costs.resumes=2.5"], "--set costs.resumes must be an integer"),
+        (["--set", "nonsense"], "expected KEY=VALUE"),
+        (["--fps", "0"], "fps must be in (0, 1000]"),
+        (["--fps", "nan"], "fps must be a finite number"),
+        (["--max-solve-ms", "-1"], "max_solve_ms must be in"),
+    ],
+)
+def test_bad_cli_parameters_exit_2_with_one_line(
+    tmp_path: Path, det_file: Path, capsys, extra, message
+) -> None:
     out = tmp_path / "r.txt"
     assert _track(det_file, out, *extra) == 2
     err = capsys.readouterr().err

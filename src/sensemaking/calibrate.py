@@ -18,7 +18,8 @@ matched detections are *true*, the others *false*. From those:
 - **Border costs** as negative log-likelihoods, 100 solver units per nat (``-100 ln p``; a perfect
   IoU match is worth 1000): ``enters`` / ``appears`` from how often annotated objects begin at the
   image border (within ``border_margin``) or away from it, ``leaves`` / ``lost`` from where they
-  end (objects still there in the last frame do not count). Needs the image size.
+  end (objects still there in the last frame do not count), add-one smoothed. Needs the image
+  size.
 
 Everything else stays at the family preset named as the file's ``base``.
 """
@@ -77,11 +78,13 @@ class Calibration:
 
     def source(self) -> str:
         s = self.stats
-        return (f"sensemaking calibrate on {s['sequences']} sequence(s) ({', '.join(s['names'])}): "
-                f"{s['true']} true and {s['false']} false detections (IoU >= {_MATCH_IOU} with the "
-                f"ground truth), {s['objects']} annotated objects, {s['gaps']} gaps; thresholds from "
-                "P(true | score), min_hits from repeating false detections, max_missing_s from gaps, "
-                f"border costs as -{UNITS_PER_NAT:g} ln p.")
+        return (
+            f"sensemaking calibrate on {s['sequences']} sequence(s) ({', '.join(s['names'])}): "
+            f"{s['true']} true and {s['false']} false detections (IoU >= {_MATCH_IOU} with the "
+            f"ground truth), {s['objects']} annotated objects, {s['gaps']} gaps; thresholds from "
+            "P(true | score), min_hits from repeating false detections, max_missing_s from gaps, "
+            f"border costs as -{UNITS_PER_NAT:g} ln p."
+        )
 
 
 def _match(gt: Detections, dets: Detections) -> tuple[np.ndarray, np.ndarray]:
@@ -125,10 +128,14 @@ def _cost(p: float) -> int:
 
 def _near_border(box: np.ndarray, size: tuple[int, int], margin: float) -> bool:
     w, h = size
-    return bool(box[0] <= margin or box[1] <= margin or box[2] >= w - margin or box[3] >= h - margin)
+    return bool(
+        box[0] <= margin or box[1] <= margin or box[2] >= w - margin or box[3] >= h - margin
+    )
 
 
-def calibrate(sequences: SequenceABC[CalibrationSequence], border_margin: float = 10.0) -> Calibration:
+def calibrate(
+    sequences: SequenceABC[CalibrationSequence], border_margin: float = 10.0
+) -> Calibration:
     """Estimate a parameter set from annotated sequences (see the module docstring).
 
     Raises:
@@ -145,23 +152,27 @@ def calibrate(sequences: SequenceABC[CalibrationSequence], border_margin: float 
     starts = {"border": 0, "inside": 0}
     ends = {"border": 0, "inside": 0}
     n_objects = 0
+    if all(len(s.gt) == 0 for s in sequences):
+        raise InputError("no ground truth of the class to calibrate in any sequence")
+    if all(len(s.detections) == 0 for s in sequences):
+        raise InputError("no detections in any sequence")
     for seq in sequences:
-        if len(seq.gt) == 0:
-            raise InputError(f"{seq.name}: no ground truth of the class to calibrate")
-        if len(seq.detections) == 0:
-            raise InputError(f"{seq.name}: no detections")
         last = seq.first_frame + seq.n_frames - 1
         outside = (seq.detections.frame < seq.first_frame) | (seq.detections.frame > last)
         if outside.any():
             f = int(seq.detections.frame[np.argmax(outside)])
-            raise InputError(f"{seq.name}: detections on frame {f}, outside the sequence's frames "
-                             f"{seq.first_frame}..{last}: are these the same sequence?")
-        annotated = int(seq.gt.frame.max())
-        if seq.ignore is not None and len(seq.ignore):
-            annotated = max(annotated, int(seq.ignore.frame.max()))
-        if int(seq.detections.frame.max()) > annotated:
-            raise InputError(f"{seq.name}: detections reach frame {int(seq.detections.frame.max())}, the "
-                             f"ground truth ends at frame {annotated}: are these the same sequence?")
+            raise InputError(
+                f"{seq.name}: detections on frame {f}, outside the sequence's frames "
+                f"{seq.first_frame}..{last}: are these the same sequence?"
+            )
+        # a video without the class (or without detections) still says what is false (or missed)
+        rows = [int(x.frame.max()) for x in (seq.gt, seq.ignore) if x is not None and len(x)]
+        annotated = max(rows) if rows else last
+        if len(seq.detections) and int(seq.detections.frame.max()) > annotated:
+            raise InputError(
+                f"{seq.name}: detections reach frame {int(seq.detections.frame.max())}, the "
+                f"ground truth ends at frame {annotated}: are these the same sequence?"
+            )
         fps_values.append(float(seq.fps))
         gt_by = dict(seq.gt.frames())
         det_by = dict(seq.detections.frames())
@@ -179,7 +190,9 @@ def calibrate(sequences: SequenceABC[CalibrationSequence], border_margin: float 
             ign = ign_by.get(f)
             if ign is not None and len(d):
                 # on a distractor or in a DontCare region: neither true nor false
-                inside = intersection(d.xyxy, ign.xyxy) / np.maximum(box_area(d.xyxy), 1e-9)[:, None]
+                inside = (
+                    intersection(d.xyxy, ign.xyxy) / np.maximum(box_area(d.xyxy), 1e-9)[:, None]
+                )
                 skip = ~true & (inside.max(axis=1) >= _MATCH_IOU)
                 d, true = d[~skip], true[~skip]
             true_scores.append(d.confidence[true])
@@ -211,18 +224,29 @@ def calibrate(sequences: SequenceABC[CalibrationSequence], border_margin: float 
                 gaps.extend(int(x) - 1 for x in np.diff(frames) if x > 1)
             if seq.image_size is None:
                 continue
-            first_row, last_row = rows[np.argmin(seq.gt.frame[rows])], rows[np.argmax(seq.gt.frame[rows])]
+            first_row, last_row = (
+                rows[np.argmin(seq.gt.frame[rows])],
+                rows[np.argmax(seq.gt.frame[rows])],
+            )
             if seq.gt.frame[first_row] > seq.first_frame:
-                starts["border" if _near_border(seq.gt.xyxy[first_row], seq.image_size, border_margin)
-                       else "inside"] += 1
+                starts[
+                    "border"
+                    if _near_border(seq.gt.xyxy[first_row], seq.image_size, border_margin)
+                    else "inside"
+                ] += 1
             if seq.gt.frame[last_row] < last:
-                ends["border" if _near_border(seq.gt.xyxy[last_row], seq.image_size, border_margin)
-                     else "inside"] += 1
+                ends[
+                    "border"
+                    if _near_border(seq.gt.xyxy[last_row], seq.image_size, border_margin)
+                    else "inside"
+                ] += 1
     t = np.concatenate(true_scores)
     fl = np.concatenate(false_scores)
     if len(t) == 0:
-        raise InputError("no detection matches the ground truth (IoU >= 0.5): are the files of the "
-                         "same sequence, class and frame numbering?")
+        raise InputError(
+            "no detection matches the ground truth (IoU >= 0.5): are the files of the "
+            "same sequence, class and frame numbering?"
+        )
     scores = np.concatenate([t, fl])
     is_true = np.concatenate([np.ones(len(t), bool), np.zeros(len(fl), bool)])
     edges, prec = _precision_curve(scores, is_true)
@@ -244,14 +268,23 @@ def calibrate(sequences: SequenceABC[CalibrationSequence], border_margin: float 
     fps = float(np.median(fps_values))
     if gaps:
         params["max_missing_s"] = round(max(float(np.quantile(gaps, 0.95)), 1.0) / fps, 3)
+    # add-one (Laplace) estimates: an event never seen is rare, not impossible
     if sum(starts.values()):
-        p = starts["border"] / sum(starts.values())
+        p = (starts["border"] + 1) / (sum(starts.values()) + 2)
         params["costs.enters"], params["costs.appears"] = _cost(p), _cost(1 - p)
     if sum(ends.values()):
-        p = ends["border"] / sum(ends.values())
+        p = (ends["border"] + 1) / (sum(ends.values()) + 2)
         params["costs.leaves"], params["costs.lost"] = _cost(p), _cost(1 - p)
-    stats = {"sequences": len(sequences), "names": [s.name for s in sequences], "true": int(len(t)),
-             "false": int(len(fl)), "objects": n_objects, "gaps": len(gaps), "starts": starts,
-             "ends": ends, "false_chains_above_start": len(strong),
-             "precision_curve": {"edges": edges.tolist(), "p_true": prec.tolist()}}
+    stats = {
+        "sequences": len(sequences),
+        "names": [s.name for s in sequences],
+        "true": int(len(t)),
+        "false": int(len(fl)),
+        "objects": n_objects,
+        "gaps": len(gaps),
+        "starts": starts,
+        "ends": ends,
+        "false_chains_above_start": len(strong),
+        "precision_curve": {"edges": edges.tolist(), "p_true": prec.tolist()},
+    }
     return Calibration(params=params, stats=stats)

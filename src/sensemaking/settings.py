@@ -70,7 +70,13 @@ log = logging.getLogger(__name__)
 #: the dataset families with a shipped preset (``presets/<family>.json``)
 FAMILIES: tuple[str, ...] = ("kitti", "mot")
 #: other names accepted for a family
-_FAMILY_ALIASES = {"mot17": "mot", "mot15": "mot", "mot16": "mot", "mot20": "mot", "motchallenge": "mot"}
+_FAMILY_ALIASES = {
+    "mot17": "mot",
+    "mot15": "mot",
+    "mot16": "mot",
+    "mot20": "mot",
+    "motchallenge": "mot",
+}
 #: the ``format`` tag of parameter files this version reads and writes
 FORMAT = "sensemaking-params/1"
 _NESTED = ("costs", "kalman")
@@ -146,13 +152,30 @@ def _table() -> dict[str, Param]:
         Param("likelihood_levels", "int", "levels", 1, 1000),
         Param("decompose", "bool", "-"),
         Param("max_solve_ms", "float", "ms", 0.0, 3_600_000.0, low_open=True, optional=True),
-        Param("velocity_prior", "float", "box sizes / s", 0.0, 1000.0, low_open=True, optional=True),
+        Param(
+            "velocity_prior", "float", "box sizes / s", 0.0, 1000.0, low_open=True, optional=True
+        ),
     ]
-    for name in ("enters", "appears", "leaves", "lost", "dropped", "hides", "missing", "unseen",
-                 "ignore", "resumes"):
+    for name in (
+        "enters",
+        "appears",
+        "leaves",
+        "lost",
+        "dropped",
+        "hides",
+        "missing",
+        "unseen",
+        "ignore",
+        "resumes",
+    ):
         rows.append(Param(f"costs.{name}", "int", _COST, 0, 100_000))
-    for name in ("position_std", "velocity_std", "measurement_std", "init_position_std",
-                 "init_velocity_std"):
+    for name in (
+        "position_std",
+        "velocity_std",
+        "measurement_std",
+        "init_position_std",
+        "init_velocity_std",
+    ):
         unit = _BOX + (" per frame" if name != "measurement_std" else "")
         rows.append(Param(f"kalman.{name}", "float", unit, 0.0, 100.0, low_open=True))
     rows.append(Param("kalman.min_size", "float", "pixels", 0.0, 10_000.0, low_open=True))
@@ -204,8 +227,11 @@ def check_value(key: str, value: Any) -> Any:
                 raise ParameterError(f"{key} must be true or false, got {value!r}")
         return bool(value)
     if p.kind == "size":
-        if (not isinstance(value, (tuple, list)) or len(value) != 2
-                or not all(_is_int(v) for v in value)):
+        if (
+            not isinstance(value, (tuple, list))
+            or len(value) != 2
+            or not all(_is_int(v) for v in value)
+        ):
             raise ParameterError(f"{key} must be (width, height) in integer pixels, got {value!r}")
         for v in value:
             _check_range(p, v)
@@ -290,15 +316,17 @@ def params_of(config: Any) -> dict[str, Any]:
 def validate(config: Any) -> None:
     """Check every parameter of a ``TrackerConfig`` against :data:`PARAMETERS` and the relations
     between them. Raises :class:`ParameterError` (a ``ValueError``) naming the first bad one.
-    Fields the table does not know are left to their own class (a test keeps the table complete)."""
+    Fields the table does not know are left to their own class (a test keeps the table
+    complete)."""
     for key, value in params_of(config).items():
         if key in PARAMETERS:
             check_value(key, value)
         else:
             log.debug("parameter %s has no row in settings.PARAMETERS", key)
     if config.keep_cover > config.hide_cover:
-        raise ParameterError(f"keep_cover ({config.keep_cover}) must not exceed hide_cover "
-                             f"({config.hide_cover})")
+        raise ParameterError(
+            f"keep_cover ({config.keep_cover}) must not exceed hide_cover ({config.hide_cover})"
+        )
 
 
 # -- presets and files -----------------------------------------------------------------------
@@ -337,8 +365,9 @@ def _document_params(doc: Any, where: str) -> dict[str, Any]:
         raise ParameterError("a parameter file must hold an object with a 'params' table", where)
     unknown = sorted(set(doc) - _FILE_KEYS)
     if unknown:
-        raise ParameterError(f"unknown key {unknown[0]!r} (expected {', '.join(sorted(_FILE_KEYS))})",
-                             where)
+        raise ParameterError(
+            f"unknown key {unknown[0]!r} (expected {', '.join(sorted(_FILE_KEYS))})", where
+        )
     fmt = doc.get("format", FORMAT)
     if fmt != FORMAT:
         raise ParameterError(f"format {fmt!r} is not {FORMAT!r}", where)
@@ -348,7 +377,9 @@ def _document_params(doc: Any, where: str) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for key, value in _flatten(params, where).items():
         if key in _NESTED:
-            raise ParameterError(f"{key}: expected a table of {key}.NAME values, got {value!r}", where)
+            raise ParameterError(
+                f"{key}: expected a table of {key}.NAME values, got {value!r}", where
+            )
         if key not in PARAMETERS:
             raise ParameterError(f"params: unknown parameter {key!r}{_suggest(key)}", where)
         if isinstance(value, list) and key in PARAMETERS and PARAMETERS[key].kind == "size":
@@ -399,8 +430,9 @@ def load_params(path: str | PathLike[str]) -> dict[str, Any]:
     return read_params_file(path)[0]
 
 
-def apply_settings(config: TrackerConfig, params: Mapping[str, Any],
-                   where: str | None = None) -> TrackerConfig:
+def apply_settings(
+    config: TrackerConfig, params: Mapping[str, Any], where: str | None = None
+) -> TrackerConfig:
     """``config`` with dotted ``params`` applied (``costs.x`` / ``kalman.x`` reach the nested
     settings), validated as a whole."""
     top: dict[str, Any] = {}
@@ -434,13 +466,18 @@ def _default_config() -> TrackerConfig:
 def preset_config(family: str, **changes: Any) -> TrackerConfig:
     """The family's preset (``presets/<family>.json``) over the defaults, then ``changes``
     (keyword names; ``costs`` / ``kalman`` as objects, as ``TrackerConfig`` takes them)."""
-    config = apply_settings(_default_config(), preset_params(family), f"presets/{family_name(family)}.json")
+    config = apply_settings(
+        _default_config(), preset_params(family), f"presets/{family_name(family)}.json"
+    )
     return dataclasses.replace(config, **changes) if changes else config
 
 
-def load_config(path: str | PathLike[str], family: str | None = None,
-                       facts: Mapping[str, Any] | None = None,
-                       overrides: Iterable[str] = ()) -> TrackerConfig:
+def load_config(
+    path: str | PathLike[str],
+    family: str | None = None,
+    facts: Mapping[str, Any] | None = None,
+    overrides: Iterable[str] = (),
+) -> TrackerConfig:
     """A ``TrackerConfig`` from layers, each over the one before: the defaults; the preset of the
     file's ``base`` (else of ``family``, if given); the file's values (``path`` None: no file);
     ``facts`` of the input (frame rate, image size, CLI switches; dotted keys); then
@@ -460,7 +497,9 @@ def load_config(path: str | PathLike[str], family: str | None = None,
         key, sep, text = item.partition("=")
         key = key.strip()
         if not sep or not key:
-            raise ParameterError(f"--set {item!r}: expected KEY=VALUE, e.g. --set costs.resumes=200")
+            raise ParameterError(
+                f"--set {item!r}: expected KEY=VALUE, e.g. --set costs.resumes=200"
+            )
         try:
             sets[key] = parse_value(key, text)
         except ParameterError as exc:
@@ -473,8 +512,9 @@ def load_config(path: str | PathLike[str], family: str | None = None,
     return config
 
 
-def write_params(path: str | PathLike[str], params: Mapping[str, Any], source: str,
-                 base: str | None = None) -> Path:
+def write_params(
+    path: str | PathLike[str], params: Mapping[str, Any], source: str, base: str | None = None
+) -> Path:
     """Write dotted ``params`` (validated) as a parameter file (JSON, nested), atomically."""
     from sensemaking.io.atomic import atomic_write
 
@@ -560,7 +600,9 @@ def parameters_table() -> str:
     for key, p in PARAMETERS.items():
         default = defaults.get(key)
         text = meanings.get(key, "").replace("|", "\\|")
-        lines.append(f"| `{key}` | {p.unit} | {p.range_text()} | {_fmt_default(default)} | {text} |")
+        lines.append(
+            f"| `{key}` | {p.unit} | {p.range_text()} | {_fmt_default(default)} | {text} |"
+        )
     return "\n".join(lines)
 
 

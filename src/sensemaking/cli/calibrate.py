@@ -12,21 +12,44 @@ log = logging.getLogger(__name__)
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "calibrate",
-        help="estimate tracker parameters from your own annotated sequences (writes a --params file)",
+        help="estimate tracker parameters from your annotated sequences (writes a --params file)",
         description="Match each detection to the ground truth of its frame and estimate score "
-        "thresholds, min_hits, how long objects go missing and the border costs from what is seen; "
+        "thresholds, min_hits, how long objects go missing and the border costs from what is "
+        "seen; "
         "write them as a parameter file for `sensemaking track --params FILE`. Give --gt and "
         "--detections once per sequence, in the same order.",
     )
-    p.add_argument("--gt", action="append", required=True, type=Path, metavar="FILE",
-                   help="ground truth: MOT gt.txt or KITTI label_02 file (repeatable)")
-    p.add_argument("--detections", action="append", required=True, type=Path, metavar="FILE",
-                   help="the detector's file of the same sequence (repeatable, same order as --gt)")
-    p.add_argument("--format", choices=("mot", "kitti"), required=True, help="format of both files")
-    p.add_argument("--class", dest="class_name", default=None,
-                   help="the class to calibrate (KITTI: car or pedestrian, required; MOT: pedestrian)")
-    p.add_argument("--seqinfo", type=Path, default=None,
-                   help="seqinfo.ini (MOT) or seqinfo.csv (KITTI); looked up beside the detections by default")
+    p.add_argument(
+        "--gt",
+        action="append",
+        required=True,
+        type=Path,
+        metavar="FILE",
+        help="ground truth: MOT gt.txt or KITTI label_02 file (repeatable)",
+    )
+    p.add_argument(
+        "--detections",
+        action="append",
+        required=True,
+        type=Path,
+        metavar="FILE",
+        help="the detector's file of the same sequence (repeatable, same order as --gt)",
+    )
+    p.add_argument(
+        "--format", choices=("mot", "kitti"), required=True, help="format of both files"
+    )
+    p.add_argument(
+        "--class",
+        dest="class_name",
+        default=None,
+        help="the class to calibrate (KITTI: car or pedestrian, required; MOT: pedestrian)",
+    )
+    p.add_argument(
+        "--seqinfo",
+        type=Path,
+        default=None,
+        help="seqinfo.ini (MOT) or seqinfo.csv (KITTI); by default looked up beside the detections",
+    )
     p.add_argument("--fps", type=float, default=None, help="frame rate when no seqinfo says it")
     p.add_argument("--output", required=True, type=Path, help="the parameter file to write (JSON)")
     p.set_defaults(func=run)
@@ -66,8 +89,6 @@ def _sequence(args: argparse.Namespace, gt_path: Path, det_path: Path):
     if fmt == "mot" and "consider" in gt.data:
         target &= np.asarray(gt.data["consider"]) != 0
     ignore, gt = gt[~target], gt[target]
-    if len(gt) == 0:
-        raise InputError(f"no ground truth of class {args.class_name or 'pedestrian'}", gt_path)
     dets = read_detections(det_path, fmt, class_name=args.class_name)
     if fmt == "kitti" and len(dets):  # PointRCNN files hold every class
         dets = dets[dets.class_id == cid]
@@ -77,13 +98,24 @@ def _sequence(args: argparse.Namespace, gt_path: Path, det_path: Path):
     if fps is None:
         fps = settings.preset_config(fmt).fps
     settings.check_value("fps", fps)
-    last_gt = int(gt.frame.max())
+    annotated = [int(x.frame.max()) for x in (gt, ignore, dets) if len(x)]
+    last_gt = max(annotated) if annotated else first
     n_frames = int(length) if length else last_gt - first + 1
     if last_gt > first + n_frames - 1:
-        raise InputError(f"ground truth reaches frame {last_gt}, beyond the sequence's {n_frames} frames", gt_path)
-    return CalibrationSequence(name=det_path.stem if fmt == "kitti" else det_path.parent.parent.name,
-                               gt=gt, detections=dets, first_frame=first, n_frames=n_frames,
-                               fps=float(fps), image_size=size, ignore=ignore)
+        raise InputError(
+            f"ground truth reaches frame {last_gt}, beyond the sequence's {n_frames} frames",
+            gt_path,
+        )
+    return CalibrationSequence(
+        name=det_path.stem if fmt == "kitti" else det_path.parent.parent.name,
+        gt=gt,
+        detections=dets,
+        first_frame=first,
+        n_frames=n_frames,
+        fps=float(fps),
+        image_size=size,
+        ignore=ignore,
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -92,17 +124,22 @@ def run(args: argparse.Namespace) -> int:
     from sensemaking.errors import InputError
 
     if len(args.gt) != len(args.detections):
-        raise InputError(f"give --gt and --detections once per sequence: got {len(args.gt)} --gt and "
-                         f"{len(args.detections)} --detections")
+        raise InputError(
+            f"give --gt and --detections once per sequence: got {len(args.gt)} --gt and "
+            f"{len(args.detections)} --detections"
+        )
     resolved = {p.resolve() for p in [*args.gt, *args.detections]}
     if args.output.resolve() in resolved:
         raise InputError("--output would overwrite an input file", args.output)
     if args.output.is_dir():
         raise InputError("--output is a folder", args.output)
     sequences = [_sequence(args, g, d) for g, d in zip(args.gt, args.detections)]
+    if all(len(s.gt) == 0 for s in sequences):  # one video without the class is fine, all is not
+        raise InputError(f"no ground truth of class {args.class_name or 'pedestrian'}", args.gt[0])
     result = calibrate(sequences)
-    path = settings.write_params(args.output, result.params, source=result.source(),
-                                 base=settings.family_name(args.format))
+    path = settings.write_params(
+        args.output, result.params, source=result.source(), base=settings.family_name(args.format)
+    )
     if not args.quiet:
         shown = ", ".join(f"{k}={v}" for k, v in result.params.items())
         print(f"{path}: {shown}")
