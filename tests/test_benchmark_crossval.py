@@ -134,5 +134,7 @@ def test_reports_show_the_crossval_headline(tmp_path: Path) -> None:
     params = report.render_parameters(summary)
     assert "## Cross-validation" in params and "| KITTI-0001 | 0.8 | 3 | 0.0 |" in params
     assert "`costs.resumes`" in params and "## Presets" in params
+    console = report.console_summary(summary)
+    assert console.index("cross-validated") < console.index("## Overview")
     data = report.summary_json(summary)
     assert data["crossval"][0]["choice"] == {"KITTI-0000": 1, "KITTI-0001": 3}

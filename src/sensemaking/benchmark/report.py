@@ -15,7 +15,7 @@ from sensemaking.benchmark.runner import SELECT_BY, BenchmarkRun, RunSummary, Tr
 from sensemaking.io.atomic import atomic_write
 
 __all__ = ["PAPER_TABLE2", "COLUMNS", "TargetCheck", "check_targets", "render_markdown", "write_report",
-           "write_json", "summary_json", "render_parameters", "write_parameters"]
+           "write_json", "summary_json", "render_parameters", "write_parameters", "console_summary"]
 
 #: the paper's Table 2 (IJCAI 2019), quoted for reference: MOTA/MOTP/ML/MT in %, others counts
 PAPER_TABLE2: dict[str, dict[str, Any]] = {
@@ -502,6 +502,16 @@ def _crossval_section(summary: RunSummary) -> list[str]:
                    f"{cv.seconds:.0f} s): folds chose {counts}. In-sample best: "
                    f"{_point_text(cv.points[cv.in_sample])}.")
     return out
+
+
+def console_summary(summary: RunSummary) -> str:
+    """What ``sensemaking benchmark`` prints at the end: the cross-validated headline first, then
+    the overview of every tracker (markdown tables)."""
+    out = _crossval_section(summary)
+    if out:
+        out.append("")
+    out += ["## Overview: HOTA / MOTA / IDF1 / ID sw.", "", *_overview(summary)]
+    return "\n".join(out).rstrip() + "\n"
 
 
 def render_parameters(summary: RunSummary | None = None) -> str:

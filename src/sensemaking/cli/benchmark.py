@@ -94,6 +94,8 @@ def run(args: argparse.Namespace) -> int:
     summary = runner.run(data=args.data, output=args.output, only=only, trackers=args.trackers,
                          progress=progress, command=_command_line(args), jobs=args.jobs, repeat=args.repeat,
                          crossval=not args.no_crossval)
+    if not quiet:  # the cross-validated headline first
+        print(report.console_summary(summary), end="")
     if args.docs:
         md, js = report.write_report(summary, args.docs, args.json)
         progress(f"wrote {md} and {js}")
