@@ -615,8 +615,9 @@ def _parameters_crossval(summary: RunSummary) -> list[str]:
         out.append("")
         out.append("Grid: " + "; ".join(f"`{k}` ∈ {{{', '.join(_value(x) for x in v)}}}"
                                         for k, v in cv.grid.items())
-                   + f" ({len(cv.points)} points; the preset is "
-                   + (f"point {cv.preset}" if cv.preset is not None else "not on the grid") + ").")
+                   + f" ({len(cv.points)} points; the preset's values: "
+                   + (_point_text(cv.points[cv.preset]) if cv.preset is not None else "not on the grid")
+                   + ").")
         out.append("")
         out.append("| benchmark | cross-validated (least worst regret) | cross-validated (best mean) "
                    "| in-sample | preset | CV − in-sample HOTA |")
