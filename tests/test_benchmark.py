@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from sensemaking.benchmark import datasets, report, runner
+from sensemaking.benchmark import peers
 from sensemaking.benchmark.peers import DISPLAY_NAMES, OursAdapter, PeerAdapter
 from sensemaking.classes import CLASS_IDS
 from sensemaking.cli import main
@@ -141,7 +142,8 @@ def test_select_and_load(fake_data: Path) -> None:
 
 
 def test_parse_trackers() -> None:
-    assert runner.parse_trackers(None) == ["ours", "ours-noabd", "sort", "bytetrack", "ocsort"]
+    assert runner.parse_trackers(None)[:5] == ["ours", "ours-noabd", "sort", "bytetrack", "ocsort"]
+    assert set(runner.parse_trackers(None)[5:]) == set(peers.BOXMOT_PEERS)
     assert runner.parse_trackers("ocsort,ours") == ["ours", "ocsort"]
     assert runner.parse_trackers(["OC-SORT", "byte"]) == ["bytetrack", "ocsort"]
     with pytest.raises(InputError, match="unknown tracker"):

@@ -174,7 +174,8 @@ def test_read_detections_sniffs_kitti_kinds(tmp_path: Path) -> None:
     prcnn = write(tmp_path / "p.txt", "0,1,1,2,3,4,0,1,1,1,1,1,1,1,1\n")
     assert_same(read_detections(labels, "kitti"), read_kitti_labels(labels))
     assert_same(read_detections(rrc, "kitti"), read_kitti_detections(rrc))
-    assert_same(read_detections(prcnn, "kitti"), read_kitti_detections(prcnn))
+    raw = read_kitti_detections(prcnn)  # PointRCNN logits become probabilities (sigmoid)
+    assert_same(read_detections(prcnn, "kitti"), raw.with_(confidence=1 / (1 + np.exp(-raw.confidence))))
 
 
 def test_read_kitti_seqinfo(tmp_path: Path) -> None:
@@ -236,7 +237,8 @@ def test_known_detection_rows(parsed: tuple[dict[str, Detections], float]) -> No
     prcnn = files["kitti/detections/pointrcnn/car/0000.txt"]
     assert len(prcnn) == 1054 - 1  # line 614 has x1 == x2 == 1241: dropped
     assert 614 not in prcnn.source_row.tolist()
-    assert prcnn.confidence[0] == 8.2981 and prcnn.confidence[2] == -0.4501
+    # read_detections maps PointRCNN logits through the sigmoid (8.2981 and -0.4501 in the file)
+    np.testing.assert_allclose(prcnn.confidence[[0, 2]], 1 / (1 + np.exp(-np.array([8.2981, -0.4501]))))
     np.testing.assert_array_equal(prcnn.data["dimensions"][0], [1.9605, 1.8137, 4.7549])
     assert set(files["kitti/detections/pointrcnn/cyclist/0000.txt"].class_id.tolist()) == {CYC}
 

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from sensemaking import settings
 from sensemaking.abduction.components import ComponentSolver
 from sensemaking.abduction.problem import VISIBILITY_VALUES, FrameProblem
 from sensemaking.abduction.solver import AbductionSolver, Answer, Det, read_encoding
@@ -169,20 +170,7 @@ class TrackerConfig:
     kalman: KalmanConfig = field(default_factory=KalmanConfig)
 
     def __post_init__(self) -> None:
-        if self.fps <= 0:
-            raise ValueError(f"fps must be positive, got {self.fps}")
-        if not 0 <= self.iou_resume <= 1 or not 0 <= self.iou_assign <= 1:
-            raise ValueError("iou_assign and iou_resume must lie in [0, 1]")
-        if self.keep_cover > self.hide_cover:
-            raise ValueError("keep_cover must not exceed hide_cover")
-        if not 1 <= self.likelihood_levels <= 1000:
-            raise ValueError("likelihood_levels must lie in [1, 1000]")
-        if self.min_hits < 1:
-            raise ValueError("min_hits must be at least 1")
-        if self.image_size is not None and (self.image_size[0] <= 0 or self.image_size[1] <= 0):
-            raise ValueError(f"image_size must be positive, got {self.image_size}")
-        if self.velocity_prior is not None and not (np.isfinite(self.velocity_prior) and self.velocity_prior > 0):
-            raise ValueError(f"velocity_prior must be finite and > 0, got {self.velocity_prior!r}")
+        settings.validate(self)  # every parameter's type, unit and range: sensemaking.settings
 
     @property
     def max_hidden_frames(self) -> int:
@@ -209,17 +197,7 @@ class TrackerConfig:
     @classmethod
     def for_dataset(cls, family: str, **changes: Any) -> TrackerConfig:
         """The one parameter set per dataset family (``"kitti"`` or ``"mot"``); see docs/PARAMETERS.md."""
-        family = family.lower()
-        if family == "kitti":
-            base = cls(fps=10.0, image_size=(1242, 375), iou_assign=0.2, iou_resume=0.2, min_hits=3,
-                       confirm_confidence=0.99, start_confidence=0.8, min_confidence=0.65,
-                       costs=AbductionCosts(resumes=200), kalman=KalmanConfig(velocity_std=1 / 10))
-        elif family in ("mot", "mot17", "mot15", "motchallenge"):
-            base = cls(fps=30.0, iou_resume=0.2, min_hits=2, start_confidence=0.7, min_confidence=0.6,
-                       costs=AbductionCosts(leaves=300, resumes=200), kalman=KalmanConfig(measurement_std=1 / 17))
-        else:
-            raise ValueError(f"unknown dataset family {family!r} (kitti or mot)")
-        return replace(base, **changes)
+        return settings.preset_config(family, **changes)  # presets/<family>.json
 
 
 _HIDDEN = int(TrackState.HIDDEN)  # as a plain int: numpy compares it faster than the enum

@@ -62,9 +62,10 @@ class BenchmarkSpec:
         detector: detector folder name (KITTI) or sequence-name suffix (MOT17).
         paper: key of the paper's Table 2 block quoted beside this benchmark, or None.
         note: one remark for the report (empty: none).
-        logit_scores: the detector's scores are logits; the loader maps them through a sigmoid
-            to probabilities in (0, 1) before any tracker sees them, so that every tracker's
-            score thresholds mean what they say.
+        logit_scores: the detector's scores are logits (for the report); the loader, which is
+            ``sensemaking track``'s (:func:`sensemaking.io.formats.read_detections`), maps them
+            through a sigmoid to probabilities in (0, 1) before any tracker sees them, so that
+            every tracker's score thresholds mean what they say.
     """
 
     name: str
@@ -306,10 +307,9 @@ def _with_class(dets: Detections, cid: int) -> Detections:
 
 
 def _load_kitti(spec: BenchmarkSpec, sources: list[SequenceSource]) -> tuple[list[Sequence], list[str]]:
-    import numpy as np
-
     from sensemaking.classes import class_id
-    from sensemaking.io.kitti import read_kitti_detections, read_kitti_seqinfo
+    from sensemaking.io.formats import read_detections
+    from sensemaking.io.kitti import read_kitti_seqinfo
 
     infos = read_kitti_seqinfo(sources[0].seqinfo_path)
     out, skipped = [], []
@@ -318,22 +318,22 @@ def _load_kitti(spec: BenchmarkSpec, sources: list[SequenceSource]) -> tuple[lis
         if info is None:
             skipped.append(f"sequence {src.name} skipped, not in {src.seqinfo_path.name}")
             continue
-        dets = read_kitti_detections(src.det_path, class_name=spec.class_name)
+        # the loading path of `sensemaking track` (PointRCNN logits -> probabilities included)
+        dets = read_detections(src.det_path, "kitti", class_name=spec.class_name)
         dets = _with_class(dets, class_id(str(spec.class_name)))
-        if spec.logit_scores and len(dets):
-            dets = dets.with_(confidence=1.0 / (1.0 + np.exp(-dets.confidence)))
         out.append(Sequence(src.name, dets, src.gt_path, info, src.det_path, first_frame=0))
     return out, skipped
 
 
 def _load_mot(spec: BenchmarkSpec, sources: list[SequenceSource]) -> tuple[list[Sequence], list[str]]:
     from sensemaking.classes import CLASS_IDS
-    from sensemaking.io.mot import read_mot, read_seqinfo
+    from sensemaking.io.formats import read_detections
+    from sensemaking.io.mot import read_seqinfo
 
     out = []
     for src in sources:
         info = read_seqinfo(src.seqinfo_path)
-        dets = _with_class(read_mot(src.det_path, kind="det"), CLASS_IDS["pedestrian"])
+        dets = _with_class(read_detections(src.det_path, "mot"), CLASS_IDS["pedestrian"])
         out.append(Sequence(src.name, dets, src.gt_path, info, src.det_path, first_frame=1))
     return out, []
 

@@ -17,8 +17,8 @@ from sensemaking import __version__
 from sensemaking.errors import SensemakingError
 
 #: verb modules, in the order ``--help`` lists them
-VERBS = ("track", "demo", "evaluate", "benchmark", "ask", "explain", "render", "report",
-         "batch", "query")
+VERBS = ("track", "demo", "evaluate", "benchmark", "calibrate", "ask", "explain", "render",
+         "report", "batch", "query")
 
 
 def build_parser() -> argparse.ArgumentParser:

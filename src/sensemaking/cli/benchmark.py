@@ -8,6 +8,7 @@ import sys
 from typing import Any
 
 DEFAULT_DOCS = "docs/BENCHMARKS.md"
+DEFAULT_PARAMS_DOC = "docs/PARAMETERS.md"
 #: runs of every tracker on every sequence (the fastest counts)
 DEFAULT_REPEAT = 3
 
@@ -39,6 +40,11 @@ def register(subparsers: Any) -> None:
     p.add_argument("--repeat", metavar="N", type=int, default=DEFAULT_REPEAT,
                    help="runs of every tracker on every sequence; the per-frame times of the fastest count "
                    f"(default {DEFAULT_REPEAT}: a busy machine's slow spells inflate single runs; results are the same)")
+    p.add_argument("--no-crossval", action="store_true",
+                   help="skip the cross-validation of our parameters (leave one video out per family, "
+                   "about 5 minutes; the headline table of the report)")
+    p.add_argument("--params-doc", metavar="FILE", default=DEFAULT_PARAMS_DOC,
+                   help=f"parameter reference to regenerate (default: {DEFAULT_PARAMS_DOC}); '' for none")
     p.add_argument("--list", action="store_true", help="list the benchmarks found and what is missing, then stop")
     p.set_defaults(func=run)
 
@@ -61,6 +67,8 @@ def _command_line(args: argparse.Namespace) -> str:
         parts += ["--jobs", str(args.jobs)]
     if args.repeat != DEFAULT_REPEAT:
         parts += ["--repeat", str(args.repeat)]
+    if args.no_crossval:
+        parts += ["--no-crossval"]
     return shlex.join(parts)
 
 
@@ -84,10 +92,15 @@ def run(args: argparse.Namespace) -> int:
             print(msg, file=sys.stderr, flush=True)
 
     summary = runner.run(data=args.data, output=args.output, only=only, trackers=args.trackers,
-                         progress=progress, command=_command_line(args), jobs=args.jobs, repeat=args.repeat)
+                         progress=progress, command=_command_line(args), jobs=args.jobs, repeat=args.repeat,
+                         crossval=not args.no_crossval)
+    if not quiet:  # the cross-validated headline first
+        print(report.console_summary(summary), end="")
     if args.docs:
         md, js = report.write_report(summary, args.docs, args.json)
         progress(f"wrote {md} and {js}")
+    if args.params_doc and summary.crossval:  # a run without cross-validation leaves it as it is
+        progress(f"wrote {report.write_parameters(summary, args.params_doc)}")
     elif args.json:
         report.write_json(summary, args.json)
         progress(f"wrote {args.json}")

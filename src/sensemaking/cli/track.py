@@ -52,7 +52,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--write-hidden", action="store_true",
                    help="also write hidden and missing tracks at their predicted boxes")
     p.add_argument("--set", dest="params", action="append", default=[], metavar="KEY=VALUE",
-                   help="override a TrackerConfig parameter, e.g. --set max_hidden_s=2 (repeatable)")
+                   help="override a parameter, e.g. --set max_hidden_s=2 or --set costs.resumes=200 "
+                   "(repeatable; after --params; units and ranges in docs/PARAMETERS.md)")
+    p.add_argument("--params", dest="params_file", type=Path, default=None, metavar="FILE",
+                   help="a parameter file (JSON or TOML, e.g. from `sensemaking calibrate`) over the "
+                   "preset of --format")
     p.set_defaults(func=run)
 
 
@@ -97,30 +101,23 @@ def _sequence_info(args: argparse.Namespace) -> tuple[float | None, tuple[int, i
 
 
 def tracker_config(args: argparse.Namespace, fps: float | None, size: tuple[int, int] | None):
-    from sensemaking.tracker import TrackerConfig
+    """The family preset of ``--format``, then ``--params FILE``, the input's facts and switches,
+    then ``--set`` (each validated by :mod:`sensemaking.settings`)."""
+    from sensemaking import settings
 
     family = "kitti" if args.format == "kitti" else "mot"
-    changes: dict[str, Any] = {"abduction": not args.no_abduction, "max_solve_ms": args.max_solve_ms}
-    if fps:
-        changes["fps"] = fps
+    facts: dict[str, Any] = {}
+    if args.no_abduction:
+        facts["abduction"] = False
+    if args.max_solve_ms is not None:
+        facts["max_solve_ms"] = args.max_solve_ms
+    if getattr(args, "fps", None) is not None:  # 0 and nan are errors, not "unset"
+        fps = args.fps
+    if fps is not None:
+        facts["fps"] = float(fps)
     if size:
-        changes["image_size"] = size
-    fields = TrackerConfig.__dataclass_fields__
-    for item in args.params:
-        key, sep, value = item.partition("=")
-        if not sep or key not in fields or key in ("costs", "kalman"):
-            raise InputError(f"--set {item!r}: expected KEY=VALUE with KEY one of "
-                             f"{', '.join(k for k in fields if k not in ('costs', 'kalman'))}")
-        try:
-            changes[key] = json.loads(value)
-        except json.JSONDecodeError:
-            changes[key] = value
-        if key == "image_size" and isinstance(changes[key], list):
-            changes[key] = tuple(changes[key])
-    try:
-        return TrackerConfig.for_dataset(family, **changes)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"bad tracker parameter: {exc}") from None
+        facts["image_size"] = size
+    return settings.load_config(getattr(args, "params_file", None), family, facts, args.params)
 
 
 def frame_range(dets: Detections, fmt: str, length: int | None) -> range:

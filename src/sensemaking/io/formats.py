@@ -35,8 +35,10 @@ def read_detections(path: PathLike, fmt: Format, class_name: str | None = None) 
     ``"det"``); ``class_name`` (if given) is the class of every box, else pedestrian.
     ``fmt="kitti"``: the file kind is sniffed from its first line: 17 or 18 space-separated
     fields is a label / tracking-result file, 6 comma-separated fields RRC detections (class from
-    ``class_name`` or the parent folder), 15 comma-separated fields PointRCNN detections. An empty
-    KITTI detection file (a sequence where the detector found nothing) gives empty Detections.
+    ``class_name`` or the parent folder), 15 comma-separated fields PointRCNN detections, whose
+    logit scores are mapped through the sigmoid to probabilities (so that score thresholds mean the
+    same for every detector; the benchmark runner reads through here too). An empty KITTI
+    detection file (a sequence where the detector found nothing) gives empty Detections.
     """
     if fmt == "mot":
         from sensemaking.io.mot import read_mot
@@ -55,7 +57,12 @@ def read_detections(path: PathLike, fmt: Format, class_name: str | None = None) 
         if "," in line:
             n = line.count(",") + 1
             if n in (6, 15):
-                return read_kitti_detections(path, class_name=class_name)
+                dets = read_kitti_detections(path, class_name=class_name)
+                if n == 15 and len(dets):  # PointRCNN: logits -> probabilities
+                    from scipy.special import expit
+
+                    dets = dets.with_(confidence=expit(dets.confidence))
+                return dets
             got = f"{n} comma-separated"
         else:
             n = len(line.split())
