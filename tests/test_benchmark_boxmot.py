@@ -11,7 +11,7 @@ from sensemaking.benchmark import peers
 from sensemaking.detections import Detections
 
 pytestmark = pytest.mark.skipif(
-    importlib.util.find_spec("boxmot") is None, reason="needs the 'benchmark' extra (boxmot)"
+    importlib.util.find_spec("boxmot") is None, reason="needs the 'boxmot' extra"
 )
 
 

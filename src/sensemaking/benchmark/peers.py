@@ -104,7 +104,7 @@ def _trackers_module() -> Any:
 
 
 def _boxmot_class(key: str) -> Any:
-    require("boxmot", "benchmark")
+    require("boxmot", "boxmot")
     from boxmot.trackers.registry import _load_tracker_class, get_tracker_definition
 
     return _load_tracker_class(get_tracker_definition(BOXMOT_PEERS[key][0]))

@@ -611,7 +611,7 @@ def run(data: str | Path | None = None, output: str | Path = "out/benchmark",
     if any(t in TRACKERS_PEERS for t in chosen):
         require("trackers", "benchmark")
     if any(t in BOXMOT_PEERS for t in chosen):
-        require("boxmot", "benchmark")
+        require("boxmot", "boxmot")
     if jobs < 1:
         raise InputError(f"jobs must be at least 1, got {jobs}")
     if repeat < 1:
