@@ -18,7 +18,9 @@ from sensemaking.classes import class_name as _class_name
 from sensemaking.detections import Detections
 from sensemaking.errors import InputError
 from sensemaking.io.atomic import atomic_write
-from sensemaking.io.formats import PathLike, _class_id, _frame_order, _ints, _num, _nums, _parse_table, _read_text
+from sensemaking.io.tables import (
+    PathLike, class_id_of, frame_order, ints, num, nums, parse_table, read_text,
+)
 from sensemaking.io.mot import SequenceInfo
 
 __all__ = ["read_kitti_seqinfo", "read_kitti_labels", "write_kitti", "read_kitti_detections"]
@@ -44,7 +46,7 @@ def read_kitti_seqinfo(csv_path: PathLike) -> dict[str, SequenceInfo]:
 
     Columns ``seq,num_frames,im_width,im_height,frame_rate`` (header line required).
     """
-    text = _read_text(csv_path)
+    text = read_text(csv_path)
     reader = csv.DictReader(io.StringIO(text))
     fields = [f.strip() for f in reader.fieldnames or []]
     missing = [c for c in _SEQINFO_COLUMNS if c not in fields]
@@ -93,7 +95,7 @@ def read_kitti_labels(path: PathLike) -> Detections:
     X, Y, Z in m (camera frame), ``"rotation_y"`` (N,) rad. Any line order; returned sorted by
     (frame, id). An empty file gives empty Detections.
     """
-    table = _parse_table(path, sep=None, names={17: _LABEL_NAMES[:17], 18: _LABEL_NAMES}, text_cols=(2,))
+    table = parse_table(path, sep=None, names={17: _LABEL_NAMES[:17], 18: _LABEL_NAMES}, text_cols=(2,))
     n = len(table)
     if n == 0:
         return Detections(xyxy=np.zeros((0, 4)), data=_label_data(np.zeros((0, 17)), np.zeros(0, np.int64)))
@@ -158,33 +160,33 @@ def write_kitti(path: PathLike, tracks: Detections) -> None:
     if n and not np.isfinite(tracks.xyxy).all():
         raise ValueError("cannot write boxes with non-finite coordinates")
 
-    order = _frame_order(tracks.frame)
+    order = frame_order(tracks.frame)
 
     def column(key: str, default: float, width: int = 0) -> list[list[str]]:
         """Text of data column ``key`` (sorted by frame), one list per component."""
         shape = (n, width) if width else (n,)
         value = tracks.data.get(key)
         if value is None:
-            return [[_num(default)] * n for _ in range(max(width, 1))]
+            return [[num(default)] * n for _ in range(max(width, 1))]
         value = np.asarray(value, dtype=np.float64)
         if value.shape != shape:
             raise ValueError(f"Detections.data[{key!r}] must have shape {shape}, got {value.shape}")
         value = value[order].reshape(n, max(width, 1))
-        return [_nums(value[:, k]) for k in range(value.shape[1])]
+        return [nums(value[:, k]) for k in range(value.shape[1])]
 
     xyxy = tracks.xyxy[order]
     cols = zip(
-        _ints(tracks.frame[order]),
-        _ints(tracks.tracker_id[order]),
+        ints(tracks.frame[order]),
+        ints(tracks.tracker_id[order]),
         [names[c] for c in tracks.class_id[order].tolist()],
         *column("truncated", -1.0),
         *column("occluded", -1.0),
         *column("alpha", -10.0),
-        *(_nums(xyxy[:, k]) for k in range(4)),
+        *(nums(xyxy[:, k]) for k in range(4)),
         *column("dimensions", -1.0, 3),
         *column("location", -1000.0, 3),
         *column("rotation_y", -10.0),
-        _nums(tracks.confidence[order]),
+        nums(tracks.confidence[order]),
     )
     text = "".join(" ".join(fields) + "\n" for fields in cols)
     with atomic_write(path) as handle:
@@ -203,7 +205,7 @@ def read_kitti_detections(path: PathLike, class_name: str | None = None) -> Dete
     dropped with a warning. An empty file (no detections in the whole sequence) gives empty
     Detections.
     """
-    table = _parse_table(path, sep=",", names={6: _RRC_NAMES, 15: _POINTRCNN_NAMES})
+    table = parse_table(path, sep=",", names={6: _RRC_NAMES, 15: _POINTRCNN_NAMES})
     if len(table) == 0:
         return Detections.empty()
     frames = table.integers(0, minimum=0)
@@ -239,7 +241,7 @@ def read_kitti_detections(path: PathLike, class_name: str | None = None) -> Dete
 def _rrc_class(path: PathLike, name: str | None) -> int:
     """Class id of an RRC file: ``name``, else the parent folder's name."""
     if name is not None:
-        return _class_id(name, path)
+        return class_id_of(name, path)
     folder = Path(path).resolve().parent.name
     try:
         return class_id(folder)

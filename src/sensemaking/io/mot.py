@@ -19,7 +19,7 @@ import numpy as np
 from sensemaking.detections import Detections
 from sensemaking.errors import InputError
 from sensemaking.io.atomic import atomic_write
-from sensemaking.io.formats import PathLike, _frame_order, _ints, _nums, _parse_table, _read_text
+from sensemaking.io.tables import PathLike, frame_order, ints, nums, parse_table, read_text
 
 __all__ = ["SequenceInfo", "read_seqinfo", "read_mot", "write_mot"]
 
@@ -58,7 +58,7 @@ def read_seqinfo(path: PathLike) -> SequenceInfo:
     p = Path(path)
     if p.is_dir():
         p = p / "seqinfo.ini"
-    text = _read_text(p)
+    text = read_text(p)
     parser = configparser.ConfigParser(interpolation=None)
     try:
         parser.read_string(text, source=str(p))
@@ -113,7 +113,7 @@ def read_mot(path: PathLike, kind: MotKind = "det", default_class: int = 1) -> D
     """
     if kind not in _LAYOUTS:
         raise ValueError(f"unknown MOT file kind {kind!r}; expected 'det', 'gt' or 'results'")
-    table = _parse_table(path, sep=",", names=_LAYOUTS[kind])
+    table = parse_table(path, sep=",", names=_LAYOUTS[kind])
     n = len(table)
     if n == 0:
         if kind == "det":
@@ -173,17 +173,17 @@ def write_mot(path: PathLike, tracks: Detections) -> None:
         raise ValueError("cannot write boxes with non-finite coordinates")
     if len(tracks) and not ((xyxy[:, 2] > xyxy[:, 0]) & (xyxy[:, 3] > xyxy[:, 1])).all():
         raise ValueError("cannot write boxes of non-positive width or height")
-    order = _frame_order(tracks.frame)
+    order = frame_order(tracks.frame)
     xyxy = xyxy[order]
     x1, y1 = xyxy[:, 0], xyxy[:, 1]
     cols = zip(
-        _ints(tracks.frame[order]),
-        _ints(tracks.tracker_id[order]),
-        _nums(x1),
-        _nums(y1),
-        _nums(_span(x1, xyxy[:, 2])),
-        _nums(_span(y1, xyxy[:, 3])),
-        _nums(tracks.confidence[order]),
+        ints(tracks.frame[order]),
+        ints(tracks.tracker_id[order]),
+        nums(x1),
+        nums(y1),
+        nums(_span(x1, xyxy[:, 2])),
+        nums(_span(y1, xyxy[:, 3])),
+        nums(tracks.confidence[order]),
     )
     text = "".join(f"{f},{i},{x},{y},{w},{h},{c},-1,-1,-1\n" for f, i, x, y, w, h, c in cols)
     with atomic_write(path) as handle:
