@@ -341,16 +341,7 @@ class Scene:
         if fr.size and fr.size != int(fr[-1] - fr[0]) + 1:
             record["frame_numbers"] = fr.tolist()
         record["metadata"] = self.metadata
-        record["tracks"] = [
-            {
-                "id": t.id, "class": t.class_name, "class_id": t.class_id, "frames": t.frames.tolist(),
-                "boxes": np.round(t.xyxy, 2).tolist(), "confidence": np.round(t.confidence, 4).tolist(),
-                "state": [_STATES[s] for s in t.state.tolist()], "occluder": t.occluder.tolist(),
-                "visibility": [_VISIBILITY[v] for v in t.visibility.tolist()],
-                "hidden_frames": t.hidden_frames.tolist(),
-            }
-            for t in self.tracks.values()
-        ]
+        record["tracks"] = [track_json(t) for t in self.tracks.values()]
         record["events"] = [e.to_json() for e in self.events]
         return record
 
@@ -406,6 +397,17 @@ class Scene:
         except json.JSONDecodeError as exc:
             raise InputError(f"not valid JSON: {exc.msg}", p, exc.lineno) from None
         return cls.from_json(record, p)
+
+
+def track_json(t: Track) -> dict[str, Any]:
+    """One entry of the scene JSON's ``"tracks"`` list (boxes rounded to 0.01 px, scores to 1e-4)."""
+    return {
+        "id": t.id, "class": t.class_name, "class_id": t.class_id, "frames": t.frames.tolist(),
+        "boxes": np.round(t.xyxy, 2).tolist(), "confidence": np.round(t.confidence, 4).tolist(),
+        "state": [_STATES[s] for s in t.state.tolist()], "occluder": t.occluder.tolist(),
+        "visibility": [_VISIBILITY[v] for v in t.visibility.tolist()],
+        "hidden_frames": t.hidden_frames.tolist(),
+    }
 
 
 def _track_from_json(r: Mapping[str, Any], i: int, where: str | None) -> Track:

@@ -19,11 +19,12 @@ from sensemaking.detections import Detections
 from sensemaking.errors import InputError
 from sensemaking.io.atomic import atomic_write
 from sensemaking.io.tables import (
-    PathLike, class_id_of, frame_order, ints, num, nums, parse_table, read_text,
+    PathLike, Table, class_id_of, frame_order, ints, num, nums, parse_table, read_text,
 )
 from sensemaking.io.mot import SequenceInfo
 
-__all__ = ["read_kitti_seqinfo", "read_kitti_labels", "write_kitti", "read_kitti_detections"]
+__all__ = ["read_kitti_seqinfo", "read_kitti_labels", "write_kitti", "read_kitti_detections", "format_kitti",
+           "kitti_detections_from_table", "kitti_labels_from_table"]
 
 log = logging.getLogger(__name__)
 
@@ -95,7 +96,13 @@ def read_kitti_labels(path: PathLike) -> Detections:
     X, Y, Z in m (camera frame), ``"rotation_y"`` (N,) rad. Any line order; returned sorted by
     (frame, id). An empty file gives empty Detections.
     """
-    table = parse_table(path, sep=None, names={17: _LABEL_NAMES[:17], 18: _LABEL_NAMES}, text_cols=(2,))
+    table = parse_table(path, sep=None, names=KITTI_LABEL_LAYOUTS, text_cols=(2,))
+    dets = kitti_labels_from_table(table)
+    return dets[np.lexsort((dets.tracker_id, dets.frame))]
+
+
+def kitti_labels_from_table(table: Table) -> Detections:
+    """:func:`read_kitti_labels` of an already parsed table, in the table's line order."""
     n = len(table)
     if n == 0:
         return Detections(xyxy=np.zeros((0, 4)), data=_label_data(np.zeros((0, 17)), np.zeros(0, np.int64)))
@@ -125,7 +132,7 @@ def read_kitti_labels(path: PathLike) -> Detections:
         source_row=table.rows,
         data=_label_data(v, occluded),
     )
-    return dets[np.lexsort((dets.tracker_id, dets.frame))]
+    return dets
 
 
 def _label_data(v: np.ndarray, occluded: np.ndarray) -> dict[str, np.ndarray]:
@@ -147,6 +154,14 @@ def write_kitti(path: PathLike, tracks: Detections) -> None:
     -1000 -1000 -1000, -10). Every class needs a KITTI type name (:data:`~sensemaking.classes.KITTI_NAMES`).
     Lossless: :func:`read_kitti_labels` gives back the same arrays bit for bit.
     """
+    text = format_kitti(tracks, path)
+    with atomic_write(path) as handle:
+        handle.write(text)
+
+
+def format_kitti(tracks: Detections, path: PathLike | None = None) -> str:
+    """The lines :func:`write_kitti` writes (sorted by frame, stable); ``path`` names the file in
+    errors. Frame by frame, the pieces of a frame-ordered run join to the same text as the whole."""
     n = len(tracks)
     names = {}
     for cid in np.unique(tracks.class_id).tolist():
@@ -188,9 +203,7 @@ def write_kitti(path: PathLike, tracks: Detections) -> None:
         *column("rotation_y", -10.0),
         nums(tracks.confidence[order]),
     )
-    text = "".join(" ".join(fields) + "\n" for fields in cols)
-    with atomic_write(path) as handle:
-        handle.write(text)
+    return "".join(" ".join(fields) + "\n" for fields in cols)
 
 
 def read_kitti_detections(path: PathLike, class_name: str | None = None) -> Detections:
@@ -205,7 +218,20 @@ def read_kitti_detections(path: PathLike, class_name: str | None = None) -> Dete
     dropped with a warning. An empty file (no detections in the whole sequence) gives empty
     Detections.
     """
-    table = parse_table(path, sep=",", names={6: _RRC_NAMES, 15: _POINTRCNN_NAMES})
+    return kitti_detections_from_table(parse_table(path, sep=",", names=KITTI_DETECTION_LAYOUTS),
+                                       class_name)
+
+
+#: comma-separated KITTI detection files: number of fields -> column names (RRC, PointRCNN)
+KITTI_DETECTION_LAYOUTS = {6: _RRC_NAMES, 15: _POINTRCNN_NAMES}
+#: KITTI label / tracking-result files (space-separated, type in column 2)
+KITTI_LABEL_LAYOUTS = {17: _LABEL_NAMES[:17], 18: _LABEL_NAMES}
+
+
+def kitti_detections_from_table(table: Table, class_name: str | None = None,
+                                logger: logging.Logger | None = log) -> Detections:
+    """:func:`read_kitti_detections` of an already parsed table (a whole file or a chunk)."""
+    path = table.path
     if len(table) == 0:
         return Detections.empty()
     frames = table.integers(0, minimum=0)
@@ -233,7 +259,8 @@ def read_kitti_detections(path: PathLike, class_name: str | None = None) -> Dete
             "alpha": v[:, 14].copy(),
         }
     table.sorted_frames(frames)
-    keep = table.positive_size(box[:, 2] - box[:, 0], box[:, 3] - box[:, 1], drop_zero=True, logger=log)
+    keep = table.positive_size(box[:, 2] - box[:, 0], box[:, 3] - box[:, 1], drop_zero=True,
+                                logger=logger)
     dets = Detections(xyxy=box, confidence=score, class_id=classes, frame=frames, source_row=table.rows, data=data)
     return dets if keep.all() else dets[keep]
 

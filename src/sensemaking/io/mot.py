@@ -19,9 +19,9 @@ import numpy as np
 from sensemaking.detections import Detections
 from sensemaking.errors import InputError
 from sensemaking.io.atomic import atomic_write
-from sensemaking.io.tables import PathLike, frame_order, ints, nums, parse_table, read_text
+from sensemaking.io.tables import PathLike, Table, frame_order, ints, nums, parse_table, read_text
 
-__all__ = ["SequenceInfo", "read_seqinfo", "read_mot", "write_mot"]
+__all__ = ["SequenceInfo", "read_seqinfo", "read_mot", "write_mot", "format_mot", "mot_from_table"]
 
 log = logging.getLogger(__name__)
 
@@ -113,7 +113,13 @@ def read_mot(path: PathLike, kind: MotKind = "det", default_class: int = 1) -> D
     """
     if kind not in _LAYOUTS:
         raise ValueError(f"unknown MOT file kind {kind!r}; expected 'det', 'gt' or 'results'")
-    table = parse_table(path, sep=",", names=_LAYOUTS[kind])
+    return mot_from_table(parse_table(path, sep=",", names=_LAYOUTS[kind]), kind, default_class)
+
+
+def mot_from_table(table: Table, kind: MotKind = "det", default_class: int = 1,
+                   logger: logging.Logger | None = log) -> Detections:
+    """:func:`read_mot` of an already parsed table (a whole file, or one chunk of it)."""
+    path = table.path
     n = len(table)
     if n == 0:
         if kind == "det":
@@ -125,7 +131,7 @@ def read_mot(path: PathLike, kind: MotKind = "det", default_class: int = 1) -> D
     ids = table.integers(1) if kind != "det" else np.full(n, -1, dtype=np.int64)
     v = table.values
     table.finite([2, 3, 4, 5] if kind == "gt" else [2, 3, 4, 5, 6])
-    keep = table.positive_size(v[:, 4], v[:, 5], drop_zero=kind == "det", logger=log)
+    keep = table.positive_size(v[:, 4], v[:, 5], drop_zero=kind == "det", logger=logger)
     if kind == "det":
         table.sorted_frames(frames)  # the online tracker consumes detections in order
 
@@ -168,6 +174,14 @@ def write_mot(path: PathLike, tracks: Detections) -> None:
     Numbers are written losslessly: reading the file back with :func:`read_mot`
     (``kind="results"``) gives the same boxes, scores, frames and ids bit for bit.
     """
+    text = format_mot(tracks)
+    with atomic_write(path) as handle:
+        handle.write(text)
+
+
+def format_mot(tracks: Detections) -> str:
+    """The lines :func:`write_mot` writes (sorted by frame, stable): written frame by frame, the
+    pieces of a frame-ordered run join to the same text as the whole."""
     xyxy = tracks.xyxy
     if len(tracks) and not np.isfinite(xyxy).all():
         raise ValueError("cannot write boxes with non-finite coordinates")
@@ -185,9 +199,7 @@ def write_mot(path: PathLike, tracks: Detections) -> None:
         nums(_span(y1, xyxy[:, 3])),
         nums(tracks.confidence[order]),
     )
-    text = "".join(f"{f},{i},{x},{y},{w},{h},{c},-1,-1,-1\n" for f, i, x, y, w, h, c in cols)
-    with atomic_write(path) as handle:
-        handle.write(text)
+    return "".join(f"{f},{i},{x},{y},{w},{h},{c},-1,-1,-1\n" for f, i, x, y, w, h, c in cols)
 
 
 def _span(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
