@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from sensemaking.cli import main
-from sensemaking.detections import Detections, validate_detections
+from sensemaking.detections import Detections
 from sensemaking.errors import InputError
 from sensemaking.io.mot import read_mot
 from sensemaking.synthetic import crossing_scene
@@ -108,6 +108,12 @@ def test_ask_stops_a_huge_grounding_at_its_limits(scene_file: Path, capsys) -> N
 
 
 def test_ask_streams_models_as_they_are_found(scene_file: Path, capsys) -> None:
+    from sensemaking.reasoning.questions import ask
+    from sensemaking.scene import Scene
+
+    seen: list[tuple[str, ...]] = []
+    answer = ask(Scene.load(scene_file), "{a;b;c}.", max_models=0, on_model=seen.append)
+    assert len(seen) == 8 and tuple(seen) == answer.models
     assert main(["ask", str(scene_file), "--models", "0", "{a;b;c}."]) == 0
     out = capsys.readouterr().out.splitlines()
     assert len(out) == 8 and out[0].startswith("answer 1:") and out[-1].startswith("answer 8:")
@@ -231,7 +237,7 @@ def test_evaluate_json_to_a_directory_is_one_line(tmp_path: Path, capsys) -> Non
     code = main(["evaluate", "--gt", str(gt), "--results", str(res), "--format", "mot", "--json",
                  str(tmp_path / "adir")])
     assert code == 2
-    one_line_error(capsys)
+    assert "--json is a directory" in one_line_error(capsys)
 
 
 def test_render_and_report_on_a_scene_with_a_nan_box_are_one_line(scene_file: Path, tmp_path: Path,
@@ -294,6 +300,7 @@ def test_empty_files_are_treated_alike_in_both_formats(tmp_path: Path, capsys) -
     Detections(xyxy=[[0, 0, 1e300, 50]]),
 ])
 def test_the_api_validates_like_the_cli_and_a_refused_frame_changes_nothing(dets) -> None:
+    from sensemaking.detections import validate_detections
     from sensemaking.pipeline import Pipeline
     from sensemaking.tracker import Tracker, TrackerConfig
 
@@ -318,7 +325,7 @@ def test_sigterm_leaves_no_part_files_and_says_so(tmp_path: Path) -> None:
                              str(tmp_path / "e.jsonl"), "--scene", str(tmp_path / "s.json")],
                             stderr=subprocess.PIPE, text=True, env=env)
     deadline = time.monotonic() + 60
-    while not list(tmp_path.glob(".o.txt.*.part")) and time.monotonic() < deadline:
+    while not list(tmp_path.glob(".e.jsonl.*.part")) and time.monotonic() < deadline:
         time.sleep(0.05)
     time.sleep(0.3)
     proc.send_signal(signal.SIGTERM)

@@ -513,7 +513,7 @@ def _track_from_json(r: Mapping[str, Any], i: int, where: str | None) -> Track:
     if not np.isfinite(xyxy).all() or (np.abs(xyxy) > 1e7).any():
         raise InputError(f"tracks[{i}]: 'boxes' must hold finite pixel coordinates (|x| <= 1e7)", where)
 
-    def col(name: str, default: Any, conv: Any = None) -> np.ndarray:
+    def col(name: str, default: Any, conv: Any = None, integer: bool = False) -> np.ndarray:
         v = r.get(name)
         if v is None:
             return np.full(k, default)
@@ -522,6 +522,8 @@ def _track_from_json(r: Mapping[str, Any], i: int, where: str | None) -> Track:
         arr = np.asarray([conv(x) for x in v] if conv else v)
         if arr.ndim != 1 or arr.dtype.kind not in "iufb" or not np.isfinite(arr.astype(np.float64)).all():
             raise InputError(f"tracks[{i}]: '{name}' must be a list of finite numbers or names", where)
+        if integer and (arr.dtype.kind not in "iu" or (arr.size and np.abs(arr).max() > 2**53)):
+            raise InputError(f"tracks[{i}]: '{name}' must be a list of integers", where)
         if arr.shape[0] != k:
             raise InputError(f"tracks[{i}]: '{name}' has {arr.shape[0]} entries for {k} frames", where)
         return arr
@@ -547,9 +549,9 @@ def _track_from_json(r: Mapping[str, Any], i: int, where: str | None) -> Track:
         id=int(r["id"]), class_id=cid, frames=frames, xyxy=xyxy,
         confidence=col("confidence", 1.0).astype(np.float64),
         state=col("state", 0, enum(_STATES, "state")).astype(np.int8),
-        occluder=col("occluder", -1).astype(np.int64),
+        occluder=col("occluder", -1, integer=True).astype(np.int64),
         visibility=col("visibility", 0, enum(_VISIBILITY, "visibility")).astype(np.int8),
-        hidden_frames=col("hidden_frames", 0).astype(np.int64),
+        hidden_frames=col("hidden_frames", 0, integer=True).astype(np.int64),
     )
 
 
