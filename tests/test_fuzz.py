@@ -4,16 +4,20 @@ one-line error and no traceback, leave no output file on error and its input unc
 
 Input classes: (a) random bytes, (b) a real file truncated at a random byte, (c) a real file
 with 1-8 mutations (byte flips, deleted / duplicated / swapped lines, numbers replaced by nan,
-inf, -1, 0, 1e308, 1e9, empty, text, separators added or removed). Real files: a MOT det.txt, a
+inf, -1, 0, 1e308, 1e9, empty, text, separators added or removed), and for scene JSON half of
+(c) as valid JSON with values replaced, deleted or duplicated anywhere in the tree (NaN, 1e300,
+huge ints, wrong types, a billion-frame range ...). Real files: a MOT det.txt, a
 KITTI RRC and a PointRCNN detection file, MOT gt / results, a KITTI label file, a scene JSON and
 a seqinfo.ini, all small and made in the test (no ../shared needed). At least 10,000 cases.
 """
 
 from __future__ import annotations
 
+import json
 import random
 import re
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -60,8 +64,36 @@ def mutate(data: bytes, rng: random.Random) -> bytes:
     return bytes(out)
 
 
+_JSON_VALUES = [float("nan"), float("inf"), 1e300, -1, 0, 10**12, 2**70, -2**70, "x", "", None, True, [], {},
+                [1, 1_000_000_000], [[1, 2, 3, 4]], [0, -5], 1.5, "visible", "hidden_by"]
+
+
+def mutate_json(data: bytes, rng: random.Random) -> bytes:
+    """Valid JSON with one to four values replaced, deleted or duplicated (deep into the scene)."""
+    record = json.loads(data)
+    for _ in range(rng.randint(1, 4)):
+        node: Any = record
+        path: list[Any] = []
+        while isinstance(node, (dict, list)) and node and (not path or rng.random() < 0.8):
+            key = rng.choice(list(node)) if isinstance(node, dict) else rng.randrange(len(node))
+            path.append((node, key))
+            node = node[key]
+        if not path:
+            break
+        parent, key = path[-1]
+        r = rng.random()
+        if r < 0.7:
+            parent[key] = rng.choice(_JSON_VALUES)
+        elif r < 0.85:
+            del parent[key]
+        elif isinstance(parent, list):
+            parent.insert(key, parent[key])
+    return json.dumps(record).encode()
+
+
 def corpus(rng: random.Random, real: bytes, n: int) -> list[bytes]:
-    """``n`` inputs: a third random bytes, a third truncated, a third mutated."""
+    """``n`` inputs: a third random bytes, a third truncated, a third mutated (JSON files: half
+    of those mutated as JSON, so that they parse and reach the validation)."""
     out = []
     for k in range(n):
         cls = k % 3
@@ -71,6 +103,8 @@ def corpus(rng: random.Random, real: bytes, n: int) -> list[bytes]:
                        else bytes(rng.choice(b"0123456789,.-e \n") for _ in range(size)))
         elif cls == 1:
             out.append(real[:rng.randrange(len(real) + 1)])
+        elif real.startswith(b"{") and rng.random() < 0.5:
+            out.append(mutate_json(real, rng))
         else:
             out.append(mutate(real, rng))
     return out
