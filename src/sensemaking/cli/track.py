@@ -267,7 +267,9 @@ def run(args: argparse.Namespace) -> int:
 
             close_all(sinks, ok=False)
             raise
-        pipe = Pipeline(tracker, recorder, monitor, sinks, on_frames=progress.advance)
+        # frames from a file were checked by the reader (same bounds); a detector's are checked here
+        pipe = Pipeline(tracker, recorder, monitor, sinks, validate=args.detections is None,
+                        on_frames=progress.advance)
         try:
             with pipe:
                 summary = pipe.run(frames, first_frame=first, last_frame=last)

@@ -82,7 +82,11 @@ def check_output_paths(outputs: Mapping[str, PathLike | None],
 
 class TracksSink:
     """Tracking results in MOTChallenge (``fmt="mot"``) or KITTI format, as
-    :func:`~sensemaking.io.formats.write_results` writes them (the same bytes)."""
+    :func:`~sensemaking.io.formats.write_results` writes them (the same bytes). Frames are
+    formatted in batches of up to ``BATCH_ROWS`` boxes (numpy's per-call cost is then paid per
+    batch, not per frame)."""
+
+    BATCH_ROWS = 16384
 
     def __init__(self, path: PathLike, fmt: str, *, write_hidden: bool = False):
         from sensemaking.io.kitti import format_kitti
@@ -95,19 +99,31 @@ class TracksSink:
         self.write_hidden = write_hidden
         self.boxes = 0
         self.ids: set[int] = set()
+        self._batch: list[Detections] = []
+        self._batch_rows = 0
         self._file = PartFile(self.path)
 
     def frame(self, result: FrameResult, warnings: list[Any]) -> None:
         tracks: Detections = result.tracks if self.write_hidden else result.visible
         if len(tracks):
+            self._batch.append(tracks)
+            self._batch_rows += len(tracks)
+            if self._batch_rows >= self.BATCH_ROWS:
+                self._flush()
+
+    def _flush(self) -> None:
+        if self._batch:
+            tracks = Detections.concatenate(self._batch)
+            self._batch, self._batch_rows = [], 0
             self._file.handle.write(self._format(tracks))
             self.boxes += len(tracks)
-            self.ids.update(tracks.tracker_id.tolist())
+            self.ids.update(np.unique(tracks.tracker_id).tolist())
 
     def skip(self, first: int, last: int) -> None:
         pass
 
     def finish(self) -> None:
+        self._flush()
         self._file.commit()
 
     def abort(self, interrupted: bool = False) -> None:
@@ -178,7 +194,9 @@ class SceneSink:
         metadata: free-form JSON-able information stored with the scene.
     """
 
-    _ROWS = ("frames", "class_id", "xyxy", "confidence", "state", "occluder", "visibility", "hidden_frames")
+    #: the buffered columns, in order ("track" is the id, not stored with the rows)
+    _ROWS = ("frames", "track", "class_id", "xyxy", "confidence", "state", "occluder", "visibility",
+             "hidden_frames")
 
     def __init__(self, path: PathLike, *, fps: float, image_size: tuple[int, int] | None = None,
                  metadata: Mapping[str, Any] | None = None):
@@ -187,7 +205,9 @@ class SceneSink:
         self.image_size = None if image_size is None else (int(image_size[0]), int(image_size[1]))
         self.metadata = dict(metadata or {})
         self._runs: list[list[int]] = []  # recorded frames as [first, last] runs
-        self._live: dict[int, dict[str, list[Any]]] = {}
+        self._live: dict[int, list[list[np.ndarray]]] = {}  # live track -> its row chunks (columns)
+        self._batch: list[tuple[np.ndarray, ...]] = []
+        self._batch_frames = 0
         self._index: dict[int, list[tuple[int, int]]] = {}  # track id -> (offset, length) of its parts
         self._file = PartFile(self.path)
         folder = self.path.absolute().parent
@@ -204,36 +224,49 @@ class SceneSink:
         else:
             self._runs.append([first, last])
 
+    #: frames buffered before their rows are grouped by track (numpy per batch, not per frame)
+    BATCH_FRAMES = 256
+
     def frame(self, result: FrameResult, warnings: list[Any]) -> None:
         f = int(result.frame)
         if self._runs and f <= self._runs[-1][1]:
             raise ValueError(f"frames must increase: got frame {f} after {self._runs[-1][1]}")
         self._add_frames(f, f)
         tr = result.tracks
-        ids = tr.tracker_id.tolist()
-        d = tr.data
-        n = len(ids)
-        cols = {
-            "class_id": tr.class_id.tolist(), "xyxy": tr.xyxy.tolist(), "confidence": tr.confidence.tolist(),
-            "state": d["state"].tolist() if "state" in d else [0] * n,
-            "occluder": d["occluder"].tolist() if "occluder" in d else [-1] * n,
-            "visibility": d["visibility"].tolist() if "visibility" in d else [0] * n,
-            "hidden_frames": d["hidden_frames"].tolist() if "hidden_frames" in d else [0] * n,
-        }
-        now = set(ids)
-        for ended in [t for t in self._live if t not in now]:
-            self._spill(ended)
-        for i, t in enumerate(ids):
-            rows = self._live.get(t)
-            if rows is None:
-                rows = self._live[t] = {k: [] for k in self._ROWS}
-            rows["frames"].append(f)
-            for k, v in cols.items():
-                rows[k].append(v[i])
+        n = len(tr)
+        if n:
+            d = tr.data
+            self._batch.append((
+                np.full(n, f, dtype=np.int64), tr.tracker_id, tr.class_id, tr.xyxy, tr.confidence,
+                d["state"] if "state" in d else np.zeros(n, np.int64),
+                d["occluder"] if "occluder" in d else np.full(n, -1, np.int64),
+                d["visibility"] if "visibility" in d else np.zeros(n, np.int64),
+                d["hidden_frames"] if "hidden_frames" in d else np.zeros(n, np.int64),
+            ))
+        self._batch_frames += 1
+        if self._batch_frames >= self.BATCH_FRAMES:
+            self._group()
         for e in result.events:
             heapq.heappush(self._pending, (e.frame, e.name, e.args))
         self.n_events += len(result.events)
         self._flush_events(f - self.EVENT_LAG)
+
+    def _group(self) -> None:
+        """Move the buffered frames' rows to their tracks; tracks not in the last frame have
+        ended: spill them."""
+        last = self._runs[-1][1] if self._runs else None
+        batch, self._batch, self._batch_frames = self._batch, [], 0
+        if batch:
+            cols = [np.concatenate(c) for c in zip(*batch)]
+            frame, tid = cols[0], cols[1]
+            order = np.lexsort((frame, tid))
+            cuts = np.flatnonzero(np.diff(tid[order])) + 1
+            for chunk in np.split(order, cuts):
+                t = int(tid[chunk[0]])
+                parts = self._live.setdefault(t, [])
+                parts.append([c[chunk] for c in cols])
+        for t in [t for t, parts in self._live.items() if int(parts[-1][0][-1]) != last]:
+            self._spill(t)
 
     #: events may be reported some frames after the frame they name (a track's start once it is
     #: confirmed): they wait this many frames to be written in order (if one comes later still,
@@ -254,12 +287,15 @@ class SceneSink:
             self._events.write("".join(lines).encode())
 
     def skip(self, first: int, last: int) -> None:
+        self._group()
         for t in list(self._live):
             self._spill(t)
         self._add_frames(first, last)
 
     def _spill(self, track_id: int) -> None:
-        rows = self._live.pop(track_id)
+        parts = self._live.pop(track_id)
+        rows = {k: np.concatenate([p[i] for p in parts]).tolist()
+                for i, k in enumerate(self._ROWS) if k != "track"}
         data = json.dumps(rows, separators=(",", ":")).encode()
         self._tracks.seek(0, os.SEEK_END)
         self._index.setdefault(track_id, []).append((self._tracks.tell(), len(data)))
@@ -272,7 +308,7 @@ class SceneSink:
         for offset, length in self._index[track_id]:
             self._tracks.seek(offset)
             parts.append(json.loads(self._tracks.read(length)))
-        rows = {k: [v for p in parts for v in p[k]] for k in self._ROWS}
+        rows = {k: [v for p in parts for v in p[k]] for k in self._ROWS if k != "track"}
         classes, counts = np.unique(np.asarray(rows["class_id"], dtype=np.int64), return_counts=True)
         return Track(
             id=track_id, class_id=int(classes[np.argmax(counts)]),
@@ -287,6 +323,7 @@ class SceneSink:
     def finish(self) -> None:
         from sensemaking.scene import SCENE_FORMAT, SCENE_VERSION, track_json
 
+        self._group()
         for t in list(self._live):
             self._spill(t)
         out = self._file.handle

@@ -146,7 +146,7 @@ def iter_detection_frames(path: PathLike, fmt: Format, class_name: str | None = 
         validate_detections(dets, image_size, str(path))
         if first is None and len(dets):
             first = int(dets.frame[0])
-        parts = list(dets.frames())
+        parts = _split_frames(dets)
         if not parts:
             continue  # every box of the chunk dropped: a pending frame may still go on
         if pending is not None:
@@ -172,6 +172,19 @@ def iter_detection_frames(path: PathLike, fmt: Format, class_name: str | None = 
                     path, dropped, first_drop)
     if summary is not None:
         summary.append(DetectionsSummary(first, last, n_frames, n_dets, dropped))
+
+
+def _split_frames(dets: Detections) -> list[tuple[int, Detections]]:
+    """``(frame, rows of that frame)`` of frame-sorted, validated Detections (slices, not copies)."""
+    if len(dets) == 0:
+        return []
+    cuts = np.flatnonzero(np.diff(dets.frame)) + 1
+    starts = [0, *cuts.tolist()]
+    ends = [*cuts.tolist(), len(dets)]
+    cols = ("xyxy", "confidence", "class_id", "tracker_id", "frame", "source_row")
+    return [(int(dets.frame[a]), Detections.trusted(*(getattr(dets, c)[a:b] for c in cols),
+                                                    data={k: v[a:b] for k, v in dets.data.items()}))
+            for a, b in zip(starts, ends)]
 
 
 def _ordered(dets: Detections, kind: str) -> Detections:
