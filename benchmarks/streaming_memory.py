@@ -35,8 +35,10 @@ def write_detections(path: Path, frames: int, objects: int, life: int, seed: int
                 x = 20.0 + age * (1700.0 / life) + rng.normal(0, 1.0, objects)
                 yy = y + rng.normal(0, 1.0, objects)
                 score = 0.9 + 0.09 * rng.random(objects)
-                block.extend(f"{f},-1,{x[i]:.2f},{yy[i]:.2f},60.00,30.00,{score[i]:.3f},-1,-1,-1\n"
-                             for i in range(objects))
+                block.extend(
+                    f"{f},-1,{x[i]:.2f},{yy[i]:.2f},60.00,30.00,{score[i]:.3f},-1,-1,-1\n"
+                    for i in range(objects)
+                )
             fh.write("".join(block))
             n += len(block)
     return n
@@ -51,7 +53,9 @@ def peak_mb() -> float:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     ap.add_argument("--frames", type=int, default=100_000)
     ap.add_argument("--objects", type=int, default=25, help="boxes per frame")
     ap.add_argument("--life", type=int, default=400, help="frames an object stays in view")
@@ -76,20 +80,42 @@ def main() -> None:
         det = root / "SYN-01" / "det" / "det.txt"
         lines = write_detections(det, args.frames, args.objects, args.life)
         (root / "SYN-01" / "seqinfo.ini").write_text(
-            f"[Sequence]\nname=SYN-01\nframeRate=30\nseqLength={args.frames}\nimWidth=1920\nimHeight=1080\n")
+            f"[Sequence]\nname=SYN-01\nframeRate=30\nseqLength={args.frames}\nimWidth=1920\nimHeight=1080\n"
+        )
         size_mb = det.stat().st_size / 2**20
         before = peak_mb()
-        print(f"input: {args.frames} frames, {lines} detections, {size_mb:.0f} MB; peak before the run "
-              f"{before:.0f} MB")
+        print(
+            f"input: {args.frames} frames, {lines} detections, {size_mb:.0f} MB; peak before the run "
+            f"{before:.0f} MB"
+        )
         t0[0] = time.perf_counter()
-        code = cli_main(["-q", "track", "--detections", str(det), "--format", "mot",
-                         "--output", str(root / "out.txt"), "--events", str(root / "ev.jsonl"),
-                         "--warnings", str(root / "w.jsonl"), "--scene", str(root / "scene.json")])
+        code = cli_main(
+            [
+                "-q",
+                "track",
+                "--detections",
+                str(det),
+                "--format",
+                "mot",
+                "--output",
+                str(root / "out.txt"),
+                "--events",
+                str(root / "ev.jsonl"),
+                "--warnings",
+                str(root / "w.jsonl"),
+                "--scene",
+                str(root / "scene.json"),
+            ]
+        )
         total = time.perf_counter() - t0[0]
         print(f"exit {code}; scene {(root / 'scene.json').stat().st_size / 2**20:.0f} MB")
     for done, mb, at in seen:
-        print(f"after {done:>7d} frames: peak {mb:6.0f} MB  ({at:7.1f} s, {1000 * at / done:.2f} ms/frame)")
-    print(f"total {total:.1f} s, {1000 * total / args.frames:.2f} ms/frame; peak {peak_mb():.0f} MB")
+        print(
+            f"after {done:>7d} frames: peak {mb:6.0f} MB  ({at:7.1f} s, {1000 * at / done:.2f} ms/frame)"
+        )
+    print(
+        f"total {total:.1f} s, {1000 * total / args.frames:.2f} ms/frame; peak {peak_mb():.0f} MB"
+    )
 
 
 if __name__ == "__main__":

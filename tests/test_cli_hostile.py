@@ -26,8 +26,11 @@ ROOT = Path(__file__).resolve().parents[1]
 def write_det(path: Path, n_frames: int = 30, frame_offset: int = 1) -> Path:
     """A small MOT det.txt: one box per frame moving right."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text("".join(f"{f + frame_offset},-1,{100 + 3 * f},100,40,80,0.9,-1,-1,-1\n"
-                            for f in range(n_frames)))
+    path.write_text(
+        "".join(
+            f"{f + frame_offset},-1,{100 + 3 * f},100,40,80,0.9,-1,-1,-1\n" for f in range(n_frames)
+        )
+    )
     return path
 
 
@@ -48,10 +51,20 @@ def one_line_error(capsys) -> str:
 
 # 1. input destroyed ------------------------------------------------------------------------------
 @pytest.mark.parametrize("option", ["--output", "--events", "--scene", "--warnings"])
-def test_an_output_naming_the_input_is_refused_and_the_input_kept(tmp_path: Path, capsys, option) -> None:
+def test_an_output_naming_the_input_is_refused_and_the_input_kept(
+    tmp_path: Path, capsys, option
+) -> None:
     det = write_det(tmp_path / "d" / "det.txt")
     before = det.read_bytes()
-    argv = ["track", "--detections", str(det), "--format", "mot", "--output", str(tmp_path / "o.txt")]
+    argv = [
+        "track",
+        "--detections",
+        str(det),
+        "--format",
+        "mot",
+        "--output",
+        str(tmp_path / "o.txt"),
+    ]
     argv += [option, str(det)] if option != "--output" else []
     if option == "--output":
         argv[-1] = str(det)
@@ -63,21 +76,41 @@ def test_an_output_naming_the_input_is_refused_and_the_input_kept(tmp_path: Path
 def test_outputs_naming_the_same_file_are_refused(tmp_path: Path, capsys) -> None:
     det = write_det(tmp_path / "d" / "det.txt")
     same = tmp_path / "out.txt"
-    assert main(["track", "--detections", str(det), "--format", "mot", "--output", str(same),
-                 "--events", str(same), "--scene", str(tmp_path / "s.json")]) == 2
+    assert (
+        main(
+            [
+                "track",
+                "--detections",
+                str(det),
+                "--format",
+                "mot",
+                "--output",
+                str(same),
+                "--events",
+                str(same),
+                "--scene",
+                str(tmp_path / "s.json"),
+            ]
+        )
+        == 2
+    )
     assert "name the same file" in one_line_error(capsys)
     assert not same.exists() and not (tmp_path / "s.json").exists()
 
 
 # 2. ask runs what it is given ----------------------------------------------------------------------
-@pytest.mark.parametrize("query", [
-    '#include "secret.lp". #show secret/1.',
-    '#script (python)\nimport os\n#end.\nq :- track(_,_).',
-    "#external e. q :- e.",
-    "q(@f(1)).",
-])
-def test_ask_refuses_queries_that_reach_outside_the_scene(scene_file: Path, tmp_path: Path, capsys, query,
-                                                          monkeypatch) -> None:
+@pytest.mark.parametrize(
+    "query",
+    [
+        '#include "secret.lp". #show secret/1.',
+        "#script (python)\nimport os\n#end.\nq :- track(_,_).",
+        "#external e. q :- e.",
+        "q(@f(1)).",
+    ],
+)
+def test_ask_refuses_queries_that_reach_outside_the_scene(
+    scene_file: Path, tmp_path: Path, capsys, query, monkeypatch
+) -> None:
     (scene_file.parent / "secret.lp").write_text("secret(42).\n")
     monkeypatch.chdir(scene_file.parent)
     assert main(["ask", str(scene_file), query]) == 2
@@ -92,14 +125,28 @@ def test_the_api_refuses_them_too(scene_file: Path) -> None:
     with pytest.raises(QueryError, match="#include is not allowed"):
         ask(Scene.load(scene_file), '#include "x.lp". #show a/0.')
     # a directive inside a comment or a string is not a directive
-    answer = ask(Scene.load(scene_file), '% #include "x.lp"\nq(T, "#script") :- track(T, _). #show q/2.')
+    answer = ask(
+        Scene.load(scene_file), '% #include "x.lp"\nq(T, "#script") :- track(T, _). #show q/2.'
+    )
     assert answer.atoms and all("#script" in a for a in answer.atoms)
 
 
 def test_ask_stops_a_huge_grounding_at_its_limits(scene_file: Path, capsys) -> None:
     t0 = time.monotonic()
-    assert main(["ask", str(scene_file), "--timeout", "2", "--max-memory", "400",
-                 "n(1..3200). p(X,Y) :- n(X), n(Y)."]) == 2
+    assert (
+        main(
+            [
+                "ask",
+                str(scene_file),
+                "--timeout",
+                "2",
+                "--max-memory",
+                "400",
+                "n(1..3200). p(X,Y) :- n(X), n(Y).",
+            ]
+        )
+        == 2
+    )
     assert time.monotonic() - t0 < 30
     line = one_line_error(capsys)
     assert "time limit" in line or "memory" in line
@@ -125,7 +172,20 @@ def test_a_frame_number_beyond_the_plausibility_bound_is_an_error(tmp_path: Path
     det.parent.mkdir()
     det.write_text("1000000000,-1,10,10,40,80,0.9,-1,-1,-1\n")
     t0 = time.monotonic()
-    assert main(["track", "--detections", str(det), "--format", "mot", "--output", str(tmp_path / "o.txt")]) == 2
+    assert (
+        main(
+            [
+                "track",
+                "--detections",
+                str(det),
+                "--format",
+                "mot",
+                "--output",
+                str(tmp_path / "o.txt"),
+            ]
+        )
+        == 2
+    )
     assert time.monotonic() - t0 < 10
     line = one_line_error(capsys)
     assert f"{det}:1:" in line and "beyond the sequence" in line
@@ -135,25 +195,64 @@ def test_a_frame_number_beyond_the_plausibility_bound_is_an_error(tmp_path: Path
 def test_a_frame_beyond_the_seqinfo_length_is_an_error(tmp_path: Path, capsys) -> None:
     det = write_det(tmp_path / "SEQ" / "det" / "det.txt", n_frames=30)
     (tmp_path / "SEQ" / "seqinfo.ini").write_text(
-        "[Sequence]\nframeRate=10\nseqLength=20\nimWidth=640\nimHeight=480\n")
-    assert main(["track", "--detections", str(det), "--format", "mot", "--output", str(tmp_path / "o.txt")]) == 2
-    assert f"{det}:21: frame 21 is beyond the sequence: the sequence has frames up to 20" in one_line_error(capsys)
+        "[Sequence]\nframeRate=10\nseqLength=20\nimWidth=640\nimHeight=480\n"
+    )
+    assert (
+        main(
+            [
+                "track",
+                "--detections",
+                str(det),
+                "--format",
+                "mot",
+                "--output",
+                str(tmp_path / "o.txt"),
+            ]
+        )
+        == 2
+    )
+    assert (
+        f"{det}:21: frame 21 is beyond the sequence: the sequence has frames up to 20"
+        in one_line_error(capsys)
+    )
 
 
 def test_a_long_gap_is_skipped_not_looped_over(tmp_path: Path) -> None:
     det = tmp_path / "d" / "det.txt"
     det.parent.mkdir()
-    det.write_text("1,-1,10,10,40,80,0.9,-1,-1,-1\n2,-1,12,10,40,80,0.9,-1,-1,-1\n"
-                   "9000000,-1,10,10,40,80,0.9,-1,-1,-1\n")
+    det.write_text(
+        "1,-1,10,10,40,80,0.9,-1,-1,-1\n2,-1,12,10,40,80,0.9,-1,-1,-1\n"
+        "9000000,-1,10,10,40,80,0.9,-1,-1,-1\n"
+    )
     t0 = time.monotonic()
-    assert main(["-q", "track", "--detections", str(det), "--format", "mot", "--output", str(tmp_path / "o.txt"),
-                 "--scene", str(tmp_path / "s.json")]) == 0
+    assert (
+        main(
+            [
+                "-q",
+                "track",
+                "--detections",
+                str(det),
+                "--format",
+                "mot",
+                "--output",
+                str(tmp_path / "o.txt"),
+                "--scene",
+                str(tmp_path / "s.json"),
+            ]
+        )
+        == 0
+    )
     assert time.monotonic() - t0 < 20
-    assert set(read_mot(tmp_path / "o.txt", kind="results").frame.tolist()) == {1, 2}  # 9000000: tentative
+    assert set(read_mot(tmp_path / "o.txt", kind="results").frame.tolist()) == {
+        1,
+        2,
+    }  # 9000000: tentative
     assert json.loads((tmp_path / "s.json").read_text())["frames"] == [1, 9000000]
 
 
-def test_a_scene_asking_for_a_billion_frames_is_refused(scene_file: Path, tmp_path: Path, capsys) -> None:
+def test_a_scene_asking_for_a_billion_frames_is_refused(
+    scene_file: Path, tmp_path: Path, capsys
+) -> None:
     record = json.loads(scene_file.read_text())
     record["frames"] = [1, 1_000_000_000]
     bad = tmp_path / "bad.json"
@@ -164,8 +263,9 @@ def test_a_scene_asking_for_a_billion_frames_is_refused(scene_file: Path, tmp_pa
 
 
 # 4. memory grows with the input; warnings only at the end -----------------------------------------
-def test_warnings_are_written_while_the_run_goes_on_and_kept_on_interruption(tmp_path: Path, monkeypatch,
-                                                                             capsys) -> None:
+def test_warnings_are_written_while_the_run_goes_on_and_kept_on_interruption(
+    tmp_path: Path, monkeypatch, capsys
+) -> None:
     from sensemaking.reasoning.situations import Warning as SituationWarning
     from sensemaking.reasoning import online
 
@@ -182,8 +282,25 @@ def test_warnings_are_written_while_the_run_goes_on_and_kept_on_interruption(tmp
         return [SituationWarning(int(result.frame), "TEST", (1,), f"frame {result.frame}", {})]
 
     monkeypatch.setattr(online.SituationMonitor, "update", update)
-    assert main(["-q", "track", "--detections", str(det), "--format", "mot", "--output", str(tmp_path / "o.txt"),
-                 "--events", str(tmp_path / "e.jsonl"), "--warnings", str(warnings_path)]) == 130
+    assert (
+        main(
+            [
+                "-q",
+                "track",
+                "--detections",
+                str(det),
+                "--format",
+                "mot",
+                "--output",
+                str(tmp_path / "o.txt"),
+                "--events",
+                str(tmp_path / "e.jsonl"),
+                "--warnings",
+                str(warnings_path),
+            ]
+        )
+        == 130
+    )
     assert any('"frame": 5' in text for text in seen_during_run)  # flushed as issued
     kept = [json.loads(x) for x in warnings_path.read_text().splitlines()]
     assert [w["frame"] for w in kept] == list(range(1, 30))
@@ -193,9 +310,22 @@ def test_warnings_are_written_while_the_run_goes_on_and_kept_on_interruption(tmp
 
 
 # 5. tracebacks instead of errors ------------------------------------------------------------------
-@pytest.mark.parametrize("case", ["output_dir", "scene_dir", "events_dir", "parent_is_file", "fps_nan",
-                                  "fps_zero", "fps_huge_seqinfo", "max_solve_neg", "max_solve_nan",
-                                  "max_solve_zero", "set_abc"])
+@pytest.mark.parametrize(
+    "case",
+    [
+        "output_dir",
+        "scene_dir",
+        "events_dir",
+        "parent_is_file",
+        "fps_nan",
+        "fps_zero",
+        "fps_huge_seqinfo",
+        "max_solve_neg",
+        "max_solve_nan",
+        "max_solve_zero",
+        "set_abc",
+    ],
+)
 def test_bad_options_get_one_line_and_exit_2_before_any_work(tmp_path: Path, capsys, case) -> None:
     det = write_det(tmp_path / "SEQ" / "det" / "det.txt")
     out = tmp_path / "o.txt"
@@ -216,12 +346,18 @@ def test_bad_options_get_one_line_and_exit_2_before_any_work(tmp_path: Path, cap
         extra = ["--fps", "0"]
     elif case == "fps_huge_seqinfo":
         (tmp_path / "SEQ" / "seqinfo.ini").write_text(
-            "[Sequence]\nframeRate=1e300\nseqLength=30\nimWidth=640\nimHeight=480\n")
+            "[Sequence]\nframeRate=1e300\nseqLength=30\nimWidth=640\nimHeight=480\n"
+        )
     elif case.startswith("max_solve"):
-        extra = ["--max-solve-ms", {"max_solve_neg": "-1", "max_solve_nan": "nan", "max_solve_zero": "0"}[case]]
+        extra = [
+            "--max-solve-ms",
+            {"max_solve_neg": "-1", "max_solve_nan": "nan", "max_solve_zero": "0"}[case],
+        ]
     elif case == "set_abc":
         extra = ["--set", "max_hidden_s=abc"]
-    code = main(["track", "--detections", str(det), "--format", "mot", "--output", str(out)] + extra)
+    code = main(
+        ["track", "--detections", str(det), "--format", "mot", "--output", str(out)] + extra
+    )
     assert code == 2
     one_line_error(capsys)
     assert not (tmp_path / "o.txt").exists()
@@ -234,21 +370,35 @@ def test_evaluate_json_to_a_directory_is_one_line(tmp_path: Path, capsys) -> Non
     res = tmp_path / "res.txt"
     res.write_text("1,1,10,10,40,80,1,-1,-1,-1\n")
     (tmp_path / "adir").mkdir()
-    code = main(["evaluate", "--gt", str(gt), "--results", str(res), "--format", "mot", "--json",
-                 str(tmp_path / "adir")])
+    code = main(
+        [
+            "evaluate",
+            "--gt",
+            str(gt),
+            "--results",
+            str(res),
+            "--format",
+            "mot",
+            "--json",
+            str(tmp_path / "adir"),
+        ]
+    )
     assert code == 2
     assert "--json is a directory" in one_line_error(capsys)
 
 
-def test_render_and_report_on_a_scene_with_a_nan_box_are_one_line(scene_file: Path, tmp_path: Path,
-                                                                  capsys) -> None:
+def test_render_and_report_on_a_scene_with_a_nan_box_are_one_line(
+    scene_file: Path, tmp_path: Path, capsys
+) -> None:
     text = scene_file.read_text()
     record = json.loads(text)
     record["tracks"][0]["boxes"][0][0] = float("nan")
     bad = tmp_path / "nan.json"
     bad.write_text(json.dumps(record))  # json writes NaN
-    for argv in (["render", str(bad), "-o", str(tmp_path / "r.gif")],
-                 ["report", str(bad), "-o", str(tmp_path / "r.html")]):
+    for argv in (
+        ["render", str(bad), "-o", str(tmp_path / "r.gif")],
+        ["report", str(bad), "-o", str(tmp_path / "r.html")],
+    ):
         assert main(argv) == 2
         assert "finite" in one_line_error(capsys)
         assert not (tmp_path / "r.gif").exists() and not (tmp_path / "r.html").exists()
@@ -259,8 +409,22 @@ def test_class_without_a_kitti_type_fails_before_the_run(tmp_path: Path, capsys)
     det = tmp_path / "car" / "0001.txt"
     det.parent.mkdir()
     det.write_text("0,10,10,50,90,0.9\n1,12,10,52,90,0.9\n")
-    assert main(["track", "--detections", str(det), "--format", "kitti", "--class", "crowd",
-                 "--output", str(tmp_path / "o.txt")]) == 2
+    assert (
+        main(
+            [
+                "track",
+                "--detections",
+                str(det),
+                "--format",
+                "kitti",
+                "--class",
+                "crowd",
+                "--output",
+                str(tmp_path / "o.txt"),
+            ]
+        )
+        == 2
+    )
     assert "--class crowd: KITTI results have no type" in one_line_error(capsys)
 
 
@@ -269,8 +433,22 @@ def test_a_missing_seqinfo_is_named_as_missing(tmp_path: Path, capsys) -> None:
     det.parent.mkdir()
     det.write_text("0,10,10,50,90,0.9\n")
     for fmt in ("kitti", "mot"):
-        assert main(["track", "--detections", str(det), "--format", fmt, "--seqinfo", str(tmp_path / "none.csv"),
-                     "--output", str(tmp_path / "o.txt")]) == 2
+        assert (
+            main(
+                [
+                    "track",
+                    "--detections",
+                    str(det),
+                    "--format",
+                    fmt,
+                    "--seqinfo",
+                    str(tmp_path / "none.csv"),
+                    "--output",
+                    str(tmp_path / "o.txt"),
+                ]
+            )
+            == 2
+        )
         assert "seqinfo file not found" in one_line_error(capsys)
 
 
@@ -279,7 +457,20 @@ def test_absurd_coordinates_are_refused_with_their_line(tmp_path: Path, capsys) 
     det = write_det(tmp_path / "d" / "det.txt", n_frames=5)
     with det.open("a") as fh:
         fh.write("6,-1,1e300,10,1e308,80,0.9,-1,-1,-1\n")
-    assert main(["track", "--detections", str(det), "--format", "mot", "--output", str(tmp_path / "o.txt")]) == 2
+    assert (
+        main(
+            [
+                "track",
+                "--detections",
+                str(det),
+                "--format",
+                "mot",
+                "--output",
+                str(tmp_path / "o.txt"),
+            ]
+        )
+        == 2
+    )
     assert f"{det}:6:" in one_line_error(capsys)
 
 
@@ -288,17 +479,33 @@ def test_empty_files_are_treated_alike_in_both_formats(tmp_path: Path, capsys) -
         det = tmp_path / fmt / name
         det.parent.mkdir(parents=True)
         det.write_text("")
-        assert main(["track", "--detections", str(det), "--format", fmt, "--output", str(tmp_path / "o.txt")]) == 2
+        assert (
+            main(
+                [
+                    "track",
+                    "--detections",
+                    str(det),
+                    "--format",
+                    fmt,
+                    "--output",
+                    str(tmp_path / "o.txt"),
+                ]
+            )
+            == 2
+        )
         assert "no detections in file" in one_line_error(capsys)
 
 
-@pytest.mark.parametrize("dets", [
-    Detections(xyxy=[[10, 10, 5, 50]]),  # inverted
-    Detections(xyxy=[[10, 10, 50, 50]], confidence=[float("nan")]),
-    Detections(xyxy=[[10, 10, 50, 50]], class_id=[-5]),
-    Detections(xyxy=[[float("nan"), 10, 50, 50]]),
-    Detections(xyxy=[[0, 0, 1e300, 50]]),
-])
+@pytest.mark.parametrize(
+    "dets",
+    [
+        Detections(xyxy=[[10, 10, 5, 50]]),  # inverted
+        Detections(xyxy=[[10, 10, 50, 50]], confidence=[float("nan")]),
+        Detections(xyxy=[[10, 10, 50, 50]], class_id=[-5]),
+        Detections(xyxy=[[float("nan"), 10, 50, 50]]),
+        Detections(xyxy=[[0, 0, 1e300, 50]]),
+    ],
+)
 def test_the_api_validates_like_the_cli_and_a_refused_frame_changes_nothing(dets) -> None:
     from sensemaking.detections import validate_detections
     from sensemaking.pipeline import Pipeline
@@ -320,10 +527,28 @@ def test_the_api_validates_like_the_cli_and_a_refused_frame_changes_nothing(dets
 def test_sigterm_leaves_no_part_files_and_says_so(tmp_path: Path) -> None:
     det = write_det(tmp_path / "d" / "det.txt", n_frames=20000)
     env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
-    proc = subprocess.Popen([sys.executable, "-m", "sensemaking", "-q", "track", "--detections", str(det),
-                             "--format", "mot", "--output", str(tmp_path / "o.txt"), "--events",
-                             str(tmp_path / "e.jsonl"), "--scene", str(tmp_path / "s.json")],
-                            stderr=subprocess.PIPE, text=True, env=env)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "sensemaking",
+            "-q",
+            "track",
+            "--detections",
+            str(det),
+            "--format",
+            "mot",
+            "--output",
+            str(tmp_path / "o.txt"),
+            "--events",
+            str(tmp_path / "e.jsonl"),
+            "--scene",
+            str(tmp_path / "s.json"),
+        ],
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
     deadline = time.monotonic() + 60
     while not list(tmp_path.glob(".e.jsonl.*.part")) and time.monotonic() < deadline:
         time.sleep(0.05)
@@ -345,11 +570,32 @@ def test_same_run_same_bytes_with_the_streaming_pipeline(tmp_path: Path) -> None
     seq = tmp_path / "X"
     (seq / "det").mkdir(parents=True)
     d = scene.detections
-    lines = [f"{d.frame[i] + 1},-1,{x:.2f},{y:.2f},{w:.2f},{h:.2f},{d.confidence[i]:.3f},-1,-1,-1"
-             for i, (x, y, w, h) in zip(np.argsort(d.frame, kind="stable"), d.xywh[np.argsort(d.frame, kind="stable")])]
+    lines = [
+        f"{d.frame[i] + 1},-1,{x:.2f},{y:.2f},{w:.2f},{h:.2f},{d.confidence[i]:.3f},-1,-1,-1"
+        for i, (x, y, w, h) in zip(
+            np.argsort(d.frame, kind="stable"), d.xywh[np.argsort(d.frame, kind="stable")]
+        )
+    ]
     (seq / "det" / "det.txt").write_text("\n".join(lines) + "\n")
-    assert main(["-q", "track", "--detections", str(seq / "det" / "det.txt"), "--format", "mot", "--fps", "10",
-                 "--image-size", "1242x375", "--output", str(tmp_path / "stream.txt")]) == 0
+    assert (
+        main(
+            [
+                "-q",
+                "track",
+                "--detections",
+                str(seq / "det" / "det.txt"),
+                "--format",
+                "mot",
+                "--fps",
+                "10",
+                "--image-size",
+                "1242x375",
+                "--output",
+                str(tmp_path / "stream.txt"),
+            ]
+        )
+        == 0
+    )
     from sensemaking.cli.track import tracker_config
     import argparse
 
@@ -357,7 +603,9 @@ def test_same_run_same_bytes_with_the_streaming_pipeline(tmp_path: Path) -> None
     tracker = Tracker(tracker_config(args, 10.0, (1242, 375)))
     dets = read_mot(seq / "det" / "det.txt", kind="det")
     by_frame = dict(dets.frames())
-    out = [tracker.update(by_frame.get(f, Detections.empty()), frame=f).visible
-           for f in range(1, int(dets.frame.max()) + 1)]
+    out = [
+        tracker.update(by_frame.get(f, Detections.empty()), frame=f).visible
+        for f in range(1, int(dets.frame.max()) + 1)
+    ]
     write_mot(tmp_path / "whole.txt", Detections.concatenate(out))
     assert (tmp_path / "stream.txt").read_bytes() == (tmp_path / "whole.txt").read_bytes()

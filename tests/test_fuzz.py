@@ -25,8 +25,34 @@ import pytest
 from sensemaking.cli import main
 
 SEED = 20261125
-_TOKENS = ["nan", "inf", "-inf", "-1", "0", "1e308", "1e9", "1000000000", "", "x", "1.5", "-0", "NaN",
-           ",", ",,", " ", "\t", "\"", "{", "}", "[", "]", "null", "true", "1e-320", "99999999999999999999"]
+_TOKENS = [
+    "nan",
+    "inf",
+    "-inf",
+    "-1",
+    "0",
+    "1e308",
+    "1e9",
+    "1000000000",
+    "",
+    "x",
+    "1.5",
+    "-0",
+    "NaN",
+    ",",
+    ",,",
+    " ",
+    "\t",
+    '"',
+    "{",
+    "}",
+    "[",
+    "]",
+    "null",
+    "true",
+    "1e-320",
+    "99999999999999999999",
+]
 _NUMBER = re.compile(rb"-?\d+(?:\.\d+)?(?:e[-+]?\d+)?")
 
 
@@ -41,7 +67,7 @@ def mutate(data: bytes, rng: random.Random) -> bytes:
             nums = list(_NUMBER.finditer(bytes(out)))
             if nums:
                 m = rng.choice(nums)
-                out[m.start():m.end()] = rng.choice(_TOKENS).encode()
+                out[m.start() : m.end()] = rng.choice(_TOKENS).encode()
         elif kind == 2:  # delete or duplicate a line
             lines = bytes(out).split(b"\n")
             i = rng.randrange(len(lines))
@@ -60,12 +86,32 @@ def mutate(data: bytes, rng: random.Random) -> bytes:
             out[i:i] = rng.choice(_TOKENS).encode()
         elif out:  # delete a run of bytes
             i = rng.randrange(len(out))
-            del out[i:i + rng.randint(1, 20)]
+            del out[i : i + rng.randint(1, 20)]
     return bytes(out)
 
 
-_JSON_VALUES = [float("nan"), float("inf"), 1e300, -1, 0, 10**12, 2**70, -2**70, "x", "", None, True, [], {},
-                [1, 1_000_000_000], [[1, 2, 3, 4]], [0, -5], 1.5, "visible", "hidden_by"]
+_JSON_VALUES = [
+    float("nan"),
+    float("inf"),
+    1e300,
+    -1,
+    0,
+    10**12,
+    2**70,
+    -(2**70),
+    "x",
+    "",
+    None,
+    True,
+    [],
+    {},
+    [1, 1_000_000_000],
+    [[1, 2, 3, 4]],
+    [0, -5],
+    1.5,
+    "visible",
+    "hidden_by",
+]
 
 
 def mutate_json(data: bytes, rng: random.Random) -> bytes:
@@ -99,10 +145,13 @@ def corpus(rng: random.Random, real: bytes, n: int) -> list[bytes]:
         cls = k % 3
         if cls == 0:
             size = rng.choice([0, 1, 2, 8, 64, 512])
-            out.append(bytes(rng.randrange(256) for _ in range(size)) if rng.random() < 0.5
-                       else bytes(rng.choice(b"0123456789,.-e \n") for _ in range(size)))
+            out.append(
+                bytes(rng.randrange(256) for _ in range(size))
+                if rng.random() < 0.5
+                else bytes(rng.choice(b"0123456789,.-e \n") for _ in range(size))
+            )
         elif cls == 1:
-            out.append(real[:rng.randrange(len(real) + 1)])
+            out.append(real[: rng.randrange(len(real) + 1)])
         elif real.startswith(b"{") and rng.random() < 0.5:
             out.append(mutate_json(real, rng))
         else:
@@ -113,20 +162,38 @@ def corpus(rng: random.Random, real: bytes, n: int) -> list[bytes]:
 def real_files(tmp: Path) -> dict[str, bytes]:
     from sensemaking.demo import run_demo
 
-    det = "".join(f"{f},-1,{100 + 3 * f + (i * 60)},{100 + 5 * i},40,80,0.{9 - i},-1,-1,-1\n"
-                  for f in range(1, 13) for i in range(2))
-    rrc = "".join(f"{f},{100 + 3 * f + i * 80},{100},{150 + 3 * f + i * 80},{180},0.9{i}\n"
-                  for f in range(0, 12) for i in range(2))
-    prcnn = "".join(f"{f},2,{100 + 3 * f},100,{150 + 3 * f},180,3.5,1.5,1.6,3.9,1.0,1.5,20.0,0.1,-1.5\n"
-                    for f in range(0, 10))
+    det = "".join(
+        f"{f},-1,{100 + 3 * f + (i * 60)},{100 + 5 * i},40,80,0.{9 - i},-1,-1,-1\n"
+        for f in range(1, 13)
+        for i in range(2)
+    )
+    rrc = "".join(
+        f"{f},{100 + 3 * f + i * 80},{100},{150 + 3 * f + i * 80},{180},0.9{i}\n"
+        for f in range(0, 12)
+        for i in range(2)
+    )
+    prcnn = "".join(
+        f"{f},2,{100 + 3 * f},100,{150 + 3 * f},180,3.5,1.5,1.6,3.9,1.0,1.5,20.0,0.1,-1.5\n"
+        for f in range(0, 10)
+    )
     gt = "".join(f"{f},1,{100 + 3 * f},100,40,80,1,1,1.0\n" for f in range(1, 11))
     res = "".join(f"{f},1,{101 + 3 * f},100,40,80,0.9,-1,-1,-1\n" for f in range(1, 11))
-    label = "".join(f"{f} 1 Car 0 0 -1.5 {100 + 3 * f} 100 {150 + 3 * f} 180 1.5 1.6 3.9 1.0 1.5 20.0 0.1\n"
-                    for f in range(0, 10))
+    label = "".join(
+        f"{f} 1 Car 0 0 -1.5 {100 + 3 * f} 100 {150 + 3 * f} 180 1.5 1.6 3.9 1.0 1.5 20.0 0.1\n"
+        for f in range(0, 10)
+    )
     scene = run_demo(tmp / "demo", render=False).files["scene"].read_bytes()
     seqinfo = b"[Sequence]\nname=X\nframeRate=10\nseqLength=12\nimWidth=640\nimHeight=480\n"
-    return {"det": det.encode(), "rrc": rrc.encode(), "prcnn": prcnn.encode(), "gt": gt.encode(),
-            "res": res.encode(), "label": label.encode(), "scene": scene, "seqinfo": seqinfo}
+    return {
+        "det": det.encode(),
+        "rrc": rrc.encode(),
+        "prcnn": prcnn.encode(),
+        "gt": gt.encode(),
+        "res": res.encode(),
+        "label": label.encode(),
+        "scene": scene,
+        "seqinfo": seqinfo,
+    }
 
 
 @pytest.fixture(scope="module")
@@ -136,36 +203,111 @@ def reals(tmp_path_factory) -> dict[str, bytes]:
 
 #: verb -> (cases, real file fuzzed, the argument list given the fuzzed input and an output dir)
 def _track_mot(inp: Path, out: Path) -> list[str]:
-    return ["track", "--detections", str(inp), "--format", "mot", "--fps", "10", "--image-size", "640x480",
-            "--output", str(out / "o.txt"), "--events", str(out / "e.jsonl")]
+    return [
+        "track",
+        "--detections",
+        str(inp),
+        "--format",
+        "mot",
+        "--fps",
+        "10",
+        "--image-size",
+        "640x480",
+        "--output",
+        str(out / "o.txt"),
+        "--events",
+        str(out / "e.jsonl"),
+    ]
 
 
 def _track_rrc(inp: Path, out: Path) -> list[str]:
-    return ["track", "--detections", str(inp), "--format", "kitti", "--class", "car", "--image-size", "640x480",
-            "--output", str(out / "o.txt"), "--scene", str(out / "s.json")]
+    return [
+        "track",
+        "--detections",
+        str(inp),
+        "--format",
+        "kitti",
+        "--class",
+        "car",
+        "--image-size",
+        "640x480",
+        "--output",
+        str(out / "o.txt"),
+        "--scene",
+        str(out / "s.json"),
+    ]
 
 
 def _track_prcnn(inp: Path, out: Path) -> list[str]:
-    return ["track", "--detections", str(inp), "--format", "kitti", "--image-size", "640x480",
-            "--output", str(out / "o.txt"), "--warnings", str(out / "w.jsonl")]
+    return [
+        "track",
+        "--detections",
+        str(inp),
+        "--format",
+        "kitti",
+        "--image-size",
+        "640x480",
+        "--output",
+        str(out / "o.txt"),
+        "--warnings",
+        str(out / "w.jsonl"),
+    ]
 
 
 def _track_label(inp: Path, out: Path) -> list[str]:
-    return ["track", "--detections", str(inp), "--format", "kitti", "--image-size", "640x480",
-            "--output", str(out / "o.txt")]
+    return [
+        "track",
+        "--detections",
+        str(inp),
+        "--format",
+        "kitti",
+        "--image-size",
+        "640x480",
+        "--output",
+        str(out / "o.txt"),
+    ]
 
 
 def _track_seqinfo(inp: Path, out: Path, det: Path) -> list[str]:
-    return ["track", "--detections", str(det), "--format", "mot", "--seqinfo", str(inp),
-            "--output", str(out / "o.txt")]
+    return [
+        "track",
+        "--detections",
+        str(det),
+        "--format",
+        "mot",
+        "--seqinfo",
+        str(inp),
+        "--output",
+        str(out / "o.txt"),
+    ]
 
 
 def _evaluate_gt(inp: Path, out: Path, res: Path) -> list[str]:
-    return ["evaluate", "--gt", str(inp), "--results", str(res), "--format", "mot", "--json", str(out / "m.json")]
+    return [
+        "evaluate",
+        "--gt",
+        str(inp),
+        "--results",
+        str(res),
+        "--format",
+        "mot",
+        "--json",
+        str(out / "m.json"),
+    ]
 
 
 def _evaluate_res(inp: Path, out: Path, gt: Path) -> list[str]:
-    return ["evaluate", "--gt", str(gt), "--results", str(inp), "--format", "mot", "--json", str(out / "m.json")]
+    return [
+        "evaluate",
+        "--gt",
+        str(gt),
+        "--results",
+        str(inp),
+        "--format",
+        "mot",
+        "--json",
+        str(out / "m.json"),
+    ]
 
 
 def _explain(inp: Path, out: Path) -> list[str]:
@@ -185,7 +327,17 @@ def _report(inp: Path, out: Path) -> list[str]:
 
 
 def _render(inp: Path, out: Path) -> list[str]:
-    return ["render", str(inp), "-o", str(out / "r.gif"), "--frames", "0:1", "--no-warnings", "--scale", "0.1"]
+    return [
+        "render",
+        str(inp),
+        "-o",
+        str(out / "r.gif"),
+        "--frames",
+        "0:1",
+        "--no-warnings",
+        "--scale",
+        "0.1",
+    ]
 
 
 PLANS = [  # (name, real file, cases, argv builder, extra real file passed to the builder)
@@ -219,8 +371,13 @@ def test_fuzz_every_verb(tmp_path: Path, reals: dict[str, bytes], capsys) -> Non
             extra = work / f"extra-{extra_key}.txt"
             extra.write_bytes(reals[extra_key])
         for k, data in enumerate(corpus(rng, reals[real_key], n)):
-            inp = work / ("in.json" if real_key == "scene" else "seqinfo.ini" if real_key == "seqinfo"
-                          else "in.txt")
+            inp = work / (
+                "in.json"
+                if real_key == "scene"
+                else "seqinfo.ini"
+                if real_key == "seqinfo"
+                else "in.txt"
+            )
             inp.write_bytes(data)
             out = work / "out"
             out.mkdir(exist_ok=True)
@@ -248,7 +405,9 @@ def test_fuzz_every_verb(tmp_path: Path, reals: dict[str, bytes], capsys) -> Non
             elif list(work.glob(".*.part")) or list(out.glob(".*.part")):
                 problem = "a .part file left"
             if problem is not None:
-                failures.append(f"{name} case {k}: {problem}: {captured.err.strip()[:300]!r} input {data[:120]!r}")
+                failures.append(
+                    f"{name} case {k}: {problem}: {captured.err.strip()[:300]!r} input {data[:120]!r}"
+                )
             for p in out.iterdir():
                 p.unlink() if p.is_file() else None
     assert total >= 10_000

@@ -28,7 +28,11 @@ def assert_same_frames(path: Path, fmt: str, chunk_lines: int) -> None:
 
 def test_chunks_do_not_change_the_frames(tmp_path: Path) -> None:
     det = tmp_path / "det.txt"
-    lines = [f"{f},-1,{10 + i},{20 + f},30,40,0.{i + 1},-1,-1,-1" for f in range(1, 40, 3) for i in range(3)]
+    lines = [
+        f"{f},-1,{10 + i},{20 + f},30,40,0.{i + 1},-1,-1,-1"
+        for f in range(1, 40, 3)
+        for i in range(3)
+    ]
     lines.insert(5, "")  # a blank line keeps the line numbers right
     det.write_text("\n".join(lines) + "\n")
     for size in (1, 2, 4, 7, 1000):
@@ -37,13 +41,26 @@ def test_chunks_do_not_change_the_frames(tmp_path: Path) -> None:
     assert (summary.first, summary.last, summary.frames, summary.detections) == (1, 37, 13, 39)
 
 
-@pytest.mark.parametrize(("text", "line", "problem"), [
-    ("1,-1,1,1,2,2,0.9\n3,-1,1,1,2,2,0.9\n2,-1,1,1,2,2,0.9\n", 3, "lines must be sorted by frame"),
-    ("1,-1,1,1,2,2,0.9\n1,-1,1,1,2,2,0.9\n1,-1,1,1,2,2\n", 3, "expected 7 comma-separated fields, got 6"),
-    ("1,-1,1,1,2,2,0.9\n2,-1,nan,1,2,2,0.9\n", 2, "must be a finite number"),
-    ("1,-1,1,1,2,2,0.9\n20000000,-1,1,1,2,2,0.9\n", 2, "beyond the sequence"),
-])
-def test_errors_name_the_line_whatever_the_chunk(tmp_path: Path, text: str, line: int, problem: str) -> None:
+@pytest.mark.parametrize(
+    ("text", "line", "problem"),
+    [
+        (
+            "1,-1,1,1,2,2,0.9\n3,-1,1,1,2,2,0.9\n2,-1,1,1,2,2,0.9\n",
+            3,
+            "lines must be sorted by frame",
+        ),
+        (
+            "1,-1,1,1,2,2,0.9\n1,-1,1,1,2,2,0.9\n1,-1,1,1,2,2\n",
+            3,
+            "expected 7 comma-separated fields, got 6",
+        ),
+        ("1,-1,1,1,2,2,0.9\n2,-1,nan,1,2,2,0.9\n", 2, "must be a finite number"),
+        ("1,-1,1,1,2,2,0.9\n20000000,-1,1,1,2,2,0.9\n", 2, "beyond the sequence"),
+    ],
+)
+def test_errors_name_the_line_whatever_the_chunk(
+    tmp_path: Path, text: str, line: int, problem: str
+) -> None:
     det = tmp_path / "det.txt"
     det.write_text(text)
     for size in (1, 2, 100):
@@ -62,10 +79,12 @@ def test_zero_size_boxes_are_dropped_with_one_warning(tmp_path: Path, caplog) ->
 
 @pytest.mark.integration
 def test_shared_files_stream_as_they_read_whole() -> None:
-    files = sorted((DATA / "mot17").glob("*/det/det.txt"))[:2] + \
-        sorted((DATA / "kitti" / "detections" / "rrc" / "car").glob("*.txt"))[:2] + \
-        sorted((DATA / "kitti" / "detections" / "pointrcnn").glob("*/0000.txt"))[:1] + \
-        sorted((DATA / "kitti" / "training" / "label_02").glob("*.txt"))[:1]
+    files = (
+        sorted((DATA / "mot17").glob("*/det/det.txt"))[:2]
+        + sorted((DATA / "kitti" / "detections" / "rrc" / "car").glob("*.txt"))[:2]
+        + sorted((DATA / "kitti" / "detections" / "pointrcnn").glob("*/0000.txt"))[:1]
+        + sorted((DATA / "kitti" / "training" / "label_02").glob("*.txt"))[:1]
+    )
     if not files:
         pytest.skip("../shared/data not found")
     for path in files:

@@ -29,11 +29,18 @@ def gapped_frames() -> list[tuple[int, Detections]]:
 def run(tmp_path: Path, name: str, skip: bool) -> tuple[Pipeline, dict[str, bytes]]:
     config = TrackerConfig.for_dataset("kitti", fps=10.0, image_size=(1242, 375))
     files = {k: tmp_path / f"{name}.{k}" for k in ("tracks", "events", "warnings", "scene")}
-    sinks = [TracksSink(files["tracks"], "kitti", write_hidden=True), EventsSink(files["events"]),
-             WarningsSink(files["warnings"]),
-             SceneSink(files["scene"], fps=10.0, image_size=(1242, 375), metadata={"name": "x"})]
-    pipe = Pipeline(Tracker(config), SceneRecorder(fps=10.0, image_size=(1242, 375), metadata={"name": "x"}),
-                    SituationMonitor(fps=10.0, image_size=(1242, 375)), sinks)
+    sinks = [
+        TracksSink(files["tracks"], "kitti", write_hidden=True),
+        EventsSink(files["events"]),
+        WarningsSink(files["warnings"]),
+        SceneSink(files["scene"], fps=10.0, image_size=(1242, 375), metadata={"name": "x"}),
+    ]
+    pipe = Pipeline(
+        Tracker(config),
+        SceneRecorder(fps=10.0, image_size=(1242, 375), metadata={"name": "x"}),
+        SituationMonitor(fps=10.0, image_size=(1242, 375)),
+        sinks,
+    )
     if not skip:
         pipe._horizon = -1  # step every frame
     with pipe:
@@ -67,8 +74,10 @@ def test_frames_must_increase_and_a_refused_frame_writes_nothing(tmp_path: Path)
 
 def test_an_error_inside_the_with_block_leaves_no_file(tmp_path: Path) -> None:
     with pytest.raises(RuntimeError):
-        with Pipeline(Tracker(TrackerConfig(fps=10)), sinks=[TracksSink(tmp_path / "t.txt", "mot"),
-                                                             WarningsSink(tmp_path / "w.jsonl")]) as pipe:
+        with Pipeline(
+            Tracker(TrackerConfig(fps=10)),
+            sinks=[TracksSink(tmp_path / "t.txt", "mot"), WarningsSink(tmp_path / "w.jsonl")],
+        ) as pipe:
             pipe.step(1, Detections(xyxy=[[0, 0, 10, 10]]))
             raise RuntimeError("boom")
     assert not list(tmp_path.iterdir())

@@ -70,11 +70,20 @@ def run_demo(output_dir: str | Path, *, render: bool = True, echo: Callable[[str
 
     recorder = SceneRecorder(fps=config.fps, image_size=size, metadata={"source": "sensemaking demo (Figure 1)"})
     monitor = SituationMonitor(fps=config.fps, image_size=size)
-    files = {"detections": out / "detections.txt", "tracks": out / "tracks.txt", "events": out / "events.jsonl",
-             "warnings": out / "warnings.jsonl", "scene": out / "scene.json"}
+    files = {
+        "detections": out / "detections.txt",
+        "tracks": out / "tracks.txt",
+        "events": out / "events.jsonl",
+        "warnings": out / "warnings.jsonl",
+        "scene": out / "scene.json",
+    }
     results: list[FrameResult] = []
     warnings: list = []
-    sinks = [TracksSink(files["tracks"], "kitti"), EventsSink(files["events"]), WarningsSink(files["warnings"])]
+    sinks = [
+        TracksSink(files["tracks"], "kitti"),
+        EventsSink(files["events"]),
+        WarningsSink(files["warnings"]),
+    ]
     with Pipeline(tracker, recorder, monitor, sinks) as pipe:
         for f, dets in synthetic.frames():
             step = pipe.step(f, dets)

@@ -218,12 +218,17 @@ def validate_detections(dets: Detections, image_size: tuple[int, int] | None = N
         ordered = (xyxy[:, 2] > xyxy[:, 0]) & (xyxy[:, 3] > xyxy[:, 1])
     checks = (
         (~finite_box, lambda i: f"box {_fmt_box(xyxy[i])} is not finite"),
-        (~np.isfinite(conf), lambda i: f"confidence must be a finite number, got {float(conf[i])!r}"),
+        (
+            ~np.isfinite(conf),
+            lambda i: f"confidence must be a finite number, got {float(conf[i])!r}",
+        ),
         (~ordered, lambda i: f"box {_fmt_box(xyxy[i])} must have x2 > x1 and y2 > y1"),
         (~inside, lambda i: f"box {_fmt_box(xyxy[i])} is implausible: corners must lie {bound}"),
         (dets.class_id < 0, lambda i: f"class id must be >= 0, got {int(dets.class_id[i])}"),
-        ((dets.frame < 0) | (dets.frame > MAX_FRAME),
-         lambda i: f"frame {int(dets.frame[i])} is outside 0..{MAX_FRAME}"),
+        (
+            (dets.frame < 0) | (dets.frame > MAX_FRAME),
+            lambda i: f"frame {int(dets.frame[i])} is outside 0..{MAX_FRAME}",
+        ),
     )
     for bad, problem in checks:
         if bad.any():

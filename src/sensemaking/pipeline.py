@@ -67,8 +67,16 @@ class Pipeline:
         on_frames: called with the number of frames covered after each step or skip (progress).
     """
 
-    def __init__(self, tracker: Any, recorder: Any = None, monitor: Any = None, sinks: Sequence[Sink] = (),
-                 *, validate: bool = True, on_frames: Callable[[int], None] | None = None):
+    def __init__(
+        self,
+        tracker: Any,
+        recorder: Any = None,
+        monitor: Any = None,
+        sinks: Sequence[Sink] = (),
+        *,
+        validate: bool = True,
+        on_frames: Callable[[int], None] | None = None,
+    ):
         self.tracker = tracker
         self.recorder = recorder
         self.monitor = monitor
@@ -141,7 +149,9 @@ class Pipeline:
                 n = last - f + 1
                 if self.recorder is not None:  # it keeps every frame number: add them as empty
                     for g in range(f, last + 1):
-                        self.recorder.add(FrameResult(frame=g, tracks=Detections.empty(), events=[]))
+                        self.recorder.add(
+                            FrameResult(frame=g, tracks=Detections.empty(), events=[])
+                        )
                 for sink in self.sinks:
                     sink.skip(f, last)
                 s = self.summary
@@ -156,8 +166,13 @@ class Pipeline:
             f += 1
 
     # -- a sequence ----------------------------------------------------------------------------
-    def run(self, frames: Iterable[tuple[int, Any]], *, first_frame: int | None = None,
-            last_frame: int | None = None) -> PipelineSummary:
+    def run(
+        self,
+        frames: Iterable[tuple[int, Any]],
+        *,
+        first_frame: int | None = None,
+        last_frame: int | None = None,
+    ) -> PipelineSummary:
         """Step every ``(frame, detections)`` pair (increasing frames), the frames between them
         with no detections, and with ``first_frame`` / ``last_frame`` the empty frames before
         the first pair / after the last one (a sequence's full length). Returns the summary."""

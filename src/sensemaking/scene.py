@@ -384,7 +384,11 @@ class Scene:
             return InputError(f"malformed scene: {problem}", where)
 
         fps = record.get("fps", 10.0)
-        if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not (math.isfinite(fps) and 0 < fps <= 1000):
+        if (
+            isinstance(fps, bool)
+            or not isinstance(fps, (int, float))
+            or not (math.isfinite(fps) and 0 < fps <= 1000)
+        ):
             raise bad(f"fps must be a number in (0, 1000], got {fps!r}")
         size = record.get("image_size")
         if size is not None and not (isinstance(size, list) and len(size) == 2
@@ -414,8 +418,10 @@ class Scene:
             if not 0 <= f0 <= f1 <= MAX_FRAME:
                 raise bad(f"'frames' [{f0}, {f1}] must satisfy 0 <= first <= last <= {MAX_FRAME}")
             if f1 - f0 + 1 > span_limit:
-                raise bad(f"'frames' [{f0}, {f1}] spans {f1 - f0 + 1} frames, implausibly many for a file "
-                          f"of {content} rows and events (at most {span_limit})")
+                raise bad(
+                    f"'frames' [{f0}, {f1}] spans {f1 - f0 + 1} frames, implausibly many for a file "
+                    f"of {content} rows and events (at most {span_limit})"
+                )
             frames = np.arange(f0, f1 + 1, dtype=np.int64)
         else:
             frames = np.zeros(0, dtype=np.int64)
@@ -448,13 +454,21 @@ class Scene:
                 raise bad(f"events[{i}]: frame {ev.frame} outside the scene's frames")
             missing = [a for a in ev.args if a not in tracks]
             if missing:
-                raise bad(f"events[{i}]: {ev.name} names track {missing[0]}, which is not in the scene")
+                raise bad(
+                    f"events[{i}]: {ev.name} names track {missing[0]}, which is not in the scene"
+                )
             events.append(ev)
         metadata = record.get("metadata") or {}
         if not isinstance(metadata, Mapping):
             raise bad("'metadata' must be an object")
-        return cls(tracks, events, frames, fps=float(fps),
-                   image_size=None if size is None else (int(size[0]), int(size[1])), metadata=metadata)
+        return cls(
+            tracks,
+            events,
+            frames,
+            fps=float(fps),
+            image_size=None if size is None else (int(size[0]), int(size[1])),
+            metadata=metadata,
+        )
 
     def save(self, path: str | PathLike[str]) -> None:
         """Write the scene JSON atomically (a failed write leaves no partial file)."""
@@ -498,10 +512,14 @@ def _track_from_json(r: Mapping[str, Any], i: int, where: str | None) -> Track:
     from sensemaking.detections import MAX_FRAME
 
     if not _is_int(r.get("id")) or r["id"] < 0:
-        raise InputError(f"malformed scene: tracks[{i}]: 'id' must be a non-negative integer", where)
+        raise InputError(
+            f"malformed scene: tracks[{i}]: 'id' must be a non-negative integer", where
+        )
     raw = r["frames"]
     if not isinstance(raw, list) or not all(_is_int(v) and 0 <= v <= MAX_FRAME for v in raw):
-        raise InputError(f"tracks[{i}]: 'frames' must be a list of frame numbers in 0..{MAX_FRAME}", where)
+        raise InputError(
+            f"tracks[{i}]: 'frames' must be a list of frame numbers in 0..{MAX_FRAME}", where
+        )
     frames = np.asarray(raw, dtype=np.int64)
     k = frames.shape[0]
     if k == 0 or np.any(np.diff(frames) <= 0):
@@ -511,7 +529,9 @@ def _track_from_json(r: Mapping[str, Any], i: int, where: str | None) -> Track:
         raise InputError(f"tracks[{i}]: 'boxes' must be a list of [x1, y1, x2, y2]", where)
     xyxy = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
     if not np.isfinite(xyxy).all() or (np.abs(xyxy) > 1e7).any():
-        raise InputError(f"tracks[{i}]: 'boxes' must hold finite pixel coordinates (|x| <= 1e7)", where)
+        raise InputError(
+            f"tracks[{i}]: 'boxes' must hold finite pixel coordinates (|x| <= 1e7)", where
+        )
 
     def col(name: str, default: Any, conv: Any = None, integer: bool = False) -> np.ndarray:
         v = r.get(name)
@@ -520,8 +540,14 @@ def _track_from_json(r: Mapping[str, Any], i: int, where: str | None) -> Track:
         if not isinstance(v, list):
             raise InputError(f"tracks[{i}]: '{name}' must be a list", where)
         arr = np.asarray([conv(x) for x in v] if conv else v)
-        if arr.ndim != 1 or arr.dtype.kind not in "iufb" or not np.isfinite(arr.astype(np.float64)).all():
-            raise InputError(f"tracks[{i}]: '{name}' must be a list of finite numbers or names", where)
+        if (
+            arr.ndim != 1
+            or arr.dtype.kind not in "iufb"
+            or not np.isfinite(arr.astype(np.float64)).all()
+        ):
+            raise InputError(
+                f"tracks[{i}]: '{name}' must be a list of finite numbers or names", where
+            )
         if integer and (arr.dtype.kind not in "iu" or (arr.size and np.abs(arr).max() > 2**53)):
             raise InputError(f"tracks[{i}]: '{name}' must be a list of integers", where)
         if arr.shape[0] != k:
@@ -538,7 +564,9 @@ def _track_from_json(r: Mapping[str, Any], i: int, where: str | None) -> Track:
                     raise InputError(f"tracks[{i}]: unknown {what} {x!r} (one of {', '.join(names)})", where)
                 return names.index(x)
             if not _is_int(x) or not 0 <= x < len(names):
-                raise InputError(f"tracks[{i}]: {what} {x!r} is not one of {', '.join(names)}", where)
+                raise InputError(
+                    f"tracks[{i}]: {what} {x!r} is not one of {', '.join(names)}", where
+                )
             return int(x)
         return conv
 

@@ -41,8 +41,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--labels", type=Path, help='label names JSON {"0": "road", ...} (default: Cityscapes ids)')
     p.add_argument("--corridor", help='ego corridor polygon, "x,y x,y x,y ..." (fractions of the image or pixels)')
     p.add_argument("--json", action="store_true", help="print the answer as JSON")
-    p.add_argument("--timeout", type=float, default=DEFAULT_TIMEOUT_S, metavar="S",
-                   help=f"seconds for grounding + solving an ASP query (default {DEFAULT_TIMEOUT_S:g})")
+    p.add_argument(
+        "--timeout",
+        type=float,
+        default=DEFAULT_TIMEOUT_S,
+        metavar="S",
+        help=f"seconds for grounding + solving an ASP query (default {DEFAULT_TIMEOUT_S:g})",
+    )
     p.add_argument("--max-atoms", type=int, default=DEFAULT_MAX_ATOMS, metavar="N",
                    help=f"ground atoms an ASP query may produce (default {DEFAULT_MAX_ATOMS})")
     p.add_argument("--max-memory", type=int, default=DEFAULT_MAX_MEMORY_MB, metavar="MB",
@@ -60,7 +65,9 @@ def _query_text(parts: list[str]) -> str:
         except IsADirectoryError:
             raise InputError("query file is a directory", path) from None
         except UnicodeDecodeError as exc:
-            raise InputError(f"query file is not UTF-8 text ({exc.reason} at byte {exc.start})", path) from None
+            raise InputError(
+                f"query file is not UTF-8 text ({exc.reason} at byte {exc.start})", path
+            ) from None
         except OSError as exc:
             raise InputError(f"cannot read query file: {exc.strerror or exc}", path) from None
     return " ".join(parts)

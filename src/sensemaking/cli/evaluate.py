@@ -92,7 +92,9 @@ def run(args: argparse.Namespace) -> int:
     from sensemaking.io.sinks import check_output_paths
 
     parser: argparse.ArgumentParser = args._parser
-    check_output_paths({"--json": args.json}, {"--gt": args.gt, "--results": args.results, "--seqmap": args.seqmap})
+    check_output_paths(
+        {"--json": args.json}, {"--gt": args.gt, "--results": args.results, "--seqmap": args.seqmap}
+    )
     fmt, benchmark = args.format, args.benchmark
     if benchmark is not None:
         implied = _FORMAT_OF[benchmark]

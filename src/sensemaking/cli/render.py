@@ -69,7 +69,9 @@ def run(args: argparse.Namespace) -> int:
     from sensemaking.viz.render import render_scene
 
     if args.fps is not None and not (math.isfinite(args.fps) and 0 < args.fps <= 1000):
-        raise InputError(f"--fps must be a frame rate in (0, 1000] frames per second, got {args.fps}")
+        raise InputError(
+            f"--fps must be a frame rate in (0, 1000] frames per second, got {args.fps}"
+        )
     if args.scale is not None and not 0 < args.scale <= 4:
         raise InputError(f"--scale must be in (0, 4], got {args.scale}")
     scene = as_run(args.scene, warnings=warnings_arg(args))

@@ -39,23 +39,39 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--output", required=True, type=Path, help="tracking results, in the input's format")
     p.add_argument("--events", type=Path, help='events as JSON lines {"frame":…, "event":…, "args":[…]}')
     p.add_argument("--scene", type=Path, help="the scene model (JSON) for `sensemaking ask/explain/render/report`")
-    p.add_argument("--warnings", type=Path,
-                   help="safety-critical warnings as JSON lines, written online (into a .part file beside "
-                   "it, renamed at the end; kept when the run is interrupted)")
+    p.add_argument(
+        "--warnings",
+        type=Path,
+        help="safety-critical warnings as JSON lines, written online (into a .part file beside "
+        "it, renamed at the end; kept when the run is interrupted)",
+    )
     p.add_argument("--no-abduction", action="store_true", help="plain Hungarian IoU matching (the ablation)")
-    p.add_argument("--max-solve-ms", type=float, default=None, metavar="MS",
-                   help="per-frame wall-clock budget for the solver, milliseconds (> 0); past it the best "
-                   "answer so far is used. Results then depend on the machine's load (a busy machine "
-                   "stops earlier): leave it out for reproducible runs")
-    p.add_argument("--class", dest="class_name", default=None,
-                   help="class of the detections when the file does not say (e.g. car for KITTI RRC "
-                   "files; with --format kitti a KITTI type)")
+    p.add_argument(
+        "--max-solve-ms",
+        type=float,
+        default=None,
+        metavar="MS",
+        help="per-frame wall-clock budget for the solver, milliseconds (> 0); past it the best "
+        "answer so far is used. Results then depend on the machine's load (a busy machine "
+        "stops earlier): leave it out for reproducible runs",
+    )
+    p.add_argument(
+        "--class",
+        dest="class_name",
+        default=None,
+        help="class of the detections when the file does not say (e.g. car for KITTI RRC "
+        "files; with --format kitti a KITTI type)",
+    )
     p.add_argument("--seqinfo", type=Path, default=None,
                    help="seqinfo.ini (MOT) or seqinfo.csv (KITTI) for frame rate, image size and length; "
                    "looked up beside the detections by default")
-    p.add_argument("--fps", type=float, default=None,
-                   help=f"frame rate, frames per second in (0, {MAX_FPS:g}] (default: seqinfo, else 30 MOT / "
-                   "10 KITTI)")
+    p.add_argument(
+        "--fps",
+        type=float,
+        default=None,
+        help=f"frame rate, frames per second in (0, {MAX_FPS:g}] (default: seqinfo, else 30 MOT / "
+        "10 KITTI)",
+    )
     p.add_argument("--image-size", default=None, metavar="WxH",
                    help=f"field of view in pixels, e.g. 1242x375 (each side 1..{MAX_IMAGE_SIDE})")
     p.add_argument("--write-hidden", action="store_true",
@@ -79,8 +95,9 @@ def parse_size(text: str, where: str = "--image-size") -> tuple[int, int]:
 def check_fps(fps: float, where: str, path: Path | None = None) -> float:
     """A frame rate in (0, MAX_FPS] frames per second."""
     if not (math.isfinite(fps) and 0 < fps <= MAX_FPS):
-        raise InputError(f"{where} must be a frame rate in (0, {MAX_FPS:g}] frames per second, got {fps!r}",
-                         path)
+        raise InputError(
+            f"{where} must be a frame rate in (0, {MAX_FPS:g}] frames per second, got {fps!r}", path
+        )
     return float(fps)
 
 
@@ -88,9 +105,13 @@ def _check_options(args: argparse.Namespace) -> None:
     """Every option's unit and range, before any file is read."""
     if args.fps is not None:
         check_fps(args.fps, "--fps")
-    if args.max_solve_ms is not None and not (math.isfinite(args.max_solve_ms) and args.max_solve_ms > 0):
-        raise InputError(f"--max-solve-ms must be a positive number of milliseconds, got {args.max_solve_ms!r}"
-                         " (leave it out for no budget)")
+    if args.max_solve_ms is not None and not (
+        math.isfinite(args.max_solve_ms) and args.max_solve_ms > 0
+    ):
+        raise InputError(
+            f"--max-solve-ms must be a positive number of milliseconds, got {args.max_solve_ms!r}"
+            " (leave it out for no budget)"
+        )
     if args.image_size is not None:
         parse_size(args.image_size)
     if args.class_name is not None:
@@ -99,8 +120,10 @@ def _check_options(args: argparse.Namespace) -> None:
 
         cid = class_id_of(args.class_name)
         if args.format == "kitti" and cid not in KITTI_NAMES:
-            raise InputError(f"--class {args.class_name}: KITTI results have no type for it (KITTI types: "
-                             f"{', '.join(KITTI_NAMES.values())})")
+            raise InputError(
+                f"--class {args.class_name}: KITTI results have no type for it (KITTI types: "
+                f"{', '.join(KITTI_NAMES.values())})"
+            )
 
 
 def _sequence_info(args: argparse.Namespace) -> tuple[float | None, tuple[int, int] | None, int | None]:
@@ -129,7 +152,9 @@ def _sequence_info(args: argparse.Namespace) -> tuple[float | None, tuple[int, i
             if info is not None:
                 return check_fps(info.fps, "frame_rate", c), _checked_size(info, c), info.length
     if args.seqinfo:
-        raise InputError(f"sequence {det.stem!r} (the detection file's name) is not in seqinfo", args.seqinfo)
+        raise InputError(
+            f"sequence {det.stem!r} (the detection file's name) is not in seqinfo", args.seqinfo
+        )
     return None, None, None
 
 
@@ -181,13 +206,23 @@ def _file_frames(args: argparse.Namespace, config: Any, length: int | None):
 
     first = 1 if args.format == "mot" else 0
     seq_last = None if length is None else first + length - 1
-    summary = scan_detections(args.detections, args.format, args.class_name, image_size=config.image_size,
-                              last_frame=seq_last)
+    summary = scan_detections(
+        args.detections,
+        args.format,
+        args.class_name,
+        image_size=config.image_size,
+        last_frame=seq_last,
+    )
     last = summary.last if summary.last is not None else first - 1
     if seq_last is not None:
         last = max(last, seq_last)
-    frames = iter_detection_frames(args.detections, args.format, args.class_name, image_size=config.image_size,
-                                   last_frame=seq_last)
+    frames = iter_detection_frames(
+        args.detections,
+        args.format,
+        args.class_name,
+        image_size=config.image_size,
+        last_frame=seq_last,
+    )
     return frames, first, last
 
 
@@ -217,7 +252,13 @@ def _video_frames(args: argparse.Namespace):
 
 
 def run(args: argparse.Namespace) -> int:
-    from sensemaking.io.sinks import EventsSink, SceneSink, TracksSink, WarningsSink, check_output_paths
+    from sensemaking.io.sinks import (
+        EventsSink,
+        SceneSink,
+        TracksSink,
+        WarningsSink,
+        check_output_paths,
+    )
     from sensemaking.pipeline import Pipeline
     from sensemaking.tracker import Tracker
 
@@ -275,16 +316,26 @@ def run(args: argparse.Namespace) -> int:
                 summary = pipe.run(frames, first_frame=first, last_frame=last)
         except KeyboardInterrupt:
             done = pipe.summary.last
-            kept = f"; the warnings issued so far are kept in {args.warnings}" if args.warnings else ""
+            kept = (
+                f"; the warnings issued so far are kept in {args.warnings}" if args.warnings else ""
+            )
             print(f"sensemaking track: interrupted after frame {done}: no results written{kept}",
                   file=sys.stderr)
             raise
     stats = tracker.stats
     n_tracks, n_boxes = len(sinks[0].ids), sinks[0].boxes
     per_frame = stats["solve_ms"] / max(stats["frames"], 1)
-    log.info("tracked %d frames (%d stepped): %d boxes, %d tracks, %d events; solver %.2f ms/frame, "
-             "%d over budget", summary.frames, summary.stepped, n_boxes, n_tracks, summary.events, per_frame,
-             stats["timed_out"])
+    log.info(
+        "tracked %d frames (%d stepped): %d boxes, %d tracks, %d events; solver %.2f ms/frame, "
+        "%d over budget",
+        summary.frames,
+        summary.stepped,
+        n_boxes,
+        n_tracks,
+        summary.events,
+        per_frame,
+        stats["timed_out"],
+    )
     if not args.quiet:
         print(f"{args.output}: {n_tracks} tracks over {summary.frames} frames, "
               f"{summary.events} events ({per_frame:.2f} ms/frame association"

@@ -17,10 +17,14 @@ class PartFile:
     ``handle`` is the open text (or, with ``"b"`` in ``mode``, binary) file.
     """
 
-    def __init__(self, path: str | os.PathLike[str], mode: str = "w", encoding: str | None = "utf-8"):
+    def __init__(
+        self, path: str | os.PathLike[str], mode: str = "w", encoding: str | None = "utf-8"
+    ):
         self.target = Path(path)
         self.target.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{self.target.name}.", suffix=".part", dir=self.target.parent)
+        fd, tmp = tempfile.mkstemp(
+            prefix=f".{self.target.name}.", suffix=".part", dir=self.target.parent
+        )
         self.part = Path(tmp)
         try:
             self.handle: IO[Any] = os.fdopen(fd, mode, encoding=None if "b" in mode else encoding)

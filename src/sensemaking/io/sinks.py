@@ -41,8 +41,9 @@ class Sink(Protocol):
     def abort(self, interrupted: bool = False) -> None: ...
 
 
-def check_output_paths(outputs: Mapping[str, PathLike | None],
-                       inputs: Mapping[str, PathLike | None] = {}) -> None:  # noqa: B006 - read only
+def check_output_paths(
+    outputs: Mapping[str, PathLike | None], inputs: Mapping[str, PathLike | None] = {}
+) -> None:  # noqa: B006 - read only
     """Refuse, before any work, an output that is an input, another output, a directory, or
     whose parent cannot be created (a file on the way, or no write permission).
 
@@ -57,7 +58,9 @@ def check_output_paths(outputs: Mapping[str, PathLike | None],
         path = Path(raw)
         key = os.path.normcase(os.path.realpath(path))
         if key in seen:
-            raise InputError(f"{name} and {seen[key]} name the same file: each output needs its own", path)
+            raise InputError(
+                f"{name} and {seen[key]} name the same file: each output needs its own", path
+            )
         seen[key] = name
         for in_name, in_path in ins.items():
             same = key == os.path.normcase(os.path.realpath(in_path))
@@ -67,8 +70,9 @@ def check_output_paths(outputs: Mapping[str, PathLike | None],
                 except OSError:
                     same = False
             if same:
-                raise InputError(f"{name} would overwrite the input {in_name}: choose another output file",
-                                 path)
+                raise InputError(
+                    f"{name} would overwrite the input {in_name}: choose another output file", path
+                )
         if path.is_dir() or os.fspath(raw).endswith(("/", os.sep)):
             raise InputError(f"{name} is a directory, expected a file name", path)
         parent = path.absolute().parent
@@ -195,11 +199,26 @@ class SceneSink:
     """
 
     #: the buffered columns, in order ("track" is the id, not stored with the rows)
-    _ROWS = ("frames", "track", "class_id", "xyxy", "confidence", "state", "occluder", "visibility",
-             "hidden_frames")
+    _ROWS = (
+        "frames",
+        "track",
+        "class_id",
+        "xyxy",
+        "confidence",
+        "state",
+        "occluder",
+        "visibility",
+        "hidden_frames",
+    )
 
-    def __init__(self, path: PathLike, *, fps: float, image_size: tuple[int, int] | None = None,
-                 metadata: Mapping[str, Any] | None = None):
+    def __init__(
+        self,
+        path: PathLike,
+        *,
+        fps: float,
+        image_size: tuple[int, int] | None = None,
+        metadata: Mapping[str, Any] | None = None,
+    ):
         self.path = Path(path)
         self.fps = float(fps)
         self.image_size = None if image_size is None else (int(image_size[0]), int(image_size[1]))
@@ -208,7 +227,9 @@ class SceneSink:
         self._live: dict[int, list[list[np.ndarray]]] = {}  # live track -> its row chunks (columns)
         self._batch: list[tuple[np.ndarray, ...]] = []
         self._batch_frames = 0
-        self._index: dict[int, list[tuple[int, int]]] = {}  # track id -> (offset, length) of its parts
+        self._index: dict[
+            int, list[tuple[int, int]]
+        ] = {}  # track id -> (offset, length) of its parts
         self._file = PartFile(self.path)
         folder = self.path.absolute().parent
         self._tracks: IO[bytes] = tempfile.TemporaryFile(dir=folder)
@@ -236,13 +257,19 @@ class SceneSink:
         n = len(tr)
         if n:
             d = tr.data
-            self._batch.append((
-                np.full(n, f, dtype=np.int64), tr.tracker_id, tr.class_id, tr.xyxy, tr.confidence,
-                d["state"] if "state" in d else np.zeros(n, np.int64),
-                d["occluder"] if "occluder" in d else np.full(n, -1, np.int64),
-                d["visibility"] if "visibility" in d else np.zeros(n, np.int64),
-                d["hidden_frames"] if "hidden_frames" in d else np.zeros(n, np.int64),
-            ))
+            self._batch.append(
+                (
+                    np.full(n, f, dtype=np.int64),
+                    tr.tracker_id,
+                    tr.class_id,
+                    tr.xyxy,
+                    tr.confidence,
+                    d["state"] if "state" in d else np.zeros(n, np.int64),
+                    d["occluder"] if "occluder" in d else np.full(n, -1, np.int64),
+                    d["visibility"] if "visibility" in d else np.zeros(n, np.int64),
+                    d["hidden_frames"] if "hidden_frames" in d else np.zeros(n, np.int64),
+                )
+            )
         self._batch_frames += 1
         if self._batch_frames >= self.BATCH_FRAMES:
             self._group()
@@ -281,8 +308,12 @@ class SceneSink:
             if self._last_event is not None and key < self._last_event:
                 self._sorted = False
             self._last_event = key
-            lines.append(json.dumps({"frame": key[0], "event": key[1], "args": list(key[2])},
-                                    separators=(",", ":")) + "\n")
+            lines.append(
+                json.dumps(
+                    {"frame": key[0], "event": key[1], "args": list(key[2])}, separators=(",", ":")
+                )
+                + "\n"
+            )
         if lines:
             self._events.write("".join(lines).encode())
 
@@ -294,8 +325,11 @@ class SceneSink:
 
     def _spill(self, track_id: int) -> None:
         parts = self._live.pop(track_id)
-        rows = {k: np.concatenate([p[i] for p in parts]).tolist()
-                for i, k in enumerate(self._ROWS) if k != "track"}
+        rows = {
+            k: np.concatenate([p[i] for p in parts]).tolist()
+            for i, k in enumerate(self._ROWS)
+            if k != "track"
+        }
         data = json.dumps(rows, separators=(",", ":")).encode()
         self._tracks.seek(0, os.SEEK_END)
         self._index.setdefault(track_id, []).append((self._tracks.tell(), len(data)))
@@ -309,13 +343,17 @@ class SceneSink:
             self._tracks.seek(offset)
             parts.append(json.loads(self._tracks.read(length)))
         rows = {k: [v for p in parts for v in p[k]] for k in self._ROWS if k != "track"}
-        classes, counts = np.unique(np.asarray(rows["class_id"], dtype=np.int64), return_counts=True)
+        classes, counts = np.unique(
+            np.asarray(rows["class_id"], dtype=np.int64), return_counts=True
+        )
         return Track(
-            id=track_id, class_id=int(classes[np.argmax(counts)]),
+            id=track_id,
+            class_id=int(classes[np.argmax(counts)]),
             frames=np.asarray(rows["frames"], dtype=np.int64),
             xyxy=np.asarray(rows["xyxy"], dtype=np.float64).reshape(-1, 4),
             confidence=np.asarray(rows["confidence"], dtype=np.float64),
-            state=np.asarray(rows["state"], dtype=np.int8), occluder=np.asarray(rows["occluder"], dtype=np.int64),
+            state=np.asarray(rows["state"], dtype=np.int8),
+            occluder=np.asarray(rows["occluder"], dtype=np.int64),
             visibility=np.asarray(rows["visibility"], dtype=np.int8),
             hidden_frames=np.asarray(rows["hidden_frames"], dtype=np.int64),
         )
@@ -330,7 +368,12 @@ class SceneSink:
         runs = self._runs
 
         def put(key: str, value: Any, first: bool = False) -> None:
-            out.write(("" if first else ",") + json.dumps(key) + ":" + json.dumps(value, separators=(",", ":")))
+            out.write(
+                ("" if first else ",")
+                + json.dumps(key)
+                + ":"
+                + json.dumps(value, separators=(",", ":"))
+            )
 
         out.write("{")
         put("format", SCENE_FORMAT, first=True)
@@ -349,13 +392,18 @@ class SceneSink:
         put("metadata", self.metadata)
         out.write(',"tracks":[')
         for k, t in enumerate(sorted(self._index)):
-            out.write(("," if k else "") + json.dumps(track_json(self._track(t)), separators=(",", ":")))
+            out.write(
+                ("," if k else "") + json.dumps(track_json(self._track(t)), separators=(",", ":"))
+            )
         out.write('],"events":[')
         self._flush_events(math.inf)
         self._events.seek(0)
         lines: Iterable[bytes] = self._events
         if not self._sorted:  # rare: an event later than EVENT_LAG frames; sort them all
-            lines = sorted(self._events, key=lambda b: (lambda r: (r["frame"], r["event"], r["args"]))(json.loads(b)))
+            lines = sorted(
+                self._events,
+                key=lambda b: (lambda r: (r["frame"], r["event"], r["args"]))(json.loads(b)),
+            )
         for k, line in enumerate(lines):
             out.write(("," if k else "") + line.decode().rstrip("\n"))
         out.write("]}\n")

@@ -19,7 +19,10 @@ from sensemaking.detections import MAX_FRAME, Detections, validate_detections
 from sensemaking.errors import InputError
 from sensemaking.io.formats import Format
 from sensemaking.io.kitti import (
-    KITTI_DETECTION_LAYOUTS, KITTI_LABEL_LAYOUTS, kitti_detections_from_table, kitti_labels_from_table,
+    KITTI_DETECTION_LAYOUTS,
+    KITTI_LABEL_LAYOUTS,
+    kitti_detections_from_table,
+    kitti_labels_from_table,
 )
 from sensemaking.io.mot import _LAYOUTS as MOT_LAYOUTS
 from sensemaking.io.mot import mot_from_table
@@ -72,7 +75,10 @@ def _layout(path: PathLike, fmt: Format) -> tuple[str, dict, tuple[int, ...]]:
     raise InputError(
         "cannot tell the KITTI file kind: expected 17 or 18 space-separated fields (labels or "
         "tracking results), 6 comma-separated (RRC detections) or 15 comma-separated "
-        f"(PointRCNN detections), got {got}", path, number)
+        f"(PointRCNN detections), got {got}",
+        path,
+        number,
+    )
 
 
 def _chunks(path: PathLike, size: int) -> Iterator[tuple[list[str], np.ndarray]]:
@@ -92,10 +98,16 @@ def _chunks(path: PathLike, size: int) -> Iterator[tuple[list[str], np.ndarray]]
             yield body, np.asarray(rows, dtype=np.int64)
 
 
-def iter_detection_frames(path: PathLike, fmt: Format, class_name: str | None = None, *,
-                          image_size: tuple[int, int] | None = None, last_frame: int | None = None,
-                          chunk_lines: int = CHUNK_LINES,
-                          summary: list[DetectionsSummary] | None = None) -> Iterator[tuple[int, Detections]]:
+def iter_detection_frames(
+    path: PathLike,
+    fmt: Format,
+    class_name: str | None = None,
+    *,
+    image_size: tuple[int, int] | None = None,
+    last_frame: int | None = None,
+    chunk_lines: int = CHUNK_LINES,
+    summary: list[DetectionsSummary] | None = None,
+) -> Iterator[tuple[int, Detections]]:
     """``(frame, Detections of that frame)`` for every frame with detections, in order.
 
     The file must be sorted by frame (the online tracker consumes it in order); kinds and
@@ -119,17 +131,25 @@ def iter_detection_frames(path: PathLike, fmt: Format, class_name: str | None = 
     for body, rows in _chunks(path, chunk_lines):
         table = parse_lines(path, body, rows, sep=sep, names=names, text_cols=text_cols)
         names = {table.ncols: names[table.ncols]}  # every chunk has the first line's layout
-        frames_col = table.integers(0, minimum=1 if fmt == "mot" else 0,
-                                    what=" (MOTChallenge frames are 1-based)" if fmt == "mot" else "")
+        frames_col = table.integers(
+            0,
+            minimum=1 if fmt == "mot" else 0,
+            what=" (MOTChallenge frames are 1-based)" if fmt == "mot" else "",
+        )
         table.sorted_frames(frames_col)
         if previous is not None and frames_col[0] < previous:
-            table.fail(0, f"frame {frames_col[0]} comes after frame {previous}: lines must be sorted by frame")
+            table.fail(
+                0,
+                f"frame {frames_col[0]} comes after frame {previous}: lines must be sorted by frame",
+            )
         over = frames_col > limit
         if over.any():
             i = int(np.argmax(over))
-            why = (f"the sequence has frames up to {last_frame} (seqinfo)" if last_frame is not None
-                   and limit == last_frame else f"the plausibility bound is {MAX_FRAME} "
-                   "(sensemaking.detections.MAX_FRAME)")
+            why = (
+                f"the sequence has frames up to {last_frame} (seqinfo)"
+                if last_frame is not None and limit == last_frame
+                else f"the plausibility bound is {MAX_FRAME} (sensemaking.detections.MAX_FRAME)"
+            )
             table.fail(i, f"frame {frames_col[i]} is beyond the sequence: {why}")
         previous = int(frames_col[-1])
         if kind == "mot":
@@ -168,8 +188,12 @@ def iter_detection_frames(path: PathLike, fmt: Format, class_name: str | None = 
         last = int(pending.frame[0])
         yield last, _ordered(pending, kind)
     if dropped:
-        log.warning("%s: dropped %d detection(s) of zero width or height (first on line %d)",
-                    path, dropped, first_drop)
+        log.warning(
+            "%s: dropped %d detection(s) of zero width or height (first on line %d)",
+            path,
+            dropped,
+            first_drop,
+        )
     if summary is not None:
         summary.append(DetectionsSummary(first, last, n_frames, n_dets, dropped))
 
@@ -182,9 +206,16 @@ def _split_frames(dets: Detections) -> list[tuple[int, Detections]]:
     starts = [0, *cuts.tolist()]
     ends = [*cuts.tolist(), len(dets)]
     cols = ("xyxy", "confidence", "class_id", "tracker_id", "frame", "source_row")
-    return [(int(dets.frame[a]), Detections.trusted(*(getattr(dets, c)[a:b] for c in cols),
-                                                    data={k: v[a:b] for k, v in dets.data.items()}))
-            for a, b in zip(starts, ends)]
+    return [
+        (
+            int(dets.frame[a]),
+            Detections.trusted(
+                *(getattr(dets, c)[a:b] for c in cols),
+                data={k: v[a:b] for k, v in dets.data.items()},
+            ),
+        )
+        for a, b in zip(starts, ends)
+    ]
 
 
 def _ordered(dets: Detections, kind: str) -> Detections:
@@ -194,12 +225,25 @@ def _ordered(dets: Detections, kind: str) -> Detections:
     return dets[np.argsort(dets.tracker_id, kind="stable")]
 
 
-def scan_detections(path: PathLike, fmt: Format, class_name: str | None = None, *,
-                    image_size: tuple[int, int] | None = None, last_frame: int | None = None,
-                    chunk_lines: int = CHUNK_LINES) -> DetectionsSummary:
+def scan_detections(
+    path: PathLike,
+    fmt: Format,
+    class_name: str | None = None,
+    *,
+    image_size: tuple[int, int] | None = None,
+    last_frame: int | None = None,
+    chunk_lines: int = CHUNK_LINES,
+) -> DetectionsSummary:
     """Check a whole detection file as :func:`iter_detection_frames` does, keeping nothing."""
     out: list[DetectionsSummary] = []
-    for _ in iter_detection_frames(path, fmt, class_name, image_size=image_size, last_frame=last_frame,
-                                   chunk_lines=chunk_lines, summary=out):
+    for _ in iter_detection_frames(
+        path,
+        fmt,
+        class_name,
+        image_size=image_size,
+        last_frame=last_frame,
+        chunk_lines=chunk_lines,
+        summary=out,
+    ):
         pass
     return out[0]

@@ -63,8 +63,24 @@ DEFAULT_MAX_ATOMS = 5_000_000
 DEFAULT_MAX_MEMORY_MB = 2048
 
 #: the directives a query may use (see the module docstring)
-ALLOWED_DIRECTIVES = frozenset({"show", "count", "sum", "sum+", "min", "max", "minimize", "maximize",
-                                "minimise", "maximise", "inf", "sup", "true", "false"})
+ALLOWED_DIRECTIVES = frozenset(
+    {
+        "show",
+        "count",
+        "sum",
+        "sum+",
+        "min",
+        "max",
+        "minimize",
+        "maximize",
+        "minimise",
+        "maximise",
+        "inf",
+        "sup",
+        "true",
+        "false",
+    }
+)
 _DIRECTIVE = re.compile(r"#([A-Za-z_]+\+?)")
 _FORBIDDEN_NODES = frozenset({"Script", "External", "Definition", "ProjectAtom", "ProjectSignature",
                               "Heuristic", "Edge", "TheoryDefinition", "TheoryAtom", "Defined"})
@@ -211,12 +227,17 @@ def check_query(query: str) -> None:
         name = m.group(1).lower()
         if name not in ALLOWED_DIRECTIVES:
             line = plain.count("\n", 0, m.start()) + 1
-            raise QueryError(f"query:{line}: #{m.group(1)} is not allowed in a query (allowed: rules, "
-                             "constraints, aggregates, #show, #minimize/#maximize)", line=line)
+            raise QueryError(
+                f"query:{line}: #{m.group(1)} is not allowed in a query (allowed: rules, "
+                "constraints, aggregates, #show, #minimize/#maximize)",
+                line=line,
+            )
     at = plain.find("@")
     if at >= 0:
         line = plain.count("\n", 0, at) + 1
-        raise QueryError(f"query:{line}: @-terms (script functions) are not allowed in a query", line=line)
+        raise QueryError(
+            f"query:{line}: @-terms (script functions) are not allowed in a query", line=line
+        )
 
 
 def _check_ast(stmts: list[Any]) -> None:
@@ -241,9 +262,14 @@ def _check_ast(stmts: list[Any]) -> None:
         walk(s)
 
 
-def _solve(program: str, query: str | None = None, max_models: int = 1, *, max_atoms: int | None = None,
-           on_model: Callable[[list[clingo.Symbol]], None] | None = None,
-           ) -> tuple[list[list[clingo.Symbol]], bool, list[str], bool]:
+def _solve(
+    program: str,
+    query: str | None = None,
+    max_models: int = 1,
+    *,
+    max_atoms: int | None = None,
+    on_model: Callable[[list[clingo.Symbol]], None] | None = None,
+) -> tuple[list[list[clingo.Symbol]], bool, list[str], bool]:
     """Ground ``program`` (trusted: encodings and facts) plus the user's ``query``; return the
     shown atoms of up to ``max_models`` models, satisfiability, notes about the query and
     whether the query shows anything (False: constraints only)."""
@@ -283,8 +309,10 @@ def _solve(program: str, query: str | None = None, max_models: int = 1, *, max_a
     except RuntimeError:
         raise fail("grounding failed") from None
     if max_atoms is not None and len(ctl.symbolic_atoms) > max_atoms:
-        raise QueryError(f"the query grounds to {len(ctl.symbolic_atoms)} atoms, more than the limit "
-                         f"of {max_atoms} (--max-atoms)")
+        raise QueryError(
+            f"the query grounds to {len(ctl.symbolic_atoms)} atoms, more than the limit "
+            f"of {max_atoms} (--max-atoms)"
+        )
     models: list[list[clingo.Symbol]] = []
 
     def found(m: clingo.Model) -> None:
@@ -310,8 +338,13 @@ def _limited_child(conn: Any, program: str, query: str, max_models: int, max_ato
                 now = int(fh.read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
             cap = now + int(max_memory_mb) * 2**20
             resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
-        _, sat, notes, shows = _solve(program, query, max_models, max_atoms=max_atoms,
-                                      on_model=lambda atoms: conn.send(("model", [str(a) for a in atoms])))
+        _, sat, notes, shows = _solve(
+            program,
+            query,
+            max_models,
+            max_atoms=max_atoms,
+            on_model=lambda atoms: conn.send(("model", [str(a) for a in atoms])),
+        )
         conn.send(("done", sat, notes, shows))
     except QueryError as exc:
         conn.send(("error", exc.args[0], exc.messages, exc.line, exc.column))
@@ -351,8 +384,11 @@ def _solve_limited(program: str, query: str, max_models: int, *, timeout: float 
         return models, sat, notes, shows
     ctx = multiprocessing.get_context("fork")
     receive, send = ctx.Pipe(duplex=False)
-    proc = ctx.Process(target=_limited_child, args=(send, program, query, max_models, max_atoms, max_memory_mb),
-                       daemon=True)
+    proc = ctx.Process(
+        target=_limited_child,
+        args=(send, program, query, max_models, max_atoms, max_memory_mb),
+        daemon=True,
+    )
     proc.start()
     send.close()
     deadline = None if timeout is None else time.monotonic() + timeout
@@ -362,7 +398,9 @@ def _solve_limited(program: str, query: str, max_models: int, *, timeout: float 
         while True:
             wait = 0.5 if deadline is None else min(0.5, deadline - time.monotonic())
             if wait <= 0:
-                raise QueryError(f"the query took longer than the time limit of {timeout:g} s (--timeout)")
+                raise QueryError(
+                    f"the query took longer than the time limit of {timeout:g} s (--timeout)"
+                )
             if not receive.poll(wait):
                 if not proc.is_alive() and not receive.poll(0):
                     raise QueryError(memory)
@@ -650,7 +688,11 @@ def ask(scene: Scene, query: str, *, context: SceneContext | None = None, max_mo
             or a named question has wrong arguments, or the query uses a directive outside the
             allow-list, or it exceeds a limit.
     """
-    for name, value in (("timeout", timeout), ("max_atoms", max_atoms), ("max_memory_mb", max_memory_mb)):
+    for name, value in (
+        ("timeout", timeout),
+        ("max_atoms", max_atoms),
+        ("max_memory_mb", max_memory_mb),
+    ):
         if value is not None and not (value > 0 and value == value and value != float("inf")):
             raise QueryError(f"{name} must be a positive number or None, got {value!r}")
     if not query or not query.strip():
@@ -660,8 +702,15 @@ def ask(scene: Scene, query: str, *, context: SceneContext | None = None, max_mo
         return _HANDLERS[named[0]](scene, named[1], context)
     check_query(query)
     program = _program_for(scene, query, context)
-    models, sat, notes, shows = _solve_limited(program, query, max_models, timeout=timeout, max_atoms=max_atoms,
-                                               max_memory_mb=max_memory_mb, on_model=on_model)
+    models, sat, notes, shows = _solve_limited(
+        program,
+        query,
+        max_models,
+        timeout=timeout,
+        max_atoms=max_atoms,
+        max_memory_mb=max_memory_mb,
+        on_model=on_model,
+    )
     shown = tuple(models)
     if not sat:
         lines: tuple[str, ...] = ("no answer: the query's constraints rule out every answer set (UNSATISFIABLE)",)
