@@ -609,3 +609,25 @@ def test_same_run_same_bytes_with_the_streaming_pipeline(tmp_path: Path) -> None
     ]
     write_mot(tmp_path / "whole.txt", Detections.concatenate(out))
     assert (tmp_path / "stream.txt").read_bytes() == (tmp_path / "whole.txt").read_bytes()
+
+
+# 9. a wall-clock budget makes results depend on load, and nothing said so -------------------------
+def test_the_wall_clock_budget_says_results_depend_on_load(capsys) -> None:
+    with pytest.raises(SystemExit):
+        main(["track", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "--max-solve-ms" in text and "depend on the machine's load" in text
+    readme = " ".join((ROOT / "README.md").read_text().split())
+    assert "results then depend on the machine's load" in readme
+
+
+def test_an_output_reaching_the_input_through_a_link_is_refused(tmp_path: Path, capsys) -> None:
+    det = write_det(tmp_path / "d" / "det.txt")
+    before = det.read_bytes()
+    (tmp_path / "sym.txt").symlink_to(det)
+    os.link(det, tmp_path / "hard.txt")
+    for link in ("sym.txt", "hard.txt"):
+        argv = ["track", "--detections", str(det), "--format", "mot", "--output", str(tmp_path / link)]
+        assert main(argv) == 2
+        assert "would overwrite the input" in one_line_error(capsys)
+    assert det.read_bytes() == before
