@@ -20,10 +20,11 @@ __all__ = ["Detections", "validate_detections", "check_frame_number", "MAX_FRAME
 #: a larger number in a file is a typo, and would make the run loop over empty frames);
 #: without an image size every coordinate is within ``±MAX_COORD`` pixels; with an image size
 #: ``(W, H)`` box corners lie within ``IMAGE_MARGIN`` image sizes outside the image
-#: (``-IMAGE_MARGIN * W <= x <= (1 + IMAGE_MARGIN) * W``, the same for ``y`` and ``H``).
+#: (``-IMAGE_MARGIN * W <= x <= (1 + IMAGE_MARGIN) * W``, the same for ``y`` and ``H``); real
+#: detectors reach 1.4 image sizes beyond the border (YOLOX on MOT17-05), so the bound is wide.
 MAX_FRAME = 10_000_000
 MAX_COORD = 1e6
-IMAGE_MARGIN = 1.0
+IMAGE_MARGIN = 10.0
 
 
 def _column(value: Any, n: int, dtype: type, default: float | int, name: str) -> np.ndarray:

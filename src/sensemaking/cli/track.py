@@ -213,9 +213,9 @@ def _file_frames(args: argparse.Namespace, config: Any, length: int | None):
         image_size=config.image_size,
         last_frame=seq_last,
     )
-    last = summary.last if summary.last is not None else first - 1
+    last = summary.last
     if seq_last is not None:
-        last = max(last, seq_last)
+        last = seq_last if last is None else max(last, seq_last)
     frames = iter_detection_frames(
         args.detections,
         args.format,
@@ -290,7 +290,7 @@ def run(args: argparse.Namespace) -> int:
 
         monitor = SituationMonitor(fps=config.fps, image_size=config.image_size)
     source = args.detections or args.source
-    total = 0 if last is None else last - first + 1
+    total = 0 if last is None or first is None else last - first + 1
     with Progress(total, "tracking", enabled=not args.quiet) as progress:
         sinks: list[Any] = []
         try:

@@ -114,7 +114,8 @@ def iter_detection_frames(
     checks as :func:`~sensemaking.io.formats.read_detections`, plus the plausibility bounds of
     :func:`~sensemaking.detections.validate_detections` (with ``image_size``) and frame numbers
     at most ``last_frame`` (the sequence's last, from its seqinfo) or
-    :data:`~sensemaking.detections.MAX_FRAME`. An empty file is an error (nothing to track).
+    :data:`~sensemaking.detections.MAX_FRAME`. An empty file (MOT or KITTI: a sequence where the
+    detector found nothing) yields nothing, with a warning.
     Boxes of zero width or height are dropped with one warning for the file. When done, a
     :class:`DetectionsSummary` is appended to ``summary`` (if given).
     """
@@ -180,8 +181,8 @@ def iter_detection_frames(
             n_dets += len(d)
             last = f
             yield f, _ordered(d, kind)
-    if previous is None:
-        raise InputError("no detections in file", path)
+    if previous is None:  # a sequence where the detector found nothing: nothing to track
+        log.warning("%s: no detections in file", path)
     if pending is not None:
         n_frames += 1
         n_dets += len(pending)
