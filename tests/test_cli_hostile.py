@@ -624,3 +624,24 @@ def test_an_output_reaching_the_input_through_a_link_is_refused(tmp_path: Path, 
         assert main(argv) == 2
         assert "would overwrite the input" in one_line_error(capsys)
     assert det.read_bytes() == before
+
+
+def test_argument_errors_are_one_line_too(capsys) -> None:
+    for argv in (["track", "--detections", "x", "--format", "mot", "--output", "y", "--fps", "abc"],
+                 ["track"], ["ask"], ["nonsense-verb"]):
+        with pytest.raises(SystemExit) as exc:
+            main(argv)
+        assert exc.value.code == 2
+        assert "error:" in one_line_error(capsys)
+
+
+def test_render_frames_beyond_the_scene_ask_for_no_work(scene_file: Path, tmp_path: Path,
+                                                        capsys) -> None:
+    pytest.importorskip("PIL")
+    out = tmp_path / "r.gif"
+    t0 = time.monotonic()
+    assert main(["-q", "render", str(scene_file), "-o", str(out), "--frames", "0:1000000000",
+                 "--no-warnings", "--scale", "0.2"]) == 0
+    assert time.monotonic() - t0 < 30 and out.exists()
+    assert main(["render", str(scene_file), "-o", str(tmp_path / "x.gif"), "--frames", "5000:6000"]) == 2
+    assert "none of them in that range" in one_line_error(capsys)

@@ -17,6 +17,7 @@ import signal
 import sys
 import threading
 from collections.abc import Sequence
+from typing import NoReturn
 
 from sensemaking import __version__
 from sensemaking.errors import SensemakingError
@@ -25,8 +26,15 @@ from sensemaking.errors import SensemakingError
 VERBS = ("track", "demo", "evaluate", "benchmark", "ask", "explain", "render", "report")
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line usage errors (``prog: error: problem (see --help)``), exit 2."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {' '.join(message.split())} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="sensemaking",
         description="Online abductive visual sensemaking: tracking with explanations (ASP/clingo).",
     )

@@ -76,6 +76,13 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--scale must be in (0, 4], got {args.scale}")
     scene = as_run(args.scene, warnings=warnings_arg(args))
     frames = parse_frames(args.frames)
+    if frames is not None:  # only the scene's own frames: the range may not ask for more work
+        known = scene.frames
+        clipped = range(max(frames.start, known.start), min(frames.stop, known.stop))
+        if not len(clipped):
+            raise InputError(f"--frames {args.frames}: the scene has frames {known.start}.."
+                             f"{known.stop - 1}, none of them in that range")
+        frames = clipped
     total = len(frames) if frames is not None else len(scene.frames)
     with Progress(total, "rendering", enabled=not args.quiet) as progress:
         out = render_scene(scene, args.output, images=args.images, video=args.video, fps=args.fps,
