@@ -645,3 +645,12 @@ def test_render_frames_beyond_the_scene_ask_for_no_work(scene_file: Path, tmp_pa
     assert time.monotonic() - t0 < 30 and out.exists()
     assert main(["render", str(scene_file), "-o", str(tmp_path / "x.gif"), "--frames", "5000:6000"]) == 2
     assert "none of them in that range" in one_line_error(capsys)
+
+
+def test_evaluate_refuses_a_billion_frame_ground_truth_before_allocating(tmp_path: Path,
+                                                                         capsys) -> None:
+    gt, res = tmp_path / "gt.txt", tmp_path / "res.txt"
+    gt.write_text("1,1,10,10,40,80,1,1,1\n1000000000,1,10,10,40,80,1,1,1\n")
+    res.write_text("1,1,10,10,40,80,1,-1,-1,-1\n")
+    assert main(["evaluate", "--gt", str(gt), "--results", str(res), "--format", "mot"]) == 2
+    assert f"{gt}:2: frame 1000000000 is beyond the plausibility bound" in one_line_error(capsys)

@@ -15,7 +15,7 @@ import numpy as np
 
 from sensemaking.classes import CLASS_IDS, KITTI_NAMES, class_id
 from sensemaking.classes import class_name as _class_name
-from sensemaking.detections import Detections
+from sensemaking.detections import MAX_FRAME, Detections
 from sensemaking.errors import InputError
 from sensemaking.io.atomic import atomic_write
 from sensemaking.io.tables import (
@@ -106,7 +106,8 @@ def kitti_labels_from_table(table: Table) -> Detections:
     n = len(table)
     if n == 0:
         return Detections(xyxy=np.zeros((0, 4)), data=_label_data(np.zeros((0, 17)), np.zeros(0, np.int64)))
-    frames = table.integers(0, minimum=0)
+    frames = table.integers(0, minimum=0, maximum=MAX_FRAME,
+                            maximum_why=" (sensemaking.detections.MAX_FRAME)")
     ids = table.integers(1, minimum=-1)
     table.finite([c for c in range(3, table.ncols) if c != 4])
     occluded = table.integers(4)
@@ -234,7 +235,8 @@ def kitti_detections_from_table(table: Table, class_name: str | None = None,
     path = table.path
     if len(table) == 0:
         return Detections.empty()
-    frames = table.integers(0, minimum=0)
+    frames = table.integers(0, minimum=0, maximum=MAX_FRAME,
+                            maximum_why=" (sensemaking.detections.MAX_FRAME)")
     v = table.values
     if table.ncols == 6:  # RRC
         cid = _rrc_class(path, class_name)

@@ -16,7 +16,7 @@ from typing import Literal
 
 import numpy as np
 
-from sensemaking.detections import Detections
+from sensemaking.detections import MAX_FRAME, Detections
 from sensemaking.errors import InputError
 from sensemaking.io.atomic import atomic_write
 from sensemaking.io.tables import PathLike, Table, frame_order, ints, nums, parse_table, read_text
@@ -127,7 +127,8 @@ def mot_from_table(table: Table, kind: MotKind = "det", default_class: int = 1,
         data = {"consider": np.zeros(0, np.int64), "visibility": np.zeros(0)} if kind == "gt" else {}
         return Detections(xyxy=np.zeros((0, 4)), data=data)
 
-    frames = table.integers(0, minimum=1, what=" (MOTChallenge frames are 1-based)")
+    frames = table.integers(0, minimum=1, what=" (MOTChallenge frames are 1-based)",
+                            maximum=MAX_FRAME, maximum_why=" (sensemaking.detections.MAX_FRAME)")
     ids = table.integers(1) if kind != "det" else np.full(n, -1, dtype=np.int64)
     v = table.values
     table.finite([2, 3, 4, 5] if kind == "gt" else [2, 3, 4, 5, 6])

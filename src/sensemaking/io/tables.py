@@ -108,8 +108,9 @@ class Table:
             j = int(np.argmax(bad[i]))
             self.fail(i, f"{self.name(cols[j])} must be a finite number, got {num(float(block[i, j]))}")
 
-    def integers(self, col: int, minimum: int | None = None, what: str = "") -> np.ndarray:
-        """Column ``col`` as int64; every value must be a whole number >= ``minimum``."""
+    def integers(self, col: int, minimum: int | None = None, what: str = "", maximum: int | None = None,
+                 maximum_why: str = "") -> np.ndarray:
+        """Column ``col`` as int64; every value must be a whole number in ``minimum..maximum``."""
         v = self.values[:, col]
         with np.errstate(invalid="ignore"):
             bad = ~np.isfinite(v) | (v != np.round(v)) | (np.abs(v) > 2.0**53)
@@ -120,6 +121,10 @@ class Table:
         if minimum is not None and len(out) and out.min() < minimum:
             i = int(np.argmax(out < minimum))
             self.fail(i, f"{self.name(col)} must be >= {minimum}{what}, got {out[i]}")
+        if maximum is not None and len(out) and out.max() > maximum:
+            i = int(np.argmax(out > maximum))
+            self.fail(i, f"{self.name(col)} {out[i]} is beyond the plausibility bound {maximum}"
+                         f"{maximum_why}")
         return out
 
     def sorted_frames(self, frames: np.ndarray) -> None:
