@@ -31,7 +31,7 @@ _DET_NAMES = ("frame", "id", "x", "y", "width", "height", "confidence", "world x
 _GT17_NAMES = ("frame", "id", "x", "y", "width", "height", "consider flag", "class", "visibility")
 _GT15_NAMES = ("frame", "id", "x", "y", "width", "height", "consider flag", "world x", "world y", "world z")
 #: per kind: allowed number of comma-separated fields -> column names
-_LAYOUTS: dict[str, dict[int, tuple[str, ...]]] = {
+MOT_LAYOUTS: dict[str, dict[int, tuple[str, ...]]] = {
     "det": {n: _DET_NAMES for n in range(7, 11)},
     "gt": {9: _GT17_NAMES, 10: _GT15_NAMES},
     "results": {n: _DET_NAMES for n in range(7, 11)},
@@ -111,9 +111,10 @@ def read_mot(path: PathLike, kind: MotKind = "det", default_class: int = 1) -> D
     ``default_class``. Any line order (trackers write by frame or by id), kept as in the file;
     an empty file gives empty Detections.
     """
-    if kind not in _LAYOUTS:
+    if kind not in MOT_LAYOUTS:
         raise ValueError(f"unknown MOT file kind {kind!r}; expected 'det', 'gt' or 'results'")
-    return mot_from_table(parse_table(path, sep=",", names=_LAYOUTS[kind]), kind, default_class)
+    table = parse_table(path, sep=",", names=MOT_LAYOUTS[kind])
+    return mot_from_table(table, kind, default_class)
 
 
 def mot_from_table(table: Table, kind: MotKind = "det", default_class: int = 1,

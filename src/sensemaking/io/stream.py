@@ -24,8 +24,7 @@ from sensemaking.io.kitti import (
     kitti_detections_from_table,
     kitti_labels_from_table,
 )
-from sensemaking.io.mot import _LAYOUTS as MOT_LAYOUTS
-from sensemaking.io.mot import mot_from_table
+from sensemaking.io.mot import MOT_LAYOUTS, mot_from_table
 from sensemaking.io.tables import PathLike, class_id_of, parse_lines, reading
 
 __all__ = ["iter_detection_frames", "scan_detections", "DetectionsSummary", "CHUNK_LINES"]
