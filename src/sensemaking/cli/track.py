@@ -42,8 +42,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--warnings",
         type=Path,
-        help="safety-critical warnings as JSON lines, written online (into a .part file beside "
-        "it, renamed at the end; kept when the run is interrupted)",
+        help="safety-critical warnings as JSON lines, written online into PATH.part (follow it "
+        "with tail -f), renamed to PATH at the end and kept when the run is interrupted",
     )
     p.add_argument("--no-abduction", action="store_true", help="plain Hungarian IoU matching (the ablation)")
     p.add_argument(

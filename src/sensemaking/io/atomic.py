@@ -11,20 +11,27 @@ from typing import IO, Any
 
 
 class PartFile:
-    """A temporary file ``.<name>.<random>.part`` beside ``path``, written in pieces and renamed
-    over ``path`` by :meth:`commit`, or deleted by :meth:`discard` (nothing is left behind).
+    """A temporary file ``.<name>.<random>.part`` beside ``path`` (``visible``: ``<name>.part``
+    when free), written in pieces and renamed over ``path`` by :meth:`commit`, or deleted by
+    :meth:`discard` (nothing is left behind).
 
     ``handle`` is the open text (or, with ``"b"`` in ``mode``, binary) file.
     """
 
-    def __init__(
-        self, path: str | os.PathLike[str], mode: str = "w", encoding: str | None = "utf-8"
-    ):
+    def __init__(self, path: str | os.PathLike[str], mode: str = "w", encoding: str | None = "utf-8",
+                 *, visible: bool = False):
         self.target = Path(path)
         self.target.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(
-            prefix=f".{self.target.name}.", suffix=".part", dir=self.target.parent
-        )
+        fd = -1
+        if visible:  # ``<name>.part``, to be followed while written (unless another run has it)
+            tmp = str(self.target.with_name(self.target.name + ".part"))
+            try:
+                fd = os.open(tmp, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o600)
+            except FileExistsError:
+                fd = -1
+        if fd < 0:
+            fd, tmp = tempfile.mkstemp(prefix=f".{self.target.name}.", suffix=".part",
+                                       dir=self.target.parent)
         self.part = Path(tmp)
         try:
             self.handle: IO[Any] = os.fdopen(fd, mode, encoding=None if "b" in mode else encoding)

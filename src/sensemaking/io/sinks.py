@@ -158,13 +158,14 @@ class EventsSink:
 
 
 class WarningsSink:
-    """Warnings as JSON lines, flushed as they are issued (``tail -f`` the ``.part`` file named in
-    ``part``); kept in place when the run is interrupted, as the record of what was said."""
+    """Warnings as JSON lines, flushed as they are issued into ``<path>.part`` (``tail -f`` it;
+    its name is in ``part``); kept in place when the run is interrupted, as the record of what
+    was said."""
 
     def __init__(self, path: PathLike):
         self.path = Path(path)
         self.count = 0
-        self._file = PartFile(self.path)
+        self._file = PartFile(self.path, visible=True)
         self.part = self._file.part
 
     def frame(self, result: FrameResult, warnings: list[Any]) -> None:
