@@ -206,6 +206,7 @@ def _file_frames(args: argparse.Namespace, config: Any, length: int | None):
 
     first = 1 if args.format == "mot" else 0
     seq_last = None if length is None else first + length - 1
+    log.info("checking %s before tracking", args.detections)
     summary = scan_detections(
         args.detections,
         args.format,

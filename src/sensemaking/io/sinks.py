@@ -27,7 +27,10 @@ import numpy as np
 from sensemaking.detections import Detections
 from sensemaking.errors import InputError
 from sensemaking.io.atomic import PartFile
+from sensemaking.io.kitti import format_kitti
+from sensemaking.io.mot import format_mot
 from sensemaking.results import FrameResult
+from sensemaking.scene import SCENE_FORMAT, SCENE_VERSION, Track, track_json
 
 __all__ = ["Sink", "TracksSink", "EventsSink", "WarningsSink", "SceneSink", "check_output_paths"]
 
@@ -93,9 +96,6 @@ class TracksSink:
     BATCH_ROWS = 16384
 
     def __init__(self, path: PathLike, fmt: str, *, write_hidden: bool = False):
-        from sensemaking.io.kitti import format_kitti
-        from sensemaking.io.mot import format_mot
-
         if fmt not in ("mot", "kitti"):
             raise ValueError(f"unknown format {fmt!r}; expected 'mot' or 'kitti'")
         self.path = Path(path)
@@ -337,8 +337,6 @@ class SceneSink:
         self._tracks.write(data)
 
     def _track(self, track_id: int) -> Any:
-        from sensemaking.scene import Track
-
         parts = []
         for offset, length in self._index[track_id]:
             self._tracks.seek(offset)
@@ -360,8 +358,6 @@ class SceneSink:
         )
 
     def finish(self) -> None:
-        from sensemaking.scene import SCENE_FORMAT, SCENE_VERSION, track_json
-
         self._group()
         for t in list(self._live):
             self._spill(t)
