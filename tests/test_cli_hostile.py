@@ -654,3 +654,18 @@ def test_evaluate_refuses_a_billion_frame_ground_truth_before_allocating(tmp_pat
     res.write_text("1,1,10,10,40,80,1,-1,-1,-1\n")
     assert main(["evaluate", "--gt", str(gt), "--results", str(res), "--format", "mot"]) == 2
     assert f"{gt}:2: frame 1000000000 is beyond the plausibility bound" in one_line_error(capsys)
+
+
+def test_report_and_render_do_not_overwrite_their_inputs(scene_file: Path, tmp_path: Path,
+                                                         capsys) -> None:
+    pytest.importorskip("PIL")
+    before = scene_file.read_bytes()
+    assert main(["report", str(scene_file), "-o", str(scene_file)]) == 2
+    assert "would overwrite the input SCENE" in one_line_error(capsys)
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    (frames / "000000.png").write_bytes(b"not really a png")
+    assert main(["render", str(scene_file), "-o", str(frames) + "/", "--images", str(frames)]) == 2
+    assert "would write over the input --images" in one_line_error(capsys)
+    assert scene_file.read_bytes() == before
+    assert (frames / "000000.png").read_bytes() == b"not really a png"

@@ -74,6 +74,18 @@ def run(args: argparse.Namespace) -> int:
         )
     if args.scale is not None and not 0 < args.scale <= 4:
         raise InputError(f"--scale must be in (0, 4], got {args.scale}")
+    from sensemaking.io.sinks import check_output_paths
+    from sensemaking.viz._media import output_kind
+
+    inputs = {"SCENE": args.scene, "--images": args.images, "--video": args.video,
+              "--warnings": args.warnings}
+    if output_kind(args.output) != "png":  # a folder of PNGs is a directory by design
+        check_output_paths({"--output": args.output}, inputs)
+    else:
+        out = Path(args.output).resolve()
+        for name, path in inputs.items():  # e.g. PNGs written over the --images folder's
+            if path is not None and out == Path(path).resolve():
+                raise InputError(f"--output would write over the input {name}", args.output)
     scene = as_run(args.scene, warnings=warnings_arg(args))
     frames = parse_frames(args.frames)
     if frames is not None:  # only the scene's own frames: the range may not ask for more work
