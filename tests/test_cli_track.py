@@ -83,7 +83,6 @@ def test_write_hidden_adds_predicted_boxes(tmp_path: Path, crossing_det: Path) -
         ("1,-1,10,10,20,20,0.9\n2,-1,10,nan,20,20,0.9\n", 2, "finite"),
         ("1,-1,10,10,20,20,0.9\n2,-1,10,10,-5,20,0.9\n", 2, "width"),
         ("2,-1,10,10,20,20,0.9\n1,-1,10,10,20,20,0.9\n", 2, "sorted by frame"),
-        ("", None, "no detections"),
     ],
 )
 def test_bad_input_names_file_line_and_leaves_no_output(tmp_path: Path, capsys, content, line, problem) -> None:

@@ -3,17 +3,16 @@ behind it and reappears), tracked with abduction and explained in sentences."""
 
 from __future__ import annotations
 
-import json
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from sensemaking.classes import class_name
-from sensemaking.detections import Detections
 from sensemaking.errors import MissingExtraError
-from sensemaking.io.atomic import atomic_write
 from sensemaking.io.kitti import write_kitti
+from sensemaking.io.sinks import EventsSink, TracksSink, WarningsSink
+from sensemaking.pipeline import Pipeline
 from sensemaking.results import Event, FrameResult
 from sensemaking.synthetic import figure1_scene
 from sensemaking.tracker import Tracker, TrackerConfig
@@ -71,28 +70,31 @@ def run_demo(output_dir: str | Path, *, render: bool = True, echo: Callable[[str
 
     recorder = SceneRecorder(fps=config.fps, image_size=size, metadata={"source": "sensemaking demo (Figure 1)"})
     monitor = SituationMonitor(fps=config.fps, image_size=size)
+    files = {
+        "detections": out / "detections.txt",
+        "tracks": out / "tracks.txt",
+        "events": out / "events.jsonl",
+        "warnings": out / "warnings.jsonl",
+        "scene": out / "scene.json",
+    }
     results: list[FrameResult] = []
     warnings: list = []
-    for f, dets in synthetic.frames():
-        result = tracker.update(dets, frame=f)
-        results.append(result)
-        recorder.add(result)
-        warnings.extend(monitor.update(result))
+    sinks = [
+        TracksSink(files["tracks"], "kitti"),
+        EventsSink(files["events"]),
+        WarningsSink(files["warnings"]),
+    ]
+    with Pipeline(tracker, recorder, monitor, sinks) as pipe:
+        for f, dets in synthetic.frames():
+            step = pipe.step(f, dets)
+            results.append(step.result)
+            warnings.extend(step.warnings)
     scene = recorder.scene()
 
     events = [e for r in results for e in r.events]
     classes = {int(t): int(c) for r in results for t, c in zip(r.tracks.tracker_id, r.tracks.class_id)}
     sentences = [describe_event(e, classes, config.fps) for e in events]
-    files = {"detections": out / "detections.txt", "tracks": out / "tracks.txt", "events": out / "events.jsonl",
-             "warnings": out / "warnings.jsonl", "scene": out / "scene.json"}
     write_kitti(files["detections"], synthetic.detections)
-    write_kitti(files["tracks"], Detections.concatenate([r.visible for r in results]))
-    with atomic_write(files["events"]) as fh:
-        for e in events:
-            fh.write(json.dumps(e.to_json()) + "\n")
-    with atomic_write(files["warnings"]) as fh:
-        for w in warnings:
-            fh.write(json.dumps(w.to_json()) + "\n")
     scene.save(files["scene"])
 
     echo("What happened (abduced events):")

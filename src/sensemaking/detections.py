@@ -12,7 +12,19 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Detections"]
+__all__ = ["Detections", "validate_detections", "check_frame_number", "MAX_FRAME", "MAX_COORD",
+           "IMAGE_MARGIN"]
+
+#: Plausibility bounds, checked on every input frame (files, the Python API through
+#: :func:`validate_detections`): frame numbers lie in ``0..MAX_FRAME`` (about 3.8 days at 30 fps:
+#: a larger number in a file is a typo, and would make the run loop over empty frames);
+#: without an image size every coordinate is within ``±MAX_COORD`` pixels; with an image size
+#: ``(W, H)`` box corners lie within ``IMAGE_MARGIN`` image sizes outside the image
+#: (``-IMAGE_MARGIN * W <= x <= (1 + IMAGE_MARGIN) * W``, the same for ``y`` and ``H``); real
+#: detectors reach 1.4 image sizes beyond the border (YOLOX on MOT17-05), so the bound is wide.
+MAX_FRAME = 10_000_000
+MAX_COORD = 1e6
+IMAGE_MARGIN = 10.0
 
 
 def _column(value: Any, n: int, dtype: type, default: float | int, name: str) -> np.ndarray:
@@ -162,3 +174,73 @@ class Detections:
 
     def __repr__(self) -> str:
         return f"Detections(n={len(self)}, data={sorted(self.data)})"
+
+
+def check_frame_number(frame: Any, what: str = "frame") -> int:
+    """``frame`` as an int in ``0..MAX_FRAME``; InputError (a ValueError) otherwise."""
+    from sensemaking.errors import InputError
+
+    if isinstance(frame, bool) or not isinstance(frame, (int, np.integer)):
+        raise InputError(f"{what} must be an integer, got {frame!r}")
+    if not 0 <= int(frame) <= MAX_FRAME:
+        raise InputError(f"{what} {int(frame)} is outside 0..{MAX_FRAME} (the plausibility bound "
+                         "sensemaking.detections.MAX_FRAME)")
+    return int(frame)
+
+
+def validate_detections(dets: Detections, image_size: tuple[int, int] | None = None,
+                        path: str | None = None) -> Detections:
+    """Check one frame's detections before they reach a tracker; return them unchanged.
+
+    Refused (:class:`~sensemaking.errors.InputError`, a ValueError): a non-finite box or
+    confidence, x2 <= x1 or y2 <= y1, a coordinate outside the plausibility bounds
+    (:data:`MAX_COORD`, :data:`IMAGE_MARGIN`), a negative class id, a frame outside
+    ``0..MAX_FRAME``. The error names the box's file line (``source_row``, with ``path``) when it
+    has one, else its index. Checking before the update leaves a tracker as it was on refusal.
+    """
+    from sensemaking.errors import InputError
+
+    n = len(dets)
+    if n == 0:
+        return dets
+    xyxy, conf = dets.xyxy, dets.confidence
+    finite_box = np.isfinite(xyxy).all(axis=1)
+    with np.errstate(invalid="ignore"):
+        if image_size is None:
+            inside = (np.abs(xyxy) <= MAX_COORD).all(axis=1)
+            bound = f"within +-{MAX_COORD:g} px"
+        else:
+            w, h = float(image_size[0]), float(image_size[1])
+            lo = np.array([-IMAGE_MARGIN * w, -IMAGE_MARGIN * h] * 2)
+            hi = np.array([(1 + IMAGE_MARGIN) * w, (1 + IMAGE_MARGIN) * h] * 2)
+            inside = ((xyxy >= lo) & (xyxy <= hi)).all(axis=1)
+            bound = (f"within {IMAGE_MARGIN:g} image size of the {int(w)}x{int(h)} image "
+                     f"(x in {lo[0]:g}..{hi[0]:g}, y in {lo[1]:g}..{hi[1]:g})")
+        ordered = (xyxy[:, 2] > xyxy[:, 0]) & (xyxy[:, 3] > xyxy[:, 1])
+    checks = (
+        (~finite_box, lambda i: f"box {_fmt_box(xyxy[i])} is not finite"),
+        (
+            ~np.isfinite(conf),
+            lambda i: f"confidence must be a finite number, got {float(conf[i])!r}",
+        ),
+        (~ordered, lambda i: f"box {_fmt_box(xyxy[i])} must have x2 > x1 and y2 > y1"),
+        (~inside, lambda i: f"box {_fmt_box(xyxy[i])} is implausible: corners must lie {bound}"),
+        (dets.class_id < 0, lambda i: f"class id must be >= 0, got {int(dets.class_id[i])}"),
+        (
+            (dets.frame < 0) | (dets.frame > MAX_FRAME),
+            lambda i: f"frame {int(dets.frame[i])} is outside 0..{MAX_FRAME}",
+        ),
+    )
+    for bad, problem in checks:
+        if bad.any():
+            i = int(np.argmax(bad))
+            row = int(dets.source_row[i])
+            if row > 0 and path is not None:
+                raise InputError(problem(i), path, row)
+            where = f"detection {i}" + (f" (line {row})" if row > 0 else "")
+            raise InputError(f"{where}: {problem(i)}", path)
+    return dets
+
+
+def _fmt_box(box: np.ndarray) -> str:
+    return "[" + ", ".join(f"{float(v):g}" for v in box) + "]"

@@ -10,15 +10,16 @@ from __future__ import annotations
 
 import ast
 import os
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Literal
+from typing import Literal
 
 import numpy as np
 
 from sensemaking.adapters import from_ultralytics, map_class_name
 from sensemaking.detections import Detections
 from sensemaking.errors import InputError, require
+from sensemaking.io.media import iter_video_frames  # noqa: F401  (re-exported; frames are read in io)
 
 __all__ = ["Detector", "OnnxDetector", "UltralyticsDetector", "load_detector", "iter_video_frames", "nms"]
 
@@ -273,40 +274,3 @@ class UltralyticsDetector(Detector):
             except AttributeError:  # pragma: no cover - read-only in some versions
                 pass
         return from_ultralytics(result, frame=frame, drop_unknown=self.drop_unknown)
-
-
-# frames ---------------------------------------------------------------------------------------
-def iter_video_frames(path: str | os.PathLike[str]) -> Iterator[np.ndarray]:
-    """Frames of a video file (any ffmpeg format; GIF through imageio) or of an image folder
-    (sorted names), in order, each ``H x W x 3`` uint8 RGB. Needs the ``viz`` extra."""
-    p = Path(path)
-    if p.is_dir():
-        from sensemaking.viz._media import list_images
-
-        image = require("PIL.Image", "viz")
-        for f in list_images(p):
-            with image.open(f) as im:
-                yield np.asarray(im.convert("RGB"))
-        return
-    if not p.is_file():
-        raise InputError("no such video file", p)
-    if p.suffix.lower() == ".gif":
-        iio = require("imageio.v3", "viz")
-        for frame in iio.imiter(p):
-            arr = np.asarray(frame)
-            if arr.ndim == 2:
-                arr = np.repeat(arr[..., None], 3, axis=2)
-            yield np.ascontiguousarray(arr[..., :3]).astype(np.uint8)
-        return
-    ffmpeg = require("imageio_ffmpeg", "viz")
-    try:
-        gen = ffmpeg.read_frames(str(p), pix_fmt="rgb24")
-        meta: dict[str, Any] = gen.__next__()
-    except (OSError, RuntimeError, StopIteration) as exc:
-        raise InputError(f"cannot read the video: {exc}", p) from exc
-    w, h = (int(v) for v in meta["size"])
-    try:
-        for raw in gen:
-            yield np.frombuffer(raw, dtype=np.uint8).reshape(h, w, 3)
-    finally:
-        gen.close()

@@ -27,6 +27,8 @@ Scene JSON (``"format": "sensemaking.scene"``, ``"version": 1``)::
 from __future__ import annotations
 
 import json
+import math
+import re
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from functools import cached_property
@@ -298,49 +300,132 @@ class Scene:
         if fr.size and fr.size != int(fr[-1] - fr[0]) + 1:
             record["frame_numbers"] = fr.tolist()
         record["metadata"] = self.metadata
-        record["tracks"] = [
-            {
-                "id": t.id, "class": t.class_name, "class_id": t.class_id, "frames": t.frames.tolist(),
-                "boxes": np.round(t.xyxy, 2).tolist(), "confidence": np.round(t.confidence, 4).tolist(),
-                "state": [_STATES[s] for s in t.state.tolist()], "occluder": t.occluder.tolist(),
-                "visibility": [_VISIBILITY[v] for v in t.visibility.tolist()],
-                "hidden_frames": t.hidden_frames.tolist(),
-            }
-            for t in self.tracks.values()
-        ]
+        record["tracks"] = [track_json(t) for t in self.tracks.values()]
         record["events"] = [e.to_json() for e in self.events]
         return record
 
     @classmethod
     def from_json(cls, record: Any, path: str | PathLike[str] | None = None) -> Scene:
-        """Build from :meth:`to_json` output. Raises InputError naming ``path`` on bad input."""
+        """Build from :meth:`to_json` output. Raises InputError naming ``path`` on bad input.
+
+        Checked before anything is built: the format and version, a finite fps in (0, 1000],
+        the image size, every number finite and every id an integer, track frames increasing
+        and inside the scene's frames, the ids that events and occluders name present in the
+        scene, and the frame span: at most ``MAX_FRAME`` frames and at most
+        ``max(100000, 100 x the rows and events in the file)`` (nothing is allocated in
+        proportion to a number in the file before it is checked against the file's content).
+        """
         where = None if path is None else str(path)
         if not isinstance(record, Mapping) or record.get("format") != SCENE_FORMAT:
             raise InputError(f"not a scene file (expected \"format\": \"{SCENE_FORMAT}\"; "
                              "write one with `sensemaking track --scene PATH`)", where)
-        if int(record.get("version", 0)) > SCENE_VERSION:
-            raise InputError(f"scene format version {record.get('version')} is newer than this "
-                             f"sensemaking reads ({SCENE_VERSION})", where)
+        version = record.get("version", SCENE_VERSION)  # files before versioning: 1
+        if _is_int(version) and version > SCENE_VERSION:
+            raise InputError(f"scene format version {version} is newer than this sensemaking reads "
+                             f"({SCENE_VERSION})", where)
+        if not _is_int(version) or version < 1:
+            raise InputError(f"scene format version {version!r}: this sensemaking reads version "
+                             f"{SCENE_VERSION}", where)
         try:
-            tracks: dict[int, Track] = {}
-            for i, r in enumerate(record.get("tracks", [])):
-                tracks[int(r["id"])] = _track_from_json(r, i, where)
-            events = [Event.from_json(e) for e in record.get("events", [])]
-            if "frame_numbers" in record:
-                frames = np.asarray(record["frame_numbers"], dtype=np.int64)
-            elif record.get("frames"):
-                f0, f1 = (int(v) for v in record["frames"])
-                frames = np.arange(f0, f1 + 1, dtype=np.int64)
-            else:
-                frames = np.zeros(0, dtype=np.int64)
-            size = record.get("image_size")
-            return cls(tracks, events, frames, fps=float(record.get("fps", 10.0)),
-                       image_size=None if size is None else (int(size[0]), int(size[1])),
-                       metadata=record.get("metadata") or {})
+            return cls._from_checked_json(record, where)
         except InputError:
             raise
-        except (KeyError, TypeError, ValueError, IndexError) as exc:
+        except (KeyError, TypeError, ValueError, IndexError, OverflowError, AttributeError) as exc:
             raise InputError(f"malformed scene: {type(exc).__name__}: {exc}", where) from None
+
+    @classmethod
+    def _from_checked_json(cls, record: Mapping[str, Any], where: str | None) -> Scene:
+        from sensemaking.detections import MAX_FRAME
+
+        def bad(problem: str) -> InputError:
+            return InputError(f"malformed scene: {problem}", where)
+
+        fps = record.get("fps", 10.0)
+        if (
+            isinstance(fps, bool)
+            or not isinstance(fps, (int, float))
+            or not (math.isfinite(fps) and 0 < fps <= 1000)
+        ):
+            raise bad(f"fps must be a number in (0, 1000], got {fps!r}")
+        size = record.get("image_size")
+        if size is not None and not (isinstance(size, list) and len(size) == 2
+                                     and all(_is_int(v) and 1 <= v <= 100_000 for v in size)):
+            raise bad(f"image_size must be null or [width, height] in pixels, got {size!r}")
+        raw_tracks = record.get("tracks", [])
+        raw_events = record.get("events", [])
+        if not isinstance(raw_tracks, list) or not isinstance(raw_events, list):
+            raise bad("'tracks' and 'events' must be lists")
+        content = len(raw_events) + sum(len(r.get("frames", ())) if isinstance(r, Mapping) else 1
+                                        for r in raw_tracks)
+        span_limit = min(MAX_FRAME, max(100_000, 100 * content))
+        frames_given = None
+        if "frame_numbers" in record:
+            fn = record["frame_numbers"]
+            if not isinstance(fn, list) or not all(_is_int(v) and 0 <= v <= MAX_FRAME for v in fn):
+                raise bad(f"'frame_numbers' must be a list of frame numbers in 0..{MAX_FRAME}")
+            frames = np.asarray(fn, dtype=np.int64)
+            if frames.size > 1 and (np.diff(frames) <= 0).any():
+                raise bad("'frame_numbers' must increase")
+            frames_given = frames
+        elif record.get("frames"):
+            span = record["frames"]
+            if not (isinstance(span, list) and len(span) == 2 and all(_is_int(v) for v in span)):
+                raise bad(f"'frames' must be [first, last], got {str(span)[:80]}")
+            f0, f1 = span
+            if not 0 <= f0 <= f1 <= MAX_FRAME:
+                raise bad(f"'frames' [{f0}, {f1}] must satisfy 0 <= first <= last <= {MAX_FRAME}")
+            if f1 - f0 + 1 > span_limit:
+                raise bad(
+                    f"'frames' [{f0}, {f1}] spans {f1 - f0 + 1} frames, implausibly many for a file "
+                    f"of {content} rows and events (at most {span_limit})"
+                )
+            frames = np.arange(f0, f1 + 1, dtype=np.int64)
+        else:
+            frames = np.zeros(0, dtype=np.int64)
+        tracks: dict[int, Track] = {}
+        for i, r in enumerate(raw_tracks):
+            if not isinstance(r, Mapping):
+                raise bad(f"tracks[{i}] must be an object")
+            t = _track_from_json(r, i, where)
+            if t.id in tracks:
+                raise bad(f"tracks[{i}]: id {t.id} appears twice")
+            if frames.size and (t.first < frames[0] or t.last > frames[-1]):
+                raise bad(f"tracks[{i}]: frames {t.first}..{t.last} outside the scene's frames "
+                          f"{int(frames[0])}..{int(frames[-1])}")
+            if frames_given is not None and not np.isin(t.frames, frames_given).all():
+                raise bad(f"tracks[{i}]: a frame not in 'frame_numbers'")
+            tracks[t.id] = t
+        for i, t in enumerate(tracks.values()):
+            occ = t.occluder[t.occluder >= 0]
+            unknown = set(occ.tolist()) - set(tracks)
+            if unknown:
+                raise bad(f"track {t.id}: occluder {min(unknown)} is not a track of the scene")
+        events = []
+        for i, e in enumerate(raw_events):
+            if not isinstance(e, Mapping):
+                raise bad(f"events[{i}] must be an object")
+            ev = Event.from_json(e)
+            if not re.fullmatch(r"[a-z][a-z0-9_]*", ev.name):
+                raise bad(f"events[{i}]: event name {ev.name!r} must be a lower-case identifier")
+            if frames.size and not frames[0] <= ev.frame <= frames[-1]:
+                raise bad(f"events[{i}]: frame {ev.frame} outside the scene's frames")
+            missing = [a for a in ev.args if a not in tracks]
+            if missing:
+                raise bad(
+                    f"events[{i}]: {ev.name} names track {missing[0]}, which is not in the scene"
+                )
+            events.append(ev)
+        metadata = record.get("metadata") or {}
+        if not isinstance(metadata, Mapping):
+            raise bad("'metadata' must be an object")
+        return cls(
+            tracks,
+            events,
+            frames,
+            fps=float(fps),
+            image_size=None if size is None else (int(size[0]), int(size[1])),
+            metadata=metadata,
+        )
 
     def save(self, path: str | PathLike[str]) -> None:
         """Write the scene JSON atomically (a failed write leaves no partial file)."""
@@ -365,18 +450,63 @@ class Scene:
         return cls.from_json(record, p)
 
 
+def track_json(t: Track) -> dict[str, Any]:
+    """One entry of the scene JSON's ``"tracks"`` list (boxes rounded to 0.01 px, scores to 1e-4)."""
+    return {
+        "id": t.id, "class": t.class_name, "class_id": t.class_id, "frames": t.frames.tolist(),
+        "boxes": np.round(t.xyxy, 2).tolist(), "confidence": np.round(t.confidence, 4).tolist(),
+        "state": [_STATES[s] for s in t.state.tolist()], "occluder": t.occluder.tolist(),
+        "visibility": [_VISIBILITY[v] for v in t.visibility.tolist()],
+        "hidden_frames": t.hidden_frames.tolist(),
+    }
+
+
+def _is_int(v: Any) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
 def _track_from_json(r: Mapping[str, Any], i: int, where: str | None) -> Track:
-    frames = np.asarray(r["frames"], dtype=np.int64)
+    from sensemaking.detections import MAX_FRAME
+
+    if not _is_int(r.get("id")) or r["id"] < 0:
+        raise InputError(
+            f"malformed scene: tracks[{i}]: 'id' must be a non-negative integer", where
+        )
+    raw = r["frames"]
+    if not isinstance(raw, list) or not all(_is_int(v) and 0 <= v <= MAX_FRAME for v in raw):
+        raise InputError(
+            f"tracks[{i}]: 'frames' must be a list of frame numbers in 0..{MAX_FRAME}", where
+        )
+    frames = np.asarray(raw, dtype=np.int64)
     k = frames.shape[0]
     if k == 0 or np.any(np.diff(frames) <= 0):
         raise InputError(f"tracks[{i}]: 'frames' must be non-empty and increasing", where)
-    xyxy = np.asarray(r["boxes"], dtype=np.float64).reshape(-1, 4)
+    boxes = r["boxes"]
+    if not isinstance(boxes, list) or not all(isinstance(b, list) and len(b) == 4 for b in boxes):
+        raise InputError(f"tracks[{i}]: 'boxes' must be a list of [x1, y1, x2, y2]", where)
+    xyxy = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+    if not np.isfinite(xyxy).all() or (np.abs(xyxy) > 1e7).any():
+        raise InputError(
+            f"tracks[{i}]: 'boxes' must hold finite pixel coordinates (|x| <= 1e7)", where
+        )
 
-    def col(name: str, default: Any, conv: Any = None) -> np.ndarray:
+    def col(name: str, default: Any, conv: Any = None, integer: bool = False) -> np.ndarray:
         v = r.get(name)
         if v is None:
             return np.full(k, default)
+        if not isinstance(v, list):
+            raise InputError(f"tracks[{i}]: '{name}' must be a list", where)
         arr = np.asarray([conv(x) for x in v] if conv else v)
+        if (
+            arr.ndim != 1
+            or arr.dtype.kind not in "iufb"
+            or not np.isfinite(arr.astype(np.float64)).all()
+        ):
+            raise InputError(
+                f"tracks[{i}]: '{name}' must be a list of finite numbers or names", where
+            )
+        if integer and (arr.dtype.kind not in "iu" or (arr.size and np.abs(arr).max() > 2**53)):
+            raise InputError(f"tracks[{i}]: '{name}' must be a list of integers", where)
         if arr.shape[0] != k:
             raise InputError(f"tracks[{i}]: '{name}' has {arr.shape[0]} entries for {k} frames", where)
         return arr
@@ -390,17 +520,23 @@ def _track_from_json(r: Mapping[str, Any], i: int, where: str | None) -> Track:
                 if x not in names:
                     raise InputError(f"tracks[{i}]: unknown {what} {x!r} (one of {', '.join(names)})", where)
                 return names.index(x)
+            if not _is_int(x) or not 0 <= x < len(names):
+                raise InputError(
+                    f"tracks[{i}]: {what} {x!r} is not one of {', '.join(names)}", where
+                )
             return int(x)
         return conv
 
+    if "class_id" in r and (not _is_int(r["class_id"]) or r["class_id"] < 0):
+        raise InputError(f"tracks[{i}]: 'class_id' must be a non-negative integer", where)
     cid = int(r.get("class_id", 0)) if "class_id" in r else _class_from_name(r.get("class"))
     return Track(
         id=int(r["id"]), class_id=cid, frames=frames, xyxy=xyxy,
         confidence=col("confidence", 1.0).astype(np.float64),
         state=col("state", 0, enum(_STATES, "state")).astype(np.int8),
-        occluder=col("occluder", -1).astype(np.int64),
+        occluder=col("occluder", -1, integer=True).astype(np.int64),
         visibility=col("visibility", 0, enum(_VISIBILITY, "visibility")).astype(np.int8),
-        hidden_frames=col("hidden_frames", 0).astype(np.int64),
+        hidden_frames=col("hidden_frames", 0, integer=True).astype(np.int64),
     )
 
 

@@ -1,8 +1,11 @@
 """Command line: ``sensemaking <verb> ...``; each verb lives in ``sensemaking.cli.<verb>``.
 
 Every verb module defines ``register(subparsers)`` which adds its parser and sets
-``func(args) -> int``. Errors of bad input (:class:`~sensemaking.errors.SensemakingError`) become
-one line on stderr and exit status 2; logging is configured here and only here.
+``func(args) -> int``. Errors of bad input (:class:`~sensemaking.errors.SensemakingError`) and of
+the file system (a full disk, a permission) become one line on stderr and exit status 2; SIGTERM
+is handled like Ctrl-C (the verb cleans up its temporary files; exit 130, or 143 for SIGTERM);
+logging is configured here and only here. A bug still gets one line (exit 3; the traceback
+with ``-vv``).
 """
 
 from __future__ import annotations
@@ -10,8 +13,11 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import signal
 import sys
+import threading
 from collections.abc import Sequence
+from typing import NoReturn
 
 from sensemaking import __version__
 from sensemaking.errors import SensemakingError
@@ -21,8 +27,15 @@ VERBS = ("track", "demo", "evaluate", "benchmark", "calibrate", "ask", "explain"
          "report", "batch", "query")
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line usage errors (``prog: error: problem (see --help)``), exit 2."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {' '.join(message.split())} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="sensemaking",
         description="Online abductive visual sensemaking: tracking with explanations (ASP/clingo).",
     )
@@ -42,18 +55,47 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the program is, so that it unwinds like Ctrl-C."""
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise Terminated()
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     level = logging.ERROR if args.quiet else (logging.WARNING, logging.INFO, logging.DEBUG)[min(args.verbose, 2)]
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _terminate) if main_thread else None
     try:
         return int(args.func(args) or 0)
     except SensemakingError as exc:
-        print(f"sensemaking {args.verb}: error: {exc}", file=sys.stderr)
+        print(f"sensemaking {args.verb}: error: {_one_line(exc)}", file=sys.stderr)
         return 2
+    except Terminated:
+        print("terminated", file=sys.stderr)
+        return 143
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
     except BrokenPipeError:
         return 1
+    except (OSError, MemoryError) as exc:
+        print(f"sensemaking {args.verb}: error: {_one_line(exc)}", file=sys.stderr)
+        return 2
+    except Exception as exc:  # noqa: BLE001 - a bug: one line, the traceback only when asked
+        logging.getLogger(__name__).debug("internal error", exc_info=True)
+        print(f"sensemaking {args.verb}: internal error (a bug; -vv shows where): "
+              f"{type(exc).__name__}: {_one_line(exc)}", file=sys.stderr)
+        return 3
+    finally:
+        if main_thread:
+            signal.signal(signal.SIGTERM, previous if previous is not None else signal.SIG_DFL)
+
+
+def _one_line(exc: BaseException) -> str:
+    text = " ".join(str(exc).split())
+    return text if len(text) <= 500 else text[:497] + "..."

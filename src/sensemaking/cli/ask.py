@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -12,7 +13,9 @@ from sensemaking.fleet.cli import add_archive_options, scene_from_args
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    from sensemaking.reasoning.questions import NAMED_QUESTIONS
+    from sensemaking.reasoning.questions import (
+        DEFAULT_MAX_ATOMS, DEFAULT_MAX_MEMORY_MB, DEFAULT_TIMEOUT_S, NAMED_QUESTIONS,
+    )
 
     named = "\n".join(f"  {usage}" for usage in NAMED_QUESTIONS.values())
     p = sub.add_parser(
@@ -24,7 +27,10 @@ def register(sub: argparse._SubParsersAction) -> None:
         "holds_during/4, in_corridor/2, ra/5, motion/3, ...; see reasoning/encodings/scene.lp), e.g.\n"
         "  sensemaking ask scene.json 'q(T) :- occurs_at(hides_behind(T,_),_). #show q/1.'\n"
         "Without #show the predicates the rules define are shown; a query of constraints only answers "
-        "yes or no. A file name ending in .lp is read as the query.",
+        "yes or no. A file name ending in .lp is read as the query.\n\n"
+        "Queries may not use #include, #script, #external or other directives that reach outside the "
+        "scene (allowed: rules, constraints, aggregates, #show, #minimize/#maximize); they run under "
+        "--timeout, --max-atoms and --max-memory, and answer sets are printed as they are found.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("scene", type=Path, nargs="?", help="scene JSON (from `sensemaking track --scene`)")
@@ -36,6 +42,17 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--labels", type=Path, help='label names JSON {"0": "road", ...} (default: Cityscapes ids)')
     p.add_argument("--corridor", help='ego corridor polygon, "x,y x,y x,y ..." (fractions of the image or pixels)')
     p.add_argument("--json", action="store_true", help="print the answer as JSON")
+    p.add_argument(
+        "--timeout",
+        type=float,
+        default=DEFAULT_TIMEOUT_S,
+        metavar="S",
+        help=f"seconds for grounding + solving an ASP query (default {DEFAULT_TIMEOUT_S:g})",
+    )
+    p.add_argument("--max-atoms", type=int, default=DEFAULT_MAX_ATOMS, metavar="N",
+                   help=f"ground atoms an ASP query may produce (default {DEFAULT_MAX_ATOMS})")
+    p.add_argument("--max-memory", type=int, default=DEFAULT_MAX_MEMORY_MB, metavar="MB",
+                   help=f"memory an ASP query may use, MB (default {DEFAULT_MAX_MEMORY_MB})")
     add_archive_options(p)
     p.set_defaults(func=run)
 
@@ -47,6 +64,14 @@ def _query_text(parts: list[str]) -> str:
             return path.read_text(encoding="utf-8")
         except FileNotFoundError:
             raise InputError("query file not found", path) from None
+        except IsADirectoryError:
+            raise InputError("query file is a directory", path) from None
+        except UnicodeDecodeError as exc:
+            raise InputError(
+                f"query file is not UTF-8 text ({exc.reason} at byte {exc.start})", path
+            ) from None
+        except OSError as exc:
+            raise InputError(f"cannot read query file: {exc.strerror or exc}", path) from None
     return " ".join(parts)
 
 
@@ -56,13 +81,36 @@ def run(args: argparse.Namespace) -> int:
 
     if args.models < 0:
         raise InputError(f"--models must be >= 0, got {args.models}")
+    if not (math.isfinite(args.timeout) and args.timeout > 0):
+        raise InputError(f"--timeout must be a positive number of seconds, got {args.timeout!r}")
+    if args.max_atoms <= 0:
+        raise InputError(f"--max-atoms must be a positive number of atoms, got {args.max_atoms}")
+    if args.max_memory <= 0:
+        raise InputError(f"--max-memory must be a positive number of MB, got {args.max_memory}")
+    query = _query_text(args.query)
     scene = scene_from_args(args)
     context = SceneContext.load(lanes=args.lanes, segmentation=args.segmentation, labels=args.labels,
                                 corridor=args.corridor)
-    answer = ask(scene, _query_text(args.query), context=context, max_models=args.models)
+    printed: list[int] = []
+
+    def stream(atoms: tuple[str, ...]) -> None:
+        # every answer set but a lone first one is printed as it is found (a lone one may turn
+        # out to be the whole answer, printed below in its plain form)
+        printed.append(1)
+        if len(printed) == 2:
+            print(f"answer 1: {' '.join(first[0])}", flush=True)
+        if len(printed) >= 2:
+            print(f"answer {len(printed)}: {' '.join(atoms)}", flush=True)
+        else:
+            first.append(atoms)
+
+    first: list[tuple[str, ...]] = []
+    answer = ask(scene, query, context=context, max_models=args.models, timeout=args.timeout,
+                 max_atoms=args.max_atoms, max_memory_mb=args.max_memory,
+                 on_model=None if args.json or args.models == 1 else stream)
     if args.json:
         print(json.dumps(answer.to_json(), indent=2))
-    else:
+    elif len(printed) < 2:
         for line in answer.lines:
             print(line)
         for note in answer.notes:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import shlex
 import sys
+from pathlib import Path
 from typing import Any
 
 DEFAULT_DOCS = "docs/BENCHMARKS.md"
@@ -74,7 +75,17 @@ def _command_line(args: argparse.Namespace) -> str:
 
 def run(args: argparse.Namespace) -> int:
     from sensemaking.benchmark import datasets, report, runner
+    from sensemaking.errors import InputError
+    from sensemaking.io.sinks import check_output_paths
 
+    if not 1 <= args.jobs <= 256:
+        raise InputError(f"--jobs must be a number of processes in 1..256, got {args.jobs}")
+    if not 1 <= args.repeat <= 1000:
+        raise InputError(f"--repeat must be a number of timed runs in 1..1000, got {args.repeat}")
+    if not args.list:
+        check_output_paths({"--docs": args.docs or None, "--json": args.json})
+        if Path(args.output).exists() and not Path(args.output).is_dir():
+            raise InputError("--output must be a directory", args.output)
     only = args.only.split(",") if args.only else None
     if args.list:
         found = datasets.discover(args.data, only)

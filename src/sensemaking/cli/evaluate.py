@@ -110,7 +110,12 @@ def run(args: argparse.Namespace) -> int:
     from sensemaking.evaluation import evaluate, load_kitti_benchmark, load_mot_benchmark, rules_for_benchmark
     from sensemaking.io.atomic import atomic_write
 
+    from sensemaking.io.sinks import check_output_paths
+
     parser: argparse.ArgumentParser = args._parser
+    check_output_paths(
+        {"--json": args.json}, {"--gt": args.gt, "--results": args.results, "--seqmap": args.seqmap}
+    )
     fmt, benchmark = args.format, args.benchmark
     if benchmark is not None:
         implied = _FORMAT_OF[benchmark]

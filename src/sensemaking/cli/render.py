@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 from typing import Any
 
@@ -67,12 +68,33 @@ def run(args: argparse.Namespace) -> int:
     from sensemaking.viz._run import as_run
     from sensemaking.viz.render import render_scene
 
-    if args.fps is not None and args.fps <= 0:
-        raise InputError(f"--fps must be positive, got {args.fps}")
+    if args.fps is not None and not (math.isfinite(args.fps) and 0 < args.fps <= 1000):
+        raise InputError(
+            f"--fps must be a frame rate in (0, 1000] frames per second, got {args.fps}"
+        )
     if args.scale is not None and not 0 < args.scale <= 4:
         raise InputError(f"--scale must be in (0, 4], got {args.scale}")
+    from sensemaking.io.sinks import check_output_paths
+    from sensemaking.viz._media import output_kind
+
+    inputs = {"SCENE": args.scene, "--images": args.images, "--video": args.video,
+              "--warnings": args.warnings}
+    if output_kind(args.output) != "png":  # a folder of PNGs is a directory by design
+        check_output_paths({"--output": args.output}, inputs)
+    else:
+        out = Path(args.output).resolve()
+        for name, path in inputs.items():  # e.g. PNGs written over the --images folder's
+            if path is not None and out == Path(path).resolve():
+                raise InputError(f"--output would write over the input {name}", args.output)
     scene = as_run(args.scene, warnings=warnings_arg(args))
     frames = parse_frames(args.frames)
+    if frames is not None:  # only the scene's own frames: the range may not ask for more work
+        known = scene.frames
+        clipped = range(max(frames.start, known.start), min(frames.stop, known.stop))
+        if not len(clipped):
+            raise InputError(f"--frames {args.frames}: the scene has frames {known.start}.."
+                             f"{known.stop - 1}, none of them in that range")
+        frames = clipped
     total = len(frames) if frames is not None else len(scene.frames)
     with Progress(total, "rendering", enabled=not args.quiet) as progress:
         out = render_scene(scene, args.output, images=args.images, video=args.video, fps=args.fps,

@@ -42,6 +42,11 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--format describes --gt: give --gt too")
     if args.thumbnails < 0:
         raise InputError(f"--thumbnails must be >= 0, got {args.thumbnails}")
+    from sensemaking.io.sinks import check_output_paths
+
+    inputs = {"SCENE": args.scene, "--gt": args.gt, "--images": args.images, "--video": args.video,
+              "--warnings": args.warnings}
+    check_output_paths({"--output": args.output}, inputs)
     out = write_report(args.scene, args.output, gt=args.gt, gt_format=args.format, images=args.images,
                        video=args.video, first_frame=args.first_frame, title=args.title,
                        warnings=warnings_arg(args), max_thumbnails=args.thumbnails, idsw_mode=args.idsw_mode)

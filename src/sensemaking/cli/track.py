@@ -5,18 +5,19 @@ from __future__ import annotations
 import argparse
 import json
 import logging
-from contextlib import ExitStack
+import math
+import sys
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from sensemaking.cli._progress import Progress
-from sensemaking.detections import Detections
-from sensemaking.errors import InputError, SensemakingError
-from sensemaking.io.atomic import atomic_write
+from sensemaking.errors import InputError
 
 log = logging.getLogger(__name__)
+
+#: option ranges (a frame rate or an image side beyond these is a typo, not a camera)
+MAX_FPS = 1000.0
+MAX_IMAGE_SIDE = 100_000
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -38,17 +39,41 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--output", required=True, type=Path, help="tracking results, in the input's format")
     p.add_argument("--events", type=Path, help='events as JSON lines {"frame":…, "event":…, "args":[…]}')
     p.add_argument("--scene", type=Path, help="the scene model (JSON) for `sensemaking ask/explain/render/report`")
-    p.add_argument("--warnings", type=Path, help="safety-critical warnings as JSON lines, written online")
+    p.add_argument(
+        "--warnings",
+        type=Path,
+        help="safety-critical warnings as JSON lines, written online into PATH.part (follow it "
+        "with tail -f), renamed to PATH at the end and kept when the run is interrupted",
+    )
     p.add_argument("--no-abduction", action="store_true", help="plain Hungarian IoU matching (the ablation)")
-    p.add_argument("--max-solve-ms", type=float, default=None,
-                   help="per-frame budget for the solver in ms; past it the best answer so far is used")
-    p.add_argument("--class", dest="class_name", default=None,
-                   help="class of the detections when the file does not say (e.g. car for KITTI RRC files)")
+    p.add_argument(
+        "--max-solve-ms",
+        type=float,
+        default=None,
+        metavar="MS",
+        help="per-frame wall-clock budget for the solver, milliseconds (> 0); past it the best "
+        "answer so far is used. Results then depend on the machine's load (a busy machine "
+        "stops earlier): leave it out for reproducible runs",
+    )
+    p.add_argument(
+        "--class",
+        dest="class_name",
+        default=None,
+        help="class of the detections when the file does not say (e.g. car for KITTI RRC "
+        "files; with --format kitti a KITTI type)",
+    )
     p.add_argument("--seqinfo", type=Path, default=None,
                    help="seqinfo.ini (MOT) or seqinfo.csv (KITTI) for frame rate, image size and length; "
                    "looked up beside the detections by default")
-    p.add_argument("--fps", type=float, default=None, help="frame rate (default: seqinfo, else 30 MOT / 10 KITTI)")
-    p.add_argument("--image-size", default=None, metavar="WxH", help="field of view in pixels, e.g. 1242x375")
+    p.add_argument(
+        "--fps",
+        type=float,
+        default=None,
+        help=f"frame rate, frames per second in (0, {MAX_FPS:g}] (default: seqinfo, else 30 MOT / "
+        "10 KITTI)",
+    )
+    p.add_argument("--image-size", default=None, metavar="WxH",
+                   help=f"field of view in pixels, e.g. 1242x375 (each side 1..{MAX_IMAGE_SIDE})")
     p.add_argument("--write-hidden", action="store_true",
                    help="also write hidden and missing tracks at their predicted boxes")
     p.add_argument("--set", dest="params", action="append", default=[], metavar="KEY=VALUE",
@@ -60,44 +85,88 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def parse_size(text: str) -> tuple[int, int]:
+def parse_size(text: str, where: str = "--image-size") -> tuple[int, int]:
     try:
         w, h = text.lower().split("x")
         size = int(w), int(h)
     except ValueError:
-        raise InputError(f"--image-size must look like 1242x375, got {text!r}") from None
-    if size[0] <= 0 or size[1] <= 0:
-        raise InputError(f"--image-size must be positive, got {text!r}")
+        raise InputError(f"{where} must look like 1242x375, got {text!r}") from None
+    if not all(1 <= v <= MAX_IMAGE_SIDE for v in size):
+        raise InputError(f"{where}: each side must be 1..{MAX_IMAGE_SIDE} pixels, got {text!r}")
     return size
+
+
+def check_fps(fps: float, where: str, path: Path | None = None) -> float:
+    """A frame rate in (0, MAX_FPS] frames per second."""
+    if not (math.isfinite(fps) and 0 < fps <= MAX_FPS):
+        raise InputError(
+            f"{where} must be a frame rate in (0, {MAX_FPS:g}] frames per second, got {fps!r}", path
+        )
+    return float(fps)
+
+
+def _check_options(args: argparse.Namespace) -> None:
+    """Every option's unit and range, before any file is read."""
+    if args.fps is not None:
+        check_fps(args.fps, "--fps")
+    if args.max_solve_ms is not None and not (
+        math.isfinite(args.max_solve_ms) and args.max_solve_ms > 0
+    ):
+        raise InputError(
+            f"--max-solve-ms must be a positive number of milliseconds, got {args.max_solve_ms!r}"
+            " (leave it out for no budget)"
+        )
+    if args.image_size is not None:
+        parse_size(args.image_size)
+    if args.class_name is not None:
+        from sensemaking.classes import KITTI_NAMES
+        from sensemaking.io.tables import class_id_of
+
+        cid = class_id_of(args.class_name)
+        if args.format == "kitti" and cid not in KITTI_NAMES:
+            raise InputError(
+                f"--class {args.class_name}: KITTI results have no type for it (KITTI types: "
+                f"{', '.join(KITTI_NAMES.values())})"
+            )
 
 
 def _sequence_info(args: argparse.Namespace) -> tuple[float | None, tuple[int, int] | None, int | None]:
     """(fps, image size, number of frames) from seqinfo files, when found."""
     det = args.detections
+    if args.seqinfo is not None and not args.seqinfo.is_file():
+        raise InputError("seqinfo file not found" if not args.seqinfo.exists() else
+                         "seqinfo is not a file", args.seqinfo)
     if args.format == "mot":
         from sensemaking.io.mot import read_seqinfo
 
         candidates = [args.seqinfo] if args.seqinfo else [det.parent.parent / "seqinfo.ini", det.parent / "seqinfo.ini"]
         for c in candidates:
-            if c is not None and c.exists():
+            if c.is_file():
                 info = read_seqinfo(c)
-                return info.fps, (info.width, info.height), info.length
-        if args.seqinfo:
-            raise InputError("seqinfo file not found", args.seqinfo)
+                return check_fps(info.fps, "frameRate", c), _checked_size(info, c), info.length
         return None, None, None
     from sensemaking.io.kitti import read_kitti_seqinfo
 
     candidates = [args.seqinfo] if args.seqinfo else [p / "seqinfo.csv" for p in det.parents[:4]] + [
         p / "training" / "seqinfo.csv" for p in det.parents[:5]]
     for c in candidates:
-        if c is not None and c.exists():
+        if c.is_file():
             infos = read_kitti_seqinfo(c)
             info = infos.get(det.stem)
             if info is not None:
-                return info.fps, (info.width, info.height), info.length
+                return check_fps(info.fps, "frame_rate", c), _checked_size(info, c), info.length
     if args.seqinfo:
-        raise InputError(f"sequence {det.stem!r} not in seqinfo", args.seqinfo)
+        raise InputError(
+            f"sequence {det.stem!r} (the detection file's name) is not in seqinfo", args.seqinfo
+        )
     return None, None, None
+
+
+def _checked_size(info: Any, path: Path) -> tuple[int, int]:
+    if not (info.width <= MAX_IMAGE_SIDE and info.height <= MAX_IMAGE_SIDE):
+        raise InputError(f"image size {info.width}x{info.height} is implausible (each side at most "
+                         f"{MAX_IMAGE_SIDE} pixels)", path)
+    return info.width, info.height
 
 
 def tracker_config(args: argparse.Namespace, fps: float | None, size: tuple[int, int] | None):
@@ -120,30 +189,38 @@ def tracker_config(args: argparse.Namespace, fps: float | None, size: tuple[int,
     return settings.load_config(getattr(args, "params_file", None), family, facts, args.params)
 
 
-def frame_range(dets: Detections, fmt: str, length: int | None) -> range:
-    """Every frame of the sequence, including those without detections."""
-    first = 1 if fmt == "mot" else 0
-    last = int(dets.frame.max()) if len(dets) else first - 1
-    if length is not None:
-        last = max(last, first + length - 1)
-    return range(first, last + 1)
+def _file_frames(args: argparse.Namespace, config: Any, length: int | None):
+    """(frames as (frame, Detections) pairs, first frame, last frame) of a detections file,
+    checked whole before (so that a bad line stops the run before any work) and then read
+    again frame by frame."""
+    from sensemaking.io.stream import iter_detection_frames, scan_detections
 
-
-def _file_frames(args: argparse.Namespace):
-    """(frames to track as (frame, Detections) pairs, count, fps, image size) from a detections file."""
-    from sensemaking.io.formats import read_detections
-
-    if args.format is None:
-        raise InputError("--format mot|kitti is required with --detections")
-    dets = read_detections(args.detections, args.format, class_name=args.class_name)
-    fps, size, length = _sequence_info(args)
-    frames = frame_range(dets, args.format, length)
-    by_frame = dict(dets.frames())
-    return ((f, by_frame.get(f, Detections.empty())) for f in frames), len(frames), fps, size
+    first = 1 if args.format == "mot" else 0
+    seq_last = None if length is None else first + length - 1
+    log.info("checking %s before tracking", args.detections)
+    summary = scan_detections(
+        args.detections,
+        args.format,
+        args.class_name,
+        image_size=config.image_size,
+        last_frame=seq_last,
+    )
+    last = summary.last
+    if seq_last is not None:
+        last = seq_last if last is None else max(last, seq_last)
+    frames = iter_detection_frames(
+        args.detections,
+        args.format,
+        args.class_name,
+        image_size=config.image_size,
+        last_frame=seq_last,
+    )
+    return frames, first, last
 
 
 def _video_frames(args: argparse.Namespace):
-    """The same for ``--source VIDEO --detector MODEL``: detections made frame by frame."""
+    """The same for ``--source VIDEO --detector MODEL``: detections made frame by frame, and
+    the image size (from the first frame)."""
     from sensemaking.detector import iter_video_frames, load_detector
 
     if args.detector is None:
@@ -163,73 +240,96 @@ def _video_frames(args: argparse.Namespace):
         for f, image in enumerate(images, start=2):
             yield f, detector(image, frame=f)
 
-    return frames(), 0, None, (int(first.shape[1]), int(first.shape[0]))
+    return frames(), (int(first.shape[1]), int(first.shape[0]))
 
 
 def run(args: argparse.Namespace) -> int:
-    from sensemaking.io.formats import write_results
+    from sensemaking.io.sinks import (
+        EventsSink,
+        SceneSink,
+        TracksSink,
+        WarningsSink,
+        check_output_paths,
+    )
+    from sensemaking.pipeline import Pipeline
     from sensemaking.tracker import Tracker
 
-    frames, n_frames, fps, size = _video_frames(args) if args.source else _file_frames(args)
+    if args.detections is not None and args.format is None:
+        raise InputError("--format mot|kitti is required with --detections")
+    _check_options(args)
+    outputs = {"--output": args.output, "--events": args.events, "--scene": args.scene,
+               "--warnings": args.warnings}
+    inputs = {"--detections": args.detections, "--source": args.source, "--detector": args.detector,
+              "--seqinfo": args.seqinfo}
+    check_output_paths(outputs, inputs)
+    fps = size = length = None
+    if args.detections is not None:
+        fps, size, length = _sequence_info(args)
+    else:
+        frames, size = _video_frames(args)
     if args.fps:
         fps = args.fps
     if args.image_size:
         size = parse_size(args.image_size)
     config = tracker_config(args, fps, size)
+    first = last = None
+    if args.detections is not None:
+        frames, first, last = _file_frames(args, config, length)
     tracker = Tracker(config)
-    outputs: list[Detections] = []
-    n_events = 0
-    recorder = _optional_recorder(args, config)
-    monitor = _optional_monitor(args, config)
-    with ExitStack() as stack:
-        events_out = stack.enter_context(atomic_write(args.events)) if args.events else None
-        warnings_out = stack.enter_context(atomic_write(args.warnings)) if args.warnings else None
-        progress = stack.enter_context(Progress(n_frames, "tracking", enabled=not args.quiet))
-        for f, frame_dets in frames:
-            result = tracker.update(frame_dets, frame=f)
-            outputs.append(result.tracks if args.write_hidden else result.visible)
-            if events_out is not None:
-                for ev in result.events:
-                    events_out.write(json.dumps(ev.to_json()) + "\n")
-            n_events += len(result.events)
-            if recorder is not None:
-                recorder.add(result)
-            if monitor is not None:
-                for w in monitor.update(result):
-                    if warnings_out is not None:
-                        warnings_out.write(json.dumps(w.to_json()) + "\n")
-                        warnings_out.flush()
-            progress.advance()
-        tracks = Detections.concatenate(outputs) if outputs else Detections.empty()
-        write_results(args.output, tracks, args.format)
-        if recorder is not None:
-            recorder.scene().save(args.scene)
+    recorder = monitor = None
+    if args.warnings:
+        from sensemaking.reasoning.online import SituationMonitor
+
+        monitor = SituationMonitor(fps=config.fps, image_size=config.image_size)
+    source = args.detections or args.source
+    total = 0 if last is None or first is None else last - first + 1
+    with Progress(total, "tracking", enabled=not args.quiet) as progress:
+        sinks: list[Any] = []
+        try:
+            sinks.append(TracksSink(args.output, args.format, write_hidden=args.write_hidden))
+            if args.events:
+                sinks.append(EventsSink(args.events))
+            if args.warnings:
+                sinks.append(WarningsSink(args.warnings))
+                log.info("warnings are written as they come into %s", sinks[-1].part)
+            if args.scene:
+                sinks.append(SceneSink(args.scene, fps=config.fps, image_size=config.image_size,
+                                       metadata={"name": Path(source).stem, "source": str(source)}))
+        except BaseException:
+            from sensemaking.io.sinks import close_all
+
+            close_all(sinks, ok=False)
+            raise
+        # frames from a file were checked by the reader (same bounds); a detector's are checked here
+        pipe = Pipeline(tracker, recorder, monitor, sinks, validate=args.detections is None,
+                        on_frames=progress.advance)
+        try:
+            with pipe:
+                summary = pipe.run(frames, first_frame=first, last_frame=last)
+        except KeyboardInterrupt:
+            done = pipe.summary.last
+            kept = (
+                f"; the warnings issued so far are kept in {args.warnings}" if args.warnings else ""
+            )
+            print(f"sensemaking track: interrupted after frame {done}: no results written{kept}",
+                  file=sys.stderr)
+            raise
     stats = tracker.stats
-    log.info("tracked %d frames: %d boxes, %d tracks, %d events; solver %.2f ms/frame, %d over budget",
-             stats["frames"], len(tracks), len(np.unique(tracks.tracker_id)), n_events,
-             stats["solve_ms"] / max(stats["frames"], 1), stats["timed_out"])
+    n_tracks, n_boxes = len(sinks[0].ids), sinks[0].boxes
+    per_frame = stats["solve_ms"] / max(stats["frames"], 1)
+    log.info(
+        "tracked %d frames (%d stepped): %d boxes, %d tracks, %d events; solver %.2f ms/frame, "
+        "%d over budget",
+        summary.frames,
+        summary.stepped,
+        n_boxes,
+        n_tracks,
+        summary.events,
+        per_frame,
+        stats["timed_out"],
+    )
     if not args.quiet:
-        print(f"{args.output}: {len(np.unique(tracks.tracker_id))} tracks over {stats['frames']} frames, "
-              f"{n_events} events ({stats['solve_ms'] / max(stats['frames'], 1):.2f} ms/frame association"
+        print(f"{args.output}: {n_tracks} tracks over {summary.frames} frames, "
+              f"{summary.events} events ({per_frame:.2f} ms/frame association"
               + (f", {stats['timed_out']} frames over the solve budget" if stats["timed_out"] else "") + ")")
     return 0
-
-
-def _optional_recorder(args: argparse.Namespace, config) -> Any:
-    if not args.scene:
-        return None
-    try:
-        from sensemaking.scene import SceneRecorder
-    except ImportError as exc:  # pragma: no cover - the scene module ships with the package
-        raise SensemakingError(f"--scene needs sensemaking.scene: {exc}") from exc
-    source = args.detections or args.source
-    return SceneRecorder(fps=config.fps, image_size=config.image_size,
-                         metadata={"name": Path(source).stem, "source": str(source)})
-
-
-def _optional_monitor(args: argparse.Namespace, config) -> Any:
-    if not args.warnings:
-        return None
-    from sensemaking.reasoning.online import SituationMonitor
-
-    return SituationMonitor(fps=config.fps, image_size=config.image_size)

@@ -15,13 +15,16 @@ import numpy as np
 
 from sensemaking.classes import CLASS_IDS, KITTI_NAMES, class_id
 from sensemaking.classes import class_name as _class_name
-from sensemaking.detections import Detections
+from sensemaking.detections import MAX_FRAME, Detections
 from sensemaking.errors import InputError
 from sensemaking.io.atomic import atomic_write
-from sensemaking.io.formats import PathLike, _class_id, _frame_order, _ints, _num, _nums, _parse_table, _read_text
+from sensemaking.io.tables import (
+    PathLike, Table, class_id_of, frame_order, ints, num, nums, parse_table, read_text,
+)
 from sensemaking.io.mot import SequenceInfo
 
-__all__ = ["read_kitti_seqinfo", "read_kitti_labels", "write_kitti", "read_kitti_detections"]
+__all__ = ["read_kitti_seqinfo", "read_kitti_labels", "write_kitti", "read_kitti_detections", "format_kitti",
+           "kitti_detections_from_table", "kitti_labels_from_table"]
 
 log = logging.getLogger(__name__)
 
@@ -44,7 +47,7 @@ def read_kitti_seqinfo(csv_path: PathLike) -> dict[str, SequenceInfo]:
 
     Columns ``seq,num_frames,im_width,im_height,frame_rate`` (header line required).
     """
-    text = _read_text(csv_path)
+    text = read_text(csv_path)
     reader = csv.DictReader(io.StringIO(text))
     fields = [f.strip() for f in reader.fieldnames or []]
     missing = [c for c in _SEQINFO_COLUMNS if c not in fields]
@@ -93,11 +96,18 @@ def read_kitti_labels(path: PathLike) -> Detections:
     X, Y, Z in m (camera frame), ``"rotation_y"`` (N,) rad. Any line order; returned sorted by
     (frame, id). An empty file gives empty Detections.
     """
-    table = _parse_table(path, sep=None, names={17: _LABEL_NAMES[:17], 18: _LABEL_NAMES}, text_cols=(2,))
+    table = parse_table(path, sep=None, names=KITTI_LABEL_LAYOUTS, text_cols=(2,))
+    dets = kitti_labels_from_table(table)
+    return dets[np.lexsort((dets.tracker_id, dets.frame))]
+
+
+def kitti_labels_from_table(table: Table) -> Detections:
+    """:func:`read_kitti_labels` of an already parsed table, in the table's line order."""
     n = len(table)
     if n == 0:
         return Detections(xyxy=np.zeros((0, 4)), data=_label_data(np.zeros((0, 17)), np.zeros(0, np.int64)))
-    frames = table.integers(0, minimum=0)
+    frames = table.integers(0, minimum=0, maximum=MAX_FRAME,
+                            maximum_why=" (sensemaking.detections.MAX_FRAME)")
     ids = table.integers(1, minimum=-1)
     table.finite([c for c in range(3, table.ncols) if c != 4])
     occluded = table.integers(4)
@@ -123,7 +133,7 @@ def read_kitti_labels(path: PathLike) -> Detections:
         source_row=table.rows,
         data=_label_data(v, occluded),
     )
-    return dets[np.lexsort((dets.tracker_id, dets.frame))]
+    return dets
 
 
 def _label_data(v: np.ndarray, occluded: np.ndarray) -> dict[str, np.ndarray]:
@@ -145,6 +155,14 @@ def write_kitti(path: PathLike, tracks: Detections) -> None:
     -1000 -1000 -1000, -10). Every class needs a KITTI type name (:data:`~sensemaking.classes.KITTI_NAMES`).
     Lossless: :func:`read_kitti_labels` gives back the same arrays bit for bit.
     """
+    text = format_kitti(tracks, path)
+    with atomic_write(path) as handle:
+        handle.write(text)
+
+
+def format_kitti(tracks: Detections, path: PathLike | None = None) -> str:
+    """The lines :func:`write_kitti` writes (sorted by frame, stable); ``path`` names the file in
+    errors. Frame by frame, the pieces of a frame-ordered run join to the same text as the whole."""
     n = len(tracks)
     names = {}
     for cid in np.unique(tracks.class_id).tolist():
@@ -158,37 +176,35 @@ def write_kitti(path: PathLike, tracks: Detections) -> None:
     if n and not np.isfinite(tracks.xyxy).all():
         raise ValueError("cannot write boxes with non-finite coordinates")
 
-    order = _frame_order(tracks.frame)
+    order = frame_order(tracks.frame)
 
     def column(key: str, default: float, width: int = 0) -> list[list[str]]:
         """Text of data column ``key`` (sorted by frame), one list per component."""
         shape = (n, width) if width else (n,)
         value = tracks.data.get(key)
         if value is None:
-            return [[_num(default)] * n for _ in range(max(width, 1))]
+            return [[num(default)] * n for _ in range(max(width, 1))]
         value = np.asarray(value, dtype=np.float64)
         if value.shape != shape:
             raise ValueError(f"Detections.data[{key!r}] must have shape {shape}, got {value.shape}")
         value = value[order].reshape(n, max(width, 1))
-        return [_nums(value[:, k]) for k in range(value.shape[1])]
+        return [nums(value[:, k]) for k in range(value.shape[1])]
 
     xyxy = tracks.xyxy[order]
     cols = zip(
-        _ints(tracks.frame[order]),
-        _ints(tracks.tracker_id[order]),
+        ints(tracks.frame[order]),
+        ints(tracks.tracker_id[order]),
         [names[c] for c in tracks.class_id[order].tolist()],
         *column("truncated", -1.0),
         *column("occluded", -1.0),
         *column("alpha", -10.0),
-        *(_nums(xyxy[:, k]) for k in range(4)),
+        *(nums(xyxy[:, k]) for k in range(4)),
         *column("dimensions", -1.0, 3),
         *column("location", -1000.0, 3),
         *column("rotation_y", -10.0),
-        _nums(tracks.confidence[order]),
+        nums(tracks.confidence[order]),
     )
-    text = "".join(" ".join(fields) + "\n" for fields in cols)
-    with atomic_write(path) as handle:
-        handle.write(text)
+    return "".join(" ".join(fields) + "\n" for fields in cols)
 
 
 def read_kitti_detections(path: PathLike, class_name: str | None = None) -> Detections:
@@ -203,10 +219,24 @@ def read_kitti_detections(path: PathLike, class_name: str | None = None) -> Dete
     dropped with a warning. An empty file (no detections in the whole sequence) gives empty
     Detections.
     """
-    table = _parse_table(path, sep=",", names={6: _RRC_NAMES, 15: _POINTRCNN_NAMES})
+    return kitti_detections_from_table(parse_table(path, sep=",", names=KITTI_DETECTION_LAYOUTS),
+                                       class_name)
+
+
+#: comma-separated KITTI detection files: number of fields -> column names (RRC, PointRCNN)
+KITTI_DETECTION_LAYOUTS = {6: _RRC_NAMES, 15: _POINTRCNN_NAMES}
+#: KITTI label / tracking-result files (space-separated, type in column 2)
+KITTI_LABEL_LAYOUTS = {17: _LABEL_NAMES[:17], 18: _LABEL_NAMES}
+
+
+def kitti_detections_from_table(table: Table, class_name: str | None = None,
+                                logger: logging.Logger | None = log) -> Detections:
+    """:func:`read_kitti_detections` of an already parsed table (a whole file or a chunk)."""
+    path = table.path
     if len(table) == 0:
         return Detections.empty()
-    frames = table.integers(0, minimum=0)
+    frames = table.integers(0, minimum=0, maximum=MAX_FRAME,
+                            maximum_why=" (sensemaking.detections.MAX_FRAME)")
     v = table.values
     if table.ncols == 6:  # RRC
         cid = _rrc_class(path, class_name)
@@ -231,7 +261,8 @@ def read_kitti_detections(path: PathLike, class_name: str | None = None) -> Dete
             "alpha": v[:, 14].copy(),
         }
     table.sorted_frames(frames)
-    keep = table.positive_size(box[:, 2] - box[:, 0], box[:, 3] - box[:, 1], drop_zero=True, logger=log)
+    keep = table.positive_size(box[:, 2] - box[:, 0], box[:, 3] - box[:, 1], drop_zero=True,
+                                logger=logger)
     dets = Detections(xyxy=box, confidence=score, class_id=classes, frame=frames, source_row=table.rows, data=data)
     return dets if keep.all() else dets[keep]
 
@@ -239,7 +270,7 @@ def read_kitti_detections(path: PathLike, class_name: str | None = None) -> Dete
 def _rrc_class(path: PathLike, name: str | None) -> int:
     """Class id of an RRC file: ``name``, else the parent folder's name."""
     if name is not None:
-        return _class_id(name, path)
+        return class_id_of(name, path)
     folder = Path(path).resolve().parent.name
     try:
         return class_id(folder)

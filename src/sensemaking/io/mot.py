@@ -16,12 +16,12 @@ from typing import Literal
 
 import numpy as np
 
-from sensemaking.detections import Detections
+from sensemaking.detections import MAX_FRAME, Detections
 from sensemaking.errors import InputError
 from sensemaking.io.atomic import atomic_write
-from sensemaking.io.formats import PathLike, _frame_order, _ints, _nums, _parse_table, _read_text
+from sensemaking.io.tables import PathLike, Table, frame_order, ints, nums, parse_table, read_text
 
-__all__ = ["SequenceInfo", "read_seqinfo", "read_mot", "write_mot"]
+__all__ = ["SequenceInfo", "read_seqinfo", "read_mot", "write_mot", "format_mot", "mot_from_table"]
 
 log = logging.getLogger(__name__)
 
@@ -31,7 +31,7 @@ _DET_NAMES = ("frame", "id", "x", "y", "width", "height", "confidence", "world x
 _GT17_NAMES = ("frame", "id", "x", "y", "width", "height", "consider flag", "class", "visibility")
 _GT15_NAMES = ("frame", "id", "x", "y", "width", "height", "consider flag", "world x", "world y", "world z")
 #: per kind: allowed number of comma-separated fields -> column names
-_LAYOUTS: dict[str, dict[int, tuple[str, ...]]] = {
+MOT_LAYOUTS: dict[str, dict[int, tuple[str, ...]]] = {
     "det": {n: _DET_NAMES for n in range(7, 11)},
     "gt": {9: _GT17_NAMES, 10: _GT15_NAMES},
     "results": {n: _DET_NAMES for n in range(7, 11)},
@@ -58,7 +58,7 @@ def read_seqinfo(path: PathLike) -> SequenceInfo:
     p = Path(path)
     if p.is_dir():
         p = p / "seqinfo.ini"
-    text = _read_text(p)
+    text = read_text(p)
     parser = configparser.ConfigParser(interpolation=None)
     try:
         parser.read_string(text, source=str(p))
@@ -111,9 +111,16 @@ def read_mot(path: PathLike, kind: MotKind = "det", default_class: int = 1) -> D
     ``default_class``. Any line order (trackers write by frame or by id), kept as in the file;
     an empty file gives empty Detections.
     """
-    if kind not in _LAYOUTS:
+    if kind not in MOT_LAYOUTS:
         raise ValueError(f"unknown MOT file kind {kind!r}; expected 'det', 'gt' or 'results'")
-    table = _parse_table(path, sep=",", names=_LAYOUTS[kind])
+    table = parse_table(path, sep=",", names=MOT_LAYOUTS[kind])
+    return mot_from_table(table, kind, default_class)
+
+
+def mot_from_table(table: Table, kind: MotKind = "det", default_class: int = 1,
+                   logger: logging.Logger | None = log) -> Detections:
+    """:func:`read_mot` of an already parsed table (a whole file, or one chunk of it)."""
+    path = table.path
     n = len(table)
     if n == 0:
         if kind == "det":
@@ -121,11 +128,12 @@ def read_mot(path: PathLike, kind: MotKind = "det", default_class: int = 1) -> D
         data = {"consider": np.zeros(0, np.int64), "visibility": np.zeros(0)} if kind == "gt" else {}
         return Detections(xyxy=np.zeros((0, 4)), data=data)
 
-    frames = table.integers(0, minimum=1, what=" (MOTChallenge frames are 1-based)")
+    frames = table.integers(0, minimum=1, what=" (MOTChallenge frames are 1-based)",
+                            maximum=MAX_FRAME, maximum_why=" (sensemaking.detections.MAX_FRAME)")
     ids = table.integers(1) if kind != "det" else np.full(n, -1, dtype=np.int64)
     v = table.values
     table.finite([2, 3, 4, 5] if kind == "gt" else [2, 3, 4, 5, 6])
-    keep = table.positive_size(v[:, 4], v[:, 5], drop_zero=kind == "det", logger=log)
+    keep = table.positive_size(v[:, 4], v[:, 5], drop_zero=kind == "det", logger=logger)
     if kind == "det":
         table.sorted_frames(frames)  # the online tracker consumes detections in order
 
@@ -168,26 +176,32 @@ def write_mot(path: PathLike, tracks: Detections) -> None:
     Numbers are written losslessly: reading the file back with :func:`read_mot`
     (``kind="results"``) gives the same boxes, scores, frames and ids bit for bit.
     """
+    text = format_mot(tracks)
+    with atomic_write(path) as handle:
+        handle.write(text)
+
+
+def format_mot(tracks: Detections) -> str:
+    """The lines :func:`write_mot` writes (sorted by frame, stable): written frame by frame, the
+    pieces of a frame-ordered run join to the same text as the whole."""
     xyxy = tracks.xyxy
     if len(tracks) and not np.isfinite(xyxy).all():
         raise ValueError("cannot write boxes with non-finite coordinates")
     if len(tracks) and not ((xyxy[:, 2] > xyxy[:, 0]) & (xyxy[:, 3] > xyxy[:, 1])).all():
         raise ValueError("cannot write boxes of non-positive width or height")
-    order = _frame_order(tracks.frame)
+    order = frame_order(tracks.frame)
     xyxy = xyxy[order]
     x1, y1 = xyxy[:, 0], xyxy[:, 1]
     cols = zip(
-        _ints(tracks.frame[order]),
-        _ints(tracks.tracker_id[order]),
-        _nums(x1),
-        _nums(y1),
-        _nums(_span(x1, xyxy[:, 2])),
-        _nums(_span(y1, xyxy[:, 3])),
-        _nums(tracks.confidence[order]),
+        ints(tracks.frame[order]),
+        ints(tracks.tracker_id[order]),
+        nums(x1),
+        nums(y1),
+        nums(_span(x1, xyxy[:, 2])),
+        nums(_span(y1, xyxy[:, 3])),
+        nums(tracks.confidence[order]),
     )
-    text = "".join(f"{f},{i},{x},{y},{w},{h},{c},-1,-1,-1\n" for f, i, x, y, w, h, c in cols)
-    with atomic_write(path) as handle:
-        handle.write(text)
+    return "".join(f"{f},{i},{x},{y},{w},{h},{c},-1,-1,-1\n" for f, i, x, y, w, h, c in cols)
 
 
 def _span(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:

@@ -18,11 +18,28 @@ or a named question:
 A query clingo cannot parse or ground raises :class:`QueryError` with clingo's message and the
 position in the query (``query:LINE:COLUMN``); questions about tracks or frames that are not in
 the scene get an answer that says so.
+
+ASP queries are untrusted text, so they are checked (:func:`check_query`) and run under limits:
+
+* Allowed: rules, constraints, choice rules, aggregates (``#count``, ``#sum``, ``#sum+``,
+  ``#min``, ``#max``), ``#show``, ``#minimize`` / ``#maximize``, comments, and the constants
+  ``#inf``, ``#sup``, ``#true``, ``#false``. Refused before clingo sees the text: every other
+  directive (``#include``, which would read files; ``#script``, which runs code; ``#external``,
+  ``#const``, ``#program``, ``#project``, ``#heuristic``, ``#edge``, ``#theory``, ``#defined``)
+  and ``@``-terms (calls into script functions).
+* Grounding and solving run in a child process (where ``fork`` exists) with a time limit
+  (``timeout`` seconds), a memory limit (``max_memory_mb``) and a limit on the number of ground
+  atoms (``max_atoms``, checked once grounding is done; the memory limit bounds it while
+  grounding); past one the child is killed and :class:`QueryError` says which limit. Ctrl-C
+  stops it at once. Answer sets are passed on as they are found (``on_model``).
 """
 
 from __future__ import annotations
 
+import os
 import re
+import signal
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -37,7 +54,36 @@ if TYPE_CHECKING:  # pragma: no cover
     from sensemaking.reasoning.context import SceneContext
     from sensemaking.scene import Scene, Track
 
-__all__ = ["ask", "explain", "stories", "Answer", "QueryError", "NAMED_QUESTIONS"]
+__all__ = ["ask", "explain", "stories", "check_query", "Answer", "QueryError", "NAMED_QUESTIONS",
+           "DEFAULT_TIMEOUT_S", "DEFAULT_MAX_ATOMS", "DEFAULT_MAX_MEMORY_MB"]
+
+#: limits of an ASP query: wall-clock seconds for grounding + solving, ground atoms, memory (MB)
+DEFAULT_TIMEOUT_S = 60.0
+DEFAULT_MAX_ATOMS = 5_000_000
+DEFAULT_MAX_MEMORY_MB = 2048
+
+#: the directives a query may use (see the module docstring)
+ALLOWED_DIRECTIVES = frozenset(
+    {
+        "show",
+        "count",
+        "sum",
+        "sum+",
+        "min",
+        "max",
+        "minimize",
+        "maximize",
+        "minimise",
+        "maximise",
+        "inf",
+        "sup",
+        "true",
+        "false",
+    }
+)
+_DIRECTIVE = re.compile(r"#([A-Za-z_]+\+?)")
+_FORBIDDEN_NODES = frozenset({"Script", "External", "Definition", "ProjectAtom", "ProjectSignature",
+                              "Heuristic", "Edge", "TheoryDefinition", "TheoryAtom", "Defined"})
 
 #: named questions -> usage line
 NAMED_QUESTIONS: dict[str, str] = {
@@ -144,8 +190,86 @@ def _show_signatures(stmts: list[Any]) -> tuple[bool, set[tuple[str, int]]]:
     return has_show, {h for h in heads if h[0]}
 
 
-def _solve(program: str, query: str | None = None,
-           max_models: int = 1) -> tuple[list[list[clingo.Symbol]], bool, list[str], bool]:
+def _strip_comments_and_strings(text: str) -> str:
+    """``text`` with comments and string contents blanked (same length, lines kept), so that
+    directives are found only where clingo would read them."""
+    out = []
+    i, n = 0, len(text)
+    while i < n:
+        c = text[i]
+        if c == "%":
+            if text.startswith("%*", i):
+                j = text.find("*%", i + 2)
+                j = n if j < 0 else j + 2
+            else:
+                j = text.find("\n", i)
+                j = n if j < 0 else j
+            out.append("".join(ch if ch == "\n" else " " for ch in text[i:j]))
+            i = j
+        elif c == '"':
+            j = i + 1
+            while j < n and text[j] != '"':
+                j += 2 if text[j] == "\\" else 1
+            j = min(j + 1, n)
+            out.append('"' + " " * max(j - i - 2, 0) + ('"' if j - i >= 2 else ""))
+            i = j
+        else:
+            out.append(c)
+            i += 1
+    return "".join(out)
+
+
+def check_query(query: str) -> None:
+    """Refuse a query that reaches outside the scene (see the module docstring): raises
+    :class:`QueryError` naming the first forbidden directive or term and its line."""
+    plain = _strip_comments_and_strings(query)
+    for m in _DIRECTIVE.finditer(plain):
+        name = m.group(1).lower()
+        if name not in ALLOWED_DIRECTIVES:
+            line = plain.count("\n", 0, m.start()) + 1
+            raise QueryError(
+                f"query:{line}: #{m.group(1)} is not allowed in a query (allowed: rules, "
+                "constraints, aggregates, #show, #minimize/#maximize)",
+                line=line,
+            )
+    at = plain.find("@")
+    if at >= 0:
+        line = plain.count("\n", 0, at) + 1
+        raise QueryError(
+            f"query:{line}: @-terms (script functions) are not allowed in a query", line=line
+        )
+
+
+def _check_ast(stmts: list[Any]) -> None:
+    """The same allow-list on the parsed statements (a second line of defence)."""
+    def walk(node: Any) -> None:
+        name = str(node.ast_type).rsplit(".", 1)[-1]
+        if name in _FORBIDDEN_NODES or (name == "Function" and getattr(node, "external", 0)):
+            raise QueryError(f"query: {name} is not allowed in a query")
+        if name == "Program" and node.name != "base":
+            raise QueryError("query: #program is not allowed in a query")
+        for key in node.child_keys:
+            child = getattr(node, key)
+            if child is None:
+                continue
+            if isinstance(child, clingo_ast.AST):
+                walk(child)
+            else:
+                for c in child:
+                    walk(c)
+
+    for s in stmts:
+        walk(s)
+
+
+def _solve(
+    program: str,
+    query: str | None = None,
+    max_models: int = 1,
+    *,
+    max_atoms: int | None = None,
+    on_model: Callable[[list[clingo.Symbol]], None] | None = None,
+) -> tuple[list[list[clingo.Symbol]], bool, list[str], bool]:
     """Ground ``program`` (trusted: encodings and facts) plus the user's ``query``; return the
     shown atoms of up to ``max_models`` models, satisfiability, notes about the query and
     whether the query shows anything (False: constraints only)."""
@@ -169,6 +293,7 @@ def _solve(program: str, query: str | None = None,
             clingo_ast.parse_string(query, stmts.append, logger=logger, message_limit=20)
         except RuntimeError:
             raise fail("syntax error") from None
+        _check_ast(stmts)
         has_show, heads = _show_signatures(stmts)
         with clingo_ast.ProgramBuilder(ctl) as builder:
             for s in stmts:
@@ -183,10 +308,120 @@ def _solve(program: str, query: str | None = None,
         ctl.ground([("base", [])])
     except RuntimeError:
         raise fail("grounding failed") from None
+    if max_atoms is not None and len(ctl.symbolic_atoms) > max_atoms:
+        raise QueryError(
+            f"the query grounds to {len(ctl.symbolic_atoms)} atoms, more than the limit "
+            f"of {max_atoms} (--max-atoms)"
+        )
     models: list[list[clingo.Symbol]] = []
-    res = ctl.solve(on_model=lambda m: models.append(sorted(m.symbols(shown=True))))
+
+    def found(m: clingo.Model) -> None:
+        atoms = sorted(m.symbols(shown=True))
+        models.append(atoms)
+        if on_model is not None:
+            on_model(atoms)
+
+    res = ctl.solve(on_model=found)
     notes = [m for c, m in messages if "query:" in m]
     return models, bool(res.satisfiable), notes, shows
+
+
+def _limited_child(conn: Any, program: str, query: str, max_models: int, max_atoms: int | None,
+                   max_memory_mb: int | None) -> None:  # pragma: no cover - runs in the child
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C and stops the child
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    try:
+        if max_memory_mb is not None:
+            import resource
+
+            with open("/proc/self/statm") as fh:
+                now = int(fh.read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
+            cap = now + int(max_memory_mb) * 2**20
+            resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
+        _, sat, notes, shows = _solve(
+            program,
+            query,
+            max_models,
+            max_atoms=max_atoms,
+            on_model=lambda atoms: conn.send(("model", [str(a) for a in atoms])),
+        )
+        conn.send(("done", sat, notes, shows))
+    except QueryError as exc:
+        conn.send(("error", exc.args[0], exc.messages, exc.line, exc.column))
+    except MemoryError:
+        conn.send(("memory",))
+    except RuntimeError as exc:
+        conn.send(("memory",) if "bad_alloc" in str(exc) or "memory" in str(exc).lower()
+                  else ("error", f"clingo failed: {' '.join(str(exc).split())}", [], None, None))
+    finally:
+        conn.close()
+        os._exit(0)
+
+
+def _solve_limited(program: str, query: str, max_models: int, *, timeout: float | None,
+                   max_atoms: int | None, max_memory_mb: int | None,
+                   on_model: Callable[[tuple[str, ...]], None] | None = None,
+                   ) -> tuple[list[tuple[str, ...]], bool, list[str], bool]:
+    """:func:`_solve` of an untrusted query in a child process under the limits; models as
+    tuples of atom strings, passed to ``on_model`` as they arrive."""
+    import multiprocessing
+
+    models: list[tuple[str, ...]] = []
+
+    def got(atoms: Any) -> None:
+        t = tuple(str(a) for a in atoms)
+        models.append(t)
+        if on_model is not None:
+            on_model(t)
+
+    if "fork" not in multiprocessing.get_all_start_methods():  # pragma: no cover - not on Linux
+        if timeout is not None:
+            log_limits = "the time and memory limits need fork (not available here)"
+            import logging
+
+            logging.getLogger(__name__).warning(log_limits)
+        _, sat, notes, shows = _solve(program, query, max_models, max_atoms=max_atoms, on_model=got)
+        return models, sat, notes, shows
+    ctx = multiprocessing.get_context("fork")
+    receive, send = ctx.Pipe(duplex=False)
+    proc = ctx.Process(
+        target=_limited_child,
+        args=(send, program, query, max_models, max_atoms, max_memory_mb),
+        daemon=True,
+    )
+    proc.start()
+    send.close()
+    deadline = None if timeout is None else time.monotonic() + timeout
+    memory = (f"the query needs more memory than the limit of {max_memory_mb} MB (--max-memory); "
+              "narrow it (fewer variables joined, smaller ranges)")
+    try:
+        while True:
+            wait = 0.5 if deadline is None else min(0.5, deadline - time.monotonic())
+            if wait <= 0:
+                raise QueryError(
+                    f"the query took longer than the time limit of {timeout:g} s (--timeout)"
+                )
+            if not receive.poll(wait):
+                if not proc.is_alive() and not receive.poll(0):
+                    raise QueryError(memory)
+                continue
+            try:
+                msg = receive.recv()
+            except EOFError:
+                raise QueryError(memory) from None
+            if msg[0] == "model":
+                got(msg[1])
+            elif msg[0] == "done":
+                return models, bool(msg[1]), list(msg[2]), bool(msg[3])
+            elif msg[0] == "memory":
+                raise QueryError(memory)
+            else:
+                raise QueryError(msg[1], list(msg[2]), msg[3], msg[4])
+    finally:
+        receive.close()
+        if proc.is_alive():
+            proc.kill()
+        proc.join()
 
 
 def _facts(scene: Scene, context: SceneContext | None, **kw: bool) -> str:
@@ -430,7 +665,10 @@ def _named(query: str) -> tuple[str, list[int]] | None:
     return name, args
 
 
-def ask(scene: Scene, query: str, *, context: SceneContext | None = None, max_models: int = 1) -> Answer:
+def ask(scene: Scene, query: str, *, context: SceneContext | None = None, max_models: int = 1,
+        timeout: float | None = DEFAULT_TIMEOUT_S, max_atoms: int | None = DEFAULT_MAX_ATOMS,
+        max_memory_mb: int | None = DEFAULT_MAX_MEMORY_MB,
+        on_model: Callable[[tuple[str, ...]], None] | None = None) -> Answer:
     """Answer a named question or an ASP query about ``scene``.
 
     Args:
@@ -440,19 +678,40 @@ def ask(scene: Scene, query: str, *, context: SceneContext | None = None, max_mo
             rules define are shown; a query of constraints only answers yes or no).
         context: corridor and lanes (default corridor, no lanes).
         max_models: answer sets to compute for an ASP query (0: all).
+        timeout: seconds for grounding + solving an ASP query (None: no limit).
+        max_atoms: ground atoms an ASP query may produce (None: no limit).
+        max_memory_mb: memory for an ASP query beyond what the process uses (None: no limit).
+        on_model: called with each answer set's shown atoms as it is found (ASP queries).
 
     Raises:
         QueryError: the ASP cannot be parsed or grounded (message with ``query:LINE:COLUMN``),
-            or a named question has wrong arguments.
+            or a named question has wrong arguments, or the query uses a directive outside the
+            allow-list, or it exceeds a limit.
     """
+    for name, value in (
+        ("timeout", timeout),
+        ("max_atoms", max_atoms),
+        ("max_memory_mb", max_memory_mb),
+    ):
+        if value is not None and not (value > 0 and value == value and value != float("inf")):
+            raise QueryError(f"{name} must be a positive number or None, got {value!r}")
     if not query or not query.strip():
         raise QueryError("empty query: give ASP rules with #show, or one of: " + ", ".join(NAMED_QUESTIONS))
     named = _named(query)
     if named is not None:
         return _HANDLERS[named[0]](scene, named[1], context)
+    check_query(query)
     program = _program_for(scene, query, context)
-    models, sat, notes, shows = _solve(program, query, max_models)
-    shown = tuple(tuple(str(s) for s in m) for m in models)
+    models, sat, notes, shows = _solve_limited(
+        program,
+        query,
+        max_models,
+        timeout=timeout,
+        max_atoms=max_atoms,
+        max_memory_mb=max_memory_mb,
+        on_model=on_model,
+    )
+    shown = tuple(models)
     if not sat:
         lines: tuple[str, ...] = ("no answer: the query's constraints rule out every answer set (UNSATISFIABLE)",)
     elif len(shown) == 1:

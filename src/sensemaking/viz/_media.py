@@ -16,96 +16,12 @@ from pathlib import Path
 from typing import Any
 
 from sensemaking.errors import InputError, require
+from sensemaking.io.media import (  # noqa: F401  (re-exported: frame sources live in io)
+    IMAGE_SUFFIXES, VIDEO_SUFFIXES, ImageFolder, VideoFrames, iter_video_frames, list_images,
+)
 
 __all__ = ["IMAGE_SUFFIXES", "VIDEO_SUFFIXES", "list_images", "ImageFolder", "VideoFrames",
            "open_writer", "output_kind", "GifWriter", "VideoWriter", "PngFolderWriter"]
-
-IMAGE_SUFFIXES = frozenset({".png", ".jpg", ".jpeg", ".bmp", ".webp", ".tif", ".tiff", ".ppm"})
-VIDEO_SUFFIXES = frozenset({".mp4", ".m4v", ".mov", ".mkv", ".avi", ".webm"})
-
-
-# sources ----------------------------------------------------------------------------------------
-def list_images(folder: str | os.PathLike[str]) -> list[Path]:
-    """Image files of a folder (by suffix), sorted by name. Raises InputError when there are none."""
-    root = Path(folder)
-    if not root.is_dir():
-        raise InputError("no such image folder", root)
-    files = sorted(p for p in root.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES and p.is_file())
-    if not files:
-        raise InputError(f"no images ({', '.join(sorted(IMAGE_SUFFIXES))}) in the folder", root)
-    return files
-
-
-class ImageFolder:
-    """Frames from an image folder.
-
-    Files whose names are all integers (``000001.jpg`` in MOT, ``000000.png`` in KITTI) are
-    looked up by frame number; otherwise the i-th file (sorted) is frame ``first_frame + i``.
-    """
-
-    def __init__(self, folder: str | os.PathLike[str], first_frame: int | None = None):
-        self.files = list_images(folder)
-        stems = [p.stem for p in self.files]
-        if first_frame is None and all(s.isdigit() for s in stems):
-            self.index = {int(s): p for s, p in zip(stems, self.files, strict=True)}
-        else:
-            start = 0 if first_frame is None else int(first_frame)
-            self.index = {start + i: p for i, p in enumerate(self.files)}
-        image = require("PIL.Image", "viz")
-        with image.open(self.files[0]) as im:
-            self.size: tuple[int, int] = im.size
-
-    def get(self, frame: int, size: tuple[int, int] | None = None) -> Any:
-        """The RGB Pillow image of ``frame`` resized to ``size`` (None when there is no such file)."""
-        path = self.index.get(int(frame))
-        if path is None:
-            return None
-        image = require("PIL.Image", "viz")
-        im = image.open(path)
-        if size is not None and size != im.size:
-            im.draft("RGB", size)  # JPEG: decode at reduced scale
-        im = im.convert("RGB")
-        if size is not None and im.size != size:
-            im = im.resize(size, image.Resampling.BILINEAR)
-        return im
-
-
-class VideoFrames:
-    """Frames of a video read in order; video frame ``k`` is frame ``first_frame + k``."""
-
-    def __init__(self, path: str | os.PathLike[str], first_frame: int = 0):
-        from sensemaking.detector import iter_video_frames
-
-        self.first_frame = int(first_frame)
-        self._iter = iter_video_frames(path)
-        try:
-            self._next = next(self._iter)
-        except StopIteration:
-            raise InputError("the video has no frames", path) from None
-        self._pos = self.first_frame
-        self.size = (int(self._next.shape[1]), int(self._next.shape[0]))
-
-    def get(self, frame: int, size: tuple[int, int] | None = None) -> Any:
-        """The RGB image of ``frame`` (frames must be asked in increasing order), or None."""
-        while self._next is not None and self._pos < frame:
-            self._advance()
-        if self._next is None or self._pos != frame:
-            return None
-        image = require("PIL.Image", "viz")
-        im = image.fromarray(self._next, "RGB")
-        if size is not None and im.size != size:
-            im = im.resize(size, image.Resampling.BILINEAR)
-        return im
-
-    def _advance(self) -> None:
-        self._next = next(self._iter, None)
-        self._pos += 1
-
-    def close(self) -> None:
-        close = getattr(self._iter, "close", None)
-        if close is not None:
-            close()
-
 
 # writers ----------------------------------------------------------------------------------------
 def output_kind(path: str | os.PathLike[str]) -> str:

@@ -1,0 +1,432 @@
+"""Output sinks of a :class:`~sensemaking.pipeline.Pipeline`: tracks, events, warnings and the
+scene written frame by frame into temporary files beside their targets, renamed into place when
+the run ends (so a final file appears whole or not at all), and memory bounded by the live
+tracks, not by the length of the run.
+
+A sink has ``frame(result, warnings)`` (once per frame stepped), ``skip(first, last)`` (frames
+``first..last`` seen without any detection and not stepped: nothing was live, nothing happened),
+``finish()`` (the run ended: make the file) and ``abort(interrupted)`` (the run failed, or was
+interrupted by Ctrl-C / SIGTERM when ``interrupted``: delete what was written; the warnings sink
+keeps its file then, as a record of what was said). :func:`check_output_paths` refuses
+outputs that would clobber an input or each other before any work is done.
+"""
+
+from __future__ import annotations
+
+import heapq
+import json
+import math
+import os
+import tempfile
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import IO, Any, Protocol
+
+import numpy as np
+
+from sensemaking.detections import Detections
+from sensemaking.errors import InputError
+from sensemaking.io.atomic import PartFile
+from sensemaking.io.kitti import format_kitti
+from sensemaking.io.mot import format_mot
+from sensemaking.results import FrameResult
+from sensemaking.scene import SCENE_FORMAT, SCENE_VERSION, Track, track_json
+
+__all__ = ["Sink", "TracksSink", "EventsSink", "WarningsSink", "SceneSink", "check_output_paths"]
+
+PathLike = str | os.PathLike[str]
+
+
+class Sink(Protocol):
+    def frame(self, result: FrameResult, warnings: list[Any]) -> None: ...
+    def skip(self, first: int, last: int) -> None: ...
+    def finish(self) -> None: ...
+    def abort(self, interrupted: bool = False) -> None: ...
+
+
+def check_output_paths(
+    outputs: Mapping[str, PathLike | None], inputs: Mapping[str, PathLike | None] = {}
+) -> None:  # noqa: B006 - read only
+    """Refuse, before any work, an output that is an input, another output, a directory, or
+    whose parent cannot be created (a file on the way, or no write permission).
+
+    ``outputs`` and ``inputs`` map an option name (for the message, e.g. ``"--events"``) to a
+    path or None (not given).
+    """
+    seen: dict[str, str] = {}
+    ins = {name: Path(p) for name, p in inputs.items() if p is not None}
+    for name, raw in outputs.items():
+        if raw is None:
+            continue
+        path = Path(raw)
+        key = os.path.normcase(os.path.realpath(path))
+        if key in seen:
+            raise InputError(
+                f"{name} and {seen[key]} name the same file: each output needs its own", path
+            )
+        seen[key] = name
+        for in_name, in_path in ins.items():
+            same = key == os.path.normcase(os.path.realpath(in_path))
+            if not same and path.exists() and in_path.exists():
+                try:
+                    same = os.path.samefile(path, in_path)
+                except OSError:
+                    same = False
+            if same:
+                raise InputError(
+                    f"{name} would overwrite the input {in_name}: choose another output file", path
+                )
+        if path.is_dir() or os.fspath(raw).endswith(("/", os.sep)):
+            raise InputError(f"{name} is a directory, expected a file name", path)
+        parent = path.absolute().parent
+        while not parent.exists():
+            parent = parent.parent
+        if not parent.is_dir():
+            raise InputError(f"{name}: cannot create the file: {parent} is not a directory", path)
+        if not os.access(parent, os.W_OK | os.X_OK):
+            raise InputError(f"{name}: cannot write in {parent} (permission denied)", path)
+
+
+class TracksSink:
+    """Tracking results in MOTChallenge (``fmt="mot"``) or KITTI format, as
+    :func:`~sensemaking.io.formats.write_results` writes them (the same bytes). Frames are
+    formatted in batches of up to ``BATCH_ROWS`` boxes (numpy's per-call cost is then paid per
+    batch, not per frame)."""
+
+    BATCH_ROWS = 16384
+
+    def __init__(self, path: PathLike, fmt: str, *, write_hidden: bool = False):
+        if fmt not in ("mot", "kitti"):
+            raise ValueError(f"unknown format {fmt!r}; expected 'mot' or 'kitti'")
+        self.path = Path(path)
+        self._format = format_mot if fmt == "mot" else (lambda t: format_kitti(t, self.path))
+        self.write_hidden = write_hidden
+        self.boxes = 0
+        self.ids: set[int] = set()
+        self._batch: list[Detections] = []
+        self._batch_rows = 0
+        self._file = PartFile(self.path)
+
+    def frame(self, result: FrameResult, warnings: list[Any]) -> None:
+        tracks: Detections = result.tracks if self.write_hidden else result.visible
+        if len(tracks):
+            self._batch.append(tracks)
+            self._batch_rows += len(tracks)
+            if self._batch_rows >= self.BATCH_ROWS:
+                self._flush()
+
+    def _flush(self) -> None:
+        if self._batch:
+            tracks = Detections.concatenate(self._batch)
+            self._batch, self._batch_rows = [], 0
+            self._file.handle.write(self._format(tracks))
+            self.boxes += len(tracks)
+            self.ids.update(np.unique(tracks.tracker_id).tolist())
+
+    def skip(self, first: int, last: int) -> None:
+        pass
+
+    def finish(self) -> None:
+        self._flush()
+        self._file.commit()
+
+    def abort(self, interrupted: bool = False) -> None:
+        self._file.discard()
+
+
+class EventsSink:
+    """Events as JSON lines ``{"frame": …, "event": …, "args": […]}``."""
+
+    def __init__(self, path: PathLike):
+        self.path = Path(path)
+        self.count = 0
+        self._file = PartFile(self.path)
+
+    def frame(self, result: FrameResult, warnings: list[Any]) -> None:
+        for ev in result.events:
+            self._file.handle.write(json.dumps(ev.to_json()) + "\n")
+        self.count += len(result.events)
+
+    def skip(self, first: int, last: int) -> None:
+        pass
+
+    def finish(self) -> None:
+        self._file.commit()
+
+    def abort(self, interrupted: bool = False) -> None:
+        self._file.discard()
+
+
+class WarningsSink:
+    """Warnings as JSON lines, flushed as they are issued into ``<path>.part`` (``tail -f`` it;
+    its name is in ``part``); kept in place when the run is interrupted, as the record of what
+    was said."""
+
+    def __init__(self, path: PathLike):
+        self.path = Path(path)
+        self.count = 0
+        self._file = PartFile(self.path, visible=True)
+        self.part = self._file.part
+
+    def frame(self, result: FrameResult, warnings: list[Any]) -> None:
+        if warnings:
+            for w in warnings:
+                self._file.handle.write(json.dumps(w.to_json()) + "\n")
+            self._file.handle.flush()
+            self.count += len(warnings)
+
+    def skip(self, first: int, last: int) -> None:
+        pass
+
+    def finish(self) -> None:
+        self._file.commit()
+
+    def abort(self, interrupted: bool = False) -> None:
+        if interrupted:
+            self._file.commit()
+        else:
+            self._file.discard()
+
+
+class SceneSink:
+    """The scene JSON of :class:`~sensemaking.scene.SceneRecorder` + ``Scene.save`` (the same
+    bytes), written with memory bounded by the live tracks: a track absent from a frame's output
+    has ended and its rows go to an unnamed temporary file; events go to another; at the end the
+    file is assembled track by track in id order.
+
+    Args:
+        path: the scene file. fps: frames per second. image_size: ``(width, height)`` or None.
+        metadata: free-form JSON-able information stored with the scene.
+    """
+
+    #: the buffered columns, in order ("track" is the id, not stored with the rows)
+    _ROWS = (
+        "frames",
+        "track",
+        "class_id",
+        "xyxy",
+        "confidence",
+        "state",
+        "occluder",
+        "visibility",
+        "hidden_frames",
+    )
+
+    def __init__(
+        self,
+        path: PathLike,
+        *,
+        fps: float,
+        image_size: tuple[int, int] | None = None,
+        metadata: Mapping[str, Any] | None = None,
+    ):
+        self.path = Path(path)
+        self.fps = float(fps)
+        self.image_size = None if image_size is None else (int(image_size[0]), int(image_size[1]))
+        self.metadata = dict(metadata or {})
+        self._runs: list[list[int]] = []  # recorded frames as [first, last] runs
+        self._live: dict[int, list[list[np.ndarray]]] = {}  # live track -> its row chunks (columns)
+        self._batch: list[tuple[np.ndarray, ...]] = []
+        self._batch_frames = 0
+        self._index: dict[
+            int, list[tuple[int, int]]
+        ] = {}  # track id -> (offset, length) of its parts
+        self._file = PartFile(self.path)
+        folder = self.path.absolute().parent
+        self._tracks: IO[bytes] = tempfile.TemporaryFile(dir=folder)
+        self._events: IO[bytes] = tempfile.TemporaryFile(dir=folder)
+        self.n_events = 0
+        self._pending: list[tuple[int, str, tuple[int, ...]]] = []  # a heap of events to write
+        self._last_event: tuple[int, str, tuple[int, ...]] | None = None
+        self._sorted = True
+
+    def _add_frames(self, first: int, last: int) -> None:
+        if self._runs and self._runs[-1][1] + 1 == first:
+            self._runs[-1][1] = last
+        else:
+            self._runs.append([first, last])
+
+    #: frames buffered before their rows are grouped by track (numpy per batch, not per frame)
+    BATCH_FRAMES = 256
+
+    def frame(self, result: FrameResult, warnings: list[Any]) -> None:
+        f = int(result.frame)
+        if self._runs and f <= self._runs[-1][1]:
+            raise ValueError(f"frames must increase: got frame {f} after {self._runs[-1][1]}")
+        self._add_frames(f, f)
+        tr = result.tracks
+        n = len(tr)
+        if n:
+            d = tr.data
+            self._batch.append(
+                (
+                    np.full(n, f, dtype=np.int64),
+                    tr.tracker_id,
+                    tr.class_id,
+                    tr.xyxy,
+                    tr.confidence,
+                    d["state"] if "state" in d else np.zeros(n, np.int64),
+                    d["occluder"] if "occluder" in d else np.full(n, -1, np.int64),
+                    d["visibility"] if "visibility" in d else np.zeros(n, np.int64),
+                    d["hidden_frames"] if "hidden_frames" in d else np.zeros(n, np.int64),
+                )
+            )
+        self._batch_frames += 1
+        if self._batch_frames >= self.BATCH_FRAMES:
+            self._group()
+        for e in result.events:
+            heapq.heappush(self._pending, (e.frame, e.name, e.args))
+        self.n_events += len(result.events)
+        self._flush_events(f - self.EVENT_LAG)
+
+    def _group(self) -> None:
+        """Move the buffered frames' rows to their tracks; tracks not in the last frame have
+        ended: spill them."""
+        last = self._runs[-1][1] if self._runs else None
+        batch, self._batch, self._batch_frames = self._batch, [], 0
+        if batch:
+            cols = [np.concatenate(c) for c in zip(*batch)]
+            frame, tid = cols[0], cols[1]
+            order = np.lexsort((frame, tid))
+            cuts = np.flatnonzero(np.diff(tid[order])) + 1
+            for chunk in np.split(order, cuts):
+                t = int(tid[chunk[0]])
+                parts = self._live.setdefault(t, [])
+                parts.append([c[chunk] for c in cols])
+        for t in [t for t, parts in self._live.items() if int(parts[-1][0][-1]) != last]:
+            self._spill(t)
+
+    #: events may be reported some frames after the frame they name (a track's start once it is
+    #: confirmed): they wait this many frames to be written in order (if one comes later still,
+    #: the events are sorted at the end)
+    EVENT_LAG = 1000
+
+    def _flush_events(self, before: float) -> None:
+        pending = self._pending
+        lines = []
+        while pending and pending[0][0] < before:
+            key = heapq.heappop(pending)
+            if self._last_event is not None and key < self._last_event:
+                self._sorted = False
+            self._last_event = key
+            lines.append(
+                json.dumps(
+                    {"frame": key[0], "event": key[1], "args": list(key[2])}, separators=(",", ":")
+                )
+                + "\n"
+            )
+        if lines:
+            self._events.write("".join(lines).encode())
+
+    def skip(self, first: int, last: int) -> None:
+        self._group()
+        for t in list(self._live):
+            self._spill(t)
+        self._add_frames(first, last)
+
+    def _spill(self, track_id: int) -> None:
+        parts = self._live.pop(track_id)
+        rows = {
+            k: np.concatenate([p[i] for p in parts]).tolist()
+            for i, k in enumerate(self._ROWS)
+            if k != "track"
+        }
+        data = json.dumps(rows, separators=(",", ":")).encode()
+        self._tracks.seek(0, os.SEEK_END)
+        self._index.setdefault(track_id, []).append((self._tracks.tell(), len(data)))
+        self._tracks.write(data)
+
+    def _track(self, track_id: int) -> Any:
+        parts = []
+        for offset, length in self._index[track_id]:
+            self._tracks.seek(offset)
+            parts.append(json.loads(self._tracks.read(length)))
+        rows = {k: [v for p in parts for v in p[k]] for k in self._ROWS if k != "track"}
+        classes, counts = np.unique(
+            np.asarray(rows["class_id"], dtype=np.int64), return_counts=True
+        )
+        return Track(
+            id=track_id,
+            class_id=int(classes[np.argmax(counts)]),
+            frames=np.asarray(rows["frames"], dtype=np.int64),
+            xyxy=np.asarray(rows["xyxy"], dtype=np.float64).reshape(-1, 4),
+            confidence=np.asarray(rows["confidence"], dtype=np.float64),
+            state=np.asarray(rows["state"], dtype=np.int8),
+            occluder=np.asarray(rows["occluder"], dtype=np.int64),
+            visibility=np.asarray(rows["visibility"], dtype=np.int8),
+            hidden_frames=np.asarray(rows["hidden_frames"], dtype=np.int64),
+        )
+
+    def finish(self) -> None:
+        self._group()
+        for t in list(self._live):
+            self._spill(t)
+        out = self._file.handle
+        runs = self._runs
+
+        def put(key: str, value: Any, first: bool = False) -> None:
+            out.write(
+                ("" if first else ",")
+                + json.dumps(key)
+                + ":"
+                + json.dumps(value, separators=(",", ":"))
+            )
+
+        out.write("{")
+        put("format", SCENE_FORMAT, first=True)
+        put("version", SCENE_VERSION)
+        put("fps", self.fps)
+        put("image_size", None if self.image_size is None else list(self.image_size))
+        put("frames", [runs[0][0], runs[-1][1]] if runs else [])
+        if len(runs) > 1:
+            out.write(',"frame_numbers":[')
+            sep = ""
+            for a, b in runs:
+                for lo in range(a, b + 1, 65536):  # in blocks: a long run is not one huge string
+                    out.write(sep + ",".join(map(str, range(lo, min(lo + 65536, b + 1)))))
+                    sep = ","
+            out.write("]")
+        put("metadata", self.metadata)
+        out.write(',"tracks":[')
+        for k, t in enumerate(sorted(self._index)):
+            out.write(
+                ("," if k else "") + json.dumps(track_json(self._track(t)), separators=(",", ":"))
+            )
+        out.write('],"events":[')
+        self._flush_events(math.inf)
+        self._events.seek(0)
+        lines: Iterable[bytes] = self._events
+        if not self._sorted:  # rare: an event later than EVENT_LAG frames; sort them all
+            lines = sorted(
+                self._events,
+                key=lambda b: (lambda r: (r["frame"], r["event"], r["args"]))(json.loads(b)),
+            )
+        for k, line in enumerate(lines):
+            out.write(("," if k else "") + line.decode().rstrip("\n"))
+        out.write("]}\n")
+        self._close_temporary()
+        self._file.commit()
+
+    def abort(self, interrupted: bool = False) -> None:
+        self._close_temporary()
+        self._file.discard()
+
+    def _close_temporary(self) -> None:
+        self._tracks.close()
+        self._events.close()
+
+
+def close_all(sinks: Iterable[Sink], *, ok: bool, interrupted: bool = False) -> None:
+    """``finish`` every sink (``ok``) or ``abort`` every one; each is tried even if another fails."""
+    error: BaseException | None = None
+    for sink in sinks:
+        try:
+            if ok:
+                sink.finish()
+            else:
+                sink.abort(interrupted)
+        except BaseException as exc:  # noqa: BLE001 - the others still need closing
+            error = error or exc
+            ok = False  # the rest are aborted: outputs appear together or not at all
+    if error is not None:
+        raise error

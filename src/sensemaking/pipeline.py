@@ -1,0 +1,222 @@
+"""One loop for a sequence: tracker, scene recorder, situation monitor and output sinks, frame by
+frame. ``sensemaking track`` and the demo run through it; so can any other caller::
+
+    with Pipeline(tracker, monitor=monitor, sinks=[TracksSink(path, "mot")]) as pipe:
+        summary = pipe.run(frames, first_frame=1, last_frame=length)   # (frame, Detections) pairs
+
+``step(frame, detections)`` does one frame (validated first: a refused frame changes nothing).
+``run`` also steps the frames between the given ones, with no detections, as the tracker ages
+its tracks by frames; once nothing is live (no track, the monitor's window empty of anything
+but empty frames) the rest of a gap is skipped in one step, so a gap costs work bounded by the
+tracker's and monitor's memory, not by the frame numbers. Leaving the ``with`` block normally
+finishes every sink (final files appear), on an exception aborts them (nothing half-written;
+on KeyboardInterrupt, which the CLI also raises for SIGTERM, the warnings file is kept).
+Memory is flat in the length of the input when the sinks are (they are: see
+:mod:`sensemaking.io.sinks`); a :class:`~sensemaking.scene.SceneRecorder` passed as
+``recorder`` keeps the whole scene in memory (and every skipped frame number).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from sensemaking.detections import Detections, check_frame_number, validate_detections
+from sensemaking.errors import InputError
+from sensemaking.io.sinks import Sink, close_all
+from sensemaking.results import FrameResult
+
+__all__ = ["Pipeline", "PipelineSummary", "FrameStep"]
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class FrameStep:
+    """What one frame gave: the tracker's result and the warnings issued at it."""
+
+    result: FrameResult
+    warnings: list[Any] = field(default_factory=list)
+
+
+@dataclass
+class PipelineSummary:
+    """Counts over a run: ``frames`` covered (stepped + skipped), ``stepped`` (tracker updates),
+    ``skipped`` (empty frames skipped in gaps), ``events``, ``warnings``, ``first``/``last``
+    frame covered (None before any)."""
+
+    frames: int = 0
+    stepped: int = 0
+    skipped: int = 0
+    events: int = 0
+    warnings: int = 0
+    first: int | None = None
+    last: int | None = None
+
+
+class Pipeline:
+    """Runs ``tracker`` (``update(dets, frame=f) -> FrameResult``) and, per frame result, the
+    ``recorder`` (``add(result)``), the ``monitor`` (``update(result) -> warnings``) and each of
+    ``sinks`` (:class:`~sensemaking.io.sinks.Sink`).
+
+    Args:
+        validate: check every frame's detections (:func:`~sensemaking.detections.validate_detections`,
+            with the tracker's image size) before the tracker sees them.
+        on_frames: called with the number of frames covered after each step or skip (progress).
+    """
+
+    def __init__(
+        self,
+        tracker: Any,
+        recorder: Any = None,
+        monitor: Any = None,
+        sinks: Sequence[Sink] = (),
+        *,
+        validate: bool = True,
+        on_frames: Callable[[int], None] | None = None,
+    ):
+        self.tracker = tracker
+        self.recorder = recorder
+        self.monitor = monitor
+        self.sinks = list(sinks)
+        self.validate = validate
+        self.on_frames = on_frames
+        self.summary = PipelineSummary()
+        self._quiet = 0  # consecutive stepped frames after which nothing was live
+        self._closed = False
+        config = getattr(tracker, "config", None)
+        self._image_size = getattr(config, "image_size", None)
+        self._min_hits = int(getattr(config, "min_hits", 1))
+        # the monitor keeps its last `window` frame snapshots (a count, not frame numbers): a
+        # gap is skipped only once that window holds nothing but empty frames
+        self._horizon = 0
+        if monitor is not None:
+            window = getattr(getattr(monitor, "config", None), "window_frames", None)
+            self._horizon = int(window(monitor.fps)) + 1 if callable(window) else -1
+
+    # -- one frame -----------------------------------------------------------------------------
+    def step(self, frame: int, detections: Any = None) -> FrameStep:
+        """Track one frame (``detections``: :class:`Detections` or anything the tracker takes;
+        None: no detections). Frames must increase. Raises InputError (a ValueError) for a frame
+        number or detections outside the plausibility bounds, before anything changes."""
+        frame = check_frame_number(frame)
+        if self.summary.last is not None and frame <= self.summary.last:
+            raise InputError(f"frames must increase: got frame {frame} after {self.summary.last}")
+        if detections is None:
+            detections = Detections.empty()
+        elif not isinstance(detections, Detections):
+            from sensemaking.adapters import as_detections
+
+            detections = as_detections(detections)
+        if self.validate:
+            validate_detections(detections, self._image_size)
+        result = self.tracker.update(detections, frame=frame)
+        if self.recorder is not None:
+            self.recorder.add(result)
+        warnings = list(self.monitor.update(result)) if self.monitor is not None else []
+        for sink in self.sinks:
+            sink.frame(result, warnings)
+        s = self.summary
+        s.frames += 1
+        s.stepped += 1
+        s.events += len(result.events)
+        s.warnings += len(warnings)
+        s.first = frame if s.first is None else s.first
+        s.last = frame
+        idle = len(result.tracks) == 0 and not result.events and self._tracker_idle()
+        self._quiet = self._quiet + 1 if idle else 0
+        if self.on_frames is not None:
+            self.on_frames(1)
+        return FrameStep(result, warnings)
+
+    def _tracker_idle(self) -> bool:
+        """True when an empty frame would change nothing in the tracker but its frame counters:
+        no live track, and past the first ``min_hits`` frames (which confirm tracks at once)."""
+        n_tracks = getattr(self.tracker, "n_tracks", None)
+        stats = getattr(self.tracker, "stats", None)
+        if n_tracks is None or not isinstance(stats, dict) or "frames" not in stats:
+            return False  # an unknown tracker: every frame is stepped
+        return n_tracks == 0 and stats["frames"] > self._min_hits
+
+    def _fill(self, first: int, last: int) -> None:
+        """Frames ``first..last`` have no detections: step them while something is live, then
+        skip the rest at once."""
+        f = first
+        while f <= last:
+            if self._horizon >= 0 and self._quiet > self._horizon:
+                n = last - f + 1
+                if self.recorder is not None:  # it keeps every frame number: add them as empty
+                    for g in range(f, last + 1):
+                        self.recorder.add(
+                            FrameResult(frame=g, tracks=Detections.empty(), events=[])
+                        )
+                for sink in self.sinks:
+                    sink.skip(f, last)
+                s = self.summary
+                s.frames += n
+                s.skipped += n
+                s.first = f if s.first is None else s.first
+                s.last = last
+                if self.on_frames is not None:
+                    self.on_frames(n)
+                return
+            self.step(f)
+            f += 1
+
+    # -- a sequence ----------------------------------------------------------------------------
+    def run(
+        self,
+        frames: Iterable[tuple[int, Any]],
+        *,
+        first_frame: int | None = None,
+        last_frame: int | None = None,
+    ) -> PipelineSummary:
+        """Step every ``(frame, detections)`` pair (increasing frames), the frames between them
+        with no detections, and with ``first_frame`` / ``last_frame`` the empty frames before
+        the first pair / after the last one (a sequence's full length). Returns the summary."""
+        if first_frame is not None:
+            first_frame = check_frame_number(first_frame, "first frame")
+        if last_frame is not None:
+            last_frame = check_frame_number(last_frame, "last frame")
+        for f, dets in frames:
+            f = check_frame_number(f)
+            if last_frame is not None and f > last_frame:
+                raise InputError(f"frame {f} is after the sequence's last frame {last_frame}")
+            previous = self.summary.last
+            if previous is not None and f <= previous:
+                raise InputError(f"frames must increase: got frame {f} after {previous}")
+            start = previous + 1 if previous is not None else first_frame
+            if start is not None and start < f:
+                self._fill(start, f - 1)
+            self.step(f, dets)
+        if last_frame is not None:
+            start = self.summary.last + 1 if self.summary.last is not None else first_frame
+            if start is None:
+                start = last_frame
+            if start <= last_frame:
+                self._fill(start, last_frame)
+        return self.summary
+
+    # -- the end ---------------------------------------------------------------------------------
+    def finish(self) -> None:
+        """Make every sink's file (renamed into place together at the end)."""
+        if not self._closed:
+            self._closed = True
+            close_all(self.sinks, ok=True)
+
+    def abort(self, interrupted: bool = False) -> None:
+        """Delete what the sinks wrote (but the warnings, when ``interrupted``)."""
+        if not self._closed:
+            self._closed = True
+            close_all(self.sinks, ok=False, interrupted=interrupted)
+
+    def __enter__(self) -> Pipeline:
+        return self
+
+    def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> None:
+        if exc_type is None:
+            self.finish()
+        else:
+            self.abort(interrupted=issubclass(exc_type, KeyboardInterrupt))
