@@ -51,7 +51,7 @@ def _dirs(root: Path) -> list[Path]:
 
 def _rows(root: Path, table: str) -> list[dict]:
     files = sorted(root.glob(f"dataset=*/sequence=*/key=*/{table}.parquet"))
-    return [r for f in files for r in pq.read_table(f).to_pylist()]
+    return [r for f in files for r in pq.read_table(f, partitioning=None).to_pylist()]
 
 
 def test_batch_archives_every_table_then_skips_then_forces(

@@ -37,7 +37,7 @@ def _content(root: Path) -> dict[str, list[tuple]]:
     for table in TABLES:
         rows = []
         for f in sorted(root.glob(f"dataset=*/sequence=*/key=*/{table}.parquet")):
-            for r in pq.read_table(f).to_pylist():
+            for r in pq.read_table(f, partitioning=None).to_pylist():
                 rows.append(
                     tuple((k, repr(v)) for k, v in r.items() if k not in VOLATILE.get(table, ()))
                 )
@@ -88,7 +88,7 @@ def test_driver_killed_mid_run_leaves_an_archive_a_second_batch_completes(tmp_pa
     runs = [
         r
         for f in arc.glob("dataset=*/sequence=*/key=*/runs.parquet")
-        for r in pq.read_table(f).to_pylist()
+        for r in pq.read_table(f, partitioning=None).to_pylist()
     ]
     assert (
         len(runs) == 10 and len({r["run_id"] for r in runs}) == 2

@@ -23,7 +23,7 @@ from sensemaking import settings
 from sensemaking.abduction.components import ComponentSolver
 from sensemaking.abduction.problem import VISIBILITY_VALUES, FrameProblem
 from sensemaking.abduction.solver import AbductionSolver, Answer, Det, read_encoding
-from sensemaking.detections import Detections
+from sensemaking.detections import Detections, check_frame_number, validate_detections
 from sensemaking.geometry import box_area, intersection, iou, iou_from_intersection, safe_ratio
 from sensemaking.motion import KalmanConfig
 from sensemaking.results import Event, FrameResult, TrackState
@@ -274,7 +274,10 @@ class Tracker:
                 takes: supervision Detections, ultralytics results, (N, 4|5|6) arrays).
             frame: the frame number; default: the detections' frame column, else last + 1.
         """
-        dets = _coerce(detections)
+        # checked before any state changes: a refused frame leaves the tracker as it was
+        dets = validate_detections(_coerce(detections), self.config.image_size)
+        if frame is not None:
+            frame = check_frame_number(frame)
         if frame is None:
             if len(dets):
                 frame = int(dets.frame[0])

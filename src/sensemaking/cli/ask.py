@@ -33,8 +33,11 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--timeout, --max-atoms and --max-memory, and answer sets are printed as they are found.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("scene", type=Path, nargs="?", help="scene JSON (from `sensemaking track --scene`)")
-    p.add_argument("query", nargs="+", help="a named question (e.g. `reappeared 7`) or ASP text or a .lp file")
+    # one list: argparse cannot tell an optional SCENE from the question's first word when options
+    # stand between them
+    p.add_argument("words", nargs="+", metavar="SCENE QUESTION",
+                   help="scene JSON (from `sensemaking track --scene`; left out with --archive), then "
+                   "a named question (e.g. `reappeared 7`) or ASP text or a .lp file")
     p.add_argument("--models", type=int, default=1, metavar="N", help="answer sets to show for ASP queries (0: all)")
     p.add_argument("--lanes", type=Path, help="lanes JSON (for `warnings`; format in sensemaking.reasoning.context)")
     p.add_argument("--segmentation", type=Path,
@@ -54,7 +57,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--max-memory", type=int, default=DEFAULT_MAX_MEMORY_MB, metavar="MB",
                    help=f"memory an ASP query may use, MB (default {DEFAULT_MAX_MEMORY_MB})")
     add_archive_options(p)
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, trailing_words="words")
 
 
 def _query_text(parts: list[str]) -> str:
@@ -87,8 +90,11 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--max-atoms must be a positive number of atoms, got {args.max_atoms}")
     if args.max_memory <= 0:
         raise InputError(f"--max-memory must be a positive number of MB, got {args.max_memory}")
-    query = _query_text(args.query)
+    args.scene, args.query = (None, args.words) if args.archive else (Path(args.words[0]), args.words[1:])
+    if not args.query:
+        raise InputError("give a question after the scene file (e.g. `sensemaking ask scene.json tracks`)")
     scene = scene_from_args(args)
+    query = _query_text(args.query)
     context = SceneContext.load(lanes=args.lanes, segmentation=args.segmentation, labels=args.labels,
                                 corridor=args.corridor)
     printed: list[int] = []

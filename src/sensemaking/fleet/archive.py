@@ -572,9 +572,9 @@ def load_scene(root: str | Path, dataset: str, sequence: str, key: str | None = 
         )
     folder, _ = max(found, key=lambda item: str(item[1].get("ended")))
     pq = require("pyarrow.parquet", "fleet")
-    runs = pq.read_table(folder / "runs.parquet").to_pylist()[0]
-    tr = pq.read_table(folder / "tracks.parquet").to_pydict()
-    ev = pq.read_table(folder / "events.parquet").to_pydict()
+    runs = pq.read_table(folder / "runs.parquet", partitioning=None).to_pylist()[0]
+    tr = pq.read_table(folder / "tracks.parquet", partitioning=None).to_pydict()
+    ev = pq.read_table(folder / "events.parquet", partitioning=None).to_pydict()
     states = {s.name.lower(): int(s) for s in TrackState}
     vis = {v.asp: int(v) for v in Visibility}
     tid = np.asarray(tr["track_id"], dtype=np.int64)
@@ -656,7 +656,7 @@ def segment_members(root: str | Path) -> Iterator[tuple[Path, dict[str, list]]]:
     """Each segment folder with its members' columns (dataset, sequence, key, ino, mtime_ns)."""
     pq = require("pyarrow.parquet", "fleet")
     for seg in sorted((Path(root) / SEGMENTS).glob("seg-*")):
-        yield seg, pq.read_table(seg / "members.parquet").to_pydict()
+        yield seg, pq.read_table(seg / "members.parquet", partitioning=None).to_pydict()
 
 
 def compact(root: str | Path) -> int:
@@ -704,7 +704,7 @@ def compact(root: str | Path) -> int:
             for table in TABLES:
                 f = folder / f"{table}.parquet"
                 if f.is_file():
-                    part = pq.read_table(f, schema=sch[table])
+                    part = pq.read_table(f, schema=sch[table], partitioning=None)
                     buffers[table].append(part)
                     counts[table] += part.num_rows
                     if counts[table] >= _ROW_GROUP:
