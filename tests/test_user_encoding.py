@@ -94,3 +94,30 @@ def test_a_broken_encoding_is_a_clear_error_naming_the_file(tmp_path):
         Tracker(rules=path)
     with pytest.raises(InputError, match="cannot read"):
         Tracker(rules=tmp_path / "absent.lp")
+
+
+def test_track_cli_reports_user_events_and_situations(tmp_path):
+    """`track --rules FILE --situations FILE`: the user's event and situation, end to end."""
+    import json
+
+    from sensemaking.cli import main
+
+    det = tmp_path / "det.txt"
+    rows = []
+    for f, dets in _frames(30):
+        for (x1, y1, x2, y2), c in zip(dets.xyxy.tolist(), dets.confidence.tolist(), strict=True):
+            rows.append(f"{f + 1},-1,{x1},{y1},{x2 - x1},{y2 - y1},{c},-1,-1,-1")
+    det.write_text("\n".join(rows) + "\n")
+    rules = tmp_path / "stops.lp"
+    rules.write_text(STOPS + "\n")
+    situations = tmp_path / "seen.lp"
+    situations.write_text("warn(seen,(T,)) :- now(N), track(T,_), state(T,N,visible).\n")
+    out, events, warnings = tmp_path / "out.txt", tmp_path / "ev.jsonl", tmp_path / "w.jsonl"
+    code = main(["-q", "track", "--detections", str(det), "--format", "mot", "--output", str(out),
+                 "--events", str(events), "--warnings", str(warnings), "--fps", "10",
+                 "--image-size", "1000x500", "--rules", str(rules), "--situations", str(situations)])
+    assert code == 0
+    names = [json.loads(line)["event"] for line in events.read_text().splitlines()]
+    assert "stops" in names and "starts" in names
+    kinds = {json.loads(line)["situation"] for line in warnings.read_text().splitlines()}
+    assert "SEEN" in kinds

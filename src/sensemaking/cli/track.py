@@ -79,6 +79,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--set", dest="params", action="append", default=[], metavar="KEY=VALUE",
                    help="override a parameter, e.g. --set max_hidden_s=2 or --set costs.resumes=200 "
                    "(repeatable; after --params; units and ranges in docs/PARAMETERS.md)")
+    p.add_argument("--rules", type=Path, action="append", default=[], metavar="FILE",
+                   help="your own rules (.lp) added to the tracking encoding, e.g. a new event "
+                   "`occurs(stops(T)) :- track(T), speed(T,S), S < 5.` (repeatable)")
+    p.add_argument("--encoding", type=Path, default=None, metavar="FILE",
+                   help="an encoding (.lp) that replaces the packaged tracking.lp")
+    p.add_argument("--situations", type=Path, action="append", default=[], metavar="FILE",
+                   help="your own situations (.lp) added to situations.lp for --warnings, e.g. "
+                   "`warn(stopped_ahead,(T,)) :- ...` (repeatable)")
     p.add_argument("--params", dest="params_file", type=Path, default=None, metavar="FILE",
                    help="a parameter file (JSON or TOML, e.g. from `sensemaking calibrate`) over the "
                    "preset of --format")
@@ -260,7 +268,9 @@ def run(args: argparse.Namespace) -> int:
     outputs = {"--output": args.output, "--events": args.events, "--scene": args.scene,
                "--warnings": args.warnings}
     inputs = {"--detections": args.detections, "--source": args.source, "--detector": args.detector,
-              "--seqinfo": args.seqinfo}
+              "--seqinfo": args.seqinfo, "--encoding": args.encoding,
+              **{f"--rules {r}": r for r in args.rules},
+              **{f"--situations {r}": r for r in args.situations}}
     check_output_paths(outputs, inputs)
     fps = size = length = None
     if args.detections is not None:
@@ -275,12 +285,15 @@ def run(args: argparse.Namespace) -> int:
     first = last = None
     if args.detections is not None:
         frames, first, last = _file_frames(args, config, length)
-    tracker = Tracker(config)
+    tracker = Tracker(config, encoding=args.encoding, rules=args.rules)
     recorder = monitor = None
+    if args.situations and not args.warnings:
+        raise InputError("--situations needs --warnings PATH (where the warnings go)")
     if args.warnings:
         from sensemaking.reasoning.online import SituationMonitor
 
-        monitor = SituationMonitor(fps=config.fps, image_size=config.image_size)
+        monitor = SituationMonitor(fps=config.fps, image_size=config.image_size,
+                                   extra_encodings=args.situations)
     source = args.detections or args.source
     total = 0 if last is None or first is None else last - first + 1
     with Progress(total, "tracking", enabled=not args.quiet) as progress:
