@@ -187,13 +187,32 @@ def _score(spec: SequenceSpec, gt: Any, scene: Scene, n_frames: int) -> dict[str
     return out
 
 
+class _Warnings:
+    """A pipeline sink that keeps the warnings (notes that a situation was not checked aside)."""
+
+    def __init__(self) -> None:
+        self.warnings: list[Warning] = []
+
+    def frame(self, result: Any, warnings: list[Warning]) -> None:
+        self.warnings.extend(w for w in warnings if w.objects)
+
+    def skip(self, first: int, last: int) -> None:
+        pass
+
+    def finish(self) -> None:
+        pass
+
+    def abort(self, interrupted: bool = False) -> None:
+        pass
+
+
 def run_sequence(spec: SequenceSpec, params: RunParams | None = None) -> SequenceResult:
     """Track one sequence with events, scene and warnings; score it when it has ground truth.
 
     Raises:
         InputError (or another SensemakingError): the sequence's input is bad.
     """
-    from sensemaking.detections import Detections
+    from sensemaking.pipeline import Pipeline
     from sensemaking.reasoning.online import SituationMonitor
     from sensemaking.scene import SceneRecorder
     from sensemaking.tracker import Tracker
@@ -213,7 +232,6 @@ def run_sequence(spec: SequenceSpec, params: RunParams | None = None) -> Sequenc
         last = max(last, min(first + int(spec.n_frames) - 1, horizon))
     if last < first:
         raise InputError("no detections and no sequence length: nothing to track", spec.det_path)
-    by_frame = dict(dets.frames())
     tracker = Tracker(config)
     recorder = SceneRecorder(
         fps=config.fps,
@@ -221,12 +239,11 @@ def run_sequence(spec: SequenceSpec, params: RunParams | None = None) -> Sequenc
         metadata={"dataset": spec.dataset, "sequence": spec.sequence, "source": spec.det_path},
     )
     monitor = SituationMonitor(fps=config.fps, image_size=config.image_size)
-    warnings: list[Warning] = []
-    empty = Detections.empty()
-    for f in range(first, last + 1):
-        result = tracker.update(by_frame.get(f, empty), frame=f)
-        recorder.add(result)
-        warnings.extend(w for w in monitor.update(result) if w.objects)
+    collected = _Warnings()
+    frames = ((f, d) for f, d in dets.frames() if first <= f <= last)
+    with Pipeline(tracker, recorder, monitor, [collected], validate=False) as pipe:
+        pipe.run(frames, first_frame=first, last_frame=last)
+    warnings = collected.warnings
     scene = recorder.scene()
     n_frames = last - first + 1
     metrics = _score(spec, gt, scene, n_frames) if gt is not None else None
