@@ -148,7 +148,8 @@ def test_pointrcnn(tmp_path: Path) -> None:
     )
     d = read_kitti_detections(write(tmp_path / "any" / "0000.txt", text))
     assert d.class_id.tolist() == [CAR, PED, CYC]
-    assert d.confidence.tolist() == [8.2981, -0.4501, 0.0]  # raw logits, kept as they are
+    # the logits, mapped through the sigmoid to probabilities
+    np.testing.assert_allclose(d.confidence, 1 / (1 + np.exp(-np.array([8.2981, -0.4501, 0.0]))))
     np.testing.assert_array_equal(d.xyxy[0], [298.3125, 165.18, 458.2292, 293.4391])
     np.testing.assert_array_equal(d.data["dimensions"][0], [1.9605, 1.8137, 4.7549])
     np.testing.assert_array_equal(d.data["location"][0], [-4.572, 1.8435, 13.5308])
@@ -174,8 +175,9 @@ def test_read_detections_sniffs_kitti_kinds(tmp_path: Path) -> None:
     prcnn = write(tmp_path / "p.txt", "0,1,1,2,3,4,0,1,1,1,1,1,1,1,1\n")
     assert_same(read_detections(labels, "kitti"), read_kitti_labels(labels))
     assert_same(read_detections(rrc, "kitti"), read_kitti_detections(rrc))
-    raw = read_kitti_detections(prcnn)  # PointRCNN logits become probabilities (sigmoid)
-    assert_same(read_detections(prcnn, "kitti"), raw.with_(confidence=1 / (1 + np.exp(-raw.confidence))))
+    # PointRCNN logits become probabilities (sigmoid) in the one reader every path uses
+    assert_same(read_detections(prcnn, "kitti"), read_kitti_detections(prcnn))
+    assert read_detections(prcnn, "kitti").confidence.tolist() == [0.5]
 
 
 def test_read_kitti_seqinfo(tmp_path: Path) -> None:

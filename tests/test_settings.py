@@ -96,7 +96,7 @@ def test_set_values_are_typed(key: str, text: str, value) -> None:
     [
         ("min_hits", "1.5", "min_hits must be an integer"),
         ("max_hidden_s", "-1", "max_hidden_s must be in [0, 3600]"),
-        ("fps", "0", "fps must be in (0, 1000]"),
+        ("fps", "0", "fps must be in [0.01, 1000]"),
         ("fps", "nan", "fps must be a finite number"),
         ("abduction", "maybe", "abduction must be true or false"),
         ("max_hidden_s", "abc", "max_hidden_s must be a number"),
@@ -151,7 +151,7 @@ def test_toml_files_are_read(tmp_path: Path) -> None:
         ({"params": {"min_hits": 1.5}}, "params.min_hits must be an integer"),
         ({"params": {"max_hidden_s": "3s"}}, "params.max_hidden_s must be a finite number (s,"),
         ({"params": {"abduction": "false"}}, "params.abduction must be true or false"),
-        ({"params": {"fps": 0}}, "params.fps must be in (0, 1000]"),
+        ({"params": {"fps": 0}}, "params.fps must be in [0.01, 1000]"),
         ({"params": {"costs": 5}}, "costs: expected a table"),
         ({"parms": {}}, "unknown key 'parms'"),
         ({"format": "other/2", "params": {}}, "format 'other/2'"),
@@ -262,13 +262,14 @@ def test_params_file_reaches_the_tracker(tmp_path: Path, det_file: Path) -> None
     [
         (["--set", "min_hits=1.5"], "--set min_hits must be an integer"),
         (["--set", "max_hidden_s=-1"], "--set max_hidden_s must be in [0, 3600]"),
-        (["--set", "fps=0"], "--set fps must be in (0, 1000]"),
+        (["--set", "fps=0"], "--set fps must be in [0.01, 1000]"),
         (["--set", "max_hidden_s=abc"], "--set max_hidden_s must be a number"),
         (["--set", "costs.resumes=2.5"], "--set costs.resumes must be an integer"),
         (["--set", "nonsense"], "expected KEY=VALUE"),
-        (["--fps", "0"], "fps must be in (0, 1000]"),
-        (["--fps", "nan"], "fps must be a finite number"),
-        (["--max-solve-ms", "-1"], "max_solve_ms must be in"),
+        # the CLI's own option checks come first, with the option's name
+        (["--fps", "0"], "--fps must be a frame rate in [0.01, 1000]"),
+        (["--fps", "nan"], "--fps must be a frame rate in [0.01, 1000]"),
+        (["--max-solve-ms", "-1"], "--max-solve-ms must be a positive number of milliseconds"),
     ],
 )
 def test_bad_cli_parameters_exit_2_with_one_line(

@@ -129,7 +129,7 @@ _BOX = "fraction of box size"
 def _table() -> dict[str, Param]:
     rows = [
         Param("abduction", "bool", "-"),
-        Param("fps", "float", "frames / s", 0.0, 1000.0, low_open=True),
+        Param("fps", "float", "frames / s", 0.01, 1000.0),
         Param("image_size", "size", "pixels (width, height)", 1, 100_000, optional=True),
         Param("iou_assign", "float", "IoU", 0.0, 1.0),
         Param("iou_resume", "float", "IoU", 0.0, 1.0),

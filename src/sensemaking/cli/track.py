@@ -16,7 +16,7 @@ from sensemaking.errors import InputError
 log = logging.getLogger(__name__)
 
 #: option ranges (a frame rate or an image side beyond these is a typo, not a camera)
-MAX_FPS = 1000.0
+MIN_FPS, MAX_FPS = 0.01, 1000.0  # frames per second: a frame a 100 s .. a frame a ms
 MAX_IMAGE_SIDE = 100_000
 
 
@@ -69,7 +69,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--fps",
         type=float,
         default=None,
-        help=f"frame rate, frames per second in (0, {MAX_FPS:g}] (default: seqinfo, else 30 MOT / "
+        help=f"frame rate, frames per second in [{MIN_FPS:g}, {MAX_FPS:g}] (default: seqinfo, else 30 MOT / "
         "10 KITTI)",
     )
     p.add_argument("--image-size", default=None, metavar="WxH",
@@ -105,10 +105,12 @@ def parse_size(text: str, where: str = "--image-size") -> tuple[int, int]:
 
 
 def check_fps(fps: float, where: str, path: Path | None = None) -> float:
-    """A frame rate in (0, MAX_FPS] frames per second."""
-    if not (math.isfinite(fps) and 0 < fps <= MAX_FPS):
+    """A frame rate in [MIN_FPS, MAX_FPS] frames per second."""
+    if not (math.isfinite(fps) and MIN_FPS <= fps <= MAX_FPS):
         raise InputError(
-            f"{where} must be a frame rate in (0, {MAX_FPS:g}] frames per second, got {fps!r}", path
+            f"{where} must be a frame rate in [{MIN_FPS:g}, {MAX_FPS:g}] frames per second, "
+            f"got {fps!r}",
+            path,
         )
     return float(fps)
 

@@ -39,12 +39,7 @@ def read_detections(path: PathLike, fmt: Format, class_name: str | None = None) 
         if "," in line:
             n = line.count(",") + 1
             if n in (6, 15):
-                dets = read_kitti_detections(path, class_name=class_name)
-                if n == 15 and len(dets):  # PointRCNN: logits -> probabilities
-                    from scipy.special import expit
-
-                    dets = dets.with_(confidence=expit(dets.confidence))
-                return dets
+                return read_kitti_detections(path, class_name=class_name)
             got = f"{n} comma-separated"
         else:
             n = len(line.split())

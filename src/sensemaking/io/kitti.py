@@ -12,6 +12,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+from scipy.special import expit
 
 from sensemaking.classes import CLASS_IDS, KITTI_NAMES, class_id
 from sensemaking.classes import class_name as _class_name
@@ -213,8 +214,8 @@ def read_kitti_detections(path: PathLike, class_name: str | None = None) -> Dete
     RRC ``frame,x1,y1,x2,y2,score``: one class per file, from ``class_name`` or else the parent
     folder's name (``.../rrc/car/0000.txt`` -> car). PointRCNN
     ``frame,type,x1,y1,x2,y2,score,h,w,l,x,y,z,rot_y,alpha``: class from ``type`` (1 pedestrian,
-    2 car, 3 cyclist; ``class_name`` is not used), the raw score (a logit, may be negative) as
-    ``confidence``, ``data`` ``"dimensions"`` (N, 3), ``"location"`` (N, 3), ``"rotation_y"``
+    2 car, 3 cyclist; ``class_name`` is not used), the score (a logit) mapped through the
+    sigmoid to a probability as ``confidence``, ``data`` ``"dimensions"`` (N, 3), ``"location"`` (N, 3), ``"rotation_y"``
     (N,), ``"alpha"`` (N,) as in :func:`read_kitti_labels`. Boxes of zero width or height are
     dropped with a warning. An empty file (no detections in the whole sequence) gives empty
     Detections.
@@ -250,7 +251,9 @@ def kitti_detections_from_table(table: Table, class_name: str | None = None,
             table.fail(int(np.argmax(bad)), f"unknown PointRCNN type {codes[bad][0]} "
                                             "(expected 1 pedestrian, 2 car or 3 cyclist)")
         table.finite(range(2, 15))
-        box, score = v[:, 2:6], v[:, 6]
+        # the raw scores are logits: as probabilities, score thresholds mean the same for every
+        # detector (every reader, the benchmark runner's and track's, reads through here)
+        box, score = v[:, 2:6], expit(v[:, 6])
         lookup = np.zeros(max(_POINTRCNN_CLASSES) + 1, dtype=np.int64)
         lookup[list(_POINTRCNN_CLASSES)] = list(_POINTRCNN_CLASSES.values())
         classes = lookup[codes]

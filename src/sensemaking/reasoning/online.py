@@ -392,7 +392,7 @@ class SituationMonitor:
         seen = {t for fr in frames for t in fr.ids}
         mentioned = seen.union(
             *(fr.hidden_by.values() for fr in frames),
-            *(e.args for fr in frames for e in fr.events),
+            *((a for a in e.args if isinstance(a, int)) for fr in frames for e in fr.events),
         )
         tracks = sorted(mentioned)
         local = {t: i for i, t in enumerate(tracks)}
@@ -415,7 +415,8 @@ class SituationMonitor:
             out += [("motion", local[t], g, k) for t, kinds in fr.motion.items() for k in kinds]
             out += [("ra", local[a], local[b], g, rx, ry) for a, b, rx, ry in fr.ra]
             out += [
-                ("occurs_at", (e.name, *(local[a] for a in e.args)), e.frame - n)
+                # constants in the events of a user's encoding stay as they are
+                ("occurs_at", (e.name, *(local.get(a, a) for a in e.args)), e.frame - n)
                 for e in fr.events
             ]
             out += [
