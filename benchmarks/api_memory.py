@@ -45,8 +45,10 @@ def main(argv: list[str] | None = None) -> int:
     offset = rng.uniform(0, width + 200, n)
     tracker = Tracker(TrackerConfig.for_dataset("kitti", fps=10, image_size=(width, height)))
     marks = {10_000, 50_000, args.frames}
-    print(f"{'frames':>8} {'RSS MB':>8} {'ms/frame':>9} {'components':>11} {'cache hits':>11} "
-          f"{'solver calls':>12}")
+    print(
+        f"{'frames':>8} {'RSS MB':>8} {'ms/frame':>9} {'components':>11} {'cache hits':>11} "
+        f"{'solver calls':>12}"
+    )
     print(f"{0:8d} {rss_mb():8.1f}")
     t0 = time.perf_counter()
     for f in range(1, args.frames + 1):
@@ -58,12 +60,17 @@ def main(argv: list[str] | None = None) -> int:
             fx, fy = rng.uniform(0, width - 50), rng.uniform(0, height - 50)
             boxes = np.vstack([boxes, [fx, fy, fx + 50, fy + 50]])
         boxes = boxes[(boxes[:, 2] - boxes[:, 0] > 2) & (boxes[:, 3] - boxes[:, 1] > 2)]
-        dets = Detections(boxes, confidence=np.full(len(boxes), 0.95), class_id=np.full(len(boxes), 2))
+        dets = Detections(
+            boxes, confidence=np.full(len(boxes), 0.95), class_id=np.full(len(boxes), 2)
+        )
         tracker.update(dets, frame=f)
         if f in marks:
             s = tracker._solver.stats
-            print(f"{f:8d} {rss_mb():8.1f} {(time.perf_counter() - t0) / f * 1e3:9.2f} {s['components']:11d} "
-                  f"{s['cache_hits']:11d} {s['solver_calls']:12d}", flush=True)
+            print(
+                f"{f:8d} {rss_mb():8.1f} {(time.perf_counter() - t0) / f * 1e3:9.2f} {s['components']:11d} "
+                f"{s['cache_hits']:11d} {s['solver_calls']:12d}",
+                flush=True,
+            )
     return 0
 
 

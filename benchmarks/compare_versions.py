@@ -22,12 +22,23 @@ import tempfile
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-LINE = re.compile(r"^(\S+)\s+frames\s+(\d+)\s+mean\s+([\d.]+) ms\s+p95\s+([\d.]+) ms\s+worst\s+([\d.]+) ms")
-BENCHMARKS = ("kitti-rrc-car", "kitti-rrc-pedestrian", "kitti-pointrcnn-car",
-              "kitti-pointrcnn-pedestrian", "mot17-yolox-halfval", "mot17-frcnn", "mot15")
+LINE = re.compile(
+    r"^(\S+)\s+frames\s+(\d+)\s+mean\s+([\d.]+) ms\s+p95\s+([\d.]+) ms\s+worst\s+([\d.]+) ms"
+)
+BENCHMARKS = (
+    "kitti-rrc-car",
+    "kitti-rrc-pedestrian",
+    "kitti-pointrcnn-car",
+    "kitti-pointrcnn-pedestrian",
+    "mot17-yolox-halfval",
+    "mot17-frcnn",
+    "mot15",
+)
 
 
-def _run(src: Path | None, bench: str, out: Path, compare: Path | None) -> tuple[float, float, bool]:
+def _run(
+    src: Path | None, bench: str, out: Path, compare: Path | None
+) -> tuple[float, float, bool]:
     env = dict(os.environ)
     if src is not None:
         env["PYTHONPATH"] = str(src)
@@ -47,8 +58,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only", nargs="*", default=list(BENCHMARKS))
     ap.add_argument("--repeat", type=int, default=3)
     args = ap.parse_args(argv)
-    print(f"{'benchmark':28s} {'this ms':>8} {'other ms':>9} {'ratio':>6} {'worst this':>10} "
-          f"{'worst other':>11} {'same answers':>12}")
+    print(
+        f"{'benchmark':28s} {'this ms':>8} {'other ms':>9} {'ratio':>6} {'worst this':>10} "
+        f"{'worst other':>11} {'same answers':>12}"
+    )
     with tempfile.TemporaryDirectory() as tmp:
         for bench in args.only:
             this, other, worst_this, worst_other, same = [], [], [], [], True
@@ -61,8 +74,11 @@ def main(argv: list[str] | None = None) -> int:
                 worst_this.append(t[1])
                 same &= t[2]
             a, b = statistics.median(this), statistics.median(other)
-            print(f"{bench:28s} {a:8.2f} {b:9.2f} {a / b:6.2f} {min(worst_this):10.1f} "
-                  f"{min(worst_other):11.1f} {'yes' if same else 'no':>12}", flush=True)
+            print(
+                f"{bench:28s} {a:8.2f} {b:9.2f} {a / b:6.2f} {min(worst_this):10.1f} "
+                f"{min(worst_other):11.1f} {'yes' if same else 'no':>12}",
+                flush=True,
+            )
     return 0
 
 

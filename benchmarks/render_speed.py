@@ -36,13 +36,17 @@ def track_sequences(data: Path, min_frames: int) -> tuple[list, float]:
             continue
         dets = read_kitti_detections(det_path, "car")
         by_frame = dict(dets.frames())
-        tracker = Tracker(TrackerConfig.for_dataset("kitti", fps=info.fps, image_size=(info.width, info.height)))
+        tracker = Tracker(
+            TrackerConfig.for_dataset("kitti", fps=info.fps, image_size=(info.width, info.height))
+        )
         results = []
         t0 = time.perf_counter()
         for f in range(info.length):
             results.append(tracker.update(by_frame.get(f, Detections.empty()), frame=f))
         seconds += time.perf_counter() - t0
-        runs.append(Run(results, width=info.width, height=info.height, fps=info.fps, name=f"KITTI {name}"))
+        runs.append(
+            Run(results, width=info.width, height=info.height, fps=info.fps, name=f"KITTI {name}")
+        )
         total += info.length
         if total >= min_frames:
             break
@@ -51,9 +55,15 @@ def track_sequences(data: Path, min_frames: int) -> tuple[list, float]:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=DEFAULT_DATA, help="KITTI folder (training/, detections/)")
-    ap.add_argument("--frames", type=int, default=1000, help="track and render at least this many frames")
-    ap.add_argument("--check", action="store_true", help="exit 1 when rendering is slower than tracking")
+    ap.add_argument(
+        "--data", type=Path, default=DEFAULT_DATA, help="KITTI folder (training/, detections/)"
+    )
+    ap.add_argument(
+        "--frames", type=int, default=1000, help="track and render at least this many frames"
+    )
+    ap.add_argument(
+        "--check", action="store_true", help="exit 1 when rendering is slower than tracking"
+    )
     args = ap.parse_args(argv)
     if not (args.data / "training" / "seqinfo.csv").exists():
         print(f"render_speed: no KITTI data at {args.data}", file=sys.stderr)
@@ -88,15 +98,19 @@ def main(argv: list[str] | None = None) -> int:
     def ms(s: float) -> str:
         return f"{1000 * s / n:7.3f}"
 
-    print(f"{n} frames of {len(runs)} KITTI sequences (RRC car), plain canvas {size[0]}x{size[1]} px, "
-          f"{sum(len(r.warnings) for r in runs)} warnings")
+    print(
+        f"{n} frames of {len(runs)} KITTI sequences (RRC car), plain canvas {size[0]}x{size[1]} px, "
+        f"{sum(len(r.warnings) for r in runs)} warnings"
+    )
     print(f"{'':24} ms/frame   render/track")
     print(f"{'tracking':24} {ms(track_s)}")
     print(f"{'situation monitor':24} {ms(monitor_s)}   (not part of rendering; reported apart)")
     for kind, s in timings.items():
         print(f"{'render: ' + kind:24} {ms(s)}   {s / track_s:6.3f}")
     worst = max(timings["gif"], timings["mp4"]) / track_s
-    print(f"budget render/track < 1 (gif and mp4): {'met' if worst < 1 else 'NOT met'} ({worst:.3f})")
+    print(
+        f"budget render/track < 1 (gif and mp4): {'met' if worst < 1 else 'NOT met'} ({worst:.3f})"
+    )
     return 1 if args.check and worst >= 1 else 0
 
 

@@ -29,8 +29,10 @@ def _lines(result) -> list[str]:
     vis = tracks.data.get("visibility", np.zeros(len(tracks), dtype=np.int64))
     for i in np.argsort(tracks.tracker_id, kind="stable").tolist():
         box = " ".join(f"{v:.2f}" for v in tracks.xyxy[i].tolist())
-        out.append(f"{result.frame} T {int(tracks.tracker_id[i])} {box} {int(state[i])} "
-                   f"{int(occ[i])} {int(vis[i])}")
+        out.append(
+            f"{result.frame} T {int(tracks.tracker_id[i])} {box} {int(state[i])} "
+            f"{int(occ[i])} {int(vis[i])}"
+        )
     for ev in result.events:
         out.append(f"{result.frame} E {ev.name} {' '.join(map(str, ev.args))}")
     return out
@@ -51,8 +53,11 @@ def main(argv: list[str] | None = None) -> int:
     for bench in iter_benchmarks(args.data, args.only):
         times: list[float] = []
         for seq in bench.sequences:
-            config = TrackerConfig.for_dataset(bench.spec.family, fps=float(seq.info.fps),
-                                               image_size=(seq.info.width, seq.info.height))
+            config = TrackerConfig.for_dataset(
+                bench.spec.family,
+                fps=float(seq.info.fps),
+                image_size=(seq.info.width, seq.info.height),
+            )
             tracker = Tracker(config)
             frames = dict(seq.detections.frames())
             lines: list[str] = []
@@ -66,19 +71,29 @@ def main(argv: list[str] | None = None) -> int:
             path.parent.mkdir(parents=True, exist_ok=True)
             path.write_text("\n".join(lines) + "\n")
             if args.compare is not None:
-                other = [line for line in (args.compare / bench.name / f"{seq.name}.txt").read_text().splitlines()
-                         if line]
+                other = [
+                    line
+                    for line in (args.compare / bench.name / f"{seq.name}.txt")
+                    .read_text()
+                    .splitlines()
+                    if line
+                ]
                 first = next((i for i, (a, b) in enumerate(zip(lines, other)) if a != b), None)
                 if first is None and len(lines) != len(other):
                     first = min(len(lines), len(other))
                 if first is not None:
                     differ += 1
-                    print(f"  {bench.name}/{seq.name}: first difference at line {first + 1}: "
-                          f"{lines[first] if first < len(lines) else '<end>'!r} vs "
-                          f"{other[first] if first < len(other) else '<end>'!r}")
+                    print(
+                        f"  {bench.name}/{seq.name}: first difference at line {first + 1}: "
+                        f"{lines[first] if first < len(lines) else '<end>'!r} vs "
+                        f"{other[first] if first < len(other) else '<end>'!r}"
+                    )
         ms = np.array(times) * 1000.0
-        print(f"{bench.name:28s} frames {len(ms):6d}  mean {ms.mean():6.2f} ms  "
-              f"p95 {np.percentile(ms, 95):6.2f} ms  worst {ms.max():7.2f} ms", flush=True)
+        print(
+            f"{bench.name:28s} frames {len(ms):6d}  mean {ms.mean():6.2f} ms  "
+            f"p95 {np.percentile(ms, 95):6.2f} ms  worst {ms.max():7.2f} ms",
+            flush=True,
+        )
     if args.compare is not None:
         print(f"{differ} sequences differ")
     return 1 if differ else 0

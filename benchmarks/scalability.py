@@ -29,7 +29,9 @@ TARGET_MS = {20: 10.0, 100: 30.0}
 
 def time_run(scene, abduction: bool) -> tuple[list[float], list[float], Tracker]:
     """Per-frame wall and CPU milliseconds of ``Tracker.update`` over the scene."""
-    tracker = Tracker(TrackerConfig(abduction=abduction, fps=scene.fps, image_size=(scene.width, scene.height)))
+    tracker = Tracker(
+        TrackerConfig(abduction=abduction, fps=scene.fps, image_size=(scene.width, scene.height))
+    )
     wall, cpu = [], []
     for f, dets in scene.frames():
         w0, c0 = time.perf_counter(), time.process_time()
@@ -48,8 +50,10 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     sizes = [int(n) for n in args.tracks.split(",")]
     rows = []
-    header = (f"{'tracks':>6} {'overlap':>7} | {'paper ms':>9} | {'ours ms (median)':>16} {'p95':>7} {'cpu':>6} "
-              f"{'over budget':>11} | {'no-abd ms':>9} | {'ours/no-abd':>11} | {'paper/ours':>10}")
+    header = (
+        f"{'tracks':>6} {'overlap':>7} | {'paper ms':>9} | {'ours ms (median)':>16} {'p95':>7} {'cpu':>6} "
+        f"{'over budget':>11} | {'no-abd ms':>9} | {'ours/no-abd':>11} | {'paper/ours':>10}"
+    )
     print(header)
     print("-" * len(header))
     for n in sizes:
@@ -61,27 +65,45 @@ def main(argv: list[str] | None = None) -> int:
         wall_b, _, _ = time_run(scene, False)
         med_a, med_b = statistics.median(wall_a), statistics.median(wall_b)
         p95 = float(np.percentile(wall_a, 95))
-        row = dict(tracks=n, overlap=overlap, paper=PAPER_MS.get(n), ours=med_a, p95=p95,
-                   cpu=statistics.median(cpu_a), timed_out=trk.stats["timed_out"], noabd=med_b)
+        row = dict(
+            tracks=n,
+            overlap=overlap,
+            paper=PAPER_MS.get(n),
+            ours=med_a,
+            p95=p95,
+            cpu=statistics.median(cpu_a),
+            timed_out=trk.stats["timed_out"],
+            noabd=med_b,
+        )
         rows.append(row)
         paper = f"{row['paper']:9.1f}" if row["paper"] else f"{'-':>9}"
         speedup = f"{row['paper'] / med_a:9.0f}x" if row["paper"] else f"{'-':>10}"
-        print(f"{n:6d} {overlap:7.0%} | {paper} | {med_a:16.2f} {p95:7.2f} {row['cpu']:6.2f} {row['timed_out']:11d} | "
-              f"{med_b:9.2f} | {med_a / med_b:10.1f}x | {speedup}")
+        print(
+            f"{n:6d} {overlap:7.0%} | {paper} | {med_a:16.2f} {p95:7.2f} {row['cpu']:6.2f} {row['timed_out']:11d} | "
+            f"{med_b:9.2f} | {med_a / med_b:10.1f}x | {speedup}"
+        )
     print()
     for n, target in TARGET_MS.items():
         got = next((r["ours"] for r in rows if r["tracks"] == n), None)
         if got is not None:
-            print(f"target {n} tracks <= {target:.0f} ms/frame: {'met' if got <= target else 'MISSED'} ({got:.2f} ms)")
-    print(f"machine: {platform.machine()}, {platform.python_implementation()} {platform.python_version()}, "
-          f"{__import__('os').cpu_count()} cores; times are wall-clock medians over {args.frames} frames")
+            print(
+                f"target {n} tracks <= {target:.0f} ms/frame: {'met' if got <= target else 'MISSED'} ({got:.2f} ms)"
+            )
+    print(
+        f"machine: {platform.machine()}, {platform.python_implementation()} {platform.python_version()}, "
+        f"{__import__('os').cpu_count()} cores; times are wall-clock medians over {args.frames} frames"
+    )
     if args.markdown:
-        lines = ["| tracks | overlap | paper ms/frame | ours ms/frame (median) | p95 | no-abduction ms/frame | ours / no-abduction |",
-                 "|---:|---:|---:|---:|---:|---:|---:|"]
+        lines = [
+            "| tracks | overlap | paper ms/frame | ours ms/frame (median) | p95 | no-abduction ms/frame | ours / no-abduction |",
+            "|---:|---:|---:|---:|---:|---:|---:|",
+        ]
         for r in rows:
             paper = f"{r['paper']:.1f}" if r["paper"] else "-"
-            lines.append(f"| {r['tracks']} | {r['overlap']:.0%} | {paper} | {r['ours']:.2f} | {r['p95']:.2f} | "
-                         f"{r['noabd']:.2f} | {r['ours'] / r['noabd']:.1f}x |")
+            lines.append(
+                f"| {r['tracks']} | {r['overlap']:.0%} | {paper} | {r['ours']:.2f} | {r['p95']:.2f} | "
+                f"{r['noabd']:.2f} | {r['ours'] / r['noabd']:.1f}x |"
+            )
         args.markdown.parent.mkdir(parents=True, exist_ok=True)
         args.markdown.write_text("\n".join(lines) + "\n")
     return 0

@@ -33,8 +33,10 @@ def main(argv: list[str] | None = None) -> int:
     from sensemaking.abduction.solver import AbductionSolver
 
     rng = random.Random(0)
-    pool = [random_component(rng, rng.randint(1, 3), rng.randint(1, 3), rng.randint(0, 1))
-            for _ in range(args.pool)]
+    pool = [
+        random_component(rng, rng.randint(1, 3), rng.randint(1, 3), rng.randint(0, 1))
+        for _ in range(args.pool)
+    ]
     solver = AbductionSolver()
     slots = SlotSolver(solver, numbers=GRID + [1], misses_per_cell=0)
     for component in pool:  # ground every shape first
@@ -49,8 +51,10 @@ def main(argv: list[str] | None = None) -> int:
         slot_ms.append(ms)
         done += args.block
         rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-        print(f"calls {done:7d}  {ms:.3f} ms/call  peak RSS {rss:.0f} MB  "
-              f"clasp size {_size(slots)}", flush=True)
+        print(
+            f"calls {done:7d}  {ms:.3f} ms/call  peak RSS {rss:.0f} MB  clasp size {_size(slots)}",
+            flush=True,
+        )
     last = [pool[i % len(pool)] for i in range(done - args.block, done)]
     new = SlotSolver(solver, numbers=GRID + [1], misses_per_cell=0)
     for component in pool:
@@ -62,15 +66,18 @@ def main(argv: list[str] | None = None) -> int:
             for component in last:
                 which.solve(component)
             times[name] += (time.process_time() - t0) / (3 * len(last)) * 1e3
-    print(f"last block again: long-lived {times['long-lived']:.3f}, "
-          f"new {times['new']:.3f} ms/call")
+    print(
+        f"last block again: long-lived {times['long-lived']:.3f}, new {times['new']:.3f} ms/call"
+    )
     t0 = time.process_time()
     sample = pool[: min(len(pool), 500)]
     for component in sample:
         solver.solve_facts(component.facts(solver.uses))
     fresh = (time.process_time() - t0) / len(sample) * 1e3
-    print(f"slots: first block {slot_ms[0]:.3f}, last block {slot_ms[-1]:.3f} ms/call; "
-          f"fresh Control {fresh:.3f} ms/call; ratio {slot_ms[-1] / fresh:.2f}; {slots.stats}")
+    print(
+        f"slots: first block {slot_ms[0]:.3f}, last block {slot_ms[-1]:.3f} ms/call; "
+        f"fresh Control {fresh:.3f} ms/call; ratio {slot_ms[-1] / fresh:.2f}; {slots.stats}"
+    )
     return 0
 
 

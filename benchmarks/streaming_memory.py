@@ -61,7 +61,8 @@ def main() -> None:
     ap.add_argument("--life", type=int, default=400, help="frames an object stays in view")
     args = ap.parse_args()
 
-    from sensemaking.cli import _progress, main as cli_main
+    from sensemaking.cli import _progress
+    from sensemaking.cli import main as cli_main
 
     marks = sorted({max(1, args.frames // 10), max(1, args.frames // 2), args.frames})
     seen: list[tuple[int, float, float]] = []

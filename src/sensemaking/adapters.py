@@ -36,8 +36,15 @@ import numpy as np
 from sensemaking.classes import CLASS_NAMES, class_id
 from sensemaking.detections import Detections
 
-__all__ = ["COCO_ALIASES", "map_class_name", "from_supervision", "from_ultralytics", "from_array",
-           "to_supervision", "as_detections"]
+__all__ = [
+    "COCO_ALIASES",
+    "map_class_name",
+    "from_supervision",
+    "from_ultralytics",
+    "from_array",
+    "to_supervision",
+    "as_detections",
+]
 
 #: detector names (lower case) that are not our class names, and the class they map to
 COCO_ALIASES: dict[str, str] = {
@@ -81,15 +88,18 @@ def _names_lookup(names: Mapping[int, str] | Sequence[str] | None) -> dict[int, 
     return {i: str(v) for i, v in enumerate(names)}
 
 
-def _map_ids(source_ids: np.ndarray, names: dict[int, str],
-             class_map: Mapping[int, int | str] | None) -> tuple[np.ndarray, np.ndarray | None]:
+def _map_ids(
+    source_ids: np.ndarray, names: dict[int, str], class_map: Mapping[int, int | str] | None
+) -> tuple[np.ndarray, np.ndarray | None]:
     """Our class ids (and the detector's names, or None) for the detector's class ids."""
     uniq = np.unique(source_ids)
     table: dict[int, int] = {}
     for sid in uniq.tolist():
         if class_map is not None and sid in class_map:
             target = class_map[sid]
-            table[sid] = target if isinstance(target, (int, np.integer)) else map_class_name(str(target))
+            table[sid] = (
+                target if isinstance(target, (int, np.integer)) else map_class_name(str(target))
+            )
         elif sid in names:
             table[sid] = map_class_name(names[sid])
         else:
@@ -101,10 +111,17 @@ def _map_ids(source_ids: np.ndarray, names: dict[int, str],
     return ours, cls_names
 
 
-def _finish(xyxy: np.ndarray, confidence: np.ndarray | None, source_ids: np.ndarray | None,
-            names: dict[int, str], class_map: Mapping[int, int | str] | None,
-            frame: int | None, drop_unknown: bool, extra: dict[str, np.ndarray] | None = None,
-            class_names: np.ndarray | None = None) -> Detections:
+def _finish(
+    xyxy: np.ndarray,
+    confidence: np.ndarray | None,
+    source_ids: np.ndarray | None,
+    names: dict[int, str],
+    class_map: Mapping[int, int | str] | None,
+    frame: int | None,
+    drop_unknown: bool,
+    extra: dict[str, np.ndarray] | None = None,
+    class_names: np.ndarray | None = None,
+) -> Detections:
     n = xyxy.shape[0]
     data: dict[str, np.ndarray] = dict(extra or {})
     if source_ids is None:
@@ -115,23 +132,36 @@ def _finish(xyxy: np.ndarray, confidence: np.ndarray | None, source_ids: np.ndar
         source_ids = source_ids.astype(np.int64).reshape(-1)
         if class_names is not None and not names:
             # per-box names (supervision's data["class_name"]) give the mapping
-            names = {int(s): str(c) for s, c in zip(source_ids.tolist(), class_names.tolist(), strict=True)}
+            names = {
+                int(s): str(c)
+                for s, c in zip(source_ids.tolist(), class_names.tolist(), strict=True)
+            }
         ours, cls_names = _map_ids(source_ids, names, class_map)
         data["source_class_id"] = source_ids
         if cls_names is not None and class_names is None:
             class_names = cls_names
     if class_names is not None:
         data["class_name"] = np.asarray(class_names, dtype=object)
-    det = Detections(xyxy=xyxy, confidence=confidence, class_id=ours,
-                     frame=0 if frame is None else int(frame), data=data)
+    det = Detections(
+        xyxy=xyxy,
+        confidence=confidence,
+        class_id=ours,
+        frame=0 if frame is None else int(frame),
+        data=data,
+    )
     if drop_unknown and n:
         det = det[det.class_id != 0]
     return det
 
 
-def from_supervision(det: Any, *, class_map: Mapping[int, int | str] | None = None,
-                     names: Mapping[int, str] | Sequence[str] | None = None,
-                     frame: int | None = None, drop_unknown: bool = False) -> Detections:
+def from_supervision(
+    det: Any,
+    *,
+    class_map: Mapping[int, int | str] | None = None,
+    names: Mapping[int, str] | Sequence[str] | None = None,
+    frame: int | None = None,
+    drop_unknown: bool = False,
+) -> Detections:
     """Our Detections from a ``supervision.Detections`` (duck-typed).
 
     Args:
@@ -151,17 +181,26 @@ def from_supervision(det: Any, *, class_map: Mapping[int, int | str] | None = No
     cls = _numpy(getattr(det, "class_id", None))
     data_in = dict(getattr(det, "data", None) or {})
     class_names = data_in.pop("class_name", None)
-    class_names = None if class_names is None else np.asarray(class_names, dtype=object).reshape(-1)
+    class_names = (
+        None if class_names is None else np.asarray(class_names, dtype=object).reshape(-1)
+    )
     extra = {}
     for key, value in data_in.items():
         arr = _numpy(value) if not isinstance(value, np.ndarray) else value
         if arr is not None and arr.ndim >= 1 and arr.shape[0] == n:
             extra[key] = arr
-    return _finish(xyxy, conf, cls, _names_lookup(names), class_map, frame, drop_unknown, extra, class_names)
+    return _finish(
+        xyxy, conf, cls, _names_lookup(names), class_map, frame, drop_unknown, extra, class_names
+    )
 
 
-def from_ultralytics(result: Any, *, class_map: Mapping[int, int | str] | None = None,
-                     frame: int | None = None, drop_unknown: bool = False) -> Detections:
+def from_ultralytics(
+    result: Any,
+    *,
+    class_map: Mapping[int, int | str] | None = None,
+    frame: int | None = None,
+    drop_unknown: bool = False,
+) -> Detections:
     """Our Detections from one ultralytics ``Results`` (duck-typed; torch tensors or arrays).
 
     Args:
@@ -181,7 +220,15 @@ def from_ultralytics(result: Any, *, class_map: Mapping[int, int | str] | None =
     cls = _numpy(getattr(boxes, "cls", None))
     cls = None if cls is None else np.rint(cls.astype(np.float64)).astype(np.int64)
     names = _names_lookup(getattr(result, "names", None))
-    return _finish(xyxy, None if conf is None else conf.reshape(-1), cls, names, class_map, frame, drop_unknown)
+    return _finish(
+        xyxy,
+        None if conf is None else conf.reshape(-1),
+        cls,
+        names,
+        class_map,
+        frame,
+        drop_unknown,
+    )
 
 
 def from_array(array: Any, *, frame: int | None = None) -> Detections:
@@ -194,7 +241,9 @@ def from_array(array: Any, *, frame: int | None = None) -> Detections:
         det = Detections.empty()
         return det if frame is None else det.with_(frame=np.full(0, frame))
     if arr.ndim != 2 or arr.shape[1] not in (4, 5, 6):
-        raise ValueError(f"an array of detections must have shape (N, 4), (N, 5) or (N, 6), got {arr.shape}")
+        raise ValueError(
+            f"an array of detections must have shape (N, 4), (N, 5) or (N, 6), got {arr.shape}"
+        )
     return Detections(
         xyxy=arr[:, :4],
         confidence=arr[:, 4] if arr.shape[1] >= 5 else None,
@@ -228,7 +277,11 @@ def as_detections(obj: Any, *, frame: int | None = None) -> Detections:
         return from_ultralytics(obj[0], frame=frame)
     if hasattr(obj, "xyxy") and (hasattr(obj, "confidence") or hasattr(obj, "class_id")):
         return from_supervision(obj, frame=frame)
-    if isinstance(obj, (np.ndarray, list, tuple)) or hasattr(obj, "__array__") or hasattr(obj, "numpy"):
+    if (
+        isinstance(obj, (np.ndarray, list, tuple))
+        or hasattr(obj, "__array__")
+        or hasattr(obj, "numpy")
+    ):
         try:
             return from_array(obj, frame=frame)
         except (TypeError, ValueError) as exc:
@@ -248,11 +301,18 @@ def to_supervision(detections: Detections) -> Any:
     try:
         import supervision as sv
     except ImportError as exc:
-        raise ImportError("to_supervision needs the 'supervision' package: pip install supervision") from exc
+        raise ImportError(
+            "to_supervision needs the 'supervision' package: pip install supervision"
+        ) from exc
     data: dict[str, np.ndarray] = {k: np.asarray(v) for k, v in detections.data.items()}
-    data.setdefault("class_name", np.array(
-        [CLASS_NAMES.get(int(c), f"class{int(c)}") for c in detections.class_id], dtype=object
-    ).astype(str) if len(detections) else np.array([], dtype=str))
+    data.setdefault(
+        "class_name",
+        np.array(
+            [CLASS_NAMES.get(int(c), f"class{int(c)}") for c in detections.class_id], dtype=object
+        ).astype(str)
+        if len(detections)
+        else np.array([], dtype=str),
+    )
     data["frame"] = detections.frame.copy()
     data["source_row"] = detections.source_row.copy()
     tracker_id = detections.tracker_id.copy() if np.any(detections.tracker_id >= 0) else None

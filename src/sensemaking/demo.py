@@ -51,7 +51,9 @@ class DemoResult:
     sentences: list[str] = field(default_factory=list)
 
 
-def run_demo(output_dir: str | Path, *, render: bool = True, echo: Callable[[str], None] = lambda s: None) -> DemoResult:
+def run_demo(
+    output_dir: str | Path, *, render: bool = True, echo: Callable[[str], None] = lambda s: None
+) -> DemoResult:
     """Track the Figure 1 scene, explain it, and write every output into ``output_dir``.
 
     Files: ``detections.txt`` (input, KITTI format), ``tracks.txt`` (KITTI results),
@@ -68,7 +70,9 @@ def run_demo(output_dir: str | Path, *, render: bool = True, echo: Callable[[str
     from sensemaking.reasoning.online import SituationMonitor
     from sensemaking.scene import SceneRecorder
 
-    recorder = SceneRecorder(fps=config.fps, image_size=size, metadata={"source": "sensemaking demo (Figure 1)"})
+    recorder = SceneRecorder(
+        fps=config.fps, image_size=size, metadata={"source": "sensemaking demo (Figure 1)"}
+    )
     monitor = SituationMonitor(fps=config.fps, image_size=size)
     files = {
         "detections": out / "detections.txt",
@@ -92,7 +96,9 @@ def run_demo(output_dir: str | Path, *, render: bool = True, echo: Callable[[str
     scene = recorder.scene()
 
     events = [e for r in results for e in r.events]
-    classes = {int(t): int(c) for r in results for t, c in zip(r.tracks.tracker_id, r.tracks.class_id)}
+    classes = {
+        int(t): int(c) for r in results for t, c in zip(r.tracks.tracker_id, r.tracks.class_id)
+    }
     sentences = [describe_event(e, classes, config.fps) for e in events]
     write_kitti(files["detections"], synthetic.detections)
     scene.save(files["scene"])
@@ -124,4 +130,6 @@ def run_demo(output_dir: str | Path, *, render: bool = True, echo: Callable[[str
     echo("Files:")
     for k, p in files.items():
         echo(f"  {k:10s} {p}")
-    return DemoResult(results=results, events=events, warnings=warnings, files=files, sentences=sentences)
+    return DemoResult(
+        results=results, events=events, warnings=warnings, files=files, sentences=sentences
+    )

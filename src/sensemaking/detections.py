@@ -12,8 +12,14 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Detections", "validate_detections", "check_frame_number", "MAX_FRAME", "MAX_COORD",
-           "IMAGE_MARGIN"]
+__all__ = [
+    "Detections",
+    "validate_detections",
+    "check_frame_number",
+    "MAX_FRAME",
+    "MAX_COORD",
+    "IMAGE_MARGIN",
+]
 
 #: Plausibility bounds, checked on every input frame (files, the Python API through
 #: :func:`validate_detections`): frame numbers lie in ``0..MAX_FRAME`` (about 3.8 days at 30 fps:
@@ -78,7 +84,9 @@ class Detections:
         for key, value in dict(self.data).items():
             arr = np.asarray(value)
             if arr.ndim == 0 or arr.shape[0] != n:
-                raise ValueError(f"Detections.data[{key!r}] must have length {n}, got shape {arr.shape}")
+                raise ValueError(
+                    f"Detections.data[{key!r}] must have length {n}, got shape {arr.shape}"
+                )
             data[key] = arr
         set_(self, "data", data)
 
@@ -89,15 +97,29 @@ class Detections:
         return cls(xyxy=np.zeros((0, 4)))
 
     @classmethod
-    def trusted(cls, xyxy: np.ndarray, confidence: np.ndarray, class_id: np.ndarray, tracker_id: np.ndarray,
-                frame: np.ndarray, source_row: np.ndarray, data: dict[str, np.ndarray]) -> Detections:
+    def trusted(
+        cls,
+        xyxy: np.ndarray,
+        confidence: np.ndarray,
+        class_id: np.ndarray,
+        tracker_id: np.ndarray,
+        frame: np.ndarray,
+        source_row: np.ndarray,
+        data: dict[str, np.ndarray],
+    ) -> Detections:
         """Without validation, for callers whose columns are valid already: ``xyxy`` (N, 4)
         float64, the others (N,) of the dtypes above, ``data`` arrays of length N (the tracker's
         output, built every frame). Equal to ``Detections(...)`` on such input."""
         obj = object.__new__(cls)
-        for name, value in (("xyxy", xyxy), ("confidence", confidence), ("class_id", class_id),
-                            ("tracker_id", tracker_id), ("frame", frame), ("source_row", source_row),
-                            ("data", data)):
+        for name, value in (
+            ("xyxy", xyxy),
+            ("confidence", confidence),
+            ("class_id", class_id),
+            ("tracker_id", tracker_id),
+            ("frame", frame),
+            ("source_row", source_row),
+            ("data", data),
+        ):
             object.__setattr__(obj, name, value)
         return obj
 
@@ -183,13 +205,16 @@ def check_frame_number(frame: Any, what: str = "frame") -> int:
     if isinstance(frame, bool) or not isinstance(frame, (int, np.integer)):
         raise InputError(f"{what} must be an integer, got {frame!r}")
     if not 0 <= int(frame) <= MAX_FRAME:
-        raise InputError(f"{what} {int(frame)} is outside 0..{MAX_FRAME} (the plausibility bound "
-                         "sensemaking.detections.MAX_FRAME)")
+        raise InputError(
+            f"{what} {int(frame)} is outside 0..{MAX_FRAME} (the plausibility bound "
+            "sensemaking.detections.MAX_FRAME)"
+        )
     return int(frame)
 
 
-def validate_detections(dets: Detections, image_size: tuple[int, int] | None = None,
-                        path: str | None = None) -> Detections:
+def validate_detections(
+    dets: Detections, image_size: tuple[int, int] | None = None, path: str | None = None
+) -> Detections:
     """Check one frame's detections before they reach a tracker; return them unchanged.
 
     Refused (:class:`~sensemaking.errors.InputError`, a ValueError): a non-finite box or
@@ -214,8 +239,10 @@ def validate_detections(dets: Detections, image_size: tuple[int, int] | None = N
             lo = np.array([-IMAGE_MARGIN * w, -IMAGE_MARGIN * h] * 2)
             hi = np.array([(1 + IMAGE_MARGIN) * w, (1 + IMAGE_MARGIN) * h] * 2)
             inside = ((xyxy >= lo) & (xyxy <= hi)).all(axis=1)
-            bound = (f"within {IMAGE_MARGIN:g} image size of the {int(w)}x{int(h)} image "
-                     f"(x in {lo[0]:g}..{hi[0]:g}, y in {lo[1]:g}..{hi[1]:g})")
+            bound = (
+                f"within {IMAGE_MARGIN:g} image size of the {int(w)}x{int(h)} image "
+                f"(x in {lo[0]:g}..{hi[0]:g}, y in {lo[1]:g}..{hi[1]:g})"
+            )
         ordered = (xyxy[:, 2] > xyxy[:, 0]) & (xyxy[:, 3] > xyxy[:, 1])
     checks = (
         (~finite_box, lambda i: f"box {_fmt_box(xyxy[i])} is not finite"),

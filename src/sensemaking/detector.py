@@ -21,7 +21,14 @@ from sensemaking.detections import Detections
 from sensemaking.errors import InputError, require
 from sensemaking.io.media import iter_video_frames  # noqa: F401  (re-exported; frames are read in io)
 
-__all__ = ["Detector", "OnnxDetector", "UltralyticsDetector", "load_detector", "iter_video_frames", "nms"]
+__all__ = [
+    "Detector",
+    "OnnxDetector",
+    "UltralyticsDetector",
+    "load_detector",
+    "iter_video_frames",
+    "nms",
+]
 
 Layout = Literal["auto", "yolov8", "yolov8_rows", "yolov5", "end2end"]
 LAYOUTS = ("auto", "yolov8", "yolov8_rows", "yolov5", "end2end")
@@ -72,8 +79,16 @@ def load_detector(
         raise InputError("no such model file (models are never downloaded; give a local file)", p)
     suffix = p.suffix.lower()
     if suffix == ".onnx":
-        return OnnxDetector(p, conf=conf, iou=iou, input_size=input_size, layout=layout, names=names,
-                            drop_unknown=drop_unknown, providers=providers)
+        return OnnxDetector(
+            p,
+            conf=conf,
+            iou=iou,
+            input_size=input_size,
+            layout=layout,
+            names=names,
+            drop_unknown=drop_unknown,
+            providers=providers,
+        )
     if suffix == ".pt":
         return UltralyticsDetector(p, conf=conf, iou=iou, names=names, drop_unknown=drop_unknown)
     raise InputError(f"unknown model type {suffix!r}: give an .onnx or an ultralytics .pt file", p)
@@ -123,7 +138,9 @@ def nms(xyxy: np.ndarray, scores: np.ndarray, classes: np.ndarray, iou: float) -
     return np.asarray(keep, dtype=np.int64)
 
 
-def _letterbox(image: np.ndarray, size: tuple[int, int]) -> tuple[np.ndarray, float, tuple[float, float]]:
+def _letterbox(
+    image: np.ndarray, size: tuple[int, int]
+) -> tuple[np.ndarray, float, tuple[float, float]]:
     """Resize keeping aspect into ``size = (h, w)``, pad with grey 114; returns (img, gain, (padx, pady))."""
     pil = require("PIL.Image", "detector")
     h0, w0 = image.shape[:2]
@@ -136,7 +153,7 @@ def _letterbox(image: np.ndarray, size: tuple[int, int]) -> tuple[np.ndarray, fl
     padx, pady = (tw - nw) / 2, (th - nh) / 2
     out = np.full((th, tw, 3), 114, dtype=np.uint8)
     top, left = int(round(pady - 0.1)), int(round(padx - 0.1))
-    out[top:top + nh, left:left + nw] = resized
+    out[top : top + nh, left : left + nw] = resized
     return out, gain, (left, top)
 
 
@@ -151,7 +168,11 @@ def _guess_layout(out: np.ndarray, nc: int | None) -> str | None:
         # YOLOv5 with one class or end-to-end: end-to-end rows are corners and integer classes
         x1, y1, x2, y2, cls = out[:, 0], out[:, 1], out[:, 2], out[:, 3], out[:, 5]
         corners = bool(np.all((x2 >= x1) & (y2 >= y1)))
-        return "end2end" if corners and np.all(cls == np.round(cls)) and np.all(cls >= 0) else "yolov5"
+        return (
+            "end2end"
+            if corners and np.all(cls == np.round(cls)) and np.all(cls >= 0)
+            else "yolov5"
+        )
     if cols == 6:
         return "end2end"  # (N, 6): x1, y1, x2, y2, score, class
     if nc is not None and cols == 5 + nc:
@@ -164,24 +185,42 @@ def _guess_layout(out: np.ndarray, nc: int | None) -> str | None:
 class OnnxDetector(Detector):
     """A YOLO-style ONNX export run with onnxruntime (CPU by default)."""
 
-    def __init__(self, path: Path, *, conf: float = 0.25, iou: float = 0.45,
-                 input_size: int | tuple[int, int] | None = None, layout: Layout = "auto",
-                 names: Mapping[int, str] | None = None, drop_unknown: bool = False,
-                 providers: list[str] | None = None):
+    def __init__(
+        self,
+        path: Path,
+        *,
+        conf: float = 0.25,
+        iou: float = 0.45,
+        input_size: int | tuple[int, int] | None = None,
+        layout: Layout = "auto",
+        names: Mapping[int, str] | None = None,
+        drop_unknown: bool = False,
+        providers: list[str] | None = None,
+    ):
         if layout not in LAYOUTS:
             raise ValueError(f"layout must be one of {', '.join(LAYOUTS)}, got {layout!r}")
         ort = require("onnxruntime", "detector")
         self.path = Path(path)
-        self.conf, self.iou, self.layout, self.drop_unknown = float(conf), float(iou), layout, drop_unknown
-        self.session = ort.InferenceSession(str(self.path), providers=providers or ["CPUExecutionProvider"])
+        self.conf, self.iou, self.layout, self.drop_unknown = (
+            float(conf),
+            float(iou),
+            layout,
+            drop_unknown,
+        )
+        self.session = ort.InferenceSession(
+            str(self.path), providers=providers or ["CPUExecutionProvider"]
+        )
         inp = self.session.get_inputs()[0]
         self.input_name = inp.name
         shape = list(inp.shape)
         if input_size is None:
             fixed = [d if isinstance(d, int) and d > 0 else None for d in shape[2:4]]
             input_size = (fixed[0] or 640, fixed[1] or 640) if len(fixed) == 2 else (640, 640)
-        self.input_size = (int(input_size), int(input_size)) if isinstance(input_size, int) else (
-            int(input_size[0]), int(input_size[1]))
+        self.input_size = (
+            (int(input_size), int(input_size))
+            if isinstance(input_size, int)
+            else (int(input_size[0]), int(input_size[1]))
+        )
         meta = self.session.get_modelmeta().custom_metadata_map or {}
         self.names = dict(names) if names is not None else _names_from_metadata(meta)
         self._class_ids = {k: map_class_name(v) for k, v in self.names.items()}
@@ -198,8 +237,11 @@ class OnnxDetector(Detector):
         if layout == "auto":
             layout = _guess_layout(out, nc)
             if layout is None:
-                raise InputError(f"cannot tell the layout of the ONNX output {out.shape} with "
-                                 f"{nc or 'unknown'} classes: pass layout=", self.path)
+                raise InputError(
+                    f"cannot tell the layout of the ONNX output {out.shape} with "
+                    f"{nc or 'unknown'} classes: pass layout=",
+                    self.path,
+                )
         if layout == "end2end":
             return out[:, :4], out[:, 4], np.rint(out[:, 5]).astype(np.int64), True
         if layout == "yolov8":
@@ -208,7 +250,11 @@ class OnnxDetector(Detector):
             cls_scores = out[:, 5:] * out[:, 4:5]
         else:
             cls_scores = out[:, 4:]
-        cls = np.argmax(cls_scores, axis=1) if cls_scores.shape[1] else np.zeros(len(out), dtype=np.int64)
+        cls = (
+            np.argmax(cls_scores, axis=1)
+            if cls_scores.shape[1]
+            else np.zeros(len(out), dtype=np.int64)
+        )
         scores = cls_scores[np.arange(len(out)), cls] if cls_scores.shape[1] else np.ones(len(out))
         cx, cy, w, h = out[:, 0], out[:, 1], out[:, 2], out[:, 3]
         xyxy = np.stack([cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2], axis=1)
@@ -226,7 +272,11 @@ class OnnxDetector(Detector):
         out = self.session.run(None, {self.input_name: blob})[0]
         xyxy, scores, cls, suppressed = self._decode(out)
         keep = scores >= self.conf
-        xyxy, scores, cls = xyxy[keep].astype(np.float64), scores[keep].astype(np.float64), cls[keep]
+        xyxy, scores, cls = (
+            xyxy[keep].astype(np.float64),
+            scores[keep].astype(np.float64),
+            cls[keep],
+        )
         if not suppressed and len(scores):
             idx = nms(xyxy, scores, cls, self.iou)
             xyxy, scores, cls = xyxy[idx], scores[idx], cls[idx]
@@ -240,7 +290,9 @@ class OnnxDetector(Detector):
         data = {"source_class_id": cls.astype(np.int64)}
         if self.names:
             data["class_name"] = np.array([self.names.get(int(c), "") for c in cls], dtype=object)
-        det = Detections(xyxy=xyxy.reshape(-1, 4), confidence=scores, class_id=ours, frame=int(frame), data=data)
+        det = Detections(
+            xyxy=xyxy.reshape(-1, 4), confidence=scores, class_id=ours, frame=int(frame), data=data
+        )
         if self.drop_unknown and len(det):
             det = det[det.class_id != 0]
         return det
@@ -250,14 +302,25 @@ class OnnxDetector(Detector):
 class UltralyticsDetector(Detector):
     """An ultralytics ``.pt`` model (YOLOv5u/v8/v11...) loaded from a local file."""
 
-    def __init__(self, path: Path, *, conf: float = 0.25, iou: float = 0.45,
-                 names: Mapping[int, str] | None = None, drop_unknown: bool = False):
+    def __init__(
+        self,
+        path: Path,
+        *,
+        conf: float = 0.25,
+        iou: float = 0.45,
+        names: Mapping[int, str] | None = None,
+        drop_unknown: bool = False,
+    ):
         ultralytics = require("ultralytics", "ultralytics")
         self.path = Path(path).resolve()
         self.conf, self.iou, self.drop_unknown = float(conf), float(iou), drop_unknown
         # an absolute path of an existing file: ultralytics loads it and downloads nothing
         self.model = ultralytics.YOLO(str(self.path))
-        self.names = dict(names) if names is not None else {int(k): str(v) for k, v in dict(self.model.names).items()}
+        self.names = (
+            dict(names)
+            if names is not None
+            else {int(k): str(v) for k, v in dict(self.model.names).items()}
+        )
 
     def __call__(self, image: np.ndarray, frame: int = 0) -> Detections:
         """Detections of one ``H x W x 3`` uint8 RGB image."""
@@ -265,8 +328,9 @@ class UltralyticsDetector(Detector):
         if image.ndim != 3 or image.shape[2] != 3:
             raise ValueError(f"expected an H x W x 3 RGB image, got shape {image.shape}")
         # ultralytics reads numpy images as BGR (OpenCV order)
-        results = self.model.predict(np.ascontiguousarray(image[..., ::-1]), conf=self.conf, iou=self.iou,
-                                     verbose=False)
+        results = self.model.predict(
+            np.ascontiguousarray(image[..., ::-1]), conf=self.conf, iou=self.iou, verbose=False
+        )
         result = results[0]
         if self.names and getattr(result, "names", None) != self.names:
             try:

@@ -12,7 +12,9 @@ class SensemakingError(Exception):
 class InputError(SensemakingError, ValueError):
     """Bad input data: names the file, the 1-based line (when known) and the problem."""
 
-    def __init__(self, problem: str, path: str | PathLike[str] | None = None, line: int | None = None):
+    def __init__(
+        self, problem: str, path: str | PathLike[str] | None = None, line: int | None = None
+    ):
         self.problem = problem
         self.path = None if path is None else str(path)
         self.line = line

@@ -66,8 +66,10 @@ class Event:
     def sort_key(self) -> tuple[int, str, tuple[tuple[int, int, str], ...]]:
         """Order of events: by frame, name, then arguments, track ids before constants (the
         dataclass order compares an id with a constant, which raises)."""
-        return self.frame, self.name, tuple(
-            (1, 0, a) if isinstance(a, str) else (0, int(a), "") for a in self.args
+        return (
+            self.frame,
+            self.name,
+            tuple((1, 0, a) if isinstance(a, str) else (0, int(a), "") for a in self.args),
         )
 
     @classmethod

@@ -125,8 +125,13 @@ class FluentInterval:
         return f"holds_during({self.fluent}({','.join(map(str, self.args))}),{self.value},{self.start},{self.end})."
 
     def to_json(self) -> dict[str, Any]:
-        return {"fluent": self.fluent, "args": list(self.args), "value": self.value,
-                "start": self.start, "end": self.end}
+        return {
+            "fluent": self.fluent,
+            "args": list(self.args),
+            "value": self.value,
+            "start": self.start,
+            "end": self.end,
+        }
 
 
 def _runs(pos: np.ndarray, key: np.ndarray) -> list[tuple[int, int]]:
@@ -150,9 +155,15 @@ class Scene:
         metadata: free-form JSON-able information (source, tracker parameters).
     """
 
-    def __init__(self, tracks: Mapping[int, Track], events: Sequence[Event], frames: Sequence[int] | np.ndarray,
-                 fps: float = 10.0, image_size: tuple[int, int] | None = None,
-                 metadata: Mapping[str, Any] | None = None):
+    def __init__(
+        self,
+        tracks: Mapping[int, Track],
+        events: Sequence[Event],
+        frames: Sequence[int] | np.ndarray,
+        fps: float = 10.0,
+        image_size: tuple[int, int] | None = None,
+        metadata: Mapping[str, Any] | None = None,
+    ):
         if fps <= 0:
             raise ValueError(f"fps must be positive, got {fps}")
         self.tracks: dict[int, Track] = dict(sorted(tracks.items()))
@@ -211,17 +222,34 @@ class Scene:
             for a, b in _runs(pos[hid], t.occluder[hid]):
                 occ = int(t.occluder[hid[a]])
                 if occ >= 0:
-                    out.append(FluentInterval(int(fr[hid[a]]), int(fr[hid[b]]), "hidden_by", (t.id, occ), "true"))
+                    out.append(
+                        FluentInterval(
+                            int(fr[hid[a]]), int(fr[hid[b]]), "hidden_by", (t.id, occ), "true"
+                        )
+                    )
             for a, b in _runs(pos, t.visibility.astype(np.int64)):
-                out.append(FluentInterval(int(fr[a]), int(fr[b]), "visibility", (t.id,),
-                                          _VISIBILITY[int(t.visibility[a])]))
+                out.append(
+                    FluentInterval(
+                        int(fr[a]),
+                        int(fr[b]),
+                        "visibility",
+                        (t.id,),
+                        _VISIBILITY[int(t.visibility[a])],
+                    )
+                )
         out.sort()
         return out
 
-    def fluent_intervals(self, fluent: str | None = None, track_id: int | None = None) -> list[FluentInterval]:
+    def fluent_intervals(
+        self, fluent: str | None = None, track_id: int | None = None
+    ) -> list[FluentInterval]:
         """Fluent intervals of one kind and/or with ``track_id`` as first argument."""
-        return [f for f in self.fluents if (fluent is None or f.fluent == fluent)
-                and (track_id is None or f.args[0] == track_id)]
+        return [
+            f
+            for f in self.fluents
+            if (fluent is None or f.fluent == fluent)
+            and (track_id is None or f.args[0] == track_id)
+        ]
 
     # -- replay ---------------------------------------------------------------------------------
     def frame_results(self) -> Iterator[FrameResult]:
@@ -236,11 +264,17 @@ class Scene:
             lo, hi = np.searchsorted(frames_sorted, [f, f + 1])
             idx = order[lo:hi]
             tracks = Detections(
-                xyxy=rows["xyxy"][idx], confidence=rows["confidence"][idx], class_id=rows["class_id"][idx],
-                tracker_id=rows["track"][idx], frame=rows["frame"][idx],
-                data={"state": rows["state"][idx].astype(np.int64), "occluder": rows["occluder"][idx],
-                      "visibility": rows["visibility"][idx].astype(np.int64),
-                      "hidden_frames": rows["hidden_frames"][idx]},
+                xyxy=rows["xyxy"][idx],
+                confidence=rows["confidence"][idx],
+                class_id=rows["class_id"][idx],
+                tracker_id=rows["track"][idx],
+                frame=rows["frame"][idx],
+                data={
+                    "state": rows["state"][idx].astype(np.int64),
+                    "occluder": rows["occluder"][idx],
+                    "visibility": rows["visibility"][idx].astype(np.int64),
+                    "hidden_frames": rows["hidden_frames"][idx],
+                },
             )
             yield FrameResult(frame=int(f), tracks=tracks, events=sorted(by_frame.get(f, [])))
 
@@ -248,8 +282,17 @@ class Scene:
         ts = list(self.tracks.values())
         if not ts:
             z = np.zeros(0, dtype=np.int64)
-            return {"frame": z, "track": z, "class_id": z, "xyxy": np.zeros((0, 4)), "confidence": np.zeros(0),
-                    "state": z, "occluder": z, "visibility": z, "hidden_frames": z}
+            return {
+                "frame": z,
+                "track": z,
+                "class_id": z,
+                "xyxy": np.zeros((0, 4)),
+                "confidence": np.zeros(0),
+                "state": z,
+                "occluder": z,
+                "visibility": z,
+                "hidden_frames": z,
+            }
         return {
             "frame": np.concatenate([t.frames for t in ts]),
             "track": np.concatenate([np.full(len(t), t.id, dtype=np.int64) for t in ts]),
@@ -263,10 +306,18 @@ class Scene:
         }
 
     # -- ASP facts ------------------------------------------------------------------------------
-    def to_facts(self, *, boxes: bool = True, states: bool = True, relations: bool = True, motion: bool = True,
-                 corridor: bool = True, context: SceneContext | None = None,
-                 relation_config: RelationConfig | None = None,
-                 motion_thresholds: MotionThresholds | None = None) -> str:
+    def to_facts(
+        self,
+        *,
+        boxes: bool = True,
+        states: bool = True,
+        relations: bool = True,
+        motion: bool = True,
+        corridor: bool = True,
+        context: SceneContext | None = None,
+        relation_config: RelationConfig | None = None,
+        motion_thresholds: MotionThresholds | None = None,
+    ) -> str:
         """The scene as ASP facts, one a line (predicates documented in
         ``reasoning/encodings/scene.lp``): the text of
         :func:`sensemaking.reasoning.facts.scene_facts`, which builds them as clingo symbols.
@@ -283,9 +334,17 @@ class Scene:
         """
         from sensemaking.reasoning.facts import facts_text, scene_facts
 
-        facts = scene_facts(self, boxes=boxes, states=states, relations=relations, motion=motion,
-                            corridor=corridor, context=context, relation_config=relation_config,
-                            motion_thresholds=motion_thresholds)
+        facts = scene_facts(
+            self,
+            boxes=boxes,
+            states=states,
+            relations=relations,
+            motion=motion,
+            corridor=corridor,
+            context=context,
+            relation_config=relation_config,
+            motion_thresholds=motion_thresholds,
+        )
         return facts_text(facts)
 
     # -- JSON -----------------------------------------------------------------------------------
@@ -293,7 +352,9 @@ class Scene:
         """The scene as a JSON-able dict (format in the module docstring)."""
         fr = self.frame_numbers
         record: dict[str, Any] = {
-            "format": SCENE_FORMAT, "version": SCENE_VERSION, "fps": self.fps,
+            "format": SCENE_FORMAT,
+            "version": SCENE_VERSION,
+            "fps": self.fps,
             "image_size": None if self.image_size is None else list(self.image_size),
             "frames": [int(fr[0]), int(fr[-1])] if fr.size else [],
         }
@@ -317,15 +378,24 @@ class Scene:
         """
         where = None if path is None else str(path)
         if not isinstance(record, Mapping) or record.get("format") != SCENE_FORMAT:
-            raise InputError(f"not a scene file (expected \"format\": \"{SCENE_FORMAT}\"; "
-                             "write one with `sensemaking track --scene PATH`)", where)
+            raise InputError(
+                f'not a scene file (expected "format": "{SCENE_FORMAT}"; '
+                "write one with `sensemaking track --scene PATH`)",
+                where,
+            )
         version = record.get("version", SCENE_VERSION)  # files before versioning: 1
         if _is_int(version) and version > SCENE_VERSION:
-            raise InputError(f"scene format version {version} is newer than this sensemaking reads "
-                             f"({SCENE_VERSION})", where)
+            raise InputError(
+                f"scene format version {version} is newer than this sensemaking reads "
+                f"({SCENE_VERSION})",
+                where,
+            )
         if not _is_int(version) or version < 1:
-            raise InputError(f"scene format version {version!r}: this sensemaking reads version "
-                             f"{SCENE_VERSION}", where)
+            raise InputError(
+                f"scene format version {version!r}: this sensemaking reads version "
+                f"{SCENE_VERSION}",
+                where,
+            )
         try:
             return cls._from_checked_json(record, where)
         except InputError:
@@ -348,15 +418,19 @@ class Scene:
         ):
             raise bad(f"fps must be a number in (0, 1000], got {fps!r}")
         size = record.get("image_size")
-        if size is not None and not (isinstance(size, list) and len(size) == 2
-                                     and all(_is_int(v) and 1 <= v <= 100_000 for v in size)):
+        if size is not None and not (
+            isinstance(size, list)
+            and len(size) == 2
+            and all(_is_int(v) and 1 <= v <= 100_000 for v in size)
+        ):
             raise bad(f"image_size must be null or [width, height] in pixels, got {size!r}")
         raw_tracks = record.get("tracks", [])
         raw_events = record.get("events", [])
         if not isinstance(raw_tracks, list) or not isinstance(raw_events, list):
             raise bad("'tracks' and 'events' must be lists")
-        content = len(raw_events) + sum(len(r.get("frames", ())) if isinstance(r, Mapping) else 1
-                                        for r in raw_tracks)
+        content = len(raw_events) + sum(
+            len(r.get("frames", ())) if isinstance(r, Mapping) else 1 for r in raw_tracks
+        )
         span_limit = min(MAX_FRAME, max(100_000, 100 * content))
         frames_given = None
         if "frame_numbers" in record:
@@ -390,8 +464,10 @@ class Scene:
             if t.id in tracks:
                 raise bad(f"tracks[{i}]: id {t.id} appears twice")
             if frames.size and (t.first < frames[0] or t.last > frames[-1]):
-                raise bad(f"tracks[{i}]: frames {t.first}..{t.last} outside the scene's frames "
-                          f"{int(frames[0])}..{int(frames[-1])}")
+                raise bad(
+                    f"tracks[{i}]: frames {t.first}..{t.last} outside the scene's frames "
+                    f"{int(frames[0])}..{int(frames[-1])}"
+                )
             if frames_given is not None and not np.isin(t.frames, frames_given).all():
                 raise bad(f"tracks[{i}]: a frame not in 'frame_numbers'")
             tracks[t.id] = t
@@ -453,9 +529,14 @@ class Scene:
 def track_json(t: Track) -> dict[str, Any]:
     """One entry of the scene JSON's ``"tracks"`` list (boxes rounded to 0.01 px, scores to 1e-4)."""
     return {
-        "id": t.id, "class": t.class_name, "class_id": t.class_id, "frames": t.frames.tolist(),
-        "boxes": np.round(t.xyxy, 2).tolist(), "confidence": np.round(t.confidence, 4).tolist(),
-        "state": [_STATES[s] for s in t.state.tolist()], "occluder": t.occluder.tolist(),
+        "id": t.id,
+        "class": t.class_name,
+        "class_id": t.class_id,
+        "frames": t.frames.tolist(),
+        "boxes": np.round(t.xyxy, 2).tolist(),
+        "confidence": np.round(t.confidence, 4).tolist(),
+        "state": [_STATES[s] for s in t.state.tolist()],
+        "occluder": t.occluder.tolist(),
         "visibility": [_VISIBILITY[v] for v in t.visibility.tolist()],
         "hidden_frames": t.hidden_frames.tolist(),
     }
@@ -508,7 +589,9 @@ def _track_from_json(r: Mapping[str, Any], i: int, where: str | None) -> Track:
         if integer and (arr.dtype.kind not in "iu" or (arr.size and np.abs(arr).max() > 2**53)):
             raise InputError(f"tracks[{i}]: '{name}' must be a list of integers", where)
         if arr.shape[0] != k:
-            raise InputError(f"tracks[{i}]: '{name}' has {arr.shape[0]} entries for {k} frames", where)
+            raise InputError(
+                f"tracks[{i}]: '{name}' has {arr.shape[0]} entries for {k} frames", where
+            )
         return arr
 
     if xyxy.shape[0] != k:
@@ -518,20 +601,26 @@ def _track_from_json(r: Mapping[str, Any], i: int, where: str | None) -> Track:
         def conv(x: Any) -> int:
             if isinstance(x, str):
                 if x not in names:
-                    raise InputError(f"tracks[{i}]: unknown {what} {x!r} (one of {', '.join(names)})", where)
+                    raise InputError(
+                        f"tracks[{i}]: unknown {what} {x!r} (one of {', '.join(names)})", where
+                    )
                 return names.index(x)
             if not _is_int(x) or not 0 <= x < len(names):
                 raise InputError(
                     f"tracks[{i}]: {what} {x!r} is not one of {', '.join(names)}", where
                 )
             return int(x)
+
         return conv
 
     if "class_id" in r and (not _is_int(r["class_id"]) or r["class_id"] < 0):
         raise InputError(f"tracks[{i}]: 'class_id' must be a non-negative integer", where)
     cid = int(r.get("class_id", 0)) if "class_id" in r else _class_from_name(r.get("class"))
     return Track(
-        id=int(r["id"]), class_id=cid, frames=frames, xyxy=xyxy,
+        id=int(r["id"]),
+        class_id=cid,
+        frames=frames,
+        xyxy=xyxy,
         confidence=col("confidence", 1.0).astype(np.float64),
         state=col("state", 0, enum(_STATES, "state")).astype(np.int8),
         occluder=col("occluder", -1, integer=True).astype(np.int64),
@@ -563,13 +652,22 @@ class SceneRecorder:
 
     #: buffered columns: name -> (dtype, shape of one row, value when the result lacks the column)
     _COLUMNS: dict[str, tuple[type, tuple[int, ...], int]] = {
-        "tracker_id": (np.int64, (), 0), "class_id": (np.int64, (), 0), "xyxy": (np.float64, (4,), 0),
-        "confidence": (np.float64, (), 0), "state": (np.int8, (), 0), "occluder": (np.int64, (), -1),
-        "visibility": (np.int8, (), 0), "hidden_frames": (np.int64, (), 0),
+        "tracker_id": (np.int64, (), 0),
+        "class_id": (np.int64, (), 0),
+        "xyxy": (np.float64, (4,), 0),
+        "confidence": (np.float64, (), 0),
+        "state": (np.int8, (), 0),
+        "occluder": (np.int64, (), -1),
+        "visibility": (np.int8, (), 0),
+        "hidden_frames": (np.int64, (), 0),
     }
 
-    def __init__(self, fps: float = 10.0, image_size: tuple[int, int] | None = None,
-                 metadata: Mapping[str, Any] | None = None):
+    def __init__(
+        self,
+        fps: float = 10.0,
+        image_size: tuple[int, int] | None = None,
+        metadata: Mapping[str, Any] | None = None,
+    ):
         if fps <= 0:
             raise ValueError(f"fps must be positive, got {fps}")
         self.fps = float(fps)
@@ -583,8 +681,9 @@ class SceneRecorder:
         self._row_frames: list[int] = []  # the frames with rows ...
         self._row_counts: list[int] = []  # ... and how many
         self._rows = 0
-        self._cols: dict[str, np.ndarray] = {k: np.empty((0,) + shape, dtype)
-                                             for k, (dtype, shape, _) in self._COLUMNS.items()}
+        self._cols: dict[str, np.ndarray] = {
+            k: np.empty((0,) + shape, dtype) for k, (dtype, shape, _) in self._COLUMNS.items()
+        }
         self._events: list[Event] = []
 
     def __len__(self) -> int:
@@ -624,7 +723,7 @@ class SceneRecorder:
         tracks: dict[int, Track] = {}
         if self._rows:
             frame = np.repeat(np.asarray(self._row_frames, dtype=np.int64), self._row_counts)
-            col = {k: c[:self._rows] for k, c in self._cols.items()}
+            col = {k: c[: self._rows] for k, c in self._cols.items()}
             tid = col["tracker_id"]
             order = np.lexsort((frame, tid))
             tids = tid[order]
@@ -633,9 +732,21 @@ class SceneRecorder:
                 t = int(tid[chunk[0]])
                 classes, counts = np.unique(col["class_id"][chunk], return_counts=True)
                 tracks[t] = Track(
-                    id=t, class_id=int(classes[np.argmax(counts)]), frames=frame[chunk], xyxy=col["xyxy"][chunk],
-                    confidence=col["confidence"][chunk], state=col["state"][chunk], occluder=col["occluder"][chunk],
-                    visibility=col["visibility"][chunk], hidden_frames=col["hidden_frames"][chunk],
+                    id=t,
+                    class_id=int(classes[np.argmax(counts)]),
+                    frames=frame[chunk],
+                    xyxy=col["xyxy"][chunk],
+                    confidence=col["confidence"][chunk],
+                    state=col["state"][chunk],
+                    occluder=col["occluder"][chunk],
+                    visibility=col["visibility"][chunk],
+                    hidden_frames=col["hidden_frames"][chunk],
                 )
-        return Scene(tracks, self._events, self._frames, fps=self.fps, image_size=self.image_size,
-                     metadata=self.metadata)
+        return Scene(
+            tracks,
+            self._events,
+            self._frames,
+            fps=self.fps,
+            image_size=self.image_size,
+            metadata=self.metadata,
+        )

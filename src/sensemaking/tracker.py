@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import logging
 import time
-from functools import lru_cache
-from dataclasses import asdict, dataclass, field, replace
 from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field, replace
+from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -42,11 +42,17 @@ class AbductionCosts:
     """
 
     enters: int = 100  #: enters_fov at the border. Higher: fewer new tracks at the border.
-    appears: int = 400  #: a track starting away from the border. Higher: fewer false tracks, later starts.
+    appears: int = (
+        400  #: a track starting away from the border. Higher: fewer false tracks, later starts.
+    )
     leaves: int = 100  #: leaves_fov at the border. Higher: tracks linger at the border as missing.
-    lost: int = 600  #: a track ending without explanation. Higher: tracks are kept as missing longer.
+    lost: int = (
+        600  #: a track ending without explanation. Higher: tracks are kept as missing longer.
+    )
     dropped: int = 0  #: a tentative (unconfirmed) track ending: a hypothesis dropped. Higher: young tracks fight for detections.
-    hides: int = 50  #: hides_behind. Higher: fewer occlusion explanations, more missing detections.
+    hides: int = (
+        50  #: hides_behind. Higher: fewer occlusion explanations, more missing detections.
+    )
     missing: int = 250  #: missing_detections. Higher: tracks end instead of waiting.
     unseen: int = 20  #: per frame a track stays missing. Higher: missing tracks end sooner.
     ignore: int = 600  #: ignoring a detection, times its confidence. Higher: more tracks from weak detections.
@@ -203,24 +209,33 @@ class TrackerConfig:
 _HIDDEN = int(TrackState.HIDDEN)  # as a plain int: numpy compares it faster than the enum
 
 
-
 class Tracker:
     """Online multi-object tracker with abductive explanations.
 
     ``update(detections)`` once per frame, in order; ``reset()`` before a new sequence.
     """
 
-    def __init__(self, config: TrackerConfig | None = None, *, encoding: str | Path | None = None,
-                 rules: str | Path | Sequence[str | Path] = (), **overrides: Any):
+    def __init__(
+        self,
+        config: TrackerConfig | None = None,
+        *,
+        encoding: str | Path | None = None,
+        rules: str | Path | Sequence[str | Path] = (),
+        **overrides: Any,
+    ):
         """Args:
-            config: the parameters (default :class:`TrackerConfig`); ``overrides`` change some.
-            encoding: an encoding (a ``.lp`` path or its text) that replaces the packaged
-                ``tracking.lp``; it reads the same facts and shows the same atoms.
-            rules: more rules (``.lp`` paths or text) added to the encoding, e.g. your own
-                events: ``occurs(stops(T)) :- track(T), speed(T,S), S < 5.`` is reported as an
-                event ``stops`` on every frame where it holds (see ``tracking.lp``'s facts).
+        config: the parameters (default :class:`TrackerConfig`); ``overrides`` change some.
+        encoding: an encoding (a ``.lp`` path or its text) that replaces the packaged
+            ``tracking.lp``; it reads the same facts and shows the same atoms.
+        rules: more rules (``.lp`` paths or text) added to the encoding, e.g. your own
+            events: ``occurs(stops(T)) :- track(T), speed(T,S), S < 5.`` is reported as an
+            event ``stops`` on every frame where it holds (see ``tracking.lp``'s facts).
         """
-        self.config = replace(config or TrackerConfig(), **overrides) if overrides else (config or TrackerConfig())
+        self.config = (
+            replace(config or TrackerConfig(), **overrides)
+            if overrides
+            else (config or TrackerConfig())
+        )
         c = self.config
         extra = [rules] if isinstance(rules, (str, Path)) else list(rules)
         solver = AbductionSolver(
@@ -238,7 +253,9 @@ class Tracker:
                 **{f"cost_{name}": value for name, value in asdict(c.costs).items()},
             },
             encoding=None if encoding is None else read_encoding(encoding),
-            rules=[read_encoding(r) for r in extra], max_conflicts=c.max_conflicts)
+            rules=[read_encoding(r) for r in extra],
+            max_conflicts=c.max_conflicts,
+        )
         packaged = encoding is None and not extra
         decompose = packaged if c.decompose is None else c.decompose
         grid = self._quantize(np.linspace(0.0, 1.0, c.likelihood_levels + 1)).tolist()
@@ -300,15 +317,22 @@ class Tracker:
         solve_ms = (time.perf_counter() - t0) * 1000.0
         self.stats["solve_ms"] += solve_ms
         events, matched = self._apply(answer, dets, frame)
-        return FrameResult(frame=frame, tracks=self._output(dets, matched, frame), events=events,
-                           solve_ms=solve_ms, timed_out=timed_out)
+        return FrameResult(
+            frame=frame,
+            tracks=self._output(dets, matched, frame),
+            events=events,
+            solve_ms=solve_ms,
+            timed_out=timed_out,
+        )
 
     # -- association --------------------------------------------------------------------------
     def _likelihood(self, pred: np.ndarray, dets: Detections) -> np.ndarray:
         """(T, D) IoU of (widened, for unseen tracks) predictions and detections, 0 where gated."""
         return self._gate(pred, dets)[0]
 
-    def _uncertain(self, pred: np.ndarray) -> tuple[np.ndarray, list[tuple[np.ndarray, np.ndarray]]]:
+    def _uncertain(
+        self, pred: np.ndarray
+    ) -> tuple[np.ndarray, list[tuple[np.ndarray, np.ndarray]]]:
         """(T,) mask of the tracks whose motion is uncertain -- unseen (more with time) or seen
         once (velocity unknown), gated at the lower ``iou_resume`` -- and the extra boxes whose
         fit counts for them, as ``(rows, boxes)`` parts: their widened predictions and, for
@@ -330,9 +354,14 @@ class Tracker:
                 parts += [(young, rest), (young, _widen(rest, grow[young]))]
         return unseen, parts
 
-    def _gate(self, pred: np.ndarray, dets: Detections, plain: np.ndarray | None = None,
-              uncertain: tuple[np.ndarray, list] | None = None,
-              extra: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def _gate(
+        self,
+        pred: np.ndarray,
+        dets: Detections,
+        plain: np.ndarray | None = None,
+        uncertain: tuple[np.ndarray, list] | None = None,
+        extra: np.ndarray | None = None,
+    ) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`_likelihood` and its values on the solver's grid (``_quantize``). A caller that
         has them already passes ``plain`` = ``iou(pred, dets.xyxy)``, ``uncertain`` =
         ``self._uncertain(pred)`` and ``extra`` = the iou of its parts' boxes (stacked) with the
@@ -348,7 +377,7 @@ class Tracker:
                 extra = iou(np.concatenate([b for _, b in parts]), dets.xyxy)
             start = 0
             for rows, boxes in parts:  # max is exact and order-free: as one max per part
-                lik[rows] = np.maximum(lik[rows], extra[start:start + len(boxes)])
+                lik[rows] = np.maximum(lik[rows], extra[start : start + len(boxes)])
                 start += len(boxes)
         ok = dets.confidence[None, :] >= c.min_confidence
         if c.class_aware:
@@ -370,7 +399,9 @@ class Tracker:
             conf = 1.0 / (1.0 + np.exp(-conf))
         return self._quantize(conf)
 
-    def _borders(self, boxes: np.ndarray, area: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def _borders(
+        self, boxes: np.ndarray, area: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """(at the border, mostly outside) for (N, 4) boxes; all False without an image size.
         ``area``: ``geometry.box_area(boxes)`` if the caller has it already."""
         n = len(boxes)
@@ -381,7 +412,9 @@ class Tracker:
         near = (boxes[:, :2] <= m) | (boxes[:, 2:] >= far)  # (N, 2): x side, y side
         at = near[:, 0] | near[:, 1]
         area = box_area(boxes) if area is None else area
-        inside = safe_ratio(intersection(boxes, image)[:, 0], area)  # geometry.coverage(boxes, image)
+        inside = safe_ratio(
+            intersection(boxes, image)[:, 0], area
+        )  # geometry.coverage(boxes, image)
         return at, inside < 0.05  # (almost) nothing left in view; detections may stick out far
 
     def _problem(self, pred: np.ndarray, dets: Detections) -> FrameProblem:
@@ -427,7 +460,9 @@ class Tracker:
             covers = _int_columns(dj, back)
             covers_exact = dcov[back, dj]
             if (self._tracks.occluder >= 0).any():
-                back, dj = np.nonzero((dcov >= c.keep_cover) & (self._tracks.occluder >= 0)[:, None])
+                back, dj = np.nonzero(
+                    (dcov >= c.keep_cover) & (self._tracks.occluder >= 0)[:, None]
+                )
                 keeps = _int_columns(dj, back)
         det_overlapped = np.zeros(nd, dtype=bool)
         if nd > 1:
@@ -440,15 +475,29 @@ class Tracker:
         det_conf_fact = np.where(start_ok, np.maximum(det_conf, 1), 0)
         active = self._tracks.unseen == 0
         return FrameProblem(
-            track_id=self._tracks.id, active=active, tentative=~self._tracks.confirmed, expired=expired,
-            outside=outside, at_border=at_border, overlapped=overlapped, track_class=self._tracks.cls,
+            track_id=self._tracks.id,
+            active=active,
+            tentative=~self._tracks.confirmed,
+            expired=expired,
+            outside=outside,
+            at_border=at_border,
+            overlapped=overlapped,
+            track_class=self._tracks.cls,
             uncertain=(self._tracks.hits <= 1) & active,
-            det_conf=det_conf_fact, det_class=dets.class_id, det_border=det_border & start_ok,
-            det_overlapped=det_overlapped, cand=cand, covers=covers, keeps_covering=keeps,
+            det_conf=det_conf_fact,
+            det_class=dets.class_id,
+            det_border=det_border & start_ok,
+            det_overlapped=det_overlapped,
+            cand=cand,
+            covers=covers,
+            keeps_covering=keeps,
             hidden_by=_int_columns(self._tracks.id[hid], self._tracks.occluder[hid]),
             emerges=emerges,
-            visibility=self._tracks.vis, first_frame=self._frames_seen == 1, cand_exact=cand_exact,
-            covers_exact=covers_exact, speed=self._speed() if "speed" in self._solver.solver.uses else None,
+            visibility=self._tracks.vis,
+            first_frame=self._frames_seen == 1,
+            cand_exact=cand_exact,
+            covers_exact=covers_exact,
+            speed=self._speed() if "speed" in self._solver.solver.uses else None,
         )
 
     def _speed(self) -> np.ndarray:
@@ -465,13 +514,19 @@ class Tracker:
         limit = np.where(self._tracks.state == _HIDDEN, c.max_hidden_frames, c.max_missing_frames)
         return unseen & (self._tracks.unseen + 1 > limit)
 
-    def _emerges(self, pred: np.ndarray, dets: Detections, hid: np.ndarray, lik: np.ndarray) -> np.ndarray:
+    def _emerges(
+        self, pred: np.ndarray, dets: Detections, hid: np.ndarray, lik: np.ndarray
+    ) -> np.ndarray:
         """(E, 2) ``detection, track`` rows: candidate detections of hidden tracks that touch the
         occluder's predicted box, widened by ``emerge_margin`` of its size on every side."""
         if not (hid.size and len(dets)):
             return np.zeros((0, 2), dtype=np.int64)
         pos = {int(t): i for i, t in enumerate(self._tracks.id.tolist())}
-        pairs = [(i, pos[o]) for i, o in zip(hid.tolist(), self._tracks.occluder[hid].tolist()) if o in pos]
+        pairs = [
+            (i, pos[o])
+            for i, o in zip(hid.tolist(), self._tracks.occluder[hid].tolist())
+            if o in pos
+        ]
         if not pairs:
             return np.zeros((0, 2), dtype=np.int64)
         tracks, occ = np.array(pairs, dtype=np.int64).T
@@ -537,7 +592,9 @@ class Tracker:
         return ans
 
     # -- applying the answer ----------------------------------------------------------------------
-    def _apply(self, ans: Answer, dets: Detections, frame: int) -> tuple[list[Event], dict[int, int]]:
+    def _apply(
+        self, ans: Answer, dets: Detections, frame: int
+    ) -> tuple[list[Event], dict[int, int]]:
         """Update the tracks by the answer; return this frame's events and ``track id -> detection row``
         of every track observed this frame (matched or new)."""
         c = self.config
@@ -549,14 +606,18 @@ class Tracker:
         if matched:
             rows = np.array([index[t] for t in matched], dtype=np.int64)
             cols = np.array(list(matched.values()), dtype=np.int64)
-            self._tracks.kf._update_trusted(rows, dets.xyxy[cols])  # distinct rows in range, gated boxes
+            self._tracks.kf._update_trusted(
+                rows, dets.xyxy[cols]
+            )  # distinct rows in range, gated boxes
             self._tracks.unseen[rows] = 0
             self._tracks.state[rows] = TrackState.VISIBLE
             self._tracks.hits[rows] += 1
             self._tracks.conf[rows] = dets.confidence[cols]
         observed = dict(matched)
         # new tracks (first, so that fluents and events can name them)
-        new_vis = {a[0].row: v for n, a, v in ans.fluents if n == "visibility" and isinstance(a[0], Det)}
+        new_vis = {
+            a[0].row: v for n, a, v in ans.fluents if n == "visibility" and isinstance(a[0], Det)
+        }
         new_ids: dict[Det, int] = {}
         if ans.start:
             cols = np.array(sorted(ans.start), dtype=np.int64)  # new ids in detection order
@@ -565,8 +626,14 @@ class Tracker:
             new_ids = {Det(k): int(t) for k, t in zip(cols.tolist(), ids.tolist())}
             vis = [VISIBILITY_VALUES.index(new_vis.get(j, "fully_visible")) for j in cols.tolist()]
             # confirmation of new tracks: by the general rule below
-            self._tracks.add(ids, dets.xyxy[cols], dets.class_id[cols], dets.confidence[cols], np.array(vis),
-                             velocity=self._scene_velocity())
+            self._tracks.add(
+                ids,
+                dets.xyxy[cols],
+                dets.class_id[cols],
+                dets.confidence[cols],
+                np.array(vis),
+                velocity=self._scene_velocity(),
+            )
             observed.update({new_ids[Det(j)]: j for j in cols.tolist()})
         # fluents: the answer holds the values that changed; the others carry on (inertia)
         for fname, fargs, value in ans.fluents:
@@ -587,7 +654,9 @@ class Tracker:
         for t in ans.halt + ans.ignore_trk:
             i = index[t]
             self._tracks.unseen[i] += 1
-            self._tracks.state[i] = TrackState.HIDDEN if self._tracks.occluder[i] >= 0 else TrackState.MISSING
+            self._tracks.state[i] = (
+                TrackState.HIDDEN if self._tracks.occluder[i] >= 0 else TrackState.MISSING
+            )
         # confirmation (nothing to do when every track is confirmed already)
         events: list[Event] = []
         tentative = ~self._tracks.confirmed
@@ -618,7 +687,9 @@ class Tracker:
                 self._pending[ids_[0]] = ev
         # drop ended tracks
         if ended:
-            self._tracks.drop(np.array([t not in ended for t in self._tracks.id.tolist()], dtype=bool))
+            self._tracks.drop(
+                np.array([t not in ended for t in self._tracks.id.tolist()], dtype=bool)
+            )
             for t in ended:
                 self._pending.pop(t, None)
         events.sort(key=Event.sort_key)
@@ -652,36 +723,76 @@ class Tracker:
             rows[idx] = dets.source_row[cols]
         keep = self._tracks.confirmed
         # boolean indexing copies: the columns never alias the tracker's state
-        return _track_output(boxes[keep], self._tracks.conf[keep], self._tracks.cls[keep], self._tracks.id[keep],
-                             np.full(int(keep.sum()), frame, dtype=np.int64), rows[keep], self._tracks.state[keep],
-                             self._tracks.occluder[keep], self._tracks.vis[keep], self._tracks.unseen[keep])
+        return _track_output(
+            boxes[keep],
+            self._tracks.conf[keep],
+            self._tracks.cls[keep],
+            self._tracks.id[keep],
+            np.full(int(keep.sum()), frame, dtype=np.int64),
+            rows[keep],
+            self._tracks.state[keep],
+            self._tracks.occluder[keep],
+            self._tracks.vis[keep],
+            self._tracks.unseen[keep],
+        )
 
 
-def _track_output(xyxy: np.ndarray, confidence: np.ndarray, class_id: np.ndarray, tracker_id: np.ndarray,
-                  frame: np.ndarray, source_row: np.ndarray, state: np.ndarray, occluder: np.ndarray,
-                  visibility: np.ndarray, hidden_frames: np.ndarray) -> Detections:
+def _track_output(
+    xyxy: np.ndarray,
+    confidence: np.ndarray,
+    class_id: np.ndarray,
+    tracker_id: np.ndarray,
+    frame: np.ndarray,
+    source_row: np.ndarray,
+    state: np.ndarray,
+    occluder: np.ndarray,
+    visibility: np.ndarray,
+    hidden_frames: np.ndarray,
+) -> Detections:
     """The columns of :meth:`Tracker._output` (N rows; ``xyxy`` (N, 4) float pixels, the rest (N,)),
     which have the validated dtypes and shapes already: no validation every frame."""
     return Detections.trusted(
-        xyxy=xyxy, confidence=confidence, class_id=class_id, tracker_id=tracker_id, frame=frame,
+        xyxy=xyxy,
+        confidence=confidence,
+        class_id=class_id,
+        tracker_id=tracker_id,
+        frame=frame,
         source_row=source_row,
-        data={"state": state, "occluder": occluder, "visibility": visibility, "hidden_frames": hidden_frames},
+        data={
+            "state": state,
+            "occluder": occluder,
+            "visibility": visibility,
+            "hidden_frames": hidden_frames,
+        },
     )
 
 
 def _no_tracks() -> Detections:
     """:meth:`Tracker._output` without tracks: empty columns of its dtypes (fresh arrays)."""
+
     def ints() -> np.ndarray:
         return np.empty(0, dtype=np.int64)
 
-    return _track_output(np.empty((0, 4)), np.empty(0), ints(), ints(), ints(), ints(), ints(), ints(), ints(),
-                         ints())
+    return _track_output(
+        np.empty((0, 4)),
+        np.empty(0),
+        ints(),
+        ints(),
+        ints(),
+        ints(),
+        ints(),
+        ints(),
+        ints(),
+        ints(),
+    )
 
 
 def _quantize(x: np.ndarray, levels: int, rounding=np.rint) -> np.ndarray:
     """Values in [0, 1] -> integers 0..1000 on a grid of ``levels`` steps (``np.rint``: what
     ``np.round`` calls for 0 decimals, without its Python layers)."""
-    return (rounding(np.minimum(np.maximum(x, 0.0), 1.0) * levels + 1e-9) * 1000 // levels).astype(np.int64)
+    return (rounding(np.minimum(np.maximum(x, 0.0), 1.0) * levels + 1e-9) * 1000 // levels).astype(
+        np.int64
+    )
 
 
 @lru_cache(maxsize=16)
@@ -691,11 +802,17 @@ def _floored_grid(levels: int, iou: tuple[float, ...]) -> tuple[int, ...]:
 
 
 @lru_cache(maxsize=16)
-def _image_limits(image_size: tuple[int, int], margin: float) -> tuple[float, np.ndarray, np.ndarray]:
+def _image_limits(
+    image_size: tuple[int, int], margin: float
+) -> tuple[float, np.ndarray, np.ndarray]:
     """``margin``, the image as a (1, 4) box and ``(w - margin, h - margin)`` (asked every frame;
     shared arrays: not to be modified)."""
     w, h = image_size
-    return margin, np.array([[0.0, 0.0, w, h]]), np.array([w - margin, h - margin], dtype=np.float64)
+    return (
+        margin,
+        np.array([[0.0, 0.0, w, h]]),
+        np.array([w - margin, h - margin], dtype=np.float64),
+    )
 
 
 def _int_columns(*cols: np.ndarray) -> np.ndarray:
@@ -717,6 +834,8 @@ def _widen(boxes: np.ndarray, factor: np.ndarray) -> np.ndarray:
 def _coerce(obj: Any) -> Detections:
     if isinstance(obj, Detections):
         return obj
-    from sensemaking.adapters import as_detections  # duck-typed adapters (supervision, ultralytics, arrays)
+    from sensemaking.adapters import (
+        as_detections,
+    )  # duck-typed adapters (supervision, ultralytics, arrays)
 
     return as_detections(obj)

@@ -59,8 +59,14 @@ class ComponentSolver:
             likelihood grid: ground into the slots up front (others are learnt as they come).
     """
 
-    def __init__(self, solver: AbductionSolver, decompose: bool = True, cache_size: int = 20_000,
-                 slots: bool = True, numbers: Iterable[int] = ()):
+    def __init__(
+        self,
+        solver: AbductionSolver,
+        decompose: bool = True,
+        cache_size: int = 20_000,
+        slots: bool = True,
+        numbers: Iterable[int] = (),
+    ):
         self.solver = solver
         self.decompose = decompose
         self.cache_size = cache_size
@@ -94,7 +100,9 @@ class ComponentSolver:
             answer.merge(local.mapped(track_ids, det_rows))
         if missed and self._slots is not None:
             for component in list(missed):
-                remaining = None if budget_ms is None else budget_ms - (time.perf_counter() - t0) * 1e3
+                remaining = (
+                    None if budget_ms is None else budget_ms - (time.perf_counter() - t0) * 1e3
+                )
                 local = self._slots.solve(component, remaining)
                 if local is None:
                     continue  # not a shape the slots take (yet): solved with the rest below
@@ -121,7 +129,9 @@ class ComponentSolver:
             while len(self._cache) > self.cache_size:
                 self._cache.popitem(last=False)
 
-    def _solve_together(self, components: list[Component], budget_ms: float | None) -> list[Answer] | None:
+    def _solve_together(
+        self, components: list[Component], budget_ms: float | None
+    ) -> list[Answer] | None:
         """Each component's answer (in its own numbering), from one program for all of them."""
         self.stats["solver_calls"] += 1
         uses = self.solver.uses
@@ -146,8 +156,15 @@ def _split(answer: Answer, t_starts: list[int], d_starts: list[int]) -> list[Ans
     """The answer of a program of several components, cut into each one's answer in its own
     numbering (component ``k`` owns tracks from ``t_starts[k]`` and detections from
     ``d_starts[k]`` on). The objective's value is known for the whole only: parts get None."""
-    parts = [Answer(cost=None, optimal=answer.optimal, budget_hit=answer.budget_hit,
-                    timed_out=answer.timed_out) for _ in t_starts]
+    parts = [
+        Answer(
+            cost=None,
+            optimal=answer.optimal,
+            budget_hit=answer.budget_hit,
+            timed_out=answer.timed_out,
+        )
+        for _ in t_starts
+    ]
 
     def of_track(t: int) -> int:
         return bisect_right(t_starts, t) - 1
@@ -156,8 +173,14 @@ def _split(answer: Answer, t_starts: list[int], d_starts: list[int]) -> list[Ans
         return bisect_right(d_starts, d) - 1
 
     def local(k: int, args: tuple[Ref, ...]) -> tuple[Ref, ...]:
-        return tuple(Det(a.row - d_starts[k]) if isinstance(a, Det) else
-                     a - t_starts[k] if isinstance(a, int) else a for a in args)
+        return tuple(
+            Det(a.row - d_starts[k])
+            if isinstance(a, Det)
+            else a - t_starts[k]
+            if isinstance(a, int)
+            else a
+            for a in args
+        )
 
     def owner(args: tuple[Ref, ...]) -> int:
         first = next(a for a in args if isinstance(a, (int, Det)))

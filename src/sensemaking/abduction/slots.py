@@ -64,8 +64,9 @@ def shape_of(component: Component) -> Shape:
     return Shape(len(component.tracks), len(component.dets), max(named - len(component.tracks), 0))
 
 
-def vocabulary(shape: Shape, classes: Iterable[int], numbers: Iterable[int],
-               uses: Iterable[str] = ()) -> frozenset[Symbol]:
+def vocabulary(
+    shape: Shape, classes: Iterable[int], numbers: Iterable[int], uses: Iterable[str] = ()
+) -> frozenset[Symbol]:
     """Every fact :meth:`Component.facts` can write for a component of ``shape`` whose classes
     lie in ``classes`` and whose likelihoods and confidences lie in ``numbers``: the union of
     the facts of synthetic components that take each value of each field once."""
@@ -83,14 +84,21 @@ def vocabulary(shape: Shape, classes: Iterable[int], numbers: Iterable[int],
         for cls in classes:
             det_row = (number, cls, True, True)
             parts.append(Component(False, (), (det_row,) * nd, (), (), (), (), ()))
-        parts.append(Component(False, (), (), tuple((t, d, number, True) for t, d in pairs),
-                               (), (), (), ()))
-    parts.append(Component(
-        False, (), (), (),
-        covers=tuple((d, t, r) for t, d in pairs for r in range(-1, nd)),
-        keeps_covering=tuple((d, t) for t, d in pairs),
-        emerges=tuple((d, t) for t, d in pairs),
-        hidden_by=tuple((t, o) for t in range(nt) for o in range(nt + no))))
+        parts.append(
+            Component(False, (), (), tuple((t, d, number, True) for t, d in pairs), (), (), (), ())
+        )
+    parts.append(
+        Component(
+            False,
+            (),
+            (),
+            (),
+            covers=tuple((d, t, r) for t, d in pairs for r in range(-1, nd)),
+            keeps_covering=tuple((d, t) for t, d in pairs),
+            emerges=tuple((d, t) for t, d in pairs),
+            hidden_by=tuple((t, o) for t in range(nt) for o in range(nt + no)),
+        )
+    )
     out: set[Symbol] = set()
     for part in parts:
         out.update(part.facts(uses))
@@ -132,8 +140,13 @@ def piece_facts(piece: tuple, uses: Iterable[str] = ()) -> frozenset[Symbol]:
 class _Grounded:
     """One shape's encoding, ground once with its universe of facts as free externals."""
 
-    def __init__(self, solver: AbductionSolver, universe: frozenset[Symbol],
-                 classes: frozenset[int] = frozenset(), numbers: frozenset[int] = frozenset()):
+    def __init__(
+        self,
+        solver: AbductionSolver,
+        universe: frozenset[Symbol],
+        classes: frozenset[int] = frozenset(),
+        numbers: frozenset[int] = frozenset(),
+    ):
         self.universe = universe
         #: the classes and numbers the universe was made with
         self.classes, self.numbers = classes, numbers
@@ -247,10 +260,18 @@ class SlotSolver:
             the 42 numbers of the tracker's grid, a fresh solve 2.5-5 ms); 0: at once.
     """
 
-    def __init__(self, solver: AbductionSolver, numbers: Iterable[int] = (),
-                 max_tracks: int = 6, max_dets: int = 6, max_occluders: int = 2,
-                 max_classes: int = 8, max_numbers: int = 128, max_controls: int = 32,
-                 misses_per_cell: float = 0.5):
+    def __init__(
+        self,
+        solver: AbductionSolver,
+        numbers: Iterable[int] = (),
+        max_tracks: int = 6,
+        max_dets: int = 6,
+        max_occluders: int = 2,
+        max_classes: int = 8,
+        max_numbers: int = 128,
+        max_controls: int = 32,
+        misses_per_cell: float = 0.5,
+    ):
         self.solver = solver
         self.max_shape = Shape(max_tracks, max_dets, max_occluders)
         self.max_classes, self.max_numbers = max_classes, max_numbers
@@ -319,8 +340,10 @@ class SlotSolver:
         classes, numbers = self._values(component)
         if classes <= grounded.classes and numbers <= grounded.numbers:
             return False
-        return (len(self.classes | classes) <= self.max_classes
-                and len(self.numbers | numbers) <= self.max_numbers)
+        return (
+            len(self.classes | classes) <= self.max_classes
+            and len(self.numbers | numbers) <= self.max_numbers
+        )
 
     def _ground(self, shape: Shape, component: Component) -> _Grounded:
         """Ground the shape with the classes and numbers known, the component's added."""
@@ -331,8 +354,9 @@ class SlotSolver:
         if len(self.numbers | numbers) <= self.max_numbers:
             self.numbers |= numbers
         universe = vocabulary(shape, self.classes, self.numbers, self.solver.uses)
-        grounded = _Grounded(self.solver, universe, frozenset(self.classes),
-                             frozenset(self.numbers))
+        grounded = _Grounded(
+            self.solver, universe, frozenset(self.classes), frozenset(self.numbers)
+        )
         self._grounded[shape] = grounded
         self._grounded.move_to_end(shape)
         while len(self._grounded) > self.max_controls:

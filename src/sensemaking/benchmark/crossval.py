@@ -33,7 +33,8 @@ import math
 import re
 import time
 from collections import Counter
-from collections.abc import Callable, Mapping, Sequence as SequenceABC
+from collections.abc import Callable, Mapping
+from collections.abc import Sequence as SequenceABC
 from dataclasses import dataclass, field
 from itertools import product
 from pathlib import Path
@@ -92,8 +93,11 @@ def grid_points(grid: Mapping[str, SequenceABC[Any]]) -> list[dict[str, Any]]:
     start a track that the next one like it cannot continue."""
     keys = list(grid)
     points = [dict(zip(keys, values)) for values in product(*(grid[k] for k in keys))]
-    return [p for p in points
-            if p.get("min_confidence", -math.inf) <= p.get("start_confidence", math.inf)]
+    return [
+        p
+        for p in points
+        if p.get("min_confidence", -math.inf) <= p.get("start_confidence", math.inf)
+    ]
 
 
 @dataclass
@@ -159,14 +163,26 @@ class FamilyCV:
 
     def to_json(self) -> dict[str, Any]:
         return {
-            "family": self.family, "grid": self.grid, "points": self.points,
-            "benchmarks": self.benchmarks, "sequences": self.sequences, "folds": self.folds,
-            "choice": self.choice, "fold_objective": self.fold_objective,
-            "fold_regret": self.fold_regret, "mean_choice": self.mean_choice,
-            "mean_heldout": self.mean_heldout, "objective_all": self.objective_all, "in_sample": self.in_sample,
-            "recommended": self.recommended, "preset": self.preset, "heldout": self.heldout,
-            "insample": self.insample, "preset_metrics": self.preset_metrics,
-            "per_sequence": self.per_sequence, "seconds": self.seconds,
+            "family": self.family,
+            "grid": self.grid,
+            "points": self.points,
+            "benchmarks": self.benchmarks,
+            "sequences": self.sequences,
+            "folds": self.folds,
+            "choice": self.choice,
+            "fold_objective": self.fold_objective,
+            "fold_regret": self.fold_regret,
+            "mean_choice": self.mean_choice,
+            "mean_heldout": self.mean_heldout,
+            "objective_all": self.objective_all,
+            "in_sample": self.in_sample,
+            "recommended": self.recommended,
+            "preset": self.preset,
+            "heldout": self.heldout,
+            "insample": self.insample,
+            "preset_metrics": self.preset_metrics,
+            "per_sequence": self.per_sequence,
+            "seconds": self.seconds,
         }
 
 
@@ -196,13 +212,18 @@ def _combine(items: list[Any]) -> dict[str, float]:
 
 def _score(scores: dict[str, dict[str, Any]], seqs: Mapping[str, SequenceABC[str]]) -> float:
     """Mean over benchmarks (with at least one sequence in ``seqs``) of their combined HOTA."""
-    values = [_combine([scores[b][s] for s in names])["HOTA"] for b, names in seqs.items() if names]
+    values = [
+        _combine([scores[b][s] for s in names])["HOTA"] for b, names in seqs.items() if names
+    ]
     return float(np.mean(values)) if values else float("nan")
 
 
-def cross_validate(benches: SequenceABC[Benchmark], output_dir: Path,
-                   grid: Mapping[str, SequenceABC[Any]] | None = None,
-                   progress: Progress | None = None) -> FamilyCV:
+def cross_validate(
+    benches: SequenceABC[Benchmark],
+    output_dir: Path,
+    grid: Mapping[str, SequenceABC[Any]] | None = None,
+    progress: Progress | None = None,
+) -> FamilyCV:
     """Leave-one-video-out cross-validation over ``grid`` on the benchmarks of one family.
 
     Result files go to ``output_dir/crossval/<benchmark>/p<point>/<sequence>.txt`` and, scored
@@ -227,16 +248,27 @@ def cross_validate(benches: SequenceABC[Benchmark], output_dir: Path,
     family = family_of(benches[0].spec)
     grid = dict(GRID[family] if grid is None else grid)
     points = grid_points(grid)
-    cv = FamilyCV(family=family, grid={k: list(v) for k, v in grid.items()}, points=points,
-                  benchmarks=[b.spec.name for b in benches],
-                  sequences={b.spec.name: [s.name for s in b.sequences] for b in benches}, folds=[])
-    fold_of = {(b.spec.name, s.name): fold_key(b.spec, s.name) for b in benches for s in b.sequences}
+    cv = FamilyCV(
+        family=family,
+        grid={k: list(v) for k, v in grid.items()},
+        points=points,
+        benchmarks=[b.spec.name for b in benches],
+        sequences={b.spec.name: [s.name for s in b.sequences] for b in benches},
+        folds=[],
+    )
+    fold_of = {
+        (b.spec.name, s.name): fold_key(b.spec, s.name) for b in benches for s in b.sequences
+    }
     cv.folds = sorted(set(fold_of.values()))
     if len(cv.folds) < 2:
         raise ValueError(f"cross-validation needs two videos or more, got {cv.folds}")
     cv.preset = _preset_index(family, points)
-    gts = {b.spec.name: {s.name: _read_gt(b.spec, s.gt_path) for s in b.sequences} for b in benches}
-    frames = {(b.spec.name, s.name): dict(s.detections.frames()) for b in benches for s in b.sequences}
+    gts = {
+        b.spec.name: {s.name: _read_gt(b.spec, s.gt_path) for s in b.sequences} for b in benches
+    }
+    frames = {
+        (b.spec.name, s.name): dict(s.detections.frames()) for b in benches for s in b.sequences
+    }
     # scores[point][benchmark][sequence] -> SequenceMetrics
     scores: list[dict[str, dict[str, Any]]] = []
     root = output_dir / "crossval"
@@ -246,57 +278,95 @@ def cross_validate(benches: SequenceABC[Benchmark], output_dir: Path,
             spec = b.spec
             per_bench[spec.name] = {}
             for s in b.sequences:
-                base = ours_config(spec.family, fps=s.info.fps, image_size=(s.info.width, s.info.height))
+                base = ours_config(
+                    spec.family, fps=s.info.fps, image_size=(s.info.width, s.info.height)
+                )
                 tracker = OursAdapter(name="ours", config=apply_settings(base, point), states=(0,))
                 tracks, _ = run_sequence(tracker, s, frames[(spec.name, s.name)])
                 path = root / spec.name / f"p{i:02d}" / f"{s.name}.txt"
                 _write_results(spec, path, tracks)
                 per_bench[spec.name][s.name] = evaluate_sequence(
-                    gts[spec.name][s.name], _read_results(spec, path), _rules_name(spec),
-                    n_frames=int(s.info.length), name=s.name, gt_path=s.gt_path, tracks_path=path)
+                    gts[spec.name][s.name],
+                    _read_results(spec, path),
+                    _rules_name(spec),
+                    n_frames=int(s.info.length),
+                    name=s.name,
+                    gt_path=s.gt_path,
+                    tracks_path=path,
+                )
         scores.append(per_bench)
         everything = {b.spec.name: [s.name for s in b.sequences] for b in benches}
         cv.objective_all.append(_score(per_bench, everything))
-        say(f"[crossval {family}] grid point {i + 1}/{len(points)} "
-            f"{', '.join(f'{k}={v}' for k, v in point.items())}: mean HOTA {100 * cv.objective_all[-1]:.2f}")
+        say(
+            f"[crossval {family}] grid point {i + 1}/{len(points)} "
+            f"{', '.join(f'{k}={v}' for k, v in point.items())}: mean HOTA {100 * cv.objective_all[-1]:.2f}"
+        )
     cv.in_sample = int(np.argmax(cv.objective_all))
     # per video and grid point: mean over benchmarks of the HOTA of the video's sequences
-    per_video = np.array([[float(np.mean([scores[i][b.spec.name][s.name]["HOTA"] for b in benches
-                                          for s in b.sequences if fold_of[(b.spec.name, s.name)] == v]))
-                           for v in cv.folds] for i in range(len(points))])
+    per_video = np.array(
+        [
+            [
+                float(
+                    np.mean(
+                        [
+                            scores[i][b.spec.name][s.name]["HOTA"]
+                            for b in benches
+                            for s in b.sequences
+                            if fold_of[(b.spec.name, s.name)] == v
+                        ]
+                    )
+                )
+                for v in cv.folds
+            ]
+            for i in range(len(points))
+        ]
+    )
     regret = per_video.max(axis=0, keepdims=True) - per_video  # (points, videos)
     for k, fold in enumerate(cv.folds):
-        train = {b.spec.name: [s.name for s in b.sequences if fold_of[(b.spec.name, s.name)] != fold]
-                 for b in benches}
+        train = {
+            b.spec.name: [s.name for s in b.sequences if fold_of[(b.spec.name, s.name)] != fold]
+            for b in benches
+        }
         objective = [_score(scores[i], train) for i in range(len(points))]
         worst = np.delete(regret, k, axis=1).max(axis=1)
         cv.fold_objective[fold] = objective
         cv.fold_regret[fold] = worst.tolist()
         cv.mean_choice[fold] = int(np.nanargmax(objective))
         # least worst regret; ties: the better objective, then the earlier point
-        cv.choice[fold] = min(range(len(points)), key=lambda i: (round(float(worst[i]), 12), -objective[i], i))
+        cv.choice[fold] = min(
+            range(len(points)), key=lambda i: (round(float(worst[i]), 12), -objective[i], i)
+        )
     counts = Counter(cv.choice.values())
     cv.recommended = max(counts, key=lambda i: (counts[i], cv.objective_all[i]))
     for b in benches:
         name = b.spec.name
         chosen = {s.name: cv.choice[fold_of[(name, s.name)]] for s in b.sequences}
         cv.heldout[name] = _combine([scores[chosen[s.name]][name][s.name] for s in b.sequences])
-        cv.mean_heldout[name] = _combine([scores[cv.mean_choice[fold_of[(name, s.name)]]][name][s.name]
-                                          for s in b.sequences])
+        cv.mean_heldout[name] = _combine(
+            [scores[cv.mean_choice[fold_of[(name, s.name)]]][name][s.name] for s in b.sequences]
+        )
         cv.insample[name] = _combine([scores[cv.in_sample][name][s.name] for s in b.sequences])
         if cv.preset is not None:
-            cv.preset_metrics[name] = _combine([scores[cv.preset][name][s.name] for s in b.sequences])
+            cv.preset_metrics[name] = _combine(
+                [scores[cv.preset][name][s.name] for s in b.sequences]
+            )
         cv.per_sequence[name] = {
-            s.name: {"fold": fold_of[(name, s.name)], "choice": chosen[s.name],
-                     "cv": float(scores[chosen[s.name]][name][s.name]["HOTA"]),
-                     "in_sample": float(scores[cv.in_sample][name][s.name]["HOTA"])}
-            for s in b.sequences}
+            s.name: {
+                "fold": fold_of[(name, s.name)],
+                "choice": chosen[s.name],
+                "cv": float(scores[chosen[s.name]][name][s.name]["HOTA"]),
+                "in_sample": float(scores[cv.in_sample][name][s.name]["HOTA"]),
+            }
+            for s in b.sequences
+        }
         heldout_dir = root / name / "heldout"
         heldout_dir.mkdir(parents=True, exist_ok=True)
         for s in b.sequences:
             src = root / name / f"p{chosen[s.name]:02d}" / f"{s.name}.txt"
             (heldout_dir / f"{s.name}.txt").write_bytes(src.read_bytes())
-        say(f"[crossval {family}] {name}: cross-validated HOTA {100 * cv.heldout[name]['HOTA']:.2f}, "
-            f"in-sample {100 * cv.insample[name]['HOTA']:.2f}")
+        say(
+            f"[crossval {family}] {name}: cross-validated HOTA {100 * cv.heldout[name]['HOTA']:.2f}, "
+            f"in-sample {100 * cv.insample[name]['HOTA']:.2f}"
+        )
     cv.seconds = time.perf_counter() - start
     return cv

@@ -17,7 +17,8 @@ from __future__ import annotations
 
 import fnmatch
 import logging
-from collections.abc import Iterable, Iterator, Sequence as SequenceABC
+from collections.abc import Iterable, Iterator
+from collections.abc import Sequence as SequenceABC
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal
@@ -80,29 +81,89 @@ class BenchmarkSpec:
     logit_scores: bool = False
 
 
-_POINTRCNN_NOTE = ("PointRCNN scores are raw logits (often negative, many low-score false positives); "
-                   "the loader maps them through a sigmoid to (0, 1), the same input for every tracker.")
+_POINTRCNN_NOTE = (
+    "PointRCNN scores are raw logits (often negative, many low-score false positives); "
+    "the loader maps them through a sigmoid to (0, 1), the same input for every tracker."
+)
 
 #: every benchmark the runner knows, in report order
 SPECS: tuple[BenchmarkSpec, ...] = (
-    BenchmarkSpec("kitti-rrc-car", "KITTI tracking training 0000-0010, Car, RRC detections",
-                  "kitti", "kitti", "kitti", "car", "rrc", "kitti-cars"),
-    BenchmarkSpec("kitti-rrc-pedestrian", "KITTI tracking training 0000-0010, Pedestrian, RRC detections",
-                  "kitti", "kitti", "kitti", "pedestrian", "rrc", "kitti-pedestrians"),
-    BenchmarkSpec("kitti-pointrcnn-car", "KITTI tracking training 0000-0010, Car, PointRCNN detections",
-                  "kitti", "kitti", "kitti", "car", "pointrcnn", "kitti-cars", _POINTRCNN_NOTE, True),
-    BenchmarkSpec("kitti-pointrcnn-pedestrian",
-                  "KITTI tracking training 0000-0010, Pedestrian, PointRCNN detections",
-                  "kitti", "kitti", "kitti", "pedestrian", "pointrcnn", "kitti-pedestrians", _POINTRCNN_NOTE,
-                  True),
-    BenchmarkSpec("mot17-yolox-halfval", "MOT17 half-val (02, 04, 05, 09), YOLOX-X detections",
-                  "motchallenge", "mot17", "mot", None, "YOLOX-half", None),
-    BenchmarkSpec("mot17-frcnn", "MOT17-05, public Faster R-CNN detections",
-                  "motchallenge", "mot17", "mot", None, "FRCNN", "mot17",
-                  "The paper's MOT17 rows use these public Faster R-CNN detections on all 7 training "
-                  "sequences; only MOT17-05 is here."),
-    BenchmarkSpec("mot15", "2D MOT 2015 train (6 sequences), Faster R-CNN detections",
-                  "motchallenge", "mot15", "mot", None, None, None),
+    BenchmarkSpec(
+        "kitti-rrc-car",
+        "KITTI tracking training 0000-0010, Car, RRC detections",
+        "kitti",
+        "kitti",
+        "kitti",
+        "car",
+        "rrc",
+        "kitti-cars",
+    ),
+    BenchmarkSpec(
+        "kitti-rrc-pedestrian",
+        "KITTI tracking training 0000-0010, Pedestrian, RRC detections",
+        "kitti",
+        "kitti",
+        "kitti",
+        "pedestrian",
+        "rrc",
+        "kitti-pedestrians",
+    ),
+    BenchmarkSpec(
+        "kitti-pointrcnn-car",
+        "KITTI tracking training 0000-0010, Car, PointRCNN detections",
+        "kitti",
+        "kitti",
+        "kitti",
+        "car",
+        "pointrcnn",
+        "kitti-cars",
+        _POINTRCNN_NOTE,
+        True,
+    ),
+    BenchmarkSpec(
+        "kitti-pointrcnn-pedestrian",
+        "KITTI tracking training 0000-0010, Pedestrian, PointRCNN detections",
+        "kitti",
+        "kitti",
+        "kitti",
+        "pedestrian",
+        "pointrcnn",
+        "kitti-pedestrians",
+        _POINTRCNN_NOTE,
+        True,
+    ),
+    BenchmarkSpec(
+        "mot17-yolox-halfval",
+        "MOT17 half-val (02, 04, 05, 09), YOLOX-X detections",
+        "motchallenge",
+        "mot17",
+        "mot",
+        None,
+        "YOLOX-half",
+        None,
+    ),
+    BenchmarkSpec(
+        "mot17-frcnn",
+        "MOT17-05, public Faster R-CNN detections",
+        "motchallenge",
+        "mot17",
+        "mot",
+        None,
+        "FRCNN",
+        "mot17",
+        "The paper's MOT17 rows use these public Faster R-CNN detections on all 7 training "
+        "sequences; only MOT17-05 is here.",
+    ),
+    BenchmarkSpec(
+        "mot15",
+        "2D MOT 2015 train (6 sequences), Faster R-CNN detections",
+        "motchallenge",
+        "mot15",
+        "mot",
+        None,
+        None,
+        None,
+    ),
 )
 
 
@@ -139,7 +200,9 @@ class Sequence:
     @property
     def frame_numbers(self) -> range:
         """Every frame of the sequence, including frames without detections."""
-        last_det = int(self.detections.frame.max()) if len(self.detections) else self.first_frame - 1
+        last_det = (
+            int(self.detections.frame.max()) if len(self.detections) else self.first_frame - 1
+        )
         last = max(self.first_frame + int(self.info.length) - 1, last_det)
         return range(self.first_frame, last + 1)
 
@@ -208,8 +271,11 @@ def select_specs(only: Iterable[str] | None) -> list[BenchmarkSpec]:
         return list(SPECS)
     chosen: set[str] = set()
     for pat in patterns:
-        hits = [s.name for s in SPECS
-                if s.name == pat or fnmatch.fnmatchcase(s.name, pat) or s.name.startswith(pat + "-")]
+        hits = [
+            s.name
+            for s in SPECS
+            if s.name == pat or fnmatch.fnmatchcase(s.name, pat) or s.name.startswith(pat + "-")
+        ]
         if not hits:
             known = ", ".join(s.name for s in SPECS)
             raise InputError(f"unknown benchmark {pat!r}; known: {known}")
@@ -306,7 +372,9 @@ def _with_class(dets: Detections, cid: int) -> Detections:
     return dets.with_(class_id=np.full(len(dets), cid, dtype=np.int64))
 
 
-def _load_kitti(spec: BenchmarkSpec, sources: list[SequenceSource]) -> tuple[list[Sequence], list[str]]:
+def _load_kitti(
+    spec: BenchmarkSpec, sources: list[SequenceSource]
+) -> tuple[list[Sequence], list[str]]:
     from sensemaking.classes import class_id
     from sensemaking.io.formats import read_detections
     from sensemaking.io.kitti import read_kitti_seqinfo
@@ -325,7 +393,9 @@ def _load_kitti(spec: BenchmarkSpec, sources: list[SequenceSource]) -> tuple[lis
     return out, skipped
 
 
-def _load_mot(spec: BenchmarkSpec, sources: list[SequenceSource]) -> tuple[list[Sequence], list[str]]:
+def _load_mot(
+    spec: BenchmarkSpec, sources: list[SequenceSource]
+) -> tuple[list[Sequence], list[str]]:
     from sensemaking.classes import CLASS_IDS
     from sensemaking.io.formats import read_detections
     from sensemaking.io.mot import read_seqinfo
@@ -338,8 +408,9 @@ def _load_mot(spec: BenchmarkSpec, sources: list[SequenceSource]) -> tuple[list[
     return out, []
 
 
-def load_benchmark(spec: BenchmarkSpec, sources: list[SequenceSource],
-                   skipped: list[str] | None = None) -> Benchmark:
+def load_benchmark(
+    spec: BenchmarkSpec, sources: list[SequenceSource], skipped: list[str] | None = None
+) -> Benchmark:
     """Read the detections and sequence info of ``sources``."""
     if spec.family == "kitti":
         seqs, more = _load_kitti(spec, sources)
@@ -348,7 +419,9 @@ def load_benchmark(spec: BenchmarkSpec, sources: list[SequenceSource],
     return Benchmark(spec, seqs, list(skipped or []) + more)
 
 
-def iter_benchmarks(root: str | Path | None = None, only: Iterable[str] | None = None) -> Iterator[Benchmark]:
+def iter_benchmarks(
+    root: str | Path | None = None, only: Iterable[str] | None = None
+) -> Iterator[Benchmark]:
     """Discover, then load and yield each benchmark in report order (skips are in ``.skipped``)."""
     found = discover(root, only)
     for spec, sources in found.found:

@@ -43,7 +43,11 @@ __all__ = [
 ]
 
 #: peers from the ``trackers`` package: our key -> class name in ``trackers``
-TRACKERS_PEERS: dict[str, str] = {"sort": "SORTTracker", "bytetrack": "ByteTrackTracker", "ocsort": "OCSORTTracker"}
+TRACKERS_PEERS: dict[str, str] = {
+    "sort": "SORTTracker",
+    "bytetrack": "ByteTrackTracker",
+    "ocsort": "OCSORTTracker",
+}
 #: motion-only peers from ``boxmot``: our key -> (boxmot tracker name, the constructor arguments
 #: that switch off the parts reading pixels: appearance embeddings and camera-motion
 #: compensation; every other value is boxmot's default). Left out: StrongSORT (needs appearance
@@ -121,7 +125,9 @@ def peer_defaults(key: str) -> dict[str, Any]:
         for name, param in inspect.signature(cls.__init__).parameters.items():
             if name in ("self", "kwargs") or param.kind != param.POSITIONAL_OR_KEYWORD:
                 continue
-            if param.default is not inspect.Parameter.empty and isinstance(param.default, (int, float, str, bool)):
+            if param.default is not inspect.Parameter.empty and isinstance(
+                param.default, (int, float, str, bool)
+            ):
                 out[name] = param.default
         out.update(BOXMOT_PEERS[key][1])
         return out
@@ -221,7 +227,9 @@ class BoxmotAdapter:
         import logging
 
         if self.name not in BOXMOT_PEERS:
-            raise ValueError(f"unknown boxmot peer {self.name!r}; known: {', '.join(BOXMOT_PEERS)}")
+            raise ValueError(
+                f"unknown boxmot peer {self.name!r}; known: {', '.join(BOXMOT_PEERS)}"
+            )
         self._cls = _boxmot_class(self.name)
         params = inspect.signature(self._cls.__init__).parameters
         self._kwargs = dict(BOXMOT_PEERS[self.name][1])
@@ -247,7 +255,11 @@ class BoxmotAdapter:
         start = time.perf_counter()
         out = self._tracker.update(dets, self._img)
         elapsed = time.perf_counter() - start
-        out = np.asarray(out, dtype=np.float64).reshape(-1, 8) if out is not None and len(out) else np.zeros((0, 8))
+        out = (
+            np.asarray(out, dtype=np.float64).reshape(-1, 8)
+            if out is not None and len(out)
+            else np.zeros((0, 8))
+        )
         rows = out[:, 7].astype(np.int64)
         keep = (rows >= 0) & (rows < n)
         if not np.any(keep):
@@ -257,12 +269,18 @@ class BoxmotAdapter:
         return detections[rows[keep]].with_(tracker_id=ids + 1), elapsed
 
 
-def make_peer(name: str, frame_rate: float, min_score: float | None = None,
-              image_size: tuple[int, int] = (1920, 1080)) -> PeerAdapter | BoxmotAdapter:
+def make_peer(
+    name: str,
+    frame_rate: float,
+    min_score: float | None = None,
+    image_size: tuple[int, int] = (1920, 1080),
+) -> PeerAdapter | BoxmotAdapter:
     """A peer adapter with the peer's defaults and the sequence's frame rate (and, for boxmot
     peers, its image size for the blank image)."""
     if name in BOXMOT_PEERS:
-        return BoxmotAdapter(name=name, frame_rate=frame_rate, image_size=image_size, min_score=min_score)
+        return BoxmotAdapter(
+            name=name, frame_rate=frame_rate, image_size=image_size, min_score=min_score
+        )
     return PeerAdapter(name=name, frame_rate=frame_rate, min_score=min_score)
 
 

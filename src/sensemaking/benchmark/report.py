@@ -14,40 +14,99 @@ from sensemaking.benchmark.peers import BOXMOT_LEFT_OUT, BOXMOT_PEERS, DISPLAY_N
 from sensemaking.benchmark.runner import SELECT_BY, BenchmarkRun, RunSummary, TrackerRun
 from sensemaking.io.atomic import atomic_write
 
-__all__ = ["PAPER_TABLE2", "COLUMNS", "TargetCheck", "check_targets", "render_markdown", "write_report",
-           "write_json", "summary_json", "render_parameters", "write_parameters", "console_summary"]
+__all__ = [
+    "PAPER_TABLE2",
+    "COLUMNS",
+    "TargetCheck",
+    "check_targets",
+    "render_markdown",
+    "write_report",
+    "write_json",
+    "summary_json",
+    "render_parameters",
+    "write_parameters",
+    "console_summary",
+]
 
 #: the paper's Table 2 (IJCAI 2019), quoted for reference: MOTA/MOTP/ML/MT in %, others counts
 PAPER_TABLE2: dict[str, dict[str, Any]] = {
     "kitti-cars": {
         "title": "KITTI tracking, Cars: YOLOv3 detections, all 21 training sequences (8008 frames, "
-                 "636 targets), old KITTI devkit",
+        "636 targets), old KITTI devkit",
         "rows": {
-            "without abduction": {"MOTA": 45.72, "MOTP": 76.89, "ML": 19.14, "MT": 23.04,
-                                  "FP": 785, "FN": 11182, "IDSW": 1097, "Frag": 1440},
-            "with abduction": {"MOTA": 50.5, "MOTP": 74.76, "ML": 20.21, "MT": 23.23,
-                               "FP": 1311, "FN": 10439, "IDSW": 165, "Frag": 490},
+            "without abduction": {
+                "MOTA": 45.72,
+                "MOTP": 76.89,
+                "ML": 19.14,
+                "MT": 23.04,
+                "FP": 785,
+                "FN": 11182,
+                "IDSW": 1097,
+                "Frag": 1440,
+            },
+            "with abduction": {
+                "MOTA": 50.5,
+                "MOTP": 74.76,
+                "ML": 20.21,
+                "MT": 23.23,
+                "FP": 1311,
+                "FN": 10439,
+                "IDSW": 165,
+                "Frag": 490,
+            },
         },
     },
     "kitti-pedestrians": {
         "title": "KITTI tracking, Pedestrians: YOLOv3 detections, all 21 training sequences (8008 "
-                 "frames, 167 targets), old KITTI devkit",
+        "frames, 167 targets), old KITTI devkit",
         "rows": {
-            "without abduction": {"MOTA": 28.71, "MOTP": 71.43, "ML": 26.94, "MT": 9.58,
-                                  "FP": 1261, "FN": 6119, "IDSW": 539, "Frag": 833},
-            "with abduction": {"MOTA": 32.57, "MOTP": 70.68, "ML": 22.15, "MT": 14.37,
-                               "FP": 1899, "FN": 5477, "IDSW": 115, "Frag": 444},
+            "without abduction": {
+                "MOTA": 28.71,
+                "MOTP": 71.43,
+                "ML": 26.94,
+                "MT": 9.58,
+                "FP": 1261,
+                "FN": 6119,
+                "IDSW": 539,
+                "Frag": 833,
+            },
+            "with abduction": {
+                "MOTA": 32.57,
+                "MOTP": 70.68,
+                "ML": 22.15,
+                "MT": 14.37,
+                "FP": 1899,
+                "FN": 5477,
+                "IDSW": 115,
+                "Frag": 444,
+            },
         },
     },
     "mot17": {
         "title": "MOT 2017: public Faster R-CNN detections, training sequences (5316 frames, 546 "
-                 "targets)",
+        "targets)",
         "rows": {
-            "without abduction": {"MOTA": 41.4, "MOTP": 88.0, "ML": 35.53, "MT": 16.48,
-                                  "FP": 4877, "FN": 60164, "IDSW": 779, "Frag": 741},
+            "without abduction": {
+                "MOTA": 41.4,
+                "MOTP": 88.0,
+                "ML": 35.53,
+                "MT": 16.48,
+                "FP": 4877,
+                "FN": 60164,
+                "IDSW": 779,
+                "Frag": 741,
+            },
             # the paper prints ML as "31,32 %"
-            "with abduction": {"MOTA": 46.2, "MOTP": 87.9, "ML": 31.32, "MT": 20.7,
-                               "FP": 5195, "FN": 54421, "IDSW": 800, "Frag": 904},
+            "with abduction": {
+                "MOTA": 46.2,
+                "MOTP": 87.9,
+                "ML": 31.32,
+                "MT": 20.7,
+                "FP": 5195,
+                "FN": 54421,
+                "IDSW": 800,
+                "Frag": 904,
+            },
         },
     },
 }
@@ -59,8 +118,14 @@ TIME_COLUMNS = ("ms/frame", "time ÷ ours")
 
 #: alternative names the evaluator may use for a field
 _ALIASES: dict[str, tuple[str, ...]] = {
-    "FP": ("FP", "CLR_FP"), "FN": ("FN", "CLR_FN"), "TP": ("TP", "CLR_TP"),
-    "MT": ("MT",), "PT": ("PT",), "ML": ("ML",), "Frag": ("Frag",), "IDSW": ("IDSW",),
+    "FP": ("FP", "CLR_FP"),
+    "FN": ("FN", "CLR_FN"),
+    "TP": ("TP", "CLR_TP"),
+    "MT": ("MT",),
+    "PT": ("PT",),
+    "ML": ("ML",),
+    "Frag": ("Frag",),
+    "IDSW": ("IDSW",),
 }
 
 
@@ -96,9 +161,18 @@ def _share(m: Mapping[str, float] | None, key: str) -> float:
 
 def _row_cells(run: TrackerRun, legacy: bool) -> list[str]:
     m = run.metrics
-    cells = [_pct(_get(m, "MOTA")), _pct(_get(m, "MOTP")), _pct(_share(m, "ML")), _pct(_share(m, "MT")),
-             _int(_get(m, "FP")), _int(_get(m, "FN")), _int(_get(m, "IDSW")), _int(_get(m, "Frag")),
-             _pct(_get(m, "IDF1")), _pct(_get(m, "HOTA"))]
+    cells = [
+        _pct(_get(m, "MOTA")),
+        _pct(_get(m, "MOTP")),
+        _pct(_share(m, "ML")),
+        _pct(_share(m, "MT")),
+        _int(_get(m, "FP")),
+        _int(_get(m, "FN")),
+        _int(_get(m, "IDSW")),
+        _int(_get(m, "Frag")),
+        _pct(_get(m, "IDF1")),
+        _pct(_get(m, "HOTA")),
+    ]
     if legacy:
         lm = run.legacy
         cells += [_pct(_get(lm, "MOTA")), _int(_get(lm, "IDSW")), _int(_get(lm, "Frag"))]
@@ -130,7 +204,10 @@ def _ms(run: TrackerRun) -> str:
 def _table(b: BenchmarkRun) -> list[str]:
     legacy = b.spec.rules == "kitti"
     header = ["Tracking", *COLUMNS, *(LEGACY_COLUMNS if legacy else ()), *TIME_COLUMNS, "input"]
-    lines = ["| " + " | ".join(header) + " |", "|" + "|".join(["---"] + ["---:"] * (len(header) - 2) + ["---"]) + "|"]
+    lines = [
+        "| " + " | ".join(header) + " |",
+        "|" + "|".join(["---"] + ["---:"] * (len(header) - 2) + ["---"]) + "|",
+    ]
     for name in b.runs:
         run = b.chosen(name)
         if run is None:
@@ -140,15 +217,29 @@ def _table(b: BenchmarkRun) -> list[str]:
             blanks = ["–"] * (len(header) - 2)
             lines.append(f"| {label} | " + " | ".join(blanks) + f" | failed: {run.error} |")
             continue
-        cells = _row_cells(run, legacy) + [_ms(run), _ratio(b.time_ratio(name)), _variant_text(run)]
+        cells = _row_cells(run, legacy) + [
+            _ms(run),
+            _ratio(b.time_ratio(name)),
+            _variant_text(run),
+        ]
         if name == "ours":
             label = f"**{label}**"
         lines.append(f"| {label} | " + " | ".join(cells) + " |")
     paper = PAPER_TABLE2.get(b.spec.paper or "")
     if paper:
         for row_name, p in paper["rows"].items():
-            cells = [f"{p['MOTA']:g}", f"{p['MOTP']:g}", f"{p['ML']:g}", f"{p['MT']:g}", str(p["FP"]),
-                     str(p["FN"]), str(p["IDSW"]), str(p["Frag"]), "–", "–"]
+            cells = [
+                f"{p['MOTA']:g}",
+                f"{p['MOTP']:g}",
+                f"{p['ML']:g}",
+                f"{p['MT']:g}",
+                str(p["FP"]),
+                str(p["FN"]),
+                str(p["IDSW"]),
+                str(p["Frag"]),
+                "–",
+                "–",
+            ]
             if legacy:
                 # the paper's KITTI numbers come from the old devkit (quoted once, in the main columns)
                 cells += ["–", "–", "–"]
@@ -168,9 +259,11 @@ def _variants_note(b: BenchmarkRun) -> str:
         if not other or chosen is None:
             continue
         o = other[0]
-        parts.append(f"{DISPLAY_NAMES.get(name, name)} {_variant_text(o)}: HOTA {_pct(_get(o.metrics, 'HOTA'))}, "
-                     f"MOTA {_pct(_get(o.metrics, 'MOTA'))}, IDF1 {_pct(_get(o.metrics, 'IDF1'))}, "
-                     f"ID sw. {_int(_get(o.metrics, 'IDSW'))}")
+        parts.append(
+            f"{DISPLAY_NAMES.get(name, name)} {_variant_text(o)}: HOTA {_pct(_get(o.metrics, 'HOTA'))}, "
+            f"MOTA {_pct(_get(o.metrics, 'MOTA'))}, IDF1 {_pct(_get(o.metrics, 'IDF1'))}, "
+            f"ID sw. {_int(_get(o.metrics, 'IDSW'))}"
+        )
     return ("Other variant (not shown above): " + "; ".join(parts) + ".") if parts else ""
 
 
@@ -181,16 +274,25 @@ def _timing_note(b: BenchmarkRun) -> str:
         if r is None or r.error is not None or not r.timing:
             continue
         t = r.timing
-        parts.append(f"{DISPLAY_NAMES.get(name, name)} {t['median_ms']:.2f} / {t['p95_ms']:.1f} / {t['max_ms']:.0f}")
+        parts.append(
+            f"{DISPLAY_NAMES.get(name, name)} {t['median_ms']:.2f} / {t['p95_ms']:.1f} / {t['max_ms']:.0f}"
+        )
     if not parts:
         return ""
-    return "Per-frame update time, median / 95th percentile / slowest frame (ms): " + "; ".join(parts) + "."
+    return (
+        "Per-frame update time, median / 95th percentile / slowest frame (ms): "
+        + "; ".join(parts)
+        + "."
+    )
 
 
 def _overview(summary: RunSummary) -> list[str]:
     names = [t for t in summary.trackers]
     header = ["Benchmark", *(DISPLAY_NAMES.get(n, n) for n in names)]
-    lines = ["| " + " | ".join(header) + " |", "|" + "|".join(["---"] + ["---:"] * len(names)) + "|"]
+    lines = [
+        "| " + " | ".join(header) + " |",
+        "|" + "|".join(["---"] + ["---:"] * len(names)) + "|",
+    ]
     for b in summary.benchmarks:
         cells = []
         for n in names:
@@ -199,8 +301,10 @@ def _overview(summary: RunSummary) -> list[str]:
                 cells.append("–")
                 continue
             m = r.metrics
-            cells.append(f"{_pct(_get(m, 'HOTA'))} / {_pct(_get(m, 'MOTA'))} / {_pct(_get(m, 'IDF1'))} / "
-                         f"{_int(_get(m, 'IDSW'))}")
+            cells.append(
+                f"{_pct(_get(m, 'HOTA'))} / {_pct(_get(m, 'MOTA'))} / {_pct(_get(m, 'IDF1'))} / "
+                f"{_int(_get(m, 'IDSW'))}"
+            )
         lines.append(f"| [{b.spec.name}](#{b.spec.name}) | " + " | ".join(cells) + " |")
     return lines
 
@@ -256,14 +360,28 @@ def check_targets(b: BenchmarkRun) -> list[TargetCheck]:
     if abl is not None and abl.error is None and abl.metrics:
         for key in ("MOTA", "IDF1", "HOTA"):
             a, o = _get(abl.metrics, key), _get(m, key)
-            out.append(TargetCheck(name, f"{key}: with abduction > without", o > a, 100 * (o - a),
-                                   f"{_pct(o)} vs {_pct(a)}"))
+            out.append(
+                TargetCheck(
+                    name,
+                    f"{key}: with abduction > without",
+                    o > a,
+                    100 * (o - a),
+                    f"{_pct(o)} vs {_pct(a)}",
+                )
+            )
         if b.spec.family == "kitti" and b.spec.class_name.lower() == "car":
             a, o = _get(abl.metrics, "IDSW"), _get(m, "IDSW")
             factor = a / o if o > 0 else float("inf")
-            out.append(TargetCheck(name, f"cuts ID switches at least {IDSW_CUT:g}x (with vs without abduction)",
-                                   factor >= IDSW_CUT, factor - IDSW_CUT,
-                                   f"{_int(o)} vs {_int(a)} ({factor:.1f}x)", "factor"))
+            out.append(
+                TargetCheck(
+                    name,
+                    f"cuts ID switches at least {IDSW_CUT:g}x (with vs without abduction)",
+                    factor >= IDSW_CUT,
+                    factor - IDSW_CUT,
+                    f"{_int(o)} vs {_int(a)} ({factor:.1f}x)",
+                    "factor",
+                )
+            )
     peers = {k: b.chosen(k) for k in PEERS}
     peers = {k: r for k, r in peers.items() if r is not None and r.error is None and r.metrics}
     if not peers:
@@ -271,24 +389,53 @@ def check_targets(b: BenchmarkRun) -> list[TargetCheck]:
     for key in ("IDF1", "HOTA"):
         best = max(peers, key=lambda k: _get(peers[k].metrics, key))
         o, p = _get(m, key), _get(peers[best].metrics, key)
-        out.append(TargetCheck(name, f"{key}: ahead of every peer", o > p, 100 * (o - p),
-                               f"{_pct(o)} vs {DISPLAY_NAMES[best]} {_pct(p)}"))
+        out.append(
+            TargetCheck(
+                name,
+                f"{key}: ahead of every peer",
+                o > p,
+                100 * (o - p),
+                f"{_pct(o)} vs {DISPLAY_NAMES[best]} {_pct(p)}",
+            )
+        )
     best = max(peers, key=lambda k: _get(peers[k].metrics, "MOTA"))
     o, p = _get(m, "MOTA"), _get(peers[best].metrics, "MOTA")
-    out.append(TargetCheck(name, "MOTA: at most 0.5 behind the best peer", o >= p - MOTA_SLACK,
-                           100 * (o - p + MOTA_SLACK), f"{_pct(o)} vs {DISPLAY_NAMES[best]} {_pct(p)}"))
+    out.append(
+        TargetCheck(
+            name,
+            "MOTA: at most 0.5 behind the best peer",
+            o >= p - MOTA_SLACK,
+            100 * (o - p + MOTA_SLACK),
+            f"{_pct(o)} vs {DISPLAY_NAMES[best]} {_pct(p)}",
+        )
+    )
     fewest = min(peers, key=lambda k: _get(peers[k].metrics, "IDSW"))
     o, p = _get(m, "IDSW"), _get(peers[fewest].metrics, "IDSW")
-    out.append(TargetCheck(name, "ID switches: fewer than any peer", o < p, p - o,
-                           f"{_int(o)} vs {DISPLAY_NAMES[fewest]} {_int(p)}", "count"))
+    out.append(
+        TargetCheck(
+            name,
+            "ID switches: fewer than any peer",
+            o < p,
+            p - o,
+            f"{_int(o)} vs {DISPLAY_NAMES[fewest]} {_int(p)}",
+            "count",
+        )
+    )
     timed = {k: r for k, r in peers.items() if r.frames}
     if timed and ours.frames:
         fastest = min(timed, key=lambda k: timed[k].ms_per_frame)
         factor = ours.ms_per_frame / timed[fastest].ms_per_frame
-        out.append(TargetCheck(name, "time per frame: at most 2x the fastest peer", factor <= TIME_FACTOR,
-                               TIME_FACTOR - factor,
-                               f"{ours.ms_per_frame:.2f} vs {DISPLAY_NAMES[fastest]} "
-                               f"{timed[fastest].ms_per_frame:.2f} ms ({factor:.1f}x)", "factor"))
+        out.append(
+            TargetCheck(
+                name,
+                "time per frame: at most 2x the fastest peer",
+                factor <= TIME_FACTOR,
+                TIME_FACTOR - factor,
+                f"{ours.ms_per_frame:.2f} vs {DISPLAY_NAMES[fastest]} "
+                f"{timed[fastest].ms_per_frame:.2f} ms ({factor:.1f}x)",
+                "factor",
+            )
+        )
     return out
 
 
@@ -297,17 +444,27 @@ def _targets_section(summary: RunSummary) -> list[str]:
     if not checks:
         return []
     met = sum(c.met for c in checks)
-    lines = ["## Targets", "",
-             f"The benchmark issue's targets, checked on this run: {met} of {len(checks)} met. *Margin* is "
-             "how far from the bound (percentage points for scores, counts for ID switches, the factor "
-             "for time); negative means missed by that much.", "",
-             "| Benchmark | target | met | margin | numbers |", "|---|---|---|---:|---|"]
+    lines = [
+        "## Targets",
+        "",
+        f"The benchmark issue's targets, checked on this run: {met} of {len(checks)} met. *Margin* is "
+        "how far from the bound (percentage points for scores, counts for ID switches, the factor "
+        "for time); negative means missed by that much.",
+        "",
+        "| Benchmark | target | met | margin | numbers |",
+        "|---|---|---|---:|---|",
+    ]
     for c in checks:
         margin = f"{c.margin:+.0f}" if c.unit == "count" else f"{c.margin:+.2f}"
-        lines.append(f"| {c.benchmark} | {c.target} | {'yes' if c.met else '**no**'} | {margin} | {c.detail} |")
+        lines.append(
+            f"| {c.benchmark} | {c.target} | {'yes' if c.met else '**no**'} | {margin} | {c.detail} |"
+        )
     minutes = summary.total_seconds / 60
-    lines += ["", f"The whole run took {minutes:.1f} min: {'within' if minutes < RUN_MINUTES else '**over**'} the "
-              f"target of {RUN_MINUTES:g} min."]
+    lines += [
+        "",
+        f"The whole run took {minutes:.1f} min: {'within' if minutes < RUN_MINUTES else '**over**'} the "
+        f"target of {RUN_MINUTES:g} min.",
+    ]
     return lines
 
 
@@ -317,13 +474,19 @@ def _machine_line(machine: Mapping[str, Any]) -> str:
     load = ""
     if machine.get("load_average_start") and machine.get("load_average_end"):
         start, end = machine["load_average_start"], machine["load_average_end"]
-        load = (f"; load average (1/5/15 min) {'/'.join(f'{x:g}' for x in start)} at the start, "
-                f"{'/'.join(f'{x:g}' for x in end)} at the end")
+        load = (
+            f"; load average (1/5/15 min) {'/'.join(f'{x:g}' for x in start)} at the start, "
+            f"{'/'.join(f'{x:g}' for x in end)} at the end"
+        )
         if max(start[0], end[0], end[2]) > (machine.get("cores") or 1):
-            load += (" — above the core count: other work shared the CPUs, so absolute times are inflated "
-                     "(the ratios to ours are measured under the same conditions)")
-    return (f"{machine.get('cpu', '?')}, {machine.get('cores', '?')} cores, {machine.get('platform', '?')}, "
-            f"Python {machine.get('python', '?')}; {versions}{load}")
+            load += (
+                " — above the core count: other work shared the CPUs, so absolute times are inflated "
+                "(the ratios to ours are measured under the same conditions)"
+            )
+    return (
+        f"{machine.get('cpu', '?')}, {machine.get('cores', '?')} cores, {machine.get('platform', '?')}, "
+        f"Python {machine.get('python', '?')}; {versions}{load}"
+    )
 
 
 def render_markdown(summary: RunSummary, json_name: str = "benchmarks.json") -> str:
@@ -332,14 +495,20 @@ def render_markdown(summary: RunSummary, json_name: str = "benchmarks.json") -> 
     add = out.append
     add("# Benchmarks")
     add("")
-    add(f"Generated by the benchmark runner on {summary.started}; do not edit by hand. Every number, "
-        f"both variants of every peer and the per-sequence results are in [`{json_name}`]({json_name}).")
+    add(
+        f"Generated by the benchmark runner on {summary.started}; do not edit by hand. Every number, "
+        f"both variants of every peer and the per-sequence results are in [`{json_name}`]({json_name})."
+    )
     add("")
-    add(f"- **Reproduce:** `{summary.command or 'sensemaking benchmark'}` (from the repository root, "
-        "with the `benchmark` extra installed; the data folder is described in `../shared/data/README.md`).")
+    add(
+        f"- **Reproduce:** `{summary.command or 'sensemaking benchmark'}` (from the repository root, "
+        "with the `benchmark` extra installed; the data folder is described in `../shared/data/README.md`)."
+    )
     add(f"- **Machine:** {_machine_line(summary.machine)}.")
-    add(f"- **Total run time:** {summary.total_seconds:.0f} s ({summary.total_seconds / 60:.1f} min) for "
-        "reading, tracking, writing and evaluating everything below.")
+    add(
+        f"- **Total run time:** {summary.total_seconds:.0f} s ({summary.total_seconds / 60:.1f} min) for "
+        "reading, tracking, writing and evaluating everything below."
+    )
     if summary.skipped:
         add("- **Skipped** (missing from the data folder): " + "; ".join(summary.skipped) + ".")
     if summary.errors:
@@ -351,56 +520,79 @@ def render_markdown(summary: RunSummary, json_name: str = "benchmarks.json") -> 
         add("")
     add("## How to read the tables")
     add("")
-    add("- Scores follow TrackEval's definitions (CLEAR MOT, Identity, HOTA), computed by "
+    add(
+        "- Scores follow TrackEval's definitions (CLEAR MOT, Identity, HOTA), computed by "
         "`sensemaking.evaluation` with each dataset's rules (MOT17: only pedestrians with the consider "
         "flag count, distractor matches removed; KITTI: Car and Pedestrian scored separately, Van / "
         "Person_sitting / occluded / truncated ground truth are distractors, DontCare regions and boxes "
         "≤ 25 px tall are ignored; IoU 0.5). MOTA, MOTP, IDF1, HOTA in %; ML and MT in % of "
-        "ground-truth tracks, as in the paper; FP, FN, ID sw., Frag. are counts.")
-    add("- **ID sw.** uses TrackEval's rule: a switch counts also when the object was lost in between. "
+        "ground-truth tracks, as in the paper; FP, FN, ID sw., Frag. are counts."
+    )
+    add(
+        "- **ID sw.** uses TrackEval's rule: a switch counts also when the object was lost in between. "
         "KITTI tables add MOTA, ID sw. and Frag. under the **old KITTI devkit** rule (a switch counts "
         "only when the object was tracked in the previous frame), which is the rule behind the paper's "
-        "KITTI numbers.")
+        "KITTI numbers."
+    )
     repeat = int(summary.machine.get("repeat", 1) or 1)
-    add("- **ms/frame** is the mean wall time of one `update` call of the tracker (association only: "
+    add(
+        "- **ms/frame** is the mean wall time of one `update` call of the tracker (association only: "
         "no file reading or writing, no format conversion), measured with `time.perf_counter` in this "
         "run; **time ÷ ours** divides it by ours with abduction on the same benchmark in the same run. "
         "The trackers take turns sequence by sequence"
-        + (f", and each runs every sequence {repeat} times: the fastest run's times count (the results "
-           "are the same in every run), so that a slow spell of a shared machine does not decide a ratio."
-           if repeat > 1 else "."))
-    add("- **Ours** uses one named parameter set per dataset family (`TrackerConfig.for_dataset(\"kitti\")`, "
-        "`TrackerConfig.for_dataset(\"motchallenge\")`), with the frame rate and image size of each "
+        + (
+            f", and each runs every sequence {repeat} times: the fastest run's times count (the results "
+            "are the same in every run), so that a slow spell of a shared machine does not decide a ratio."
+            if repeat > 1
+            else "."
+        )
+    )
+    add(
+        '- **Ours** uses one named parameter set per dataset family (`TrackerConfig.for_dataset("kitti")`, '
+        '`TrackerConfig.for_dataset("motchallenge")`), with the frame rate and image size of each '
         "sequence; *without abduction* is the same tracker with `abduction=False` (Hungarian IoU "
         "matching). One tracking pass writes two results: *matched tracks* (only tracks matched to a "
         "detection in that frame, at the detection's box) and *+ unseen tracks* (also the tracks "
         "abduced as hidden or with missing detections, at their predicted box, as the paper's "
         "abduced motion tracks do); the table shows the better by "
-        f"{SELECT_BY} (column *input*), the other is listed under the table.")
-    add(f"- **Peers** from roboflow `trackers` (SORT, ByteTrack, OC-SORT) run twice: with their defaults "
+        f"{SELECT_BY} (column *input*), the other is listed under the table."
+    )
+    add(
+        f"- **Peers** from roboflow `trackers` (SORT, ByteTrack, OC-SORT) run twice: with their defaults "
         "(only `frame_rate` set from the sequence) and with a score pre-filter at the threshold our "
         "tracker needs to start a track; the table shows the better of the two by "
         f"{SELECT_BY} (column *input*), the other is listed under the table. KITTI detection files are "
         "per class, so every tracker tracks one class at a time. Their ids are shifted by one (they "
-        "count from 0, MOTChallenge from 1). Defaults as installed:")
+        "count from 0, MOTChallenge from 1). Defaults as installed:"
+    )
     for name, params in summary.peer_defaults.items():
         if name in BOXMOT_PEERS:
             continue
-        shown = ", ".join(f"`{k}={v}`" for k, v in params.items() if k not in ("iou", "frame_rate"))
+        shown = ", ".join(
+            f"`{k}={v}`" for k, v in params.items() if k not in ("iou", "frame_rate")
+        )
         add(f"  - {DISPLAY_NAMES.get(name, name)}: {shown}.")
     boxmot = [n for n in summary.peer_defaults if n in BOXMOT_PEERS]
     if boxmot:
-        add("- **boxmot peers** (`boxmot` "
+        add(
+            "- **boxmot peers** (`boxmot` "
             f"{summary.machine.get('packages', {}).get('boxmot') or ''}) run once per sequence (not "
             "repeated for timing), at boxmot's defaults through `update(dets, img)` with a blank image of "
             "the sequence's size, and without the parts that read pixels: appearance embeddings (ReID) "
             "and camera-motion compensation are switched off (a test feeds noise instead of the blank "
             "image and gets the same tracks). Left out: "
-            + "; ".join(f"{k} ({why})" for k, why in BOXMOT_LEFT_OUT.items()) + ". Switched off per tracker: "
-            + "; ".join(f"{DISPLAY_NAMES.get(n, n)} `{BOXMOT_PEERS[n][1] or 'nothing'}`" for n in boxmot) + ".")
-    add("- *paper Table 2* rows quote the paper for orientation only: other detectors (YOLOv3 on KITTI, "
+            + "; ".join(f"{k} ({why})" for k, why in BOXMOT_LEFT_OUT.items())
+            + ". Switched off per tracker: "
+            + "; ".join(
+                f"{DISPLAY_NAMES.get(n, n)} `{BOXMOT_PEERS[n][1] or 'nothing'}`" for n in boxmot
+            )
+            + "."
+        )
+    add(
+        "- *paper Table 2* rows quote the paper for orientation only: other detectors (YOLOv3 on KITTI, "
         "Faster R-CNN on MOT17), all 21 KITTI / 7 MOT17 training sequences, the old devkit. They are "
-        "not comparable number for number with the rows above.")
+        "not comparable number for number with the rows above."
+    )
     add("")
     add("## Overview: HOTA / MOTA / IDF1 / ID sw.")
     add("")
@@ -414,7 +606,9 @@ def render_markdown(summary: RunSummary, json_name: str = "benchmarks.json") -> 
         add(f"## {b.spec.name}")
         add("")
         n = len(b.sequences)
-        add(f"{b.spec.title}: {n} sequence{'s' if n != 1 else ''} ({', '.join(b.sequences)}), {b.frames} frames.")
+        add(
+            f"{b.spec.title}: {n} sequence{'s' if n != 1 else ''} ({', '.join(b.sequences)}), {b.frames} frames."
+        )
         if b.spec.note:
             add(b.spec.note)
         if b.skipped:
@@ -432,8 +626,14 @@ def render_markdown(summary: RunSummary, json_name: str = "benchmarks.json") -> 
             add("")
         paper = PAPER_TABLE2.get(b.spec.paper or "")
         if paper:
-            devkit = (" Its MOTA, ID sw. and Frag. follow the old devkit rule: compare them with the "
-                      "*(devkit)* columns.") if b.spec.rules == "kitti" else ""
+            devkit = (
+                (
+                    " Its MOTA, ID sw. and Frag. follow the old devkit rule: compare them with the "
+                    "*(devkit)* columns."
+                )
+                if b.spec.rules == "kitti"
+                else ""
+            )
             add(f"Paper rows: {paper['title']}.{devkit}")
             add("")
     return "\n".join(out).rstrip() + "\n"
@@ -466,41 +666,50 @@ def _best_peer(summary: RunSummary, bench: str) -> str:
             continue
         if best is None or _get(r.metrics, "HOTA") > _get(best[1].metrics, "HOTA"):
             best = (name, r)
-    return "–" if best is None else f"{DISPLAY_NAMES.get(best[0], best[0])} {_hmi(best[1].metrics)}"
+    return (
+        "–" if best is None else f"{DISPLAY_NAMES.get(best[0], best[0])} {_hmi(best[1].metrics)}"
+    )
 
 
 def _crossval_section(summary: RunSummary) -> list[str]:
     """The headline: each sequence scored with parameters chosen without its video."""
     if not summary.crossval:
         return []
-    out = ["## Headline: cross-validated, HOTA / MOTA / IDF1 / ID sw.", "",
-           "Ours with abduction, each sequence scored with parameters chosen on the *other* videos of "
-           "its family (leave one video out; a KITTI sequence is held out from all four KITTI "
-           "benchmarks, MOT17-05 from both of its benchmarks). *In-sample*: the grid point with the "
-           "best mean HOTA on every sequence, scored on the same sequences. *Preset*: the shipped "
-           "preset (`presets/<family>.json`). *Spread*: over the held-out sequences, the least and "
-           "most of (cross-validated − in-sample) HOTA. The grid, the choice of every fold and the "
-           "rule are in [`PARAMETERS.md`](PARAMETERS.md). ✓: the cross-validated HOTA is within "
-           f"{100 * CV_GAP:g} of the in-sample one (the issue's target). Peers: the best by HOTA "
-           "from the tables below (they have no tuned values).",
-           "",
-           "| Benchmark | cross-validated | in-sample | preset | CV − in-sample HOTA | spread over folds "
-           "| best peer |",
-           "|---|---:|---:|---:|---:|---:|---|"]
+    out = [
+        "## Headline: cross-validated, HOTA / MOTA / IDF1 / ID sw.",
+        "",
+        "Ours with abduction, each sequence scored with parameters chosen on the *other* videos of "
+        "its family (leave one video out; a KITTI sequence is held out from all four KITTI "
+        "benchmarks, MOT17-05 from both of its benchmarks). *In-sample*: the grid point with the "
+        "best mean HOTA on every sequence, scored on the same sequences. *Preset*: the shipped "
+        "preset (`presets/<family>.json`). *Spread*: over the held-out sequences, the least and "
+        "most of (cross-validated − in-sample) HOTA. The grid, the choice of every fold and the "
+        "rule are in [`PARAMETERS.md`](PARAMETERS.md). ✓: the cross-validated HOTA is within "
+        f"{100 * CV_GAP:g} of the in-sample one (the issue's target). Peers: the best by HOTA "
+        "from the tables below (they have no tuned values).",
+        "",
+        "| Benchmark | cross-validated | in-sample | preset | CV − in-sample HOTA | spread over folds "
+        "| best peer |",
+        "|---|---:|---:|---:|---:|---:|---|",
+    ]
     for cv in summary.crossval:
         for bench in cv.benchmarks:
             lo, hi = cv.fold_spread(bench)
             gap = cv.gap(bench)
             verdict = "" if math.isnan(gap) else (" ✓" if gap >= -CV_GAP else " **✗**")
-            out.append(f"| {bench} | {_hmi(cv.heldout.get(bench))} | {_hmi(cv.insample.get(bench))} | "
-                       f"{_hmi(cv.preset_metrics.get(bench))} | {_signed(gap)}{verdict} | "
-                       f"{_signed(lo)} … {_signed(hi)} | {_best_peer(summary, bench)} |")
+            out.append(
+                f"| {bench} | {_hmi(cv.heldout.get(bench))} | {_hmi(cv.insample.get(bench))} | "
+                f"{_hmi(cv.preset_metrics.get(bench))} | {_signed(gap)}{verdict} | "
+                f"{_signed(lo)} … {_signed(hi)} | {_best_peer(summary, bench)} |"
+            )
     out.append("")
     for cv in summary.crossval:
         counts = ", ".join(f"{_point_text(cv.points[i])} ({n})" for i, n in cv.choice_counts())
-        out.append(f"- **{cv.family}** ({len(cv.folds)} folds, {len(cv.points)} grid points, "
-                   f"{cv.seconds:.0f} s): folds chose {counts}. In-sample best: "
-                   f"{_point_text(cv.points[cv.in_sample])}.")
+        out.append(
+            f"- **{cv.family}** ({len(cv.folds)} folds, {len(cv.points)} grid points, "
+            f"{cv.seconds:.0f} s): folds chose {counts}. In-sample best: "
+            f"{_point_text(cv.points[cv.in_sample])}."
+        )
     return out
 
 
@@ -523,16 +732,20 @@ def render_parameters(summary: RunSummary | None = None) -> str:
     add = out.append
     add("# Parameters")
     add("")
-    add("Generated by `sensemaking benchmark` from the code (`sensemaking.settings`, the docstrings of "
+    add(
+        "Generated by `sensemaking benchmark` from the code (`sensemaking.settings`, the docstrings of "
         "`TrackerConfig`, `AbductionCosts`, `KalmanConfig`) and from its cross-validation run; do not "
-        "edit by hand." + (f" Run of {summary.started}: `{summary.command}`." if summary else ""))
+        "edit by hand." + (f" Run of {summary.started}: `{summary.command}`." if summary else "")
+    )
     add("")
     add("## Every parameter")
     add("")
-    add("Values outside the range are errors (`ParameterError`, one line naming the file or option "
+    add(
+        "Values outside the range are errors (`ParameterError`, one line naming the file or option "
         "and the key; the CLI exits with status 2). Scores are in the detector's units "
         "(PointRCNN logits are read as probabilities: the 15-column format is mapped through the "
-        "sigmoid when read). Times are in seconds and become frames with `fps`.")
+        "sigmoid when read). Times are in seconds and become frames with `fps`."
+    )
     add("")
     add(settings.parameters_table())
     add("")
@@ -540,31 +753,38 @@ def render_parameters(summary: RunSummary | None = None) -> str:
     add("")
     add("## Setting them")
     add("")
-    add("Layers, each over the one before: the defaults above; the family preset "
+    add(
+        "Layers, each over the one before: the defaults above; the family preset "
         "(`src/sensemaking/presets/<family>.json`; `sensemaking track --format kitti` uses `kitti`, "
         "`--format mot` uses `mot`); a parameter file (`track --params FILE`); the input's facts "
         "(frame rate and image size from `seqinfo`, `--fps`, `--image-size`, `--no-abduction`, "
         "`--max-solve-ms`); then `--set KEY=VALUE` (repeatable; dotted keys reach the nested "
         "settings: `--set costs.resumes=200`, `--set kalman.velocity_std=0.1`; switches take "
-        "`true`/`false` in any case, optional values `null`).")
+        "`true`/`false` in any case, optional values `null`)."
+    )
     add("")
     add("A parameter file is JSON (or TOML with the same keys):")
     add("")
     add("```json")
-    add('{\n  "format": "%s",\n  "base": "kitti",\n  "source": "where the values came from",\n'
+    add(
+        '{\n  "format": "%s",\n  "base": "kitti",\n  "source": "where the values came from",\n'
         '  "params": {"min_hits": 2, "start_confidence": 0.7, "costs": {"appears": 250},\n'
-        '             "kalman.velocity_std": 0.1}\n}' % settings.FORMAT)
+        '             "kalman.velocity_std": 0.1}\n}' % settings.FORMAT
+    )
     add("```")
     add("")
-    add("`base` (optional: `kitti`, `mot` or `defaults`) is the preset the values change; without it "
+    add(
+        "`base` (optional: `kitti`, `mot` or `defaults`) is the preset the values change; without it "
         "`track` uses the preset of `--format` and the Python API "
         "(`sensemaking.settings.load_config(path, family=None)`) the defaults. "
         "`settings.load_params(path)` returns the validated values; `settings.write_params` writes a "
-        "file; `TrackerConfig.for_dataset(family)` is the preset.")
+        "file; `TrackerConfig.for_dataset(family)` is the preset."
+    )
     add("")
     add("## Estimating them from your own data")
     add("")
-    add("`sensemaking calibrate --format kitti --class car --gt GT1 --detections DET1 [--gt GT2 "
+    add(
+        "`sensemaking calibrate --format kitti --class car --gt GT1 --detections DET1 [--gt GT2 "
         "--detections DET2 ...] --output mine.json` matches each detection to the ground truth of its "
         "frame (IoU ≥ 0.5; detections on other classes, DontCare regions or MOT's not-considered "
         "boxes count as neither) and writes a parameter file over the family preset: "
@@ -573,12 +793,15 @@ def render_parameters(summary: RunSummary | None = None) -> str:
         "detections repeat, `max_missing_s` from the 95th percentile of the annotated objects' gaps, "
         "and `costs.enters` / `appears` / `leaves` / `lost` as −100 ln p of where objects begin and "
         "end (at the image border or not; add-one smoothed). Then `sensemaking track ... --params mine.json`. The "
-        "presets below were not produced by it; its estimates are not cross-validated yet.")
+        "presets below were not produced by it; its estimates are not cross-validated yet."
+    )
     add("")
     add("## Presets")
     add("")
     for family in settings.FAMILIES:
-        values = ", ".join(f"`{k} = {_value(v)}`" for k, v in settings.preset_params(family).items())
+        values = ", ".join(
+            f"`{k} = {_value(v)}`" for k, v in settings.preset_params(family).items()
+        )
         add(f"- **`{family}`**: {values}.")
         add(f"  Source: {settings.preset_source(family)}")
     add("")
@@ -598,53 +821,75 @@ def _value(v: Any) -> str:
 
 
 def _parameters_crossval(summary: RunSummary) -> list[str]:
-    out = ["## Cross-validation", "",
-           "Folds are videos within a family (a KITTI sequence number across RRC / PointRCNN and car / "
-           "pedestrian; MOT17-05 across YOLOX and FRCNN; each MOT15 sequence). Every grid point runs "
-           "once on every sequence (a continue threshold above the start threshold is left out). "
-           "For each fold the grid point is chosen on the *other* videos by least worst regret: on "
-           "each training video a point scores the mean over the family's benchmarks of its HOTA "
-           "there, its regret is the gap to the best point on that video, and the point whose "
-           "largest regret is smallest wins (ties: the better mean HOTA over the training "
-           "sequences). It scores the held-out video. The rule prefers values that are never far "
-           "from the best on any video over the best mean; the best-mean rule's numbers are shown "
-           "beside it. The recommended set is the one most folds chose (ties: the better in-sample "
-           "mean). Everything else stays at the preset.", ""]
+    out = [
+        "## Cross-validation",
+        "",
+        "Folds are videos within a family (a KITTI sequence number across RRC / PointRCNN and car / "
+        "pedestrian; MOT17-05 across YOLOX and FRCNN; each MOT15 sequence). Every grid point runs "
+        "once on every sequence (a continue threshold above the start threshold is left out). "
+        "For each fold the grid point is chosen on the *other* videos by least worst regret: on "
+        "each training video a point scores the mean over the family's benchmarks of its HOTA "
+        "there, its regret is the gap to the best point on that video, and the point whose "
+        "largest regret is smallest wins (ties: the better mean HOTA over the training "
+        "sequences). It scores the held-out video. The rule prefers values that are never far "
+        "from the best on any video over the best mean; the best-mean rule's numbers are shown "
+        "beside it. The recommended set is the one most folds chose (ties: the better in-sample "
+        "mean). Everything else stays at the preset.",
+        "",
+    ]
     for cv in summary.crossval:
         out.append(f"### {cv.family}")
         out.append("")
-        out.append("Grid: " + "; ".join(f"`{k}` ∈ {{{', '.join(_value(x) for x in v)}}}"
-                                        for k, v in cv.grid.items())
-                   + f" ({len(cv.points)} points; the preset's values: "
-                   + (_point_text(cv.points[cv.preset]) if cv.preset is not None else "not on the grid")
-                   + ").")
+        out.append(
+            "Grid: "
+            + "; ".join(
+                f"`{k}` ∈ {{{', '.join(_value(x) for x in v)}}}" for k, v in cv.grid.items()
+            )
+            + f" ({len(cv.points)} points; the preset's values: "
+            + (_point_text(cv.points[cv.preset]) if cv.preset is not None else "not on the grid")
+            + ")."
+        )
         out.append("")
-        out.append("| benchmark | cross-validated (least worst regret) | cross-validated (best mean) "
-                   "| in-sample | preset | CV − in-sample HOTA |")
+        out.append(
+            "| benchmark | cross-validated (least worst regret) | cross-validated (best mean) "
+            "| in-sample | preset | CV − in-sample HOTA |"
+        )
         out.append("|---|---:|---:|---:|---:|---:|")
         for bench in cv.benchmarks:
-            out.append(f"| {bench} | {_hmi(cv.heldout.get(bench))} | {_hmi(cv.mean_heldout.get(bench))} | "
-                       f"{_hmi(cv.insample.get(bench))} | {_hmi(cv.preset_metrics.get(bench))} | "
-                       f"{_signed(cv.gap(bench))} |")
+            out.append(
+                f"| {bench} | {_hmi(cv.heldout.get(bench))} | {_hmi(cv.mean_heldout.get(bench))} | "
+                f"{_hmi(cv.insample.get(bench))} | {_hmi(cv.preset_metrics.get(bench))} | "
+                f"{_signed(cv.gap(bench))} |"
+            )
         out.append("")
         keys = list(cv.grid)
-        out.append("| held-out video | " + " | ".join(f"`{k}`" for k in keys)
-                   + " | worst regret (HOTA) | best-mean rule's point |")
+        out.append(
+            "| held-out video | "
+            + " | ".join(f"`{k}`" for k in keys)
+            + " | worst regret (HOTA) | best-mean rule's point |"
+        )
         out.append("|---|" + "---:|" * (len(keys) + 2))
         for fold in cv.folds:
             point = cv.points[cv.choice[fold]]
             regret = cv.fold_regret[fold][cv.choice[fold]]
-            out.append(f"| {fold} | " + " | ".join(_value(point[k]) for k in keys)
-                       + f" | {100 * regret:.1f} | {_point_text(cv.points[cv.mean_choice[fold]])} |")
+            out.append(
+                f"| {fold} | "
+                + " | ".join(_value(point[k]) for k in keys)
+                + f" | {100 * regret:.1f} | {_point_text(cv.points[cv.mean_choice[fold]])} |"
+            )
         out.append("")
         rec = cv.points[cv.recommended]
         counts = dict(cv.choice_counts())
-        out.append(f"Recommended (chosen by {counts.get(cv.recommended, 0)} of {len(cv.folds)} folds): "
-                   f"{_point_text(rec)}; in-sample best: {_point_text(cv.points[cv.in_sample])}. "
-                   "Mean HOTA over the family's benchmarks, every sequence, per grid point (best first): "
-                   + "; ".join(f"{_point_text(cv.points[i])} {100 * cv.objective_all[i]:.2f}"
-                               for i in sorted(range(len(cv.points)), key=lambda i: -cv.objective_all[i])[:6])
-                   + ".")
+        out.append(
+            f"Recommended (chosen by {counts.get(cv.recommended, 0)} of {len(cv.folds)} folds): "
+            f"{_point_text(rec)}; in-sample best: {_point_text(cv.points[cv.in_sample])}. "
+            "Mean HOTA over the family's benchmarks, every sequence, per grid point (best first): "
+            + "; ".join(
+                f"{_point_text(cv.points[i])} {100 * cv.objective_all[i]:.2f}"
+                for i in sorted(range(len(cv.points)), key=lambda i: -cv.objective_all[i])[:6]
+            )
+            + "."
+        )
         out.append("")
     return out
 
@@ -661,9 +906,16 @@ def summary_json(summary: RunSummary) -> dict[str, Any]:
     """Everything in the markdown and more, for machines."""
     data = summary.to_json()
     data["paper_table2"] = PAPER_TABLE2
-    data["units"] = {"MOTA": "fraction", "MOTP": "fraction", "IDF1": "fraction", "HOTA": "fraction",
-                     "MT": "count", "ML": "count", "ms_per_frame": "milliseconds",
-                     "paper_table2": "MOTA/MOTP/ML/MT in percent, others counts"}
+    data["units"] = {
+        "MOTA": "fraction",
+        "MOTP": "fraction",
+        "IDF1": "fraction",
+        "HOTA": "fraction",
+        "MT": "count",
+        "ML": "count",
+        "ms_per_frame": "milliseconds",
+        "paper_table2": "MOTA/MOTP/ML/MT in percent, others counts",
+    }
     return data
 
 
@@ -686,11 +938,16 @@ def write_json(summary: RunSummary, path: str | Path) -> Path:
     return js
 
 
-def write_report(summary: RunSummary, markdown_path: str | Path,
-                 json_path: str | Path | None = None) -> tuple[Path, Path]:
+def write_report(
+    summary: RunSummary, markdown_path: str | Path, json_path: str | Path | None = None
+) -> tuple[Path, Path]:
     """Write the markdown and the JSON beside it (default ``benchmarks.json`` in the same folder)."""
     md = Path(markdown_path)
-    js = write_json(summary, json_path if json_path is not None else md.with_name("benchmarks.json"))
+    js = write_json(
+        summary, json_path if json_path is not None else md.with_name("benchmarks.json")
+    )
     with atomic_write(md) as fh:
-        fh.write(render_markdown(summary, json_name=js.name if js.parent == md.parent else str(js)))
+        fh.write(
+            render_markdown(summary, json_name=js.name if js.parent == md.parent else str(js))
+        )
     return md, js

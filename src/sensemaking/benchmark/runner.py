@@ -24,21 +24,28 @@ from __future__ import annotations
 import logging
 import platform
 import time
-from collections.abc import Callable, Iterable, Sequence as SequenceABC
+from collections.abc import Callable, Iterable
+from collections.abc import Sequence as SequenceABC
 from dataclasses import dataclass, field
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from sensemaking.benchmark.datasets import Benchmark, BenchmarkSpec, Sequence, discover, load_benchmark
+from sensemaking.benchmark.datasets import (
+    Benchmark,
+    BenchmarkSpec,
+    Sequence,
+    discover,
+    load_benchmark,
+)
 from sensemaking.benchmark.peers import (
     BOXMOT_PEERS,
     OURS,
-    TRACKERS_PEERS,
     PEERS,
     TRACKER_NAMES,
+    TRACKERS_PEERS,
     FrameTracker,
     OursAdapter,
     make_peer,
@@ -69,14 +76,35 @@ log = logging.getLogger(__name__)
 #: the metric that picks a peer's better variant (higher is better)
 SELECT_BY = "HOTA"
 #: the fields kept per sequence (the combined metrics keep every field)
-PER_SEQUENCE_FIELDS = ("HOTA", "DetA", "AssA", "MOTA", "MOTP", "IDF1", "IDSW", "Frag", "MT", "PT", "ML",
-                       "CLR_TP", "CLR_FP", "CLR_FN", "GT_IDs", "IDs")
+PER_SEQUENCE_FIELDS = (
+    "HOTA",
+    "DetA",
+    "AssA",
+    "MOTA",
+    "MOTP",
+    "IDF1",
+    "IDSW",
+    "Frag",
+    "MT",
+    "PT",
+    "ML",
+    "CLR_TP",
+    "CLR_FP",
+    "CLR_FN",
+    "GT_IDs",
+    "IDs",
+)
 Progress = Callable[[str], None]
 
 
 # -- our tracker's parameters --------------------------------------------------------------------
-def ours_config(family: str, *, abduction: bool = True, fps: float | None = None,
-                image_size: tuple[int, int] | None = None) -> TrackerConfig:
+def ours_config(
+    family: str,
+    *,
+    abduction: bool = True,
+    fps: float | None = None,
+    image_size: tuple[int, int] | None = None,
+) -> TrackerConfig:
     """Our tracker's one named parameter set for a dataset family (``kitti`` / ``motchallenge``).
 
     The sequence's frame rate and image size are facts of the input, not tuned parameters: they
@@ -94,7 +122,7 @@ def ours_config(family: str, *, abduction: bool = True, fps: float | None = None
 
 def ours_score_threshold(config: TrackerConfig) -> float:
     """The detection score our tracker needs to start a track: the peers' pre-filter threshold."""
-    return float(getattr(config, "start_confidence"))
+    return float(config.start_confidence)
 
 
 # -- results ---------------------------------------------------------------------------------------
@@ -139,16 +167,25 @@ class TrackerRun:
         self.update_seconds = float(seconds.sum())
         if seconds.size:
             ms = 1000.0 * seconds
-            self.timing = {"median_ms": float(np.median(ms)), "p95_ms": float(np.percentile(ms, 95)),
-                           "max_ms": float(ms.max())}
+            self.timing = {
+                "median_ms": float(np.median(ms)),
+                "p95_ms": float(np.percentile(ms, 95)),
+                "max_ms": float(ms.max()),
+            }
 
     def to_json(self) -> dict[str, Any]:
         return {
-            "tracker": self.tracker, "variant": self.variant, "min_score": self.min_score,
-            "frames": self.frames, "update_seconds": self.update_seconds,
-            "ms_per_frame": None if not self.frames else self.ms_per_frame, **self.timing,
+            "tracker": self.tracker,
+            "variant": self.variant,
+            "min_score": self.min_score,
+            "frames": self.frames,
+            "update_seconds": self.update_seconds,
+            "ms_per_frame": None if not self.frames else self.ms_per_frame,
+            **self.timing,
             "result_dir": None if self.result_dir is None else str(self.result_dir),
-            "metrics": self.metrics, "legacy": self.legacy, "per_sequence": self.per_sequence,
+            "metrics": self.metrics,
+            "legacy": self.legacy,
+            "per_sequence": self.per_sequence,
             "error": self.error,
         }
 
@@ -172,23 +209,38 @@ class BenchmarkRun:
             return failed[0] if failed else None
 
         def key(r: TrackerRun) -> tuple[float, float, int]:
-            return (float(r.metrics.get(SELECT_BY, -np.inf)), float(r.metrics.get("MOTA", -np.inf)),
-                    int(r.variant in ("default", "visible")))
+            return (
+                float(r.metrics.get(SELECT_BY, -np.inf)),
+                float(r.metrics.get("MOTA", -np.inf)),
+                int(r.variant in ("default", "visible")),
+            )
 
         return max(runs, key=key)
 
     def time_ratio(self, tracker: str) -> float | None:
         """Per-frame time of ``tracker`` divided by ours (with abduction) in this run."""
         mine, ours = self.chosen(tracker), self.chosen("ours")
-        if mine is None or ours is None or not mine.frames or not ours.frames or ours.update_seconds <= 0:
+        if (
+            mine is None
+            or ours is None
+            or not mine.frames
+            or not ours.frames
+            or ours.update_seconds <= 0
+        ):
             return None
         return mine.ms_per_frame / ours.ms_per_frame
 
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {
-            "name": self.spec.name, "title": self.spec.title, "family": self.spec.family,
-            "rules": self.spec.rules, "class": self.spec.class_name, "sequences": self.sequences,
-            "frames": self.frames, "skipped": self.skipped, "ours_config": self.ours_config,
+            "name": self.spec.name,
+            "title": self.spec.title,
+            "family": self.spec.family,
+            "rules": self.spec.rules,
+            "class": self.spec.class_name,
+            "sequences": self.sequences,
+            "frames": self.frames,
+            "skipped": self.skipped,
+            "ours_config": self.ours_config,
             "trackers": {},
         }
         for name, runs in self.runs.items():
@@ -220,16 +272,28 @@ class RunSummary:
 
     @property
     def errors(self) -> list[str]:
-        return [f"{b.spec.name}/{r.tracker}/{r.variant}: {r.error}"
-                for b in self.benchmarks for runs in b.runs.values() for r in runs if r.error]
+        return [
+            f"{b.spec.name}/{r.tracker}/{r.variant}: {r.error}"
+            for b in self.benchmarks
+            for runs in b.runs.values()
+            for r in runs
+            if r.error
+        ]
 
     def to_json(self) -> dict[str, Any]:
         return {
-            "started": self.started, "total_seconds": self.total_seconds, "command": self.command,
-            "data_root": self.data_root, "output_dir": self.output_dir, "trackers": self.trackers,
-            "select_by": SELECT_BY, "machine": self.machine, "peer_defaults": self.peer_defaults,
+            "started": self.started,
+            "total_seconds": self.total_seconds,
+            "command": self.command,
+            "data_root": self.data_root,
+            "output_dir": self.output_dir,
+            "trackers": self.trackers,
+            "select_by": SELECT_BY,
+            "machine": self.machine,
+            "peer_defaults": self.peer_defaults,
             "skipped": self.skipped,
-            "errors": self.errors, "benchmarks": [b.to_json() for b in self.benchmarks],
+            "errors": self.errors,
+            "benchmarks": [b.to_json() for b in self.benchmarks],
             "crossval": [cv.to_json() for cv in self.crossval],
         }
 
@@ -261,7 +325,16 @@ def machine_info() -> dict[str, Any]:
     from importlib import metadata
 
     versions = {}
-    for pkg in ("sensemaking", "numpy", "scipy", "clingo", "trackers", "supervision", "boxmot", "torch"):
+    for pkg in (
+        "sensemaking",
+        "numpy",
+        "scipy",
+        "clingo",
+        "trackers",
+        "supervision",
+        "boxmot",
+        "torch",
+    ):
         try:
             versions[pkg] = metadata.version(pkg)
         except metadata.PackageNotFoundError:
@@ -288,7 +361,9 @@ def parse_trackers(names: Iterable[str] | str | None) -> list[str]:
     wanted = [aliases.get(n, n) for n in wanted]
     unknown = [n for n in wanted if n not in TRACKER_NAMES]
     if unknown:
-        raise InputError(f"unknown tracker(s) {', '.join(unknown)}; known: {', '.join(TRACKER_NAMES)}")
+        raise InputError(
+            f"unknown tracker(s) {', '.join(unknown)}; known: {', '.join(TRACKER_NAMES)}"
+        )
     return [n for n in TRACKER_NAMES if n in wanted] or list(TRACKER_NAMES)
 
 
@@ -296,8 +371,9 @@ def _frames_of(seq: Sequence) -> dict[int, Detections]:
     return dict(seq.detections.frames())
 
 
-def run_sequence(tracker: FrameTracker, seq: Sequence,
-                 frames: dict[int, Detections] | None = None) -> tuple[Detections, np.ndarray]:
+def run_sequence(
+    tracker: FrameTracker, seq: Sequence, frames: dict[int, Detections] | None = None
+) -> tuple[Detections, np.ndarray]:
     """Track one sequence from its first to its last frame (empty frames included).
 
     Returns:
@@ -335,14 +411,23 @@ def _write_results(spec: BenchmarkSpec, path: Path, tracks: Detections) -> None:
         write_mot(path, tracks)
 
 
-def _make_tracker(name: str, variant: str, spec: BenchmarkSpec, seq: Sequence,
-                  min_score: float | None) -> FrameTracker:
+def _make_tracker(
+    name: str, variant: str, spec: BenchmarkSpec, seq: Sequence, min_score: float | None
+) -> FrameTracker:
     if name in OURS:
-        config = ours_config(spec.family, abduction=(name == "ours"), fps=seq.info.fps,
-                             image_size=(seq.info.width, seq.info.height))
+        config = ours_config(
+            spec.family,
+            abduction=(name == "ours"),
+            fps=seq.info.fps,
+            image_size=(seq.info.width, seq.info.height),
+        )
         return OursAdapter(name=name, config=config, states=(0, 1, 2))
-    return make_peer(name, frame_rate=float(seq.info.fps), min_score=min_score if variant == "prefilter" else None,
-                     image_size=(int(seq.info.width), int(seq.info.height)))
+    return make_peer(
+        name,
+        frame_rate=float(seq.info.fps),
+        min_score=min_score if variant == "prefilter" else None,
+        image_size=(int(seq.info.width), int(seq.info.height)),
+    )
 
 
 #: our tracker's two outputs from one tracking pass: variant -> track states written
@@ -402,8 +487,12 @@ def _read_results(spec: BenchmarkSpec, path: Path) -> Detections:
     return read_mot(path, kind="results")
 
 
-def _evaluate(bench: Benchmark, result_dir: Path, gt: dict[str, Detections],
-              modes: SequenceABC[str] = ("trackeval",)) -> dict[str, tuple[dict[str, float], dict[str, Any]]]:
+def _evaluate(
+    bench: Benchmark,
+    result_dir: Path,
+    gt: dict[str, Detections],
+    modes: SequenceABC[str] = ("trackeval",),
+) -> dict[str, tuple[dict[str, float], dict[str, Any]]]:
     """Score the result files in ``result_dir`` (read back from disk) under the benchmark's rules.
 
     Returns:
@@ -415,19 +504,26 @@ def _evaluate(bench: Benchmark, result_dir: Path, gt: dict[str, Detections],
     inputs = {}
     for s in bench.sequences:
         path = result_dir / f"{s.name}.txt"
-        inputs[s.name] = SequenceInput(gt=gt[s.name], tracks=_read_results(spec, path), n_frames=int(s.info.length),
-                                       gt_path=s.gt_path, tracks_path=path)
+        inputs[s.name] = SequenceInput(
+            gt=gt[s.name],
+            tracks=_read_results(spec, path),
+            n_frames=int(s.info.length),
+            gt_path=s.gt_path,
+            tracks_path=path,
+        )
     out = {}
     for mode in modes:
         report = evaluate(inputs, _rules_name(spec), idsw_mode=mode)
-        per_seq = {s.name: _metrics_dict(report[s.name], PER_SEQUENCE_FIELDS) for s in bench.sequences}
+        per_seq = {
+            s.name: _metrics_dict(report[s.name], PER_SEQUENCE_FIELDS) for s in bench.sequences
+        }
         out[mode] = (_metrics_dict(report.combined()), per_seq)
     return out
 
 
 def _metrics_dict(m: Any, fields: SequenceABC[str] | None = None) -> dict[str, float]:
     out: dict[str, float] = {}
-    for k in (m if fields is None else [f for f in fields if f in m]):
+    for k in m if fields is None else [f for f in fields if f in m]:
         v = m[k]
         if isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool):
             out[k] = int(v) if isinstance(v, (int, np.integer)) else float(v)
@@ -435,15 +531,22 @@ def _metrics_dict(m: Any, fields: SequenceABC[str] | None = None) -> dict[str, f
 
 
 # -- the run ---------------------------------------------------------------------------------------
-def run_benchmark(bench: Benchmark, trackers: SequenceABC[str], output_dir: Path,
-                  progress: Progress | None = None, repeat: int = 1) -> BenchmarkRun:
+def run_benchmark(
+    bench: Benchmark,
+    trackers: SequenceABC[str],
+    output_dir: Path,
+    progress: Progress | None = None,
+    repeat: int = 1,
+) -> BenchmarkRun:
     """Every tracker (and variant) on every sequence of ``bench``; results written and evaluated.
     Each tracker runs each sequence ``repeat`` times; the per-frame times of the fastest run
     count (a shared machine's slow spells inflate single runs), the results are those of the
     first (every run gives the same)."""
     say = progress or (lambda msg: None)
     spec = bench.spec
-    result = BenchmarkRun(spec, [s.name for s in bench.sequences], bench.n_frames, list(bench.skipped))
+    result = BenchmarkRun(
+        spec, [s.name for s in bench.sequences], bench.n_frames, list(bench.skipped)
+    )
     frames_per_seq = {s.name: _frames_of(s) for s in bench.sequences}
     gt = {s.name: _read_gt(spec, s.gt_path) for s in bench.sequences}
     modes = ("trackeval", "kitti_legacy") if spec.rules == "kitti" else ("trackeval",)
@@ -454,16 +557,25 @@ def run_benchmark(bench: Benchmark, trackers: SequenceABC[str], output_dir: Path
             threshold = ours_score_threshold(cfg)
             result.ours_config = _config_json(cfg)
         except Exception as exc:  # the tracker may not be importable yet: peers still run
-            log.warning("%s: our tracker's configuration is unavailable (%s); peers run without pre-filter",
-                        spec.name, exc)
+            log.warning(
+                "%s: our tracker's configuration is unavailable (%s); peers run without pre-filter",
+                spec.name,
+                exc,
+            )
     # every pass on one sequence before the next sequence, so that a slow spell of a shared
     # machine falls on all trackers alike (the time ratios are measured in one run)
-    passes = [(name, pass_name, min_score) for name in trackers for pass_name, min_score in _passes(name, threshold)]
+    passes = [
+        (name, pass_name, min_score)
+        for name in trackers
+        for pass_name, min_score in _passes(name, threshold)
+    ]
     runs: dict[tuple[str, str], dict[str, TrackerRun]] = {(n, p): {} for n, p, _ in passes}
     times: dict[tuple[str, str], list[np.ndarray]] = {(n, p): [] for n, p, _ in passes}
     failed: dict[tuple[str, str], TrackerRun] = {}
     for i, seq in enumerate(bench.sequences, 1):
-        say(f"[{spec.name}] sequence {seq.name} ({i}/{len(bench.sequences)}): {len(passes)} tracking passes")
+        say(
+            f"[{spec.name}] sequence {seq.name} ({i}/{len(bench.sequences)}): {len(passes)} tracking passes"
+        )
         for name, pass_name, min_score in passes:
             key = (name, pass_name)
             if key in failed:
@@ -473,21 +585,34 @@ def run_benchmark(bench: Benchmark, trackers: SequenceABC[str], output_dir: Path
                 # the first run's results, the fastest run's times; boxmot peers run once (seven
                 # more trackers at ~1 ms per frame would triple the run)
                 for _ in range(1 if name in BOXMOT_PEERS else repeat):
-                    got, took = run_sequence(_make_tracker(name, pass_name, spec, seq, min_score), seq,
-                                             frames_per_seq[seq.name])
+                    got, took = run_sequence(
+                        _make_tracker(name, pass_name, spec, seq, min_score),
+                        seq,
+                        frames_per_seq[seq.name],
+                    )
                     tracks = got if tracks is None else tracks
                     if seconds is None or took.sum() < seconds.sum():
                         seconds = took
                 times[key].append(seconds)
-                log.info("%s: %s (%s) %s: %d frames, %.2f ms/frame, slowest %.0f ms", spec.name, name, pass_name,
-                         seq.name, seconds.size, 1000 * seconds.mean() if seconds.size else 0.0,
-                         1000 * seconds.max() if seconds.size else 0.0)
+                log.info(
+                    "%s: %s (%s) %s: %d frames, %.2f ms/frame, slowest %.0f ms",
+                    spec.name,
+                    name,
+                    pass_name,
+                    seq.name,
+                    seconds.size,
+                    1000 * seconds.mean() if seconds.size else 0.0,
+                    1000 * seconds.max() if seconds.size else 0.0,
+                )
                 for variant, out in _outputs(name, pass_name, tracks).items():
                     run_ = runs[key].get(variant)
                     if run_ is None:
                         run_ = runs[key][variant] = TrackerRun(
-                            tracker=name, variant=variant, min_score=min_score,
-                            result_dir=output_dir / spec.name / _label(name, variant))
+                            tracker=name,
+                            variant=variant,
+                            min_score=min_score,
+                            result_dir=output_dir / spec.name / _label(name, variant),
+                        )
                     _write_results(spec, run_.result_dir / f"{seq.name}.txt", out)
             except MissingExtraError:
                 raise
@@ -515,18 +640,23 @@ def run_benchmark(bench: Benchmark, trackers: SequenceABC[str], output_dir: Path
         for variant, run_ in runs[key].items():
             result.runs.setdefault(name, []).append(run_)
             m = run_.metrics
-            say(f"[{spec.name}] {_label(name, variant):<20} {run_.frames:>6} frames "
+            say(
+                f"[{spec.name}] {_label(name, variant):<20} {run_.frames:>6} frames "
                 f"{run_.ms_per_frame:8.2f} ms/frame  HOTA {100 * m.get('HOTA', np.nan):5.1f}  "
                 f"MOTA {100 * m.get('MOTA', np.nan):5.1f}  IDF1 {100 * m.get('IDF1', np.nan):5.1f}  "
-                f"IDSW {m.get('IDSW', np.nan):.0f}")
+                f"IDSW {m.get('IDSW', np.nan):.0f}"
+            )
     return result
 
 
-def _failed_run(bench: str, name: str, pass_name: str, min_score: float | None, exc: Exception,
-                step: str) -> TrackerRun:
+def _failed_run(
+    bench: str, name: str, pass_name: str, min_score: float | None, exc: Exception, step: str
+) -> TrackerRun:
     """A run that failed at ``step`` (logged with its traceback), for the report."""
     log.exception("%s: %s %s (%s) failed", bench, step, name, pass_name)
-    return TrackerRun(tracker=name, variant=pass_name, min_score=min_score, error=f"{type(exc).__name__}: {exc}")
+    return TrackerRun(
+        tracker=name, variant=pass_name, min_score=min_score, error=f"{type(exc).__name__}: {exc}"
+    )
 
 
 def _config_json(cfg: Any) -> dict[str, Any]:
@@ -553,8 +683,14 @@ def _jsonable(x: Any) -> Any:
     return repr(x)
 
 
-def _run_one(spec: BenchmarkSpec, sources: list[Any], skipped: list[str] | None, trackers: list[str],
-             out_dir: Path, repeat: int = 1) -> tuple[BenchmarkRun, list[str]]:
+def _run_one(
+    spec: BenchmarkSpec,
+    sources: list[Any],
+    skipped: list[str] | None,
+    trackers: list[str],
+    out_dir: Path,
+    repeat: int = 1,
+) -> tuple[BenchmarkRun, list[str]]:
     """One benchmark in a worker process: its result and its progress lines."""
     lines: list[str] = []
     bench = load_benchmark(spec, sources, skipped)
@@ -570,7 +706,9 @@ def _cross_validate(found: Any, out_dir: Path, say: Progress) -> list[Any]:
 
     families: dict[str, list[Benchmark]] = {}
     for spec, sources in found.found:
-        families.setdefault(family_of(spec), []).append(load_benchmark(spec, sources, found.skipped.get(spec.name)))
+        families.setdefault(family_of(spec), []).append(
+            load_benchmark(spec, sources, found.skipped.get(spec.name))
+        )
     out = []
     for family, benches in families.items():
         folds = {fold_key(b.spec, s.name) for b in benches for s in b.sequences}
@@ -582,10 +720,17 @@ def _cross_validate(found: Any, out_dir: Path, say: Progress) -> list[Any]:
     return out
 
 
-def run(data: str | Path | None = None, output: str | Path = "out/benchmark",
-        only: Iterable[str] | None = None, trackers: Iterable[str] | str | None = None,
-        progress: Progress | None = None, command: str = "", jobs: int = 1, repeat: int = 1,
-        crossval: bool = True) -> RunSummary:
+def run(
+    data: str | Path | None = None,
+    output: str | Path = "out/benchmark",
+    only: Iterable[str] | None = None,
+    trackers: Iterable[str] | str | None = None,
+    progress: Progress | None = None,
+    command: str = "",
+    jobs: int = 1,
+    repeat: int = 1,
+    crossval: bool = True,
+) -> RunSummary:
     """Discover, track, write, evaluate: the whole benchmark in one call.
 
     Args:
@@ -620,9 +765,14 @@ def run(data: str | Path | None = None, output: str | Path = "out/benchmark",
     out_dir = Path(output)
     out_dir.mkdir(parents=True, exist_ok=True)
     summary = RunSummary(
-        benchmarks=[], skipped=found.all_skipped(), trackers=chosen,
-        data_root=str(data if data is not None else found.root), output_dir=str(out_dir), command=command,
-        started=datetime.now(timezone.utc).isoformat(timespec="seconds"), machine=machine_info(),
+        benchmarks=[],
+        skipped=found.all_skipped(),
+        trackers=chosen,
+        data_root=str(data if data is not None else found.root),
+        output_dir=str(out_dir),
+        command=command,
+        started=datetime.now(UTC).isoformat(timespec="seconds"),
+        machine=machine_info(),
     )
     summary.machine["jobs"] = jobs
     summary.machine["repeat"] = repeat
@@ -644,9 +794,15 @@ def run(data: str | Path | None = None, output: str | Path = "out/benchmark",
         ctx = multiprocessing.get_context("spawn")
         with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx) as pool:
             # biggest detection files first: the longest benchmarks start at once (load balancing)
-            order = sorted(found.found, key=lambda item: -sum(src.det_path.stat().st_size for src in item[1]))
-            futures = {pool.submit(_run_one, spec, sources, found.skipped.get(spec.name), chosen, out_dir, repeat): spec
-                       for spec, sources in order}
+            order = sorted(
+                found.found, key=lambda item: -sum(src.det_path.stat().st_size for src in item[1])
+            )
+            futures = {
+                pool.submit(
+                    _run_one, spec, sources, found.skipped.get(spec.name), chosen, out_dir, repeat
+                ): spec
+                for spec, sources in order
+            }
             say(f"running {len(futures)} benchmarks, {jobs} at a time")
             for fut in as_completed(futures):
                 bench_run, lines = fut.result()

@@ -23,8 +23,19 @@ from sensemaking import __version__
 from sensemaking.errors import SensemakingError
 
 #: verb modules, in the order ``--help`` lists them
-VERBS = ("track", "demo", "evaluate", "benchmark", "calibrate", "ask", "explain", "render",
-         "report", "batch", "query")
+VERBS = (
+    "track",
+    "demo",
+    "evaluate",
+    "benchmark",
+    "calibrate",
+    "ask",
+    "explain",
+    "render",
+    "report",
+    "batch",
+    "query",
+)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -40,7 +51,9 @@ def build_parser() -> argparse.ArgumentParser:
         description="Online abductive visual sensemaking: tracking with explanations (ASP/clingo).",
     )
     parser.add_argument("--version", action="version", version=f"sensemaking {__version__}")
-    parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output (-vv for debug)")
+    parser.add_argument(
+        "-v", "--verbose", action="count", default=0, help="more log output (-vv for debug)"
+    )
     parser.add_argument("-q", "--quiet", action="store_true", help="only errors; no progress bar")
     sub = parser.add_subparsers(dest="verb", metavar="VERB")
     sub.required = True
@@ -73,7 +86,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         getattr(args, words).extend(rest)
     elif rest:
         parser.error(f"unrecognized arguments: {' '.join(rest)}")
-    level = logging.ERROR if args.quiet else (logging.WARNING, logging.INFO, logging.DEBUG)[min(args.verbose, 2)]
+    level = (
+        logging.ERROR
+        if args.quiet
+        else (logging.WARNING, logging.INFO, logging.DEBUG)[min(args.verbose, 2)]
+    )
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
     main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _terminate) if main_thread else None
@@ -95,8 +112,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     except Exception as exc:  # noqa: BLE001 - a bug: one line, the traceback only when asked
         logging.getLogger(__name__).debug("internal error", exc_info=True)
-        print(f"sensemaking {args.verb}: internal error (a bug; -vv shows where): "
-              f"{type(exc).__name__}: {_one_line(exc)}", file=sys.stderr)
+        print(
+            f"sensemaking {args.verb}: internal error (a bug; -vv shows where): "
+            f"{type(exc).__name__}: {_one_line(exc)}",
+            file=sys.stderr,
+        )
         return 3
     finally:
         if main_thread:

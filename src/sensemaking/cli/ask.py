@@ -14,7 +14,10 @@ from sensemaking.fleet.cli import add_archive_options, scene_from_args
 
 def register(sub: argparse._SubParsersAction) -> None:
     from sensemaking.reasoning.questions import (
-        DEFAULT_MAX_ATOMS, DEFAULT_MAX_MEMORY_MB, DEFAULT_TIMEOUT_S, NAMED_QUESTIONS,
+        DEFAULT_MAX_ATOMS,
+        DEFAULT_MAX_MEMORY_MB,
+        DEFAULT_TIMEOUT_S,
+        NAMED_QUESTIONS,
     )
 
     named = "\n".join(f"  {usage}" for usage in NAMED_QUESTIONS.values())
@@ -35,15 +38,37 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     # one list: argparse cannot tell an optional SCENE from the question's first word when options
     # stand between them
-    p.add_argument("words", nargs="+", metavar="SCENE QUESTION",
-                   help="scene JSON (from `sensemaking track --scene`; left out with --archive), then "
-                   "a named question (e.g. `reappeared 7`) or ASP text or a .lp file")
-    p.add_argument("--models", type=int, default=1, metavar="N", help="answer sets to show for ASP queries (0: all)")
-    p.add_argument("--lanes", type=Path, help="lanes JSON (for `warnings`; format in sensemaking.reasoning.context)")
-    p.add_argument("--segmentation", type=Path,
-                   help="label maps: a folder of <frame>.npy/.png or one file (for `warnings`)")
-    p.add_argument("--labels", type=Path, help='label names JSON {"0": "road", ...} (default: Cityscapes ids)')
-    p.add_argument("--corridor", help='ego corridor polygon, "x,y x,y x,y ..." (fractions of the image or pixels)')
+    p.add_argument(
+        "words",
+        nargs="+",
+        metavar="SCENE QUESTION",
+        help="scene JSON (from `sensemaking track --scene`; left out with --archive), then "
+        "a named question (e.g. `reappeared 7`) or ASP text or a .lp file",
+    )
+    p.add_argument(
+        "--models",
+        type=int,
+        default=1,
+        metavar="N",
+        help="answer sets to show for ASP queries (0: all)",
+    )
+    p.add_argument(
+        "--lanes",
+        type=Path,
+        help="lanes JSON (for `warnings`; format in sensemaking.reasoning.context)",
+    )
+    p.add_argument(
+        "--segmentation",
+        type=Path,
+        help="label maps: a folder of <frame>.npy/.png or one file (for `warnings`)",
+    )
+    p.add_argument(
+        "--labels", type=Path, help='label names JSON {"0": "road", ...} (default: Cityscapes ids)'
+    )
+    p.add_argument(
+        "--corridor",
+        help='ego corridor polygon, "x,y x,y x,y ..." (fractions of the image or pixels)',
+    )
     p.add_argument("--json", action="store_true", help="print the answer as JSON")
     p.add_argument(
         "--timeout",
@@ -52,10 +77,20 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="S",
         help=f"seconds for grounding + solving an ASP query (default {DEFAULT_TIMEOUT_S:g})",
     )
-    p.add_argument("--max-atoms", type=int, default=DEFAULT_MAX_ATOMS, metavar="N",
-                   help=f"ground atoms an ASP query may produce (default {DEFAULT_MAX_ATOMS})")
-    p.add_argument("--max-memory", type=int, default=DEFAULT_MAX_MEMORY_MB, metavar="MB",
-                   help=f"memory an ASP query may use, MB (default {DEFAULT_MAX_MEMORY_MB})")
+    p.add_argument(
+        "--max-atoms",
+        type=int,
+        default=DEFAULT_MAX_ATOMS,
+        metavar="N",
+        help=f"ground atoms an ASP query may produce (default {DEFAULT_MAX_ATOMS})",
+    )
+    p.add_argument(
+        "--max-memory",
+        type=int,
+        default=DEFAULT_MAX_MEMORY_MB,
+        metavar="MB",
+        help=f"memory an ASP query may use, MB (default {DEFAULT_MAX_MEMORY_MB})",
+    )
     add_archive_options(p)
     p.set_defaults(func=run, trailing_words="words")
 
@@ -90,13 +125,21 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--max-atoms must be a positive number of atoms, got {args.max_atoms}")
     if args.max_memory <= 0:
         raise InputError(f"--max-memory must be a positive number of MB, got {args.max_memory}")
-    args.scene, args.query = (None, args.words) if args.archive else (Path(args.words[0]), args.words[1:])
+    args.scene, args.query = (
+        (None, args.words) if args.archive else (Path(args.words[0]), args.words[1:])
+    )
     if not args.query:
-        raise InputError("give a question after the scene file (e.g. `sensemaking ask scene.json tracks`)")
+        raise InputError(
+            "give a question after the scene file (e.g. `sensemaking ask scene.json tracks`)"
+        )
     scene = scene_from_args(args)
     query = _query_text(args.query)
-    context = SceneContext.load(lanes=args.lanes, segmentation=args.segmentation, labels=args.labels,
-                                corridor=args.corridor)
+    context = SceneContext.load(
+        lanes=args.lanes,
+        segmentation=args.segmentation,
+        labels=args.labels,
+        corridor=args.corridor,
+    )
     printed: list[int] = []
 
     def stream(atoms: tuple[str, ...]) -> None:
@@ -111,9 +154,16 @@ def run(args: argparse.Namespace) -> int:
             first.append(atoms)
 
     first: list[tuple[str, ...]] = []
-    answer = ask(scene, query, context=context, max_models=args.models, timeout=args.timeout,
-                 max_atoms=args.max_atoms, max_memory_mb=args.max_memory,
-                 on_model=None if args.json or args.models == 1 else stream)
+    answer = ask(
+        scene,
+        query,
+        context=context,
+        max_models=args.models,
+        timeout=args.timeout,
+        max_atoms=args.max_atoms,
+        max_memory_mb=args.max_memory,
+        on_model=None if args.json or args.models == 1 else stream,
+    )
     if args.json:
         print(json.dumps(answer.to_json(), indent=2))
     elif len(printed) < 2:

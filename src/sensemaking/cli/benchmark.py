@@ -22,31 +22,76 @@ def register(subparsers: Any) -> None:
         "abduction) and the peers from the 'trackers' package, evaluate with the dataset's rules, and write "
         "a markdown report with a JSON twin. Needs the 'benchmark' extra for the peers.",
     )
-    p.add_argument("--data", metavar="PATH", default=None,
-                   help="data folder laid out like ../shared/data (default: ../shared/data)")
-    p.add_argument("--output", metavar="DIR", default="out/benchmark",
-                   help="folder for the result files (default: out/benchmark)")
-    p.add_argument("--only", metavar="NAMES", default=None,
-                   help="comma-separated benchmark names or patterns, e.g. kitti-rrc-car,mot17-* or kitti "
-                   "(default: all found)")
-    p.add_argument("--trackers", metavar="NAMES", default=None,
-                   help="comma-separated subset of ours,ours-noabd,sort,bytetrack,ocsort (default: all)")
-    p.add_argument("--docs", metavar="FILE", default=DEFAULT_DOCS,
-                   help=f"markdown report to write (default: {DEFAULT_DOCS}); '' to write none")
-    p.add_argument("--json", metavar="FILE", default=None,
-                   help="JSON of all numbers (default: benchmarks.json beside the markdown)")
-    p.add_argument("--jobs", metavar="N", type=int, default=1,
-                   help="benchmarks to run at once in worker processes (default 1; every tracker of a "
-                   "benchmark still runs in one process, so its time ratios stay comparable)")
-    p.add_argument("--repeat", metavar="N", type=int, default=DEFAULT_REPEAT,
-                   help="runs of every tracker on every sequence; the per-frame times of the fastest count "
-                   f"(default {DEFAULT_REPEAT}: a busy machine's slow spells inflate single runs; results are the same)")
-    p.add_argument("--no-crossval", action="store_true",
-                   help="skip the cross-validation of our parameters (leave one video out per family, "
-                   "about 5 minutes; the headline table of the report)")
-    p.add_argument("--params-doc", metavar="FILE", default=DEFAULT_PARAMS_DOC,
-                   help=f"parameter reference to regenerate (default: {DEFAULT_PARAMS_DOC}); '' for none")
-    p.add_argument("--list", action="store_true", help="list the benchmarks found and what is missing, then stop")
+    p.add_argument(
+        "--data",
+        metavar="PATH",
+        default=None,
+        help="data folder laid out like ../shared/data (default: ../shared/data)",
+    )
+    p.add_argument(
+        "--output",
+        metavar="DIR",
+        default="out/benchmark",
+        help="folder for the result files (default: out/benchmark)",
+    )
+    p.add_argument(
+        "--only",
+        metavar="NAMES",
+        default=None,
+        help="comma-separated benchmark names or patterns, e.g. kitti-rrc-car,mot17-* or kitti "
+        "(default: all found)",
+    )
+    p.add_argument(
+        "--trackers",
+        metavar="NAMES",
+        default=None,
+        help="comma-separated subset of ours,ours-noabd,sort,bytetrack,ocsort (default: all)",
+    )
+    p.add_argument(
+        "--docs",
+        metavar="FILE",
+        default=DEFAULT_DOCS,
+        help=f"markdown report to write (default: {DEFAULT_DOCS}); '' to write none",
+    )
+    p.add_argument(
+        "--json",
+        metavar="FILE",
+        default=None,
+        help="JSON of all numbers (default: benchmarks.json beside the markdown)",
+    )
+    p.add_argument(
+        "--jobs",
+        metavar="N",
+        type=int,
+        default=1,
+        help="benchmarks to run at once in worker processes (default 1; every tracker of a "
+        "benchmark still runs in one process, so its time ratios stay comparable)",
+    )
+    p.add_argument(
+        "--repeat",
+        metavar="N",
+        type=int,
+        default=DEFAULT_REPEAT,
+        help="runs of every tracker on every sequence; the per-frame times of the fastest count "
+        f"(default {DEFAULT_REPEAT}: a busy machine's slow spells inflate single runs; results are the same)",
+    )
+    p.add_argument(
+        "--no-crossval",
+        action="store_true",
+        help="skip the cross-validation of our parameters (leave one video out per family, "
+        "about 5 minutes; the headline table of the report)",
+    )
+    p.add_argument(
+        "--params-doc",
+        metavar="FILE",
+        default=DEFAULT_PARAMS_DOC,
+        help=f"parameter reference to regenerate (default: {DEFAULT_PARAMS_DOC}); '' for none",
+    )
+    p.add_argument(
+        "--list",
+        action="store_true",
+        help="list the benchmarks found and what is missing, then stop",
+    )
     p.set_defaults(func=run)
 
 
@@ -102,9 +147,17 @@ def run(args: argparse.Namespace) -> int:
         if not quiet:
             print(msg, file=sys.stderr, flush=True)
 
-    summary = runner.run(data=args.data, output=args.output, only=only, trackers=args.trackers,
-                         progress=progress, command=_command_line(args), jobs=args.jobs, repeat=args.repeat,
-                         crossval=not args.no_crossval)
+    summary = runner.run(
+        data=args.data,
+        output=args.output,
+        only=only,
+        trackers=args.trackers,
+        progress=progress,
+        command=_command_line(args),
+        jobs=args.jobs,
+        repeat=args.repeat,
+        crossval=not args.no_crossval,
+    )
     if not quiet:  # the cross-validated headline first
         print(report.console_summary(summary), end="")
     if args.docs:

@@ -29,7 +29,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "evaluate",
         help="score tracker output against ground truth (HOTA, CLEAR MOT, IDF1), or judge "
-             "its explanations (--explanations)",
+        "its explanations (--explanations)",
         description=(
             "Score tracker results against ground truth with TrackEval's metrics and dataset rules "
             "(MOTChallenge, KITTI). --gt and --results are files (one sequence) or folders: "
@@ -44,36 +44,78 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "The table and the JSON name the mode used."
         ),
     )
-    p.add_argument("--gt", required=True, type=Path, metavar="PATH", help="ground-truth file or folder")
-    p.add_argument("--results", required=True, type=Path, metavar="PATH", help="tracker results file or folder")
-    p.add_argument("--format", choices=("mot", "kitti"), help="file format (default: from --benchmark or the files)")
-    p.add_argument("--benchmark", choices=_BENCHMARKS,
-                   help="dataset rules (default: mot17 for 9-column MOT ground truth, mot15 for 10 "
-                        "columns, kitti for KITTI)")
-    p.add_argument("--classes", metavar="LIST",
-                   help="comma-separated classes to score (KITTI: car,pedestrian, the default)")
-    p.add_argument("--idsw-mode", choices=("trackeval", "kitti_legacy"), default="trackeval",
-                   help="ID-switch / fragmentation rule (default: trackeval)")
-    p.add_argument("--seqmap", type=Path, metavar="PATH", help="file listing the sequences to score")
-    p.add_argument("--missing-as-empty", action="store_true",
-                   help="score a sequence without a results file as empty tracker output (else an error)")
+    p.add_argument(
+        "--gt", required=True, type=Path, metavar="PATH", help="ground-truth file or folder"
+    )
+    p.add_argument(
+        "--results",
+        required=True,
+        type=Path,
+        metavar="PATH",
+        help="tracker results file or folder",
+    )
+    p.add_argument(
+        "--format",
+        choices=("mot", "kitti"),
+        help="file format (default: from --benchmark or the files)",
+    )
+    p.add_argument(
+        "--benchmark",
+        choices=_BENCHMARKS,
+        help="dataset rules (default: mot17 for 9-column MOT ground truth, mot15 for 10 "
+        "columns, kitti for KITTI)",
+    )
+    p.add_argument(
+        "--classes",
+        metavar="LIST",
+        help="comma-separated classes to score (KITTI: car,pedestrian, the default)",
+    )
+    p.add_argument(
+        "--idsw-mode",
+        choices=("trackeval", "kitti_legacy"),
+        default="trackeval",
+        help="ID-switch / fragmentation rule (default: trackeval)",
+    )
+    p.add_argument(
+        "--seqmap", type=Path, metavar="PATH", help="file listing the sequences to score"
+    )
+    p.add_argument(
+        "--missing-as-empty",
+        action="store_true",
+        help="score a sequence without a results file as empty tracker output (else an error)",
+    )
     p.add_argument("--json", type=Path, metavar="OUT", help="write every metric to this JSON file")
     x = p.add_argument_group(
         "explanations",
         "--explanations judges the tracker's events and warnings against the ground truth "
         "instead of scoring the tracks (method and thresholds: docs/EXPLANATIONS.md). "
         "--results must hold the visible tracks only (`track` without --write-hidden); --json "
-        "then writes every verdict.")
-    x.add_argument("--explanations", action="store_true",
-                   help="judge events (and warnings) instead of scoring tracks")
-    x.add_argument("--events", type=Path, metavar="PATH",
-                   help="event log of `track --events` (JSON lines): a file, or a folder of "
-                        "<seq>.jsonl / <seq>.events.jsonl")
-    x.add_argument("--warnings", type=Path, metavar="PATH",
-                   help="warnings of `track --warnings` (JSON lines): a file, or a folder of "
-                        "<seq>.jsonl / <seq>.warnings.jsonl (optional)")
-    x.add_argument("--image-size", metavar="WxH",
-                   help="image size in pixels when no seqinfo is found (e.g. 1242x375)")
+        "then writes every verdict.",
+    )
+    x.add_argument(
+        "--explanations",
+        action="store_true",
+        help="judge events (and warnings) instead of scoring tracks",
+    )
+    x.add_argument(
+        "--events",
+        type=Path,
+        metavar="PATH",
+        help="event log of `track --events` (JSON lines): a file, or a folder of "
+        "<seq>.jsonl / <seq>.events.jsonl",
+    )
+    x.add_argument(
+        "--warnings",
+        type=Path,
+        metavar="PATH",
+        help="warnings of `track --warnings` (JSON lines): a file, or a folder of "
+        "<seq>.jsonl / <seq>.warnings.jsonl (optional)",
+    )
+    x.add_argument(
+        "--image-size",
+        metavar="WxH",
+        help="image size in pixels when no seqinfo is found (e.g. 1242x375)",
+    )
     x.add_argument("--fps", type=float, help="frame rate when no seqinfo is found")
     p.set_defaults(func=run, _parser=p)
 
@@ -90,7 +132,9 @@ def _sniff_gt(gt: Path) -> tuple[str, str | None]:
         if sample is None:
             if any(gt.glob("*.txt")):
                 return "kitti", None
-            raise InputError("no ground truth found: expected <seq>/gt/gt.txt or label_02/<seq>.txt inside", gt)
+            raise InputError(
+                "no ground truth found: expected <seq>/gt/gt.txt or label_02/<seq>.txt inside", gt
+            )
     else:
         sample = gt
     try:
@@ -107,14 +151,19 @@ def _sniff_gt(gt: Path) -> tuple[str, str | None]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from sensemaking.evaluation import evaluate, load_kitti_benchmark, load_mot_benchmark, rules_for_benchmark
+    from sensemaking.evaluation import (
+        evaluate,
+        load_kitti_benchmark,
+        load_mot_benchmark,
+        rules_for_benchmark,
+    )
     from sensemaking.io.atomic import atomic_write
-
     from sensemaking.io.sinks import check_output_paths
 
     parser: argparse.ArgumentParser = args._parser
     check_output_paths(
-        {"--json": args.json}, {"--gt": args.gt, "--results": args.results, "--seqmap": args.seqmap}
+        {"--json": args.json},
+        {"--gt": args.gt, "--results": args.results, "--seqmap": args.seqmap},
     )
     fmt, benchmark = args.format, args.benchmark
     if benchmark is not None:
@@ -139,7 +188,9 @@ def run(args: argparse.Namespace) -> int:
         return _explanations(args, fmt, benchmark, classes, load)
     if args.events is not None or args.warnings is not None:
         parser.error("--events and --warnings go with --explanations")
-    sequences = load(args.gt, args.results, seqmap=args.seqmap, missing_as_empty=args.missing_as_empty)
+    sequences = load(
+        args.gt, args.results, seqmap=args.seqmap, missing_as_empty=args.missing_as_empty
+    )
     report = evaluate(sequences, rules, idsw_mode=args.idsw_mode)
     print(report.table(), end="")
     if args.json is not None:
@@ -181,8 +232,11 @@ def _per_sequence(path: Path | None, names: list[str], suffix: str) -> dict[str,
         return dict.fromkeys(names)
     if path.is_file():
         if len(names) != 1:
-            raise InputError(f"is a single file, but {len(names)} sequences are judged; give a "
-                             "folder of <sequence>.jsonl files", path)
+            raise InputError(
+                f"is a single file, but {len(names)} sequences are judged; give a "
+                "folder of <sequence>.jsonl files",
+                path,
+            )
         return {names[0]: path}
     if not path.is_dir():
         raise InputError("no such file or folder", path)
@@ -204,11 +258,15 @@ def _events(path: Path) -> list:
         try:
             ev = Event.from_json(r)
         except (KeyError, TypeError, ValueError):
-            raise InputError('expected {"frame": int, "event": name, "args": [track ids]}', path,
-                             r["_line"]) from None
+            raise InputError(
+                'expected {"frame": int, "event": name, "args": [track ids]}', path, r["_line"]
+            ) from None
         if ev.name in EVENT_NAMES and len(ev.args) != EVENT_NAMES[ev.name]:
-            raise InputError(f"{ev.name} takes {EVENT_NAMES[ev.name]} argument(s), got "
-                             f"{len(ev.args)}", path, r["_line"])
+            raise InputError(
+                f"{ev.name} takes {EVENT_NAMES[ev.name]} argument(s), got {len(ev.args)}",
+                path,
+                r["_line"],
+            )
         out.append(ev)
     return out
 
@@ -217,17 +275,26 @@ def _warnings(path: Path) -> list[dict]:
     out = []
     for r in _json_lines(path):
         objs = r.get("objects")
-        ok = isinstance(r.get("frame"), int) and isinstance(objs, list) \
-            and all(isinstance(o, int) for o in objs) and isinstance(r.get("details", {}), dict)
+        ok = (
+            isinstance(r.get("frame"), int)
+            and isinstance(objs, list)
+            and all(isinstance(o, int) for o in objs)
+            and isinstance(r.get("details", {}), dict)
+        )
         if not ok:
-            raise InputError('expected {"frame": int, "situation": name, "objects": [track ids], '
-                             '"details": {...}}', path, r["_line"])
+            raise InputError(
+                'expected {"frame": int, "situation": name, "objects": [track ids], '
+                '"details": {...}}',
+                path,
+                r["_line"],
+            )
         out.append(r)
     return out
 
 
-def _sequence_facts(fmt: str, gt_path: Path,
-                    name: str) -> tuple[tuple[int, int] | None, float | None]:
+def _sequence_facts(
+    fmt: str, gt_path: Path, name: str
+) -> tuple[tuple[int, int] | None, float | None]:
     """(image size, fps) from the seqinfo beside the ground truth, when there is one."""
     if fmt == "kitti":
         from sensemaking.io.kitti import read_kitti_seqinfo
@@ -248,13 +315,17 @@ def _sequence_facts(fmt: str, gt_path: Path,
     return None, None
 
 
-def _explanations(args: argparse.Namespace, fmt: str, benchmark: str, classes: list[str] | None,
-                  load) -> int:
+def _explanations(
+    args: argparse.Namespace, fmt: str, benchmark: str, classes: list[str] | None, load
+) -> int:
     import json
 
     from sensemaking.cli.track import parse_size
     from sensemaking.evaluation.explanations import (
-        ExplanationResult, GroundTruth, evaluate_explanations, explanation_table,
+        ExplanationResult,
+        GroundTruth,
+        evaluate_explanations,
+        explanation_table,
     )
     from sensemaking.io.atomic import atomic_write
 
@@ -263,8 +334,9 @@ def _explanations(args: argparse.Namespace, fmt: str, benchmark: str, classes: l
     if args.fps is not None and not args.fps > 0:
         raise InputError(f"--fps must be positive, got {args.fps}")
     size_arg = parse_size(args.image_size) if args.image_size else None
-    sequences = load(args.gt, args.results, seqmap=args.seqmap,
-                     missing_as_empty=args.missing_as_empty)
+    sequences = load(
+        args.gt, args.results, seqmap=args.seqmap, missing_as_empty=args.missing_as_empty
+    )
     names = list(sequences)
     events = _per_sequence(args.events, names, "events")
     warnings = _per_sequence(args.warnings, names, "warnings")
@@ -273,14 +345,19 @@ def _explanations(args: argparse.Namespace, fmt: str, benchmark: str, classes: l
         size, fps = _sequence_facts(fmt, Path(s.gt_path), name)
         size, fps = size_arg or size, args.fps or fps
         if size is None:
-            raise InputError("no seqinfo found for the image size: pass --image-size WxH",
-                             s.gt_path)
+            raise InputError(
+                "no seqinfo found for the image size: pass --image-size WxH", s.gt_path
+            )
         if fps is None:
             fps = 10.0 if fmt == "kitti" else 30.0
         if fmt == "kitti":
-            gt = GroundTruth.from_kitti(s.gt, image_size=size, fps=fps,
-                                        classes=classes or ("car", "pedestrian"),
-                                        n_frames=s.n_frames)
+            gt = GroundTruth.from_kitti(
+                s.gt,
+                image_size=size,
+                fps=fps,
+                classes=classes or ("car", "pedestrian"),
+                n_frames=s.n_frames,
+            )
         else:
             gt = GroundTruth.from_mot(s.gt, image_size=size, fps=fps, n_frames=s.n_frames)
         evs = _events(events[name])  # type: ignore[arg-type]
@@ -289,11 +366,18 @@ def _explanations(args: argparse.Namespace, fmt: str, benchmark: str, classes: l
     label = benchmark + (f"/{','.join(classes)}" if classes else "")
     print(explanation_table({label: results}), end="")
     if args.json is not None:
-        doc = {"benchmark": benchmark, "summary": ExplanationResult.combine(results).summary(),
-               "sequences": {r.name: {"summary": r.summary(),
-                                      "events": [v.to_json() for v in r.events],
-                                      "warnings": [w.to_json() for w in r.warnings]}
-                             for r in results}}
+        doc = {
+            "benchmark": benchmark,
+            "summary": ExplanationResult.combine(results).summary(),
+            "sequences": {
+                r.name: {
+                    "summary": r.summary(),
+                    "events": [v.to_json() for v in r.events],
+                    "warnings": [w.to_json() for w in r.warnings],
+                }
+                for r in results
+            },
+        }
         with atomic_write(args.json) as handle:
             handle.write(json.dumps(doc, indent=1) + "\n")
         log.info("wrote %s", args.json)

@@ -16,8 +16,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="Explain a scene written by `sensemaking track --scene PATH`: one paragraph per "
         "track, in order of appearance, built from the abduced events.",
     )
-    p.add_argument("scene", type=Path, nargs="?", help="scene JSON (from `sensemaking track --scene`)")
-    p.add_argument("--track", type=int, default=None, metavar="K", help="only the story of track K")
+    p.add_argument(
+        "scene", type=Path, nargs="?", help="scene JSON (from `sensemaking track --scene`)"
+    )
+    p.add_argument(
+        "--track", type=int, default=None, metavar="K", help="only the story of track K"
+    )
     p.add_argument("--json", action="store_true", help='print {"track id": [sentences]} as JSON')
     add_archive_options(p)
     p.set_defaults(func=run)

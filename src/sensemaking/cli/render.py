@@ -19,24 +19,46 @@ def register(sub: argparse._SubParsersAction) -> None:
         "(ffmpeg), .gif, or a folder (one PNG per frame). Needs the 'viz' extra.",
     )
     p.add_argument("scene", type=Path, help="scene JSON written by `sensemaking track --scene`")
-    p.add_argument("--output", "-o", required=True, help="out.mp4, out.gif or a folder (ending in /) for PNGs")
+    p.add_argument(
+        "--output", "-o", required=True, help="out.mp4, out.gif or a folder (ending in /) for PNGs"
+    )
     src = p.add_mutually_exclusive_group()
-    src.add_argument("--images", type=Path, help="folder of the sequence's images (sorted; numbered names = frames)")
-    src.add_argument("--video", type=Path, help="video of the sequence (its first frame = the scene's first)")
-    p.add_argument("--fps", type=float, default=None, help="output frame rate (default: the scene's)")
-    p.add_argument("--scale", type=float, default=None,
-                   help="output px per image px (default: fit 640 px wide on a plain canvas, 1280 over images)")
+    src.add_argument(
+        "--images",
+        type=Path,
+        help="folder of the sequence's images (sorted; numbered names = frames)",
+    )
+    src.add_argument(
+        "--video", type=Path, help="video of the sequence (its first frame = the scene's first)"
+    )
+    p.add_argument(
+        "--fps", type=float, default=None, help="output frame rate (default: the scene's)"
+    )
+    p.add_argument(
+        "--scale",
+        type=float,
+        default=None,
+        help="output px per image px (default: fit 640 px wide on a plain canvas, 1280 over images)",
+    )
     p.add_argument("--frames", default=None, metavar="A:B", help="only frames A..B (inclusive)")
-    p.add_argument("--first-frame", type=int, default=None,
-                   help="frame number of the first image / video frame when file names do not say it")
+    p.add_argument(
+        "--first-frame",
+        type=int,
+        default=None,
+        help="frame number of the first image / video frame when file names do not say it",
+    )
     add_warning_options(p)
     p.set_defaults(func=run)
 
 
 def add_warning_options(p: argparse.ArgumentParser) -> None:
     w = p.add_mutually_exclusive_group()
-    w.add_argument("--warnings", type=Path, default=None,
-                   help="warnings JSON lines from `sensemaking track --warnings` (default: recomputed from the scene)")
+    w.add_argument(
+        "--warnings",
+        type=Path,
+        default=None,
+        help="warnings JSON lines from `sensemaking track --warnings` (default: recomputed from the scene)",
+    )
     w.add_argument("--no-warnings", action="store_true", help="show no warnings")
 
 
@@ -77,8 +99,12 @@ def run(args: argparse.Namespace) -> int:
     from sensemaking.io.sinks import check_output_paths
     from sensemaking.viz._media import output_kind
 
-    inputs = {"SCENE": args.scene, "--images": args.images, "--video": args.video,
-              "--warnings": args.warnings}
+    inputs = {
+        "SCENE": args.scene,
+        "--images": args.images,
+        "--video": args.video,
+        "--warnings": args.warnings,
+    }
     if output_kind(args.output) != "png":  # a folder of PNGs is a directory by design
         check_output_paths({"--output": args.output}, inputs)
     else:
@@ -92,14 +118,24 @@ def run(args: argparse.Namespace) -> int:
         known = scene.frames
         clipped = range(max(frames.start, known.start), min(frames.stop, known.stop))
         if not len(clipped):
-            raise InputError(f"--frames {args.frames}: the scene has frames {known.start}.."
-                             f"{known.stop - 1}, none of them in that range")
+            raise InputError(
+                f"--frames {args.frames}: the scene has frames {known.start}.."
+                f"{known.stop - 1}, none of them in that range"
+            )
         frames = clipped
     total = len(frames) if frames is not None else len(scene.frames)
     with Progress(total, "rendering", enabled=not args.quiet) as progress:
-        out = render_scene(scene, args.output, images=args.images, video=args.video, fps=args.fps,
-                           scale=args.scale, frames=frames, first_frame=args.first_frame,
-                           progress=progress.advance)
+        out = render_scene(
+            scene,
+            args.output,
+            images=args.images,
+            video=args.video,
+            fps=args.fps,
+            scale=args.scale,
+            frames=frames,
+            first_frame=args.first_frame,
+            progress=progress.advance,
+        )
     if not args.quiet:
         print(f"{out}: {total} frames")
     return 0

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import math
 import sys
@@ -28,24 +27,47 @@ def register(sub: argparse._SubParsersAction) -> None:
         "format and, optionally, the abduced events (JSON lines), the scene model and warnings.",
     )
     src = p.add_mutually_exclusive_group(required=True)
-    src.add_argument("--detections", type=Path, help="detections file (MOT det.txt or a KITTI file)")
-    src.add_argument("--source", type=Path,
-                     help="a video file or image folder to run --detector on (frames numbered from 1)")
-    p.add_argument("--detector", type=Path, default=None,
-                   help="a local model file for --source: .onnx (extra 'detector') or ultralytics .pt "
-                   "(extra 'ultralytics'); nothing is downloaded. See docs/detectors.md")
-    p.add_argument("--format", choices=("mot", "kitti"), default=None,
-                   help="format of input and output (required with --detections; --source writes mot)")
-    p.add_argument("--output", required=True, type=Path, help="tracking results, in the input's format")
-    p.add_argument("--events", type=Path, help='events as JSON lines {"frame":…, "event":…, "args":[…]}')
-    p.add_argument("--scene", type=Path, help="the scene model (JSON) for `sensemaking ask/explain/render/report`")
+    src.add_argument(
+        "--detections", type=Path, help="detections file (MOT det.txt or a KITTI file)"
+    )
+    src.add_argument(
+        "--source",
+        type=Path,
+        help="a video file or image folder to run --detector on (frames numbered from 1)",
+    )
+    p.add_argument(
+        "--detector",
+        type=Path,
+        default=None,
+        help="a local model file for --source: .onnx (extra 'detector') or ultralytics .pt "
+        "(extra 'ultralytics'); nothing is downloaded. See docs/detectors.md",
+    )
+    p.add_argument(
+        "--format",
+        choices=("mot", "kitti"),
+        default=None,
+        help="format of input and output (required with --detections; --source writes mot)",
+    )
+    p.add_argument(
+        "--output", required=True, type=Path, help="tracking results, in the input's format"
+    )
+    p.add_argument(
+        "--events", type=Path, help='events as JSON lines {"frame":…, "event":…, "args":[…]}'
+    )
+    p.add_argument(
+        "--scene",
+        type=Path,
+        help="the scene model (JSON) for `sensemaking ask/explain/render/report`",
+    )
     p.add_argument(
         "--warnings",
         type=Path,
         help="safety-critical warnings as JSON lines, written online into PATH.part (follow it "
         "with tail -f), renamed to PATH at the end and kept when the run is interrupted",
     )
-    p.add_argument("--no-abduction", action="store_true", help="plain Hungarian IoU matching (the ablation)")
+    p.add_argument(
+        "--no-abduction", action="store_true", help="plain Hungarian IoU matching (the ablation)"
+    )
     p.add_argument(
         "--max-solve-ms",
         type=float,
@@ -62,9 +84,13 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="class of the detections when the file does not say (e.g. car for KITTI RRC "
         "files; with --format kitti a KITTI type)",
     )
-    p.add_argument("--seqinfo", type=Path, default=None,
-                   help="seqinfo.ini (MOT) or seqinfo.csv (KITTI) for frame rate, image size and length; "
-                   "looked up beside the detections by default")
+    p.add_argument(
+        "--seqinfo",
+        type=Path,
+        default=None,
+        help="seqinfo.ini (MOT) or seqinfo.csv (KITTI) for frame rate, image size and length; "
+        "looked up beside the detections by default",
+    )
     p.add_argument(
         "--fps",
         type=float,
@@ -72,24 +98,60 @@ def register(sub: argparse._SubParsersAction) -> None:
         help=f"frame rate, frames per second in [{MIN_FPS:g}, {MAX_FPS:g}] (default: seqinfo, else 30 MOT / "
         "10 KITTI)",
     )
-    p.add_argument("--image-size", default=None, metavar="WxH",
-                   help=f"field of view in pixels, e.g. 1242x375 (each side 1..{MAX_IMAGE_SIDE})")
-    p.add_argument("--write-hidden", action="store_true",
-                   help="also write hidden and missing tracks at their predicted boxes")
-    p.add_argument("--set", dest="params", action="append", default=[], metavar="KEY=VALUE",
-                   help="override a parameter, e.g. --set max_hidden_s=2 or --set costs.resumes=200 "
-                   "(repeatable; after --params; units and ranges in docs/PARAMETERS.md)")
-    p.add_argument("--rules", type=Path, action="append", default=[], metavar="FILE",
-                   help="your own rules (.lp) added to the tracking encoding, e.g. a new event "
-                   "`occurs(stops(T)) :- track(T), speed(T,S), S < 5.` (repeatable)")
-    p.add_argument("--encoding", type=Path, default=None, metavar="FILE",
-                   help="an encoding (.lp) that replaces the packaged tracking.lp")
-    p.add_argument("--situations", type=Path, action="append", default=[], metavar="FILE",
-                   help="your own situations (.lp) added to situations.lp for --warnings, e.g. "
-                   "`warn(stopped_ahead,(T,)) :- ...` (repeatable)")
-    p.add_argument("--params", dest="params_file", type=Path, default=None, metavar="FILE",
-                   help="a parameter file (JSON or TOML, e.g. from `sensemaking calibrate`) over the "
-                   "preset of --format")
+    p.add_argument(
+        "--image-size",
+        default=None,
+        metavar="WxH",
+        help=f"field of view in pixels, e.g. 1242x375 (each side 1..{MAX_IMAGE_SIDE})",
+    )
+    p.add_argument(
+        "--write-hidden",
+        action="store_true",
+        help="also write hidden and missing tracks at their predicted boxes",
+    )
+    p.add_argument(
+        "--set",
+        dest="params",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override a parameter, e.g. --set max_hidden_s=2 or --set costs.resumes=200 "
+        "(repeatable; after --params; units and ranges in docs/PARAMETERS.md)",
+    )
+    p.add_argument(
+        "--rules",
+        type=Path,
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="your own rules (.lp) added to the tracking encoding, e.g. a new event "
+        "`occurs(stops(T)) :- track(T), speed(T,S), S < 5.` (repeatable)",
+    )
+    p.add_argument(
+        "--encoding",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="an encoding (.lp) that replaces the packaged tracking.lp",
+    )
+    p.add_argument(
+        "--situations",
+        type=Path,
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="your own situations (.lp) added to situations.lp for --warnings, e.g. "
+        "`warn(stopped_ahead,(T,)) :- ...` (repeatable)",
+    )
+    p.add_argument(
+        "--params",
+        dest="params_file",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="a parameter file (JSON or TOML, e.g. from `sensemaking calibrate`) over the "
+        "preset of --format",
+    )
     p.set_defaults(func=run)
 
 
@@ -140,16 +202,24 @@ def _check_options(args: argparse.Namespace) -> None:
             )
 
 
-def _sequence_info(args: argparse.Namespace) -> tuple[float | None, tuple[int, int] | None, int | None]:
+def _sequence_info(
+    args: argparse.Namespace,
+) -> tuple[float | None, tuple[int, int] | None, int | None]:
     """(fps, image size, number of frames) from seqinfo files, when found."""
     det = args.detections
     if args.seqinfo is not None and not args.seqinfo.is_file():
-        raise InputError("seqinfo file not found" if not args.seqinfo.exists() else
-                         "seqinfo is not a file", args.seqinfo)
+        raise InputError(
+            "seqinfo file not found" if not args.seqinfo.exists() else "seqinfo is not a file",
+            args.seqinfo,
+        )
     if args.format == "mot":
         from sensemaking.io.mot import read_seqinfo
 
-        candidates = [args.seqinfo] if args.seqinfo else [det.parent.parent / "seqinfo.ini", det.parent / "seqinfo.ini"]
+        candidates = (
+            [args.seqinfo]
+            if args.seqinfo
+            else [det.parent.parent / "seqinfo.ini", det.parent / "seqinfo.ini"]
+        )
         for c in candidates:
             if c.is_file():
                 info = read_seqinfo(c)
@@ -157,8 +227,12 @@ def _sequence_info(args: argparse.Namespace) -> tuple[float | None, tuple[int, i
         return None, None, None
     from sensemaking.io.kitti import read_kitti_seqinfo
 
-    candidates = [args.seqinfo] if args.seqinfo else [p / "seqinfo.csv" for p in det.parents[:4]] + [
-        p / "training" / "seqinfo.csv" for p in det.parents[:5]]
+    candidates = (
+        [args.seqinfo]
+        if args.seqinfo
+        else [p / "seqinfo.csv" for p in det.parents[:4]]
+        + [p / "training" / "seqinfo.csv" for p in det.parents[:5]]
+    )
     for c in candidates:
         if c.is_file():
             infos = read_kitti_seqinfo(c)
@@ -174,8 +248,11 @@ def _sequence_info(args: argparse.Namespace) -> tuple[float | None, tuple[int, i
 
 def _checked_size(info: Any, path: Path) -> tuple[int, int]:
     if not (info.width <= MAX_IMAGE_SIDE and info.height <= MAX_IMAGE_SIDE):
-        raise InputError(f"image size {info.width}x{info.height} is implausible (each side at most "
-                         f"{MAX_IMAGE_SIDE} pixels)", path)
+        raise InputError(
+            f"image size {info.width}x{info.height} is implausible (each side at most "
+            f"{MAX_IMAGE_SIDE} pixels)",
+            path,
+        )
     return info.width, info.height
 
 
@@ -236,7 +313,9 @@ def _video_frames(args: argparse.Namespace):
     if args.detector is None:
         raise InputError("--source needs --detector MODEL (a local .onnx or .pt file)")
     if args.format not in (None, "mot"):
-        raise InputError("--source writes MOTChallenge results: use --format mot (or leave it out)")
+        raise InputError(
+            "--source writes MOTChallenge results: use --format mot (or leave it out)"
+        )
     args.format = "mot"
     detector = load_detector(args.detector)
     images = iter_video_frames(args.source)
@@ -267,12 +346,21 @@ def run(args: argparse.Namespace) -> int:
     if args.detections is not None and args.format is None:
         raise InputError("--format mot|kitti is required with --detections")
     _check_options(args)
-    outputs = {"--output": args.output, "--events": args.events, "--scene": args.scene,
-               "--warnings": args.warnings}
-    inputs = {"--detections": args.detections, "--source": args.source, "--detector": args.detector,
-              "--seqinfo": args.seqinfo, "--encoding": args.encoding,
-              **{f"--rules {r}": r for r in args.rules},
-              **{f"--situations {r}": r for r in args.situations}}
+    outputs = {
+        "--output": args.output,
+        "--events": args.events,
+        "--scene": args.scene,
+        "--warnings": args.warnings,
+    }
+    inputs = {
+        "--detections": args.detections,
+        "--source": args.source,
+        "--detector": args.detector,
+        "--seqinfo": args.seqinfo,
+        "--encoding": args.encoding,
+        **{f"--rules {r}": r for r in args.rules},
+        **{f"--situations {r}": r for r in args.situations},
+    }
     check_output_paths(outputs, inputs)
     fps = size = length = None
     if args.detections is not None:
@@ -294,8 +382,9 @@ def run(args: argparse.Namespace) -> int:
     if args.warnings:
         from sensemaking.reasoning.online import SituationMonitor
 
-        monitor = SituationMonitor(fps=config.fps, image_size=config.image_size,
-                                   extra_encodings=args.situations)
+        monitor = SituationMonitor(
+            fps=config.fps, image_size=config.image_size, extra_encodings=args.situations
+        )
     source = args.detections or args.source
     total = 0 if last is None or first is None else last - first + 1
     with Progress(total, "tracking", enabled=not args.quiet) as progress:
@@ -308,26 +397,42 @@ def run(args: argparse.Namespace) -> int:
                 sinks.append(WarningsSink(args.warnings))
                 log.info("warnings are written as they come into %s", sinks[-1].part)
             if args.scene:
-                sinks.append(SceneSink(args.scene, fps=config.fps, image_size=config.image_size,
-                                       metadata={"name": Path(source).stem, "source": str(source)}))
+                sinks.append(
+                    SceneSink(
+                        args.scene,
+                        fps=config.fps,
+                        image_size=config.image_size,
+                        metadata={"name": Path(source).stem, "source": str(source)},
+                    )
+                )
         except BaseException:
             from sensemaking.io.sinks import close_all
 
             close_all(sinks, ok=False)
             raise
         # frames from a file were checked by the reader (same bounds); a detector's are checked here
-        pipe = Pipeline(tracker, recorder, monitor, sinks, validate=args.detections is None,
-                        on_frames=progress.advance)
+        pipe = Pipeline(
+            tracker,
+            recorder,
+            monitor,
+            sinks,
+            validate=args.detections is None,
+            on_frames=progress.advance,
+        )
         try:
             with pipe:
                 summary = pipe.run(frames, first_frame=first, last_frame=last)
         except KeyboardInterrupt:
             done = pipe.summary.last
             kept = (
-                f"; the warnings issued so far are kept in {args.warnings}" if args.warnings else ""
+                f"; the warnings issued so far are kept in {args.warnings}"
+                if args.warnings
+                else ""
             )
-            print(f"sensemaking track: interrupted after frame {done}: no results written{kept}",
-                  file=sys.stderr)
+            print(
+                f"sensemaking track: interrupted after frame {done}: no results written{kept}",
+                file=sys.stderr,
+            )
             raise
     stats = tracker.stats
     n_tracks, n_boxes = len(sinks[0].ids), sinks[0].boxes
@@ -344,7 +449,14 @@ def run(args: argparse.Namespace) -> int:
         stats["timed_out"],
     )
     if not args.quiet:
-        print(f"{args.output}: {n_tracks} tracks over {summary.frames} frames, "
-              f"{summary.events} events ({per_frame:.2f} ms/frame association"
-              + (f", {stats['timed_out']} frames over the solve budget" if stats["timed_out"] else "") + ")")
+        print(
+            f"{args.output}: {n_tracks} tracks over {summary.frames} frames, "
+            f"{summary.events} events ({per_frame:.2f} ms/frame association"
+            + (
+                f", {stats['timed_out']} frames over the solve budget"
+                if stats["timed_out"]
+                else ""
+            )
+            + ")"
+        )
     return 0

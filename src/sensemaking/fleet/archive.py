@@ -68,7 +68,7 @@ def _pa():
     return require("pyarrow", "fleet")
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def schemas() -> dict[str, Any]:
     """Table name -> ``pyarrow.Schema``; the first four columns of every table are
     ``dataset, sequence, class, key``."""
@@ -271,7 +271,7 @@ class Archive:
 
 # -- writing one sequence ------------------------------------------------------------------------
 def _now() -> dt.datetime:
-    return dt.datetime.now(dt.timezone.utc)
+    return dt.datetime.now(dt.UTC)
 
 
 def _class_names(ids: np.ndarray) -> list[str]:
@@ -681,7 +681,7 @@ def compact(root: str | Path) -> int:
         return 0
     name = (
         "seg-"
-        + dt.datetime.now(dt.timezone.utc).strftime("%Y%m%dT%H%M%S%f")
+        + dt.datetime.now(dt.UTC).strftime("%Y%m%dT%H%M%S%f")
         + "-"
         + uuid.uuid4().hex[:6]
     )

@@ -189,7 +189,7 @@ def run_batch(
     if address:
         check_address(address)
     ordered = sorted(specs, key=lambda s: -s.cost)
-    run_id = dt.datetime.now(dt.timezone.utc).strftime("%Y%m%dT%H%M%SZ-") + uuid.uuid4().hex[:6]
+    run_id = dt.datetime.now(dt.UTC).strftime("%Y%m%dT%H%M%SZ-") + uuid.uuid4().hex[:6]
     summary = BatchSummary(run_id, total=len(ordered))
     t0 = time.perf_counter()
     sample_every = max(1, len(ordered) // 50)

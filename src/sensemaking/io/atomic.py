@@ -18,8 +18,14 @@ class PartFile:
     ``handle`` is the open text (or, with ``"b"`` in ``mode``, binary) file.
     """
 
-    def __init__(self, path: str | os.PathLike[str], mode: str = "w", encoding: str | None = "utf-8",
-                 *, visible: bool = False):
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        mode: str = "w",
+        encoding: str | None = "utf-8",
+        *,
+        visible: bool = False,
+    ):
         self.target = Path(path)
         self.target.parent.mkdir(parents=True, exist_ok=True)
         fd = -1
@@ -30,8 +36,9 @@ class PartFile:
             except FileExistsError:
                 fd = -1
         if fd < 0:
-            fd, tmp = tempfile.mkstemp(prefix=f".{self.target.name}.", suffix=".part",
-                                       dir=self.target.parent)
+            fd, tmp = tempfile.mkstemp(
+                prefix=f".{self.target.name}.", suffix=".part", dir=self.target.parent
+            )
         self.part = Path(tmp)
         try:
             self.handle: IO[Any] = os.fdopen(fd, mode, encoding=None if "b" in mode else encoding)
@@ -69,7 +76,9 @@ class PartFile:
 
 
 @contextmanager
-def atomic_write(path: str | os.PathLike[str], mode: str = "w", encoding: str | None = "utf-8") -> Iterator[IO]:
+def atomic_write(
+    path: str | os.PathLike[str], mode: str = "w", encoding: str | None = "utf-8"
+) -> Iterator[IO]:
     """Open a temporary file beside ``path``; on success rename it over ``path``, on error delete it."""
     part = PartFile(path, mode, encoding)
     try:

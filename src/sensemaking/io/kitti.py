@@ -19,24 +19,68 @@ from sensemaking.classes import class_name as _class_name
 from sensemaking.detections import MAX_FRAME, Detections
 from sensemaking.errors import InputError
 from sensemaking.io.atomic import atomic_write
-from sensemaking.io.tables import (
-    PathLike, Table, class_id_of, frame_order, ints, num, nums, parse_table, read_text,
-)
 from sensemaking.io.mot import SequenceInfo
+from sensemaking.io.tables import (
+    PathLike,
+    Table,
+    class_id_of,
+    frame_order,
+    ints,
+    num,
+    nums,
+    parse_table,
+    read_text,
+)
 
-__all__ = ["read_kitti_seqinfo", "read_kitti_labels", "write_kitti", "read_kitti_detections", "format_kitti",
-           "kitti_detections_from_table", "kitti_labels_from_table"]
+__all__ = [
+    "read_kitti_seqinfo",
+    "read_kitti_labels",
+    "write_kitti",
+    "read_kitti_detections",
+    "format_kitti",
+    "kitti_detections_from_table",
+    "kitti_labels_from_table",
+]
 
 log = logging.getLogger(__name__)
 
 _LABEL_NAMES = (
-    "frame", "id", "type", "truncated", "occluded", "alpha", "x1", "y1", "x2", "y2",
-    "height", "width", "length", "X", "Y", "Z", "rotation_y", "score",
+    "frame",
+    "id",
+    "type",
+    "truncated",
+    "occluded",
+    "alpha",
+    "x1",
+    "y1",
+    "x2",
+    "y2",
+    "height",
+    "width",
+    "length",
+    "X",
+    "Y",
+    "Z",
+    "rotation_y",
+    "score",
 )
 _RRC_NAMES = ("frame", "x1", "y1", "x2", "y2", "score")
 _POINTRCNN_NAMES = (
-    "frame", "type", "x1", "y1", "x2", "y2", "score", "height", "width", "length", "X", "Y", "Z",
-    "rotation_y", "alpha",
+    "frame",
+    "type",
+    "x1",
+    "y1",
+    "x2",
+    "y2",
+    "score",
+    "height",
+    "width",
+    "length",
+    "X",
+    "Y",
+    "Z",
+    "rotation_y",
+    "alpha",
 )
 #: PointRCNN type code -> class id
 _POINTRCNN_CLASSES = {1: CLASS_IDS["pedestrian"], 2: CLASS_IDS["car"], 3: CLASS_IDS["cyclist"]}
@@ -53,8 +97,12 @@ def read_kitti_seqinfo(csv_path: PathLike) -> dict[str, SequenceInfo]:
     fields = [f.strip() for f in reader.fieldnames or []]
     missing = [c for c in _SEQINFO_COLUMNS if c not in fields]
     if missing:
-        raise InputError(f"header must name columns {', '.join(_SEQINFO_COLUMNS)}; missing "
-                         f"{', '.join(missing)}", csv_path, 1)
+        raise InputError(
+            f"header must name columns {', '.join(_SEQINFO_COLUMNS)}; missing "
+            f"{', '.join(missing)}",
+            csv_path,
+            1,
+        )
     reader.fieldnames = fields
     out: dict[str, SequenceInfo] = {}
     for row in reader:
@@ -67,8 +115,12 @@ def read_kitti_seqinfo(csv_path: PathLike) -> dict[str, SequenceInfo]:
             try:
                 value = float(raw) if key == "frame_rate" else int(raw)
             except ValueError:
-                raise InputError(f"{key} must be {'a number' if key == 'frame_rate' else 'an integer'}"
-                                 f", got {raw!r}", csv_path, line) from None
+                raise InputError(
+                    f"{key} must be {'a number' if key == 'frame_rate' else 'an integer'}"
+                    f", got {raw!r}",
+                    csv_path,
+                    line,
+                ) from None
             if not (math.isfinite(value) and value > 0):
                 raise InputError(f"{key} must be positive, got {raw!r}", csv_path, line)
             values[key] = value
@@ -106,9 +158,12 @@ def kitti_labels_from_table(table: Table) -> Detections:
     """:func:`read_kitti_labels` of an already parsed table, in the table's line order."""
     n = len(table)
     if n == 0:
-        return Detections(xyxy=np.zeros((0, 4)), data=_label_data(np.zeros((0, 17)), np.zeros(0, np.int64)))
-    frames = table.integers(0, minimum=0, maximum=MAX_FRAME,
-                            maximum_why=" (sensemaking.detections.MAX_FRAME)")
+        return Detections(
+            xyxy=np.zeros((0, 4)), data=_label_data(np.zeros((0, 17)), np.zeros(0, np.int64))
+        )
+    frames = table.integers(
+        0, minimum=0, maximum=MAX_FRAME, maximum_why=" (sensemaking.detections.MAX_FRAME)"
+    )
     ids = table.integers(1, minimum=-1)
     table.finite([c for c in range(3, table.ncols) if c != 4])
     occluded = table.integers(4)
@@ -122,7 +177,10 @@ def kitti_labels_from_table(table: Table) -> Detections:
             pass  # stays -1: reported below at its first line
     if (lookup < 0).any():
         i = int(np.argmax(lookup[inverse] < 0))
-        table.fail(i, f"unknown object type {table.texts[2][i]!r} (KITTI types: {', '.join(KITTI_NAMES.values())})")
+        table.fail(
+            i,
+            f"unknown object type {table.texts[2][i]!r} (KITTI types: {', '.join(KITTI_NAMES.values())})",
+        )
     v = table.values
     table.positive_size(v[:, 8] - v[:, 6], v[:, 9] - v[:, 7])
     dets = Detections(
@@ -187,7 +245,9 @@ def format_kitti(tracks: Detections, path: PathLike | None = None) -> str:
             return [[num(default)] * n for _ in range(max(width, 1))]
         value = np.asarray(value, dtype=np.float64)
         if value.shape != shape:
-            raise ValueError(f"Detections.data[{key!r}] must have shape {shape}, got {value.shape}")
+            raise ValueError(
+                f"Detections.data[{key!r}] must have shape {shape}, got {value.shape}"
+            )
         value = value[order].reshape(n, max(width, 1))
         return [nums(value[:, k]) for k in range(value.shape[1])]
 
@@ -220,8 +280,9 @@ def read_kitti_detections(path: PathLike, class_name: str | None = None) -> Dete
     dropped with a warning. An empty file (no detections in the whole sequence) gives empty
     Detections.
     """
-    return kitti_detections_from_table(parse_table(path, sep=",", names=KITTI_DETECTION_LAYOUTS),
-                                       class_name)
+    return kitti_detections_from_table(
+        parse_table(path, sep=",", names=KITTI_DETECTION_LAYOUTS), class_name
+    )
 
 
 #: comma-separated KITTI detection files: number of fields -> column names (RRC, PointRCNN)
@@ -230,14 +291,16 @@ KITTI_DETECTION_LAYOUTS = {6: _RRC_NAMES, 15: _POINTRCNN_NAMES}
 KITTI_LABEL_LAYOUTS = {17: _LABEL_NAMES[:17], 18: _LABEL_NAMES}
 
 
-def kitti_detections_from_table(table: Table, class_name: str | None = None,
-                                logger: logging.Logger | None = log) -> Detections:
+def kitti_detections_from_table(
+    table: Table, class_name: str | None = None, logger: logging.Logger | None = log
+) -> Detections:
     """:func:`read_kitti_detections` of an already parsed table (a whole file or a chunk)."""
     path = table.path
     if len(table) == 0:
         return Detections.empty()
-    frames = table.integers(0, minimum=0, maximum=MAX_FRAME,
-                            maximum_why=" (sensemaking.detections.MAX_FRAME)")
+    frames = table.integers(
+        0, minimum=0, maximum=MAX_FRAME, maximum_why=" (sensemaking.detections.MAX_FRAME)"
+    )
     v = table.values
     if table.ncols == 6:  # RRC
         cid = _rrc_class(path, class_name)
@@ -248,8 +311,11 @@ def kitti_detections_from_table(table: Table, class_name: str | None = None,
         codes = table.integers(1)
         bad = ~np.isin(codes, list(_POINTRCNN_CLASSES))
         if bad.any():
-            table.fail(int(np.argmax(bad)), f"unknown PointRCNN type {codes[bad][0]} "
-                                            "(expected 1 pedestrian, 2 car or 3 cyclist)")
+            table.fail(
+                int(np.argmax(bad)),
+                f"unknown PointRCNN type {codes[bad][0]} "
+                "(expected 1 pedestrian, 2 car or 3 cyclist)",
+            )
         table.finite(range(2, 15))
         # the raw scores are logits: as probabilities, score thresholds mean the same for every
         # detector (every reader, the benchmark runner's and track's, reads through here)
@@ -264,9 +330,17 @@ def kitti_detections_from_table(table: Table, class_name: str | None = None,
             "alpha": v[:, 14].copy(),
         }
     table.sorted_frames(frames)
-    keep = table.positive_size(box[:, 2] - box[:, 0], box[:, 3] - box[:, 1], drop_zero=True,
-                                logger=logger)
-    dets = Detections(xyxy=box, confidence=score, class_id=classes, frame=frames, source_row=table.rows, data=data)
+    keep = table.positive_size(
+        box[:, 2] - box[:, 0], box[:, 3] - box[:, 1], drop_zero=True, logger=logger
+    )
+    dets = Detections(
+        xyxy=box,
+        confidence=score,
+        class_id=classes,
+        frame=frames,
+        source_row=table.rows,
+        data=data,
+    )
     return dets if keep.all() else dets[keep]
 
 

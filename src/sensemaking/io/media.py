@@ -15,8 +15,14 @@ import numpy as np
 
 from sensemaking.errors import InputError, require
 
-__all__ = ["IMAGE_SUFFIXES", "VIDEO_SUFFIXES", "list_images", "iter_video_frames", "ImageFolder",
-           "VideoFrames"]
+__all__ = [
+    "IMAGE_SUFFIXES",
+    "VIDEO_SUFFIXES",
+    "list_images",
+    "iter_video_frames",
+    "ImageFolder",
+    "VideoFrames",
+]
 
 IMAGE_SUFFIXES = frozenset({".png", ".jpg", ".jpeg", ".bmp", ".webp", ".tif", ".tiff", ".ppm"})
 VIDEO_SUFFIXES = frozenset({".mp4", ".m4v", ".mov", ".mkv", ".avi", ".webm"})

@@ -27,9 +27,31 @@ log = logging.getLogger(__name__)
 
 MotKind = Literal["det", "gt", "results"]
 
-_DET_NAMES = ("frame", "id", "x", "y", "width", "height", "confidence", "world x", "world y", "world z")
+_DET_NAMES = (
+    "frame",
+    "id",
+    "x",
+    "y",
+    "width",
+    "height",
+    "confidence",
+    "world x",
+    "world y",
+    "world z",
+)
 _GT17_NAMES = ("frame", "id", "x", "y", "width", "height", "consider flag", "class", "visibility")
-_GT15_NAMES = ("frame", "id", "x", "y", "width", "height", "consider flag", "world x", "world y", "world z")
+_GT15_NAMES = (
+    "frame",
+    "id",
+    "x",
+    "y",
+    "width",
+    "height",
+    "consider flag",
+    "world x",
+    "world y",
+    "world z",
+)
 #: per kind: allowed number of comma-separated fields -> column names
 MOT_LAYOUTS: dict[str, dict[int, tuple[str, ...]]] = {
     "det": {n: _DET_NAMES for n in range(7, 11)},
@@ -80,8 +102,9 @@ def read_seqinfo(path: PathLike) -> SequenceInfo:
         try:
             value = kind(raw)
         except ValueError:
-            raise InputError(f"{key} must be {'an integer' if kind is int else 'a number'}, got {raw!r}",
-                             p) from None
+            raise InputError(
+                f"{key} must be {'an integer' if kind is int else 'a number'}, got {raw!r}", p
+            ) from None
         if not (math.isfinite(value) and value > 0):
             raise InputError(f"{key} must be positive, got {raw!r}", p)
         return value
@@ -117,19 +140,30 @@ def read_mot(path: PathLike, kind: MotKind = "det", default_class: int = 1) -> D
     return mot_from_table(table, kind, default_class)
 
 
-def mot_from_table(table: Table, kind: MotKind = "det", default_class: int = 1,
-                   logger: logging.Logger | None = log) -> Detections:
+def mot_from_table(
+    table: Table,
+    kind: MotKind = "det",
+    default_class: int = 1,
+    logger: logging.Logger | None = log,
+) -> Detections:
     """:func:`read_mot` of an already parsed table (a whole file, or one chunk of it)."""
     path = table.path
     n = len(table)
     if n == 0:
         if kind == "det":
             raise InputError("no detections in file", path)
-        data = {"consider": np.zeros(0, np.int64), "visibility": np.zeros(0)} if kind == "gt" else {}
+        data = (
+            {"consider": np.zeros(0, np.int64), "visibility": np.zeros(0)} if kind == "gt" else {}
+        )
         return Detections(xyxy=np.zeros((0, 4)), data=data)
 
-    frames = table.integers(0, minimum=1, what=" (MOTChallenge frames are 1-based)",
-                            maximum=MAX_FRAME, maximum_why=" (sensemaking.detections.MAX_FRAME)")
+    frames = table.integers(
+        0,
+        minimum=1,
+        what=" (MOTChallenge frames are 1-based)",
+        maximum=MAX_FRAME,
+        maximum_why=" (sensemaking.detections.MAX_FRAME)",
+    )
     ids = table.integers(1) if kind != "det" else np.full(n, -1, dtype=np.int64)
     v = table.values
     table.finite([2, 3, 4, 5] if kind == "gt" else [2, 3, 4, 5, 6])
@@ -160,9 +194,14 @@ def mot_from_table(table: Table, kind: MotKind = "det", default_class: int = 1,
             data=data,
         )
     box = dets.xyxy
-    bad = keep & ~(np.isfinite(box).all(axis=1) & (box[:, 2] > box[:, 0]) & (box[:, 3] > box[:, 1]))
+    bad = keep & ~(
+        np.isfinite(box).all(axis=1) & (box[:, 2] > box[:, 0]) & (box[:, 3] > box[:, 1])
+    )
     if bad.any():
-        table.fail(int(np.argmax(bad)), "box corner x + width or y + height is not representable in float64")
+        table.fail(
+            int(np.argmax(bad)),
+            "box corner x + width or y + height is not representable in float64",
+        )
     if not keep.all():
         dets = dets[keep]
     if kind == "gt":
@@ -219,7 +258,9 @@ def _span(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
         low, high = total < hi, total > hi
         if not (low.any() or high.any()):
             break
-        size = np.where(low, np.nextafter(size, np.inf), np.where(high, np.nextafter(size, -np.inf), size))
+        size = np.where(
+            low, np.nextafter(size, np.inf), np.where(high, np.nextafter(size, -np.inf), size)
+        )
     todo = np.ones(len(size), dtype=bool)
     with np.errstate(over="ignore", invalid="ignore"):
         for decimals in range(13):

@@ -225,7 +225,9 @@ class SceneSink:
         self.image_size = None if image_size is None else (int(image_size[0]), int(image_size[1]))
         self.metadata = dict(metadata or {})
         self._runs: list[list[int]] = []  # recorded frames as [first, last] runs
-        self._live: dict[int, list[list[np.ndarray]]] = {}  # live track -> its row chunks (columns)
+        self._live: dict[
+            int, list[list[np.ndarray]]
+        ] = {}  # live track -> its row chunks (columns)
         self._batch: list[tuple[np.ndarray, ...]] = []
         self._batch_frames = 0
         self._index: dict[

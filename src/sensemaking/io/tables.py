@@ -20,12 +20,23 @@ import numpy as np
 
 from sensemaking.errors import InputError
 
-__all__ = ["PathLike", "Table", "parse_table", "parse_lines", "read_text", "first_line", "reading",
-           "class_id_of", "num", "nums", "ints", "frame_order", "describe_counts"]
+__all__ = [
+    "PathLike",
+    "Table",
+    "parse_table",
+    "parse_lines",
+    "read_text",
+    "first_line",
+    "reading",
+    "class_id_of",
+    "num",
+    "nums",
+    "ints",
+    "frame_order",
+    "describe_counts",
+]
 
 PathLike = str | os.PathLike[str]
-
-
 
 
 def class_id_of(name: str, path: PathLike | None = None, line: int | None = None) -> int:
@@ -106,10 +117,18 @@ class Table:
         if bad.any():
             i = int(np.argmax(bad.any(axis=1)))
             j = int(np.argmax(bad[i]))
-            self.fail(i, f"{self.name(cols[j])} must be a finite number, got {num(float(block[i, j]))}")
+            self.fail(
+                i, f"{self.name(cols[j])} must be a finite number, got {num(float(block[i, j]))}"
+            )
 
-    def integers(self, col: int, minimum: int | None = None, what: str = "", maximum: int | None = None,
-                 maximum_why: str = "") -> np.ndarray:
+    def integers(
+        self,
+        col: int,
+        minimum: int | None = None,
+        what: str = "",
+        maximum: int | None = None,
+        maximum_why: str = "",
+    ) -> np.ndarray:
         """Column ``col`` as int64; every value must be a whole number in ``minimum..maximum``."""
         v = self.values[:, col]
         with np.errstate(invalid="ignore"):
@@ -123,8 +142,11 @@ class Table:
             self.fail(i, f"{self.name(col)} must be >= {minimum}{what}, got {out[i]}")
         if maximum is not None and len(out) and out.max() > maximum:
             i = int(np.argmax(out > maximum))
-            self.fail(i, f"{self.name(col)} {out[i]} is beyond the plausibility bound {maximum}"
-                         f"{maximum_why}")
+            self.fail(
+                i,
+                f"{self.name(col)} {out[i]} is beyond the plausibility bound {maximum}"
+                f"{maximum_why}",
+            )
         return out
 
     def sorted_frames(self, frames: np.ndarray) -> None:
@@ -133,11 +155,20 @@ class Table:
             down = np.diff(frames) < 0
             if down.any():
                 i = int(np.argmax(down)) + 1
-                self.fail(i, f"frame {frames[i]} comes after frame {frames[i - 1]}: "
-                             "lines must be sorted by frame")
+                self.fail(
+                    i,
+                    f"frame {frames[i]} comes after frame {frames[i - 1]}: "
+                    "lines must be sorted by frame",
+                )
 
-    def positive_size(self, w: np.ndarray, h: np.ndarray, *, drop_zero: bool = False,
-                      logger: logging.Logger | None = None) -> np.ndarray:
+    def positive_size(
+        self,
+        w: np.ndarray,
+        h: np.ndarray,
+        *,
+        drop_zero: bool = False,
+        logger: logging.Logger | None = None,
+    ) -> np.ndarray:
         """Check box width ``w`` and height ``h`` (N,) in pixels are > 0.
 
         With ``drop_zero`` (detector output), boxes of exactly zero width or height are
@@ -151,13 +182,18 @@ class Table:
             keep = ~zero
         if bad.any():
             i = int(np.argmax(bad))
-            self.fail(i, f"box width and height must be positive, got width {num(float(w[i]))} "
-                         f"and height {num(float(h[i]))}")
+            self.fail(
+                i,
+                f"box width and height must be positive, got width {num(float(w[i]))} "
+                f"and height {num(float(h[i]))}",
+            )
         if not keep.all() and logger is not None:
             first = int(self.rows[int(np.argmax(~keep))])
             logger.warning(
                 "%s: dropped %d detection(s) of zero width or height (first on line %d)",
-                self.path, int((~keep).sum()), first,
+                self.path,
+                int((~keep).sum()),
+                first,
             )
         return keep
 
@@ -223,7 +259,9 @@ def parse_lines(
         nfields = [line.count(sep) + 1 for line in body]
     ncols = nfields[0]
     if ncols not in counts:
-        raise InputError(f"expected {describe_counts(counts)} {kind} fields, got {ncols}", path, int(rows[0]))
+        raise InputError(
+            f"expected {describe_counts(counts)} {kind} fields, got {ncols}", path, int(rows[0])
+        )
     if nfields.count(ncols) != len(nfields):
         i = next(i for i, n in enumerate(nfields) if n != ncols)
         raise InputError(f"expected {ncols} {kind} fields, got {nfields[i]}", path, int(rows[i]))
@@ -232,7 +270,11 @@ def parse_lines(
     numeric = [c for c in range(ncols) if c not in text_cols]
     try:
         parsed = np.loadtxt(
-            body, dtype=np.float64, delimiter=sep, comments=None, ndmin=2,
+            body,
+            dtype=np.float64,
+            delimiter=sep,
+            comments=None,
+            ndmin=2,
             usecols=numeric if text_cols else None,
         )
         if parsed.shape != (len(body), len(numeric)):
@@ -249,8 +291,14 @@ def parse_lines(
     return Table(path, values, rows, columns, texts)
 
 
-def parse_slow(path: PathLike, body: list[str], rows: np.ndarray, sep: str | None,
-                numeric: list[int], names: Sequence[str]) -> np.ndarray:
+def parse_slow(
+    path: PathLike,
+    body: list[str],
+    rows: np.ndarray,
+    sep: str | None,
+    numeric: list[int],
+    names: Sequence[str],
+) -> np.ndarray:
     """Line-by-line parse: raises InputError at the first field that is not a number."""
     out = np.empty((len(body), len(numeric)))
     for i, line in enumerate(body):
@@ -261,8 +309,9 @@ def parse_slow(path: PathLike, body: list[str], rows: np.ndarray, sep: str | Non
                 out[i, k] = float(text)
             except ValueError:
                 what = names[c] if c < len(names) else "value"
-                raise InputError(f"field {c + 1} ({what}) is not a number: {text!r}", path,
-                                 int(rows[i])) from None
+                raise InputError(
+                    f"field {c + 1} ({what}) is not a number: {text!r}", path, int(rows[i])
+                ) from None
     return out
 
 

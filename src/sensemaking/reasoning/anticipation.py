@@ -22,8 +22,15 @@ if TYPE_CHECKING:  # pragma: no cover
     from sensemaking.reasoning.context import Corridor
     from sensemaking.scene import Scene
 
-__all__ = ["AnticipationConfig", "Anticipation", "fit_motion", "anticipate", "anticipate_scene",
-           "reappearance_errors", "ReappearanceError"]
+__all__ = [
+    "AnticipationConfig",
+    "Anticipation",
+    "fit_motion",
+    "anticipate",
+    "anticipate_scene",
+    "reappearance_errors",
+    "ReappearanceError",
+]
 
 
 @dataclass(frozen=True)
@@ -42,7 +49,6 @@ class AnticipationConfig:
     horizon_s: float = 5.0
     velocity_points: int = 5
     velocity_span_s: float = 1.0
-
 
     def __post_init__(self) -> None:
         if not 0 < self.reappear_coverage <= 1:
@@ -79,19 +85,25 @@ class Anticipation:
     in_image: bool
     overdue: bool = False
 
-
     def to_json(self) -> dict[str, Any]:
         return {
-            "track": self.track, "occluder": self.occluder, "frame": self.frame,
-            "reappear_frame": self.reappear_frame, "box": [round(v, 1) for v in self.box],
-            "position": [round(v, 1) for v in self.position], "lead_frames": self.lead_frames,
-            "lead_s": round(self.lead_s, 3), "in_corridor": self.in_corridor, "in_image": self.in_image,
+            "track": self.track,
+            "occluder": self.occluder,
+            "frame": self.frame,
+            "reappear_frame": self.reappear_frame,
+            "box": [round(v, 1) for v in self.box],
+            "position": [round(v, 1) for v in self.position],
+            "lead_frames": self.lead_frames,
+            "lead_s": round(self.lead_s, 3),
+            "in_corridor": self.in_corridor,
+            "in_image": self.in_image,
             "overdue": self.overdue,
         }
 
 
-def fit_motion(frames: np.ndarray, xyxy: np.ndarray, points: int = 5,
-               span: float | None = None) -> tuple[int, np.ndarray, np.ndarray]:
+def fit_motion(
+    frames: np.ndarray, xyxy: np.ndarray, points: int = 5, span: float | None = None
+) -> tuple[int, np.ndarray, np.ndarray]:
     """Linear fit of a box over its last visible frames.
 
     Args:
@@ -126,7 +138,12 @@ def _box_at(last: int, box: list[float], vel: list[float], frame: int) -> list[f
     """The box ``box + vel * (frame - last)`` (pixels; ``vel`` per frame) about the same centre
     with each side kept >= 1 px."""
     dt = float(frame) - last
-    x1, y1, x2, y2 = box[0] + vel[0] * dt, box[1] + vel[1] * dt, box[2] + vel[2] * dt, box[3] + vel[3] * dt
+    x1, y1, x2, y2 = (
+        box[0] + vel[0] * dt,
+        box[1] + vel[1] * dt,
+        box[2] + vel[2] * dt,
+        box[3] + vel[3] * dt,
+    )
     cx, cy = (x1 + x2) / 2, (y1 + y2) / 2
     hw, hh = x2 - x1, y2 - y1
     hw = (hw if hw >= 1.0 else 1.0) / 2
@@ -142,12 +159,23 @@ def _coverage(a: list[float], b: list[float]) -> float:
     return (w if w > 0 else 0.0) * (h if h > 0 else 0.0) / (area if area >= 1e-9 else 1e-9)
 
 
-def _first_uncovered(t_last: int, t_box: list[float], t_vel: list[float], o_last: int, o_box: list[float],
-                     o_vel: list[float], now: int, steps: int,
-                     coverage: float) -> tuple[int, list[float], bool] | None:
+def _first_uncovered(
+    t_last: int,
+    t_box: list[float],
+    t_vel: list[float],
+    o_last: int,
+    o_box: list[float],
+    o_vel: list[float],
+    now: int,
+    steps: int,
+    coverage: float,
+) -> tuple[int, list[float], bool] | None:
     """``(k, box, overdue)`` for the first of the frames ``now + 1 .. now + steps`` at which the
     extrapolated object is less than ``coverage`` covered, or None if there is none."""
-    overdue = _coverage(_box_at(t_last, t_box, t_vel, now), _box_at(o_last, o_box, o_vel, now)) < coverage
+    overdue = (
+        _coverage(_box_at(t_last, t_box, t_vel, now), _box_at(o_last, o_box, o_vel, now))
+        < coverage
+    )
     for k in range(1, steps + 1):
         box = _box_at(t_last, t_box, t_vel, now + k)
         if _coverage(box, _box_at(o_last, o_box, o_vel, now + k)) < coverage:
@@ -155,10 +183,20 @@ def _first_uncovered(t_last: int, t_box: list[float], t_vel: list[float], o_last
     return None
 
 
-def anticipate(hidden_frames: np.ndarray, hidden_xyxy: np.ndarray, occluder_frames: np.ndarray,
-               occluder_xyxy: np.ndarray, now: int, *, fps: float, track: int = -1, occluder: int = -1,
-               image_size: tuple[int, int] | None = None, corridor: Corridor | None = None,
-               config: AnticipationConfig | None = None) -> Anticipation | None:
+def anticipate(
+    hidden_frames: np.ndarray,
+    hidden_xyxy: np.ndarray,
+    occluder_frames: np.ndarray,
+    occluder_xyxy: np.ndarray,
+    now: int,
+    *,
+    fps: float,
+    track: int = -1,
+    occluder: int = -1,
+    image_size: tuple[int, int] | None = None,
+    corridor: Corridor | None = None,
+    config: AnticipationConfig | None = None,
+) -> Anticipation | None:
     """When and where a hidden object may reappear from behind its occluder.
 
     Args:
@@ -185,8 +223,17 @@ def anticipate(hidden_frames: np.ndarray, hidden_xyxy: np.ndarray, occluder_fram
     t_last, t_box, t_vel = fit_motion(hidden_frames, hidden_xyxy, c.velocity_points, span)
     o_last, o_box, o_vel = fit_motion(occluder_frames, occluder_xyxy, c.velocity_points, span)
     horizon = max(1, int(round(c.horizon_s * fps)))
-    found = _first_uncovered(t_last, t_box.tolist(), t_vel.tolist(), o_last, o_box.tolist(),
-                             o_vel.tolist(), now, horizon, c.reappear_coverage)
+    found = _first_uncovered(
+        t_last,
+        t_box.tolist(),
+        t_vel.tolist(),
+        o_last,
+        o_box.tolist(),
+        o_vel.tolist(),
+        now,
+        horizon,
+        c.reappear_coverage,
+    )
     if found is None:
         return None
     k, box, overdue = found
@@ -199,14 +246,27 @@ def anticipate(hidden_frames: np.ndarray, hidden_xyxy: np.ndarray, occluder_fram
         in_image = bool(0 <= cx <= image_size[0] and 0 <= cy <= image_size[1])
         in_corridor = in_corridor and in_image
     return Anticipation(
-        track=int(track), occluder=int(occluder), frame=int(now), reappear_frame=int(now + k),
-        box=(box[0], box[1], box[2], box[3]), position=pos,
-        lead_frames=k, lead_s=k / float(fps), in_corridor=in_corridor, in_image=in_image, overdue=overdue,
+        track=int(track),
+        occluder=int(occluder),
+        frame=int(now),
+        reappear_frame=int(now + k),
+        box=(box[0], box[1], box[2], box[3]),
+        position=pos,
+        lead_frames=k,
+        lead_s=k / float(fps),
+        in_corridor=in_corridor,
+        in_image=in_image,
+        overdue=overdue,
     )
 
 
-def anticipate_scene(scene: Scene, frame: int, *, corridor: Corridor | None = None,
-                     config: AnticipationConfig | None = None) -> list[Anticipation]:
+def anticipate_scene(
+    scene: Scene,
+    frame: int,
+    *,
+    corridor: Corridor | None = None,
+    config: AnticipationConfig | None = None,
+) -> list[Anticipation]:
     """Anticipations for every track hidden at ``frame``, from what was seen up to ``frame``."""
     out = []
     for t in scene.tracks.values():
@@ -222,9 +282,19 @@ def anticipate_scene(scene: Scene, frame: int, *, corridor: Corridor | None = No
         j = o.index(frame)
         if j is not None and (ovis.size == 0 or ovis[-1] != j):
             ovis = np.append(ovis, j)  # its box now (a prediction when not visible) anchors it
-        a = anticipate(t.frames[: i + 1][vis], t.xyxy[: i + 1][vis], o.frames[ovis], o.xyxy[ovis], frame,
-                       fps=scene.fps, track=t.id, occluder=o.id, image_size=scene.image_size,
-                       corridor=corridor, config=config)
+        a = anticipate(
+            t.frames[: i + 1][vis],
+            t.xyxy[: i + 1][vis],
+            o.frames[ovis],
+            o.xyxy[ovis],
+            frame,
+            fps=scene.fps,
+            track=t.id,
+            occluder=o.id,
+            image_size=scene.image_size,
+            corridor=corridor,
+            config=config,
+        )
         if a is not None:
             out.append(a)
     return out
@@ -252,14 +322,14 @@ class ReappearanceError:
     predicted_position: tuple[float, float]
     actual_position: tuple[float, float]
 
-
     def to_json(self) -> dict[str, Any]:
         values = {f.name: getattr(self, f.name) for f in fields(self)}
         return {k: list(v) if isinstance(v, tuple) else v for k, v in values.items()}
 
 
-def reappearance_errors(scene: Scene, *, corridor: Corridor | None = None,
-                        config: AnticipationConfig | None = None) -> list[ReappearanceError]:
+def reappearance_errors(
+    scene: Scene, *, corridor: Corridor | None = None, config: AnticipationConfig | None = None
+) -> list[ReappearanceError]:
     """For every hidden episode that ends with the track visible again: the prediction made at
     its first hidden frame against the observed reappearance (frame and bottom-centre position)."""
     out = []
@@ -269,13 +339,28 @@ def reappearance_errors(scene: Scene, *, corridor: Corridor | None = None,
         if after.size == 0:
             continue
         k = int(after[0])
-        preds = [a for a in anticipate_scene(scene, ep.start, corridor=corridor, config=config) if a.track == t.id]
+        preds = [
+            a
+            for a in anticipate_scene(scene, ep.start, corridor=corridor, config=config)
+            if a.track == t.id
+        ]
         if not preds:
             continue
         a = preds[0]
         b = t.xyxy[k]
         actual = (float((b[0] + b[2]) / 2), float(b[3]))
         err = float(np.hypot(a.position[0] - actual[0], a.position[1] - actual[1]))
-        out.append(ReappearanceError(t.id, a.occluder, ep.start, a.reappear_frame, int(t.frames[k]),
-                                     a.reappear_frame - int(t.frames[k]), err, a.position, actual))
+        out.append(
+            ReappearanceError(
+                t.id,
+                a.occluder,
+                ep.start,
+                a.reappear_frame,
+                int(t.frames[k]),
+                a.reappear_frame - int(t.frames[k]),
+                err,
+                a.position,
+                actual,
+            )
+        )
     return out

@@ -51,20 +51,49 @@ import numpy as np
 from sensemaking.errors import InputError
 
 __all__ = [
-    "Corridor", "Lane", "LaneMap", "Segmentation", "SceneContext", "CITYSCAPES_LABELS",
-    "DEFAULT_CORRIDOR", "load_lanes", "asp_name",
+    "Corridor",
+    "Lane",
+    "LaneMap",
+    "Segmentation",
+    "SceneContext",
+    "CITYSCAPES_LABELS",
+    "DEFAULT_CORRIDOR",
+    "load_lanes",
+    "asp_name",
 ]
 
 log = logging.getLogger(__name__)
 
 #: the default ego corridor, fractions of (width, height): bottom-left, bottom-right, top-right, top-left
-DEFAULT_CORRIDOR: tuple[tuple[float, float], ...] = ((0.1, 1.0), (0.9, 1.0), (0.6, 0.5), (0.4, 0.5))
+DEFAULT_CORRIDOR: tuple[tuple[float, float], ...] = (
+    (0.1, 1.0),
+    (0.9, 1.0),
+    (0.6, 0.5),
+    (0.4, 0.5),
+)
 
 #: Cityscapes train ids -> names (the usual output of road-scene segmentation models)
 CITYSCAPES_LABELS: dict[int, str] = {
-    0: "road", 1: "sidewalk", 2: "building", 3: "wall", 4: "fence", 5: "pole", 6: "traffic_light",
-    7: "traffic_sign", 8: "vegetation", 9: "terrain", 10: "sky", 11: "person", 12: "rider", 13: "car",
-    14: "truck", 15: "bus", 16: "train", 17: "motorcycle", 18: "bicycle", 255: "void",
+    0: "road",
+    1: "sidewalk",
+    2: "building",
+    3: "wall",
+    4: "fence",
+    5: "pole",
+    6: "traffic_light",
+    7: "traffic_sign",
+    8: "vegetation",
+    9: "terrain",
+    10: "sky",
+    11: "person",
+    12: "rider",
+    13: "car",
+    14: "truck",
+    15: "bus",
+    16: "train",
+    17: "motorcycle",
+    18: "bicycle",
+    255: "void",
 }
 
 
@@ -94,8 +123,9 @@ def _spans(poly: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 @lru_cache(maxsize=64)
-def _profile(points: tuple[tuple[float, float], ...], normalized: bool,
-             image_size: tuple[int, int]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _profile(
+    points: tuple[tuple[float, float], ...], normalized: bool, image_size: tuple[int, int]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Rows of the polygon's vertices (sorted) and its x extent there: between two such rows
     the extent of a convex polygon is linear in y, so np.interp over them is exact (for other
     polygons it is an approximation between vertex rows)."""
@@ -153,7 +183,9 @@ class Corridor:
         y = np.asarray(y, dtype=np.float64).reshape(-1)
         ys, l, r = _profile(self.points, self.normalized, (int(image_size[0]), int(image_size[1])))
         out = (y < ys[0]) | (y > ys[-1])
-        return np.where(out, np.nan, np.interp(y, ys, l)), np.where(out, np.nan, np.interp(y, ys, r))
+        return np.where(out, np.nan, np.interp(y, ys, l)), np.where(
+            out, np.nan, np.interp(y, ys, r)
+        )
 
     def overlap(self, xyxy: np.ndarray, image_size: tuple[int, int]) -> np.ndarray:
         """(N,) fraction of each box's bottom edge inside the corridor."""
@@ -175,13 +207,19 @@ class Corridor:
             return (p[:, 0] >= xl) & (p[:, 0] <= xr)
 
     def to_json(self) -> dict[str, Any]:
-        return {"points": [list(p) for p in self.points], "normalized": self.normalized,
-                "min_overlap": self.min_overlap}
+        return {
+            "points": [list(p) for p in self.points],
+            "normalized": self.normalized,
+            "min_overlap": self.min_overlap,
+        }
 
     @classmethod
     def from_json(cls, record: Mapping[str, Any]) -> Corridor:
-        return cls(tuple(tuple(p) for p in record["points"]), bool(record.get("normalized", True)),
-                   float(record.get("min_overlap", 0.5)))
+        return cls(
+            tuple(tuple(p) for p in record["points"]),
+            bool(record.get("normalized", True)),
+            float(record.get("min_overlap", 0.5)),
+        )
 
     @classmethod
     def parse(cls, text: str) -> Corridor:
@@ -240,7 +278,9 @@ def _sorted_by_y(arr: np.ndarray) -> np.ndarray:
 
 def _lane(record: Any, where: str, path: str | None) -> Lane:
     if not isinstance(record, Mapping):
-        raise InputError(f"{where}: a lane must be an object with 'id' and 'points' or 'left'/'right'", path)
+        raise InputError(
+            f"{where}: a lane must be an object with 'id' and 'points' or 'left'/'right'", path
+        )
     lid = record.get("id")
     if isinstance(lid, bool) or not isinstance(lid, (int, str)):
         raise InputError(f"{where}: lane 'id' must be an integer or a string, got {lid!r}", path)
@@ -360,7 +400,9 @@ class Segmentation:
         self._cache = (frame, arr)
         return arr
 
-    def surface_under(self, frame: int, xyxy: np.ndarray, image_size: tuple[int, int] | None) -> list[str | None]:
+    def surface_under(
+        self, frame: int, xyxy: np.ndarray, image_size: tuple[int, int] | None
+    ) -> list[str | None]:
         """Label name of the ground just below each box's bottom edge (majority of three
         samples across the middle half of the edge), None where unknown or off the map.
         ``image_size`` is the size of the images the boxes are in (None: the map's size)."""
@@ -369,7 +411,11 @@ class Segmentation:
         if lm is None or b.shape[0] == 0:
             return [None] * b.shape[0]
         mh, mw = lm.shape[:2]
-        sx, sy = (1.0, 1.0) if image_size is None else (mw / float(image_size[0]), mh / float(image_size[1]))
+        sx, sy = (
+            (1.0, 1.0)
+            if image_size is None
+            else (mw / float(image_size[0]), mh / float(image_size[1]))
+        )
         w = b[:, 2] - b[:, 0]
         xs = np.stack([b[:, 0] + w * f for f in (0.25, 0.5, 0.75)], axis=1) * sx
         ys = np.repeat(((b[:, 3] + 2.0) * sy)[:, None], 3, axis=1)
@@ -406,8 +452,11 @@ def _read_label_map(path: Path) -> np.ndarray:
         try:
             from PIL import Image
         except ImportError:
-            raise InputError("reading PNG label maps needs Pillow (pip install 'sensemaking[viz]'); "
-                             "or give .npy label maps", path) from None
+            raise InputError(
+                "reading PNG label maps needs Pillow (pip install 'sensemaking[viz]'); "
+                "or give .npy label maps",
+                path,
+            ) from None
         try:
             with Image.open(path) as im:
                 arr = np.asarray(im)
@@ -416,7 +465,9 @@ def _read_label_map(path: Path) -> np.ndarray:
     if arr.ndim == 3:
         arr = arr[..., 0]
     if arr.ndim != 2 or not np.issubdtype(arr.dtype, np.integer):
-        raise InputError(f"a label map must be a 2-D integer array, got {arr.dtype} {arr.shape}", path)
+        raise InputError(
+            f"a label map must be a 2-D integer array, got {arr.dtype} {arr.shape}", path
+        )
     return arr
 
 
@@ -435,9 +486,13 @@ class SceneContext:
     segmentation: Segmentation | None = None
 
     @classmethod
-    def load(cls, lanes: str | PathLike[str] | None = None, segmentation: str | PathLike[str] | None = None,
-             labels: str | PathLike[str] | Mapping[int, str] | None = None,
-             corridor: Corridor | str | Sequence[tuple[float, float]] | None = None) -> SceneContext:
+    def load(
+        cls,
+        lanes: str | PathLike[str] | None = None,
+        segmentation: str | PathLike[str] | None = None,
+        labels: str | PathLike[str] | Mapping[int, str] | None = None,
+        corridor: Corridor | str | Sequence[tuple[float, float]] | None = None,
+    ) -> SceneContext:
         """Read the optional context files; any of them may be None. Raises InputError."""
         if isinstance(corridor, str):
             corr = Corridor.parse(corridor)

@@ -54,8 +54,18 @@ if TYPE_CHECKING:  # pragma: no cover
     from sensemaking.reasoning.context import SceneContext
     from sensemaking.scene import Scene, Track
 
-__all__ = ["ask", "explain", "stories", "check_query", "Answer", "QueryError", "NAMED_QUESTIONS",
-           "DEFAULT_TIMEOUT_S", "DEFAULT_MAX_ATOMS", "DEFAULT_MAX_MEMORY_MB"]
+__all__ = [
+    "ask",
+    "explain",
+    "stories",
+    "check_query",
+    "Answer",
+    "QueryError",
+    "NAMED_QUESTIONS",
+    "DEFAULT_TIMEOUT_S",
+    "DEFAULT_MAX_ATOMS",
+    "DEFAULT_MAX_MEMORY_MB",
+]
 
 #: limits of an ASP query: wall-clock seconds for grounding + solving, ground atoms, memory (MB)
 DEFAULT_TIMEOUT_S = 60.0
@@ -82,8 +92,20 @@ ALLOWED_DIRECTIVES = frozenset(
     }
 )
 _DIRECTIVE = re.compile(r"#([A-Za-z_]+\+?)")
-_FORBIDDEN_NODES = frozenset({"Script", "External", "Definition", "ProjectAtom", "ProjectSignature",
-                              "Heuristic", "Edge", "TheoryDefinition", "TheoryAtom", "Defined"})
+_FORBIDDEN_NODES = frozenset(
+    {
+        "Script",
+        "External",
+        "Definition",
+        "ProjectAtom",
+        "ProjectSignature",
+        "Heuristic",
+        "Edge",
+        "TheoryDefinition",
+        "TheoryAtom",
+        "Defined",
+    }
+)
 
 #: named questions -> usage line
 NAMED_QUESTIONS: dict[str, str] = {
@@ -96,10 +118,25 @@ NAMED_QUESTIONS: dict[str, str] = {
     "story": "story [TRACK] -- each track's story in sentences",
     "warnings": "warnings -- safety-critical situations over the scene",
 }
-_ARGS = {"tracks": (0, 0), "events": (0, 1), "hidden": (0, 1), "reappeared": (1, 1), "in-front": (1, 1),
-         "why-ended": (1, 1), "story": (0, 1), "warnings": (0, 0)}
-_ALIASES = {"in_front": "in-front", "infront": "in-front", "why_ended": "why-ended", "ended": "why-ended",
-            "explain": "story", "reappear": "reappeared", "hidden_by": "hidden"}
+_ARGS = {
+    "tracks": (0, 0),
+    "events": (0, 1),
+    "hidden": (0, 1),
+    "reappeared": (1, 1),
+    "in-front": (1, 1),
+    "why-ended": (1, 1),
+    "story": (0, 1),
+    "warnings": (0, 0),
+}
+_ALIASES = {
+    "in_front": "in-front",
+    "infront": "in-front",
+    "why_ended": "why-ended",
+    "ended": "why-ended",
+    "explain": "story",
+    "reappear": "reappeared",
+    "hidden_by": "hidden",
+}
 
 
 class QueryError(SensemakingError):
@@ -110,8 +147,13 @@ class QueryError(SensemakingError):
         line, column: 1-based position of the first error in the query, when known.
     """
 
-    def __init__(self, message: str, messages: list[str] | None = None, line: int | None = None,
-                 column: int | None = None):
+    def __init__(
+        self,
+        message: str,
+        messages: list[str] | None = None,
+        line: int | None = None,
+        column: int | None = None,
+    ):
         super().__init__(message)
         self.messages = list(messages or [])
         self.line = line
@@ -142,9 +184,14 @@ class Answer:
         return "\n".join(self.lines)
 
     def to_json(self) -> dict[str, Any]:
-        return {"question": self.question, "lines": list(self.lines), "atoms": list(self.atoms),
-                "models": [list(m) for m in self.models], "satisfiable": self.satisfiable,
-                "notes": list(self.notes)}
+        return {
+            "question": self.question,
+            "lines": list(self.lines),
+            "atoms": list(self.atoms),
+            "models": [list(m) for m in self.models],
+            "satisfiable": self.satisfiable,
+            "notes": list(self.notes),
+        }
 
 
 # -- running clingo -------------------------------------------------------------------------------
@@ -242,6 +289,7 @@ def check_query(query: str) -> None:
 
 def _check_ast(stmts: list[Any]) -> None:
     """The same allow-list on the parsed statements (a second line of defence)."""
+
     def walk(node: Any) -> None:
         name = str(node.ast_type).rsplit(".", 1)[-1]
         if name in _FORBIDDEN_NODES or (name == "Function" and getattr(node, "external", 0)):
@@ -279,7 +327,11 @@ def _solve(
         messages.append((code, msg.replace("<string>", "query").rstrip()))
 
     def fail(default: str) -> QueryError:
-        errs = [m for c, m in messages if "query:" in m and "error" in m] or [m for _, m in messages] or [default]
+        errs = (
+            [m for c, m in messages if "query:" in m and "error" in m]
+            or [m for _, m in messages]
+            or [default]
+        )
         first = _LOC.search(errs[0])
         line, col = (int(first.group(1)), int(first.group(2))) if first else (None, None)
         return QueryError("invalid query: " + "\n".join(errs), errs, line, col)
@@ -326,8 +378,14 @@ def _solve(
     return models, bool(res.satisfiable), notes, shows
 
 
-def _limited_child(conn: Any, program: str, query: str, max_models: int, max_atoms: int | None,
-                   max_memory_mb: int | None) -> None:  # pragma: no cover - runs in the child
+def _limited_child(
+    conn: Any,
+    program: str,
+    query: str,
+    max_models: int,
+    max_atoms: int | None,
+    max_memory_mb: int | None,
+) -> None:  # pragma: no cover - runs in the child
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C and stops the child
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     try:
@@ -351,17 +409,26 @@ def _limited_child(conn: Any, program: str, query: str, max_models: int, max_ato
     except MemoryError:
         conn.send(("memory",))
     except RuntimeError as exc:
-        conn.send(("memory",) if "bad_alloc" in str(exc) or "memory" in str(exc).lower()
-                  else ("error", f"clingo failed: {' '.join(str(exc).split())}", [], None, None))
+        conn.send(
+            ("memory",)
+            if "bad_alloc" in str(exc) or "memory" in str(exc).lower()
+            else ("error", f"clingo failed: {' '.join(str(exc).split())}", [], None, None)
+        )
     finally:
         conn.close()
         os._exit(0)
 
 
-def _solve_limited(program: str, query: str, max_models: int, *, timeout: float | None,
-                   max_atoms: int | None, max_memory_mb: int | None,
-                   on_model: Callable[[tuple[str, ...]], None] | None = None,
-                   ) -> tuple[list[tuple[str, ...]], bool, list[str], bool]:
+def _solve_limited(
+    program: str,
+    query: str,
+    max_models: int,
+    *,
+    timeout: float | None,
+    max_atoms: int | None,
+    max_memory_mb: int | None,
+    on_model: Callable[[tuple[str, ...]], None] | None = None,
+) -> tuple[list[tuple[str, ...]], bool, list[str], bool]:
     """:func:`_solve` of an untrusted query in a child process under the limits; models as
     tuples of atom strings, passed to ``on_model`` as they arrive."""
     import multiprocessing
@@ -380,7 +447,9 @@ def _solve_limited(program: str, query: str, max_models: int, *, timeout: float 
             import logging
 
             logging.getLogger(__name__).warning(log_limits)
-        _, sat, notes, shows = _solve(program, query, max_models, max_atoms=max_atoms, on_model=got)
+        _, sat, notes, shows = _solve(
+            program, query, max_models, max_atoms=max_atoms, on_model=got
+        )
         return models, sat, notes, shows
     ctx = multiprocessing.get_context("fork")
     receive, send = ctx.Pipe(duplex=False)
@@ -392,8 +461,10 @@ def _solve_limited(program: str, query: str, max_models: int, *, timeout: float 
     proc.start()
     send.close()
     deadline = None if timeout is None else time.monotonic() + timeout
-    memory = (f"the query needs more memory than the limit of {max_memory_mb} MB (--max-memory); "
-              "narrow it (fewer variables joined, smaller ranges)")
+    memory = (
+        f"the query needs more memory than the limit of {max_memory_mb} MB (--max-memory); "
+        "narrow it (fewer variables joined, smaller ranges)"
+    )
     try:
         while True:
             wait = 0.5 if deadline is None else min(0.5, deadline - time.monotonic())
@@ -429,8 +500,17 @@ def _facts(scene: Scene, context: SceneContext | None, **kw: bool) -> str:
 
 
 #: derived predicates -> the input predicates they are built from (scene.lp, relations.lp)
-_REACH = {"closer": "ra", "side_by_side": "ra", "touching": "ra", "ra": "ra", "live": "state",
-          "holds_at": "holds_during", "box": "box", "motion": "motion", "in_corridor": "in_corridor"}
+_REACH = {
+    "closer": "ra",
+    "side_by_side": "ra",
+    "touching": "ra",
+    "ra": "ra",
+    "live": "state",
+    "holds_at": "holds_during",
+    "box": "box",
+    "motion": "motion",
+    "in_corridor": "in_corridor",
+}
 
 
 def _program_for(scene: Scene, query: str, context: SceneContext | None) -> str:
@@ -439,8 +519,14 @@ def _program_for(scene: Scene, query: str, context: SceneContext | None) -> str:
     and the event-calculus view are left out when the query names none of their predicates."""
     words = set(re.findall(r"[a-z_][A-Za-z0-9_']*", query))
     need = {_REACH[w] for w in words if w in _REACH}
-    facts = _facts(scene, context, boxes="box" in need, relations="ra" in need, motion="motion" in need,
-                   corridor="in_corridor" in need)
+    facts = _facts(
+        scene,
+        context,
+        boxes="box" in need,
+        relations="ra" in need,
+        motion="motion" in need,
+        corridor="in_corridor" in need,
+    )
     names = ["relations.lp"] if "ra" in need else []
     if need & {"state", "holds_during"}:
         names.append("scene.lp")
@@ -455,7 +541,9 @@ def _dur(scene: Scene, frames: int) -> str:
 def _missing_track(scene: Scene, track_id: int) -> str:
     ids = list(scene.tracks)
     listing = ", ".join(map(str, ids[:20])) + (", ..." if len(ids) > 20 else "")
-    return f"track {track_id} does not appear in this scene" + (f" (tracks: {listing})" if ids else " (it has no tracks)")
+    return f"track {track_id} does not appear in this scene" + (
+        f" (tracks: {listing})" if ids else " (it has no tracks)"
+    )
 
 
 def _where(scene: Scene, box: Any, context: SceneContext | None = None) -> str:
@@ -478,8 +566,12 @@ def _border(scene: Scene, box: Any, margin: float = 15.0) -> str:
     if scene.image_size is None:
         return ""
     w, h = scene.image_size
-    sides = [("left", box[0] <= margin), ("right", box[2] >= w - margin), ("top", box[1] <= margin),
-             ("bottom", box[3] >= h - margin)]
+    sides = [
+        ("left", box[0] <= margin),
+        ("right", box[2] >= w - margin),
+        ("top", box[1] <= margin),
+        ("bottom", box[3] >= h - margin),
+    ]
     hit = [s for s, ok in sides if ok]
     return f" at the {' and '.join(hit)} border" if hit else ""
 
@@ -489,8 +581,10 @@ def _q_tracks(scene: Scene, args: list[int], context: SceneContext | None) -> An
     lines = []
     for t in scene.tracks.values():
         counts = {s: int((t.state == s).sum()) for s in TrackState}
-        lines.append(f"{scene.describe(t.id)}: frames {t.first}-{t.last}, visible {counts[TrackState.VISIBLE]}, "
-                     f"hidden {counts[TrackState.HIDDEN]}, missing {counts[TrackState.MISSING]}")
+        lines.append(
+            f"{scene.describe(t.id)}: frames {t.first}-{t.last}, visible {counts[TrackState.VISIBLE]}, "
+            f"hidden {counts[TrackState.HIDDEN]}, missing {counts[TrackState.MISSING]}"
+        )
     return Answer("tracks", tuple(lines or ["this scene has no tracks"]))
 
 
@@ -500,17 +594,24 @@ def _q_events(scene: Scene, args: list[int], context: SceneContext | None) -> An
     evs = scene.events_of(args[0]) if args else scene.events
     lines = [f"frame {e.frame}: {e.name}({', '.join(map(str, e.args))})" for e in evs]
     q = "events" + (f" {args[0]}" if args else "")
-    return Answer(q, tuple(lines or ["no events" + (f" for {scene.describe(args[0])}" if args else "")]),
-                  atoms=tuple(f"occurs_at({e.name}({','.join(map(str, e.args))}),{e.frame})" for e in evs))
+    return Answer(
+        q,
+        tuple(lines or ["no events" + (f" for {scene.describe(args[0])}" if args else "")]),
+        atoms=tuple(f"occurs_at({e.name}({','.join(map(str, e.args))}),{e.frame})" for e in evs),
+    )
 
 
 def _q_hidden(scene: Scene, args: list[int], context: SceneContext | None) -> Answer:
     q = "hidden" + (f" {args[0]}" if args else "")
     if args and args[0] not in scene:
         return Answer(q, (_missing_track(scene, args[0]),))
-    facts = _facts(scene, context, boxes=False, states=False, relations=False, motion=False, corridor=False)
+    facts = _facts(
+        scene, context, boxes=False, states=False, relations=False, motion=False, corridor=False
+    )
     models, _, _, _ = _solve(facts + _encodings("questions.lp") + "\n#show hidden_episode/4.")
-    atoms = [s for s in (models[0] if models else []) if not args or s.arguments[0].number == args[0]]
+    atoms = [
+        s for s in (models[0] if models else []) if not args or s.arguments[0].number == args[0]
+    ]
     lines = []
     for s in sorted(atoms, key=lambda s: (s.arguments[2].number, s.arguments[0].number)):
         t, o, a, b = (x.number for x in s.arguments)
@@ -519,17 +620,30 @@ def _q_hidden(scene: Scene, args: list[int], context: SceneContext | None) -> An
         after = ""
         if k is not None and k + 1 < len(track) and track.frames[k + 1] == b + 1:
             nxt = TrackState(int(track.state[k + 1]))
-            after = (f"; it reappeared at frame {b + 1}" if nxt == TrackState.VISIBLE else
-                     "; then its detections were missing" if nxt == TrackState.MISSING else "")
+            after = (
+                f"; it reappeared at frame {b + 1}"
+                if nxt == TrackState.VISIBLE
+                else "; then its detections were missing"
+                if nxt == TrackState.MISSING
+                else ""
+            )
         elif b == scene.last_frame:
             after = "; still hidden at the end of the scene"
         elif b == track.last:
             after = "; the track ended while hidden"
-        lines.append(f"{scene.describe(t)} was hidden by {scene.describe(o)} from frame {a} to frame {b}, "
-                     f"{_dur(scene, b - a + 1)}{after}")
+        lines.append(
+            f"{scene.describe(t)} was hidden by {scene.describe(o)} from frame {a} to frame {b}, "
+            f"{_dur(scene, b - a + 1)}{after}"
+        )
     if not lines:
-        lines = [f"{scene.describe(args[0])} was never hidden" if args else "no object was hidden in this scene"]
-    return Answer(q, tuple(lines), atoms=tuple(str(s) for s in atoms), models=(tuple(str(s) for s in atoms),))
+        lines = [
+            f"{scene.describe(args[0])} was never hidden"
+            if args
+            else "no object was hidden in this scene"
+        ]
+    return Answer(
+        q, tuple(lines), atoms=tuple(str(s) for s in atoms), models=(tuple(str(s) for s in atoms),)
+    )
 
 
 def _q_reappeared(scene: Scene, args: list[int], context: SceneContext | None) -> Answer:
@@ -545,18 +659,29 @@ def _q_reappeared(scene: Scene, args: list[int], context: SceneContext | None) -
     for s in atoms:
         f, g = s.arguments[1].number, s.arguments[2].number
         cause = s.arguments[3]
-        how = (f"from behind {scene.describe(cause.arguments[0].number)}" if cause.name == "hidden_by"
-               else "after missing detections")
-        lines.append(f"{scene.describe(tid)} reappeared at frame {f} {how}, unseen since frame {g}: {_dur(scene, f - g)}")
+        how = (
+            f"from behind {scene.describe(cause.arguments[0].number)}"
+            if cause.name == "hidden_by"
+            else "after missing detections"
+        )
+        lines.append(
+            f"{scene.describe(tid)} reappeared at frame {f} {how}, unseen since frame {g}: {_dur(scene, f - g)}"
+        )
     if not lines:
         t = scene.tracks[tid]
         unseen = t.state != TrackState.VISIBLE
         if unseen.any():
             g = int(t.frames[unseen][0])
-            lines = [f"{scene.describe(tid)} did not reappear: unseen from frame {g} until its last frame {t.last}"]
+            lines = [
+                f"{scene.describe(tid)} did not reappear: unseen from frame {g} until its last frame {t.last}"
+            ]
         else:
-            lines = [f"{scene.describe(tid)} never disappeared: visible whenever tracked (frames {t.first}-{t.last})"]
-    return Answer(q, tuple(lines), atoms=tuple(str(s) for s in atoms), models=(tuple(str(s) for s in atoms),))
+            lines = [
+                f"{scene.describe(tid)} never disappeared: visible whenever tracked (frames {t.first}-{t.last})"
+            ]
+    return Answer(
+        q, tuple(lines), atoms=tuple(str(s) for s in atoms), models=(tuple(str(s) for s in atoms),)
+    )
 
 
 def _q_in_front(scene: Scene, args: list[int], context: SceneContext | None) -> Answer:
@@ -567,9 +692,14 @@ def _q_in_front(scene: Scene, args: list[int], context: SceneContext | None) -> 
         return Answer(q, (f"frame {f} is not in this scene ({span})",))
     if scene.image_size is None:
         return Answer(q, ("this scene has no image size, so the ego corridor is unknown",))
-    facts = _facts(scene, context, boxes=True, states=False, relations=False, motion=False, corridor=True)
-    models, _, _, _ = _solve(facts + _encodings("questions.lp")
-                          + f"\n#show.\n#show in_front(F,T,Y) : in_front(F,T,Y), F = {f}.")
+    facts = _facts(
+        scene, context, boxes=True, states=False, relations=False, motion=False, corridor=True
+    )
+    models, _, _, _ = _solve(
+        facts
+        + _encodings("questions.lp")
+        + f"\n#show.\n#show in_front(F,T,Y) : in_front(F,T,Y), F = {f}."
+    )
     atoms = sorted(models[0] if models else [], key=lambda s: -s.arguments[2].number)
     lines = []
     for rank, s in enumerate(atoms):
@@ -585,8 +715,12 @@ def _q_in_front(scene: Scene, args: list[int], context: SceneContext | None) -> 
     head = f"at frame {f} ({scene.seconds(f - (scene.first_frame or 0)):.1f} s into the scene)"
     if not lines:
         return Answer(q, (f"{head} nothing was in front of the ego vehicle",))
-    return Answer(q, (f"{head}, in front of the ego vehicle:",) + tuple(lines),
-                  atoms=tuple(str(s) for s in atoms), models=(tuple(str(s) for s in atoms),))
+    return Answer(
+        q,
+        (f"{head}, in front of the ego vehicle:",) + tuple(lines),
+        atoms=tuple(str(s) for s in atoms),
+        models=(tuple(str(s) for s in atoms),),
+    )
 
 
 def _q_why_ended(scene: Scene, args: list[int], context: SceneContext | None) -> Answer:
@@ -595,8 +729,11 @@ def _q_why_ended(scene: Scene, args: list[int], context: SceneContext | None) ->
     if tid not in scene:
         return Answer(q, (_missing_track(scene, tid),))
     facts = _facts(scene, context, boxes=False, relations=False, motion=False, corridor=False)
-    models, _, _, _ = _solve(facts + _encodings("questions.lp")
-                          + f"\n#show.\n#show ended(T,L,R) : ended(T,L,R), T = {tid}.\n#show final_state(T,S) : final_state(T,S), T = {tid}.")
+    models, _, _, _ = _solve(
+        facts
+        + _encodings("questions.lp")
+        + f"\n#show.\n#show ended(T,L,R) : ended(T,L,R), T = {tid}.\n#show final_state(T,S) : final_state(T,S), T = {tid}."
+    )
     atoms = models[0] if models else []
     ended = next(s for s in atoms if s.name == "ended")
     last, reason = ended.arguments[1].number, ended.arguments[2].name
@@ -613,16 +750,22 @@ def _q_why_ended(scene: Scene, args: list[int], context: SceneContext | None) ->
         if st == TrackState.VISIBLE or not unseen:
             why = f"it was last seen at frame {last}"
         elif st == TrackState.HIDDEN:
-            why = (f"it had been hidden behind {scene.describe(int(t.occluder[k]))} for {_dur(scene, unseen)} "
-                   f"since frame {last - unseen + 1}")
+            why = (
+                f"it had been hidden behind {scene.describe(int(t.occluder[k]))} for {_dur(scene, unseen)} "
+                f"since frame {last - unseen + 1}"
+            )
         else:
             why = f"its detections had been missing for {_dur(scene, unseen)} since frame {last - unseen + 1}"
         line = f"{d} was lost at frame {ev.frame}: {why}, and the tracker could no longer explain its absence"
     elif reason == "scene_end":
         line = f"{d} did not end: it was still tracked ({st.name.lower()}) at the last frame of the scene ({last})"
     else:
-        line = f"{d} was last tracked at frame {last} ({st.name.lower()}); no event explains its end"
-    return Answer(q, (line,), atoms=tuple(str(s) for s in atoms), models=(tuple(str(s) for s in atoms),))
+        line = (
+            f"{d} was last tracked at frame {last} ({st.name.lower()}); no event explains its end"
+        )
+    return Answer(
+        q, (line,), atoms=tuple(str(s) for s in atoms), models=(tuple(str(s) for s in atoms),)
+    )
 
 
 def _q_story(scene: Scene, args: list[int], context: SceneContext | None) -> Answer:
@@ -634,7 +777,9 @@ def _q_warnings(scene: Scene, args: list[int], context: SceneContext | None) -> 
     from sensemaking.reasoning.online import SituationMonitor
 
     if scene.image_size is None:
-        return Answer("warnings", ("this scene has no image size, so situations cannot be checked",))
+        return Answer(
+            "warnings", ("this scene has no image size, so situations cannot be checked",)
+        )
     mon = SituationMonitor(context=context, fps=scene.fps, image_size=scene.image_size)
     warnings = mon.run(scene.frame_results())
     lines = [str(w) for w in warnings]
@@ -642,8 +787,14 @@ def _q_warnings(scene: Scene, args: list[int], context: SceneContext | None) -> 
 
 
 _HANDLERS: dict[str, Callable[[Scene, list[int], SceneContext | None], Answer]] = {
-    "tracks": _q_tracks, "events": _q_events, "hidden": _q_hidden, "reappeared": _q_reappeared,
-    "in-front": _q_in_front, "why-ended": _q_why_ended, "story": _q_story, "warnings": _q_warnings,
+    "tracks": _q_tracks,
+    "events": _q_events,
+    "hidden": _q_hidden,
+    "reappeared": _q_reappeared,
+    "in-front": _q_in_front,
+    "why-ended": _q_why_ended,
+    "story": _q_story,
+    "warnings": _q_warnings,
 }
 
 
@@ -665,10 +816,17 @@ def _named(query: str) -> tuple[str, list[int]] | None:
     return name, args
 
 
-def ask(scene: Scene, query: str, *, context: SceneContext | None = None, max_models: int = 1,
-        timeout: float | None = DEFAULT_TIMEOUT_S, max_atoms: int | None = DEFAULT_MAX_ATOMS,
-        max_memory_mb: int | None = DEFAULT_MAX_MEMORY_MB,
-        on_model: Callable[[tuple[str, ...]], None] | None = None) -> Answer:
+def ask(
+    scene: Scene,
+    query: str,
+    *,
+    context: SceneContext | None = None,
+    max_models: int = 1,
+    timeout: float | None = DEFAULT_TIMEOUT_S,
+    max_atoms: int | None = DEFAULT_MAX_ATOMS,
+    max_memory_mb: int | None = DEFAULT_MAX_MEMORY_MB,
+    on_model: Callable[[tuple[str, ...]], None] | None = None,
+) -> Answer:
     """Answer a named question or an ASP query about ``scene``.
 
     Args:
@@ -696,7 +854,9 @@ def ask(scene: Scene, query: str, *, context: SceneContext | None = None, max_mo
         if value is not None and not (value > 0 and value == value and value != float("inf")):
             raise QueryError(f"{name} must be a positive number or None, got {value!r}")
     if not query or not query.strip():
-        raise QueryError("empty query: give ASP rules with #show, or one of: " + ", ".join(NAMED_QUESTIONS))
+        raise QueryError(
+            "empty query: give ASP rules with #show, or one of: " + ", ".join(NAMED_QUESTIONS)
+        )
     named = _named(query)
     if named is not None:
         return _HANDLERS[named[0]](scene, named[1], context)
@@ -713,13 +873,26 @@ def ask(scene: Scene, query: str, *, context: SceneContext | None = None, max_mo
     )
     shown = tuple(models)
     if not sat:
-        lines: tuple[str, ...] = ("no answer: the query's constraints rule out every answer set (UNSATISFIABLE)",)
+        lines: tuple[str, ...] = (
+            "no answer: the query's constraints rule out every answer set (UNSATISFIABLE)",
+        )
     elif len(shown) == 1:
-        empty = "none: no shown atom holds" if shows else "yes: the scene satisfies the query's constraints"
+        empty = (
+            "none: no shown atom holds"
+            if shows
+            else "yes: the scene satisfies the query's constraints"
+        )
         lines = shown[0] or (empty,)
     else:
         lines = tuple(f"answer {i + 1}: {' '.join(m)}" for i, m in enumerate(shown))
-    return Answer(query, lines, atoms=shown[0] if shown else (), models=shown, satisfiable=sat, notes=tuple(notes))
+    return Answer(
+        query,
+        lines,
+        atoms=shown[0] if shown else (),
+        models=shown,
+        satisfiable=sat,
+        notes=tuple(notes),
+    )
 
 
 # -- stories --------------------------------------------------------------------------------------
@@ -755,7 +928,9 @@ def _story(scene: Scene, t: Track, context: SceneContext | None) -> list[str]:
     where = _where(scene, t.xyxy[0], context)
     start = next((e for e in own if e.name in ("enters_fov", "starts")), None)
     if start is not None and start.name == "enters_fov":
-        out = [f"{first} enters the field of view at frame {start.frame}{_border(scene, t.xyxy[0])}, {where}."]
+        out = [
+            f"{first} enters the field of view at frame {start.frame}{_border(scene, t.xyxy[0])}, {where}."
+        ]
     elif t.first == scene.first_frame:
         out = [f"{first} is in view from the first frame ({t.first}), {where}."]
     else:
@@ -771,31 +946,48 @@ def _story(scene: Scene, t: Track, context: SceneContext | None) -> list[str]:
         elif e.name == "hides_behind" and len(e.args) > 1 and e.args[1] == t.id:
             out.append(f"At frame {e.frame} it hides {scene.describe(e.args[0])} from view.")
         elif e.name == "unhides_from_behind" and e.args[0] == t.id:
-            ep = max((iv for (o, s), iv in hidden.items() if o == e.args[1] and s < e.frame), key=lambda iv: iv.start, default=None)
+            ep = max(
+                (iv for (o, s), iv in hidden.items() if o == e.args[1] and s < e.frame),
+                key=lambda iv: iv.start,
+                default=None,
+            )
             took = f" after {_dur(scene, e.frame - ep.start)}" if ep else ""
-            out.append(f"At frame {e.frame} it comes out from behind {scene.describe(e.args[1])}{took}.")
+            out.append(
+                f"At frame {e.frame} it comes out from behind {scene.describe(e.args[1])}{took}."
+            )
         elif e.name == "unhides_from_behind" and len(e.args) > 1 and e.args[1] == t.id:
             out.append(f"At frame {e.frame} {scene.describe(e.args[0])} comes out from behind it.")
         elif e.name == "missing_detections" and e.args[0] == t.id:
             gap_from = e.frame
             out.append(f"From frame {e.frame} its detections are missing.")
         elif e.name == "reappears" and e.args[0] == t.id:
-            took = f" after {_dur(scene, e.frame - gap_from)}" if gap_from is not None and gap_from < e.frame else ""
+            took = (
+                f" after {_dur(scene, e.frame - gap_from)}"
+                if gap_from is not None and gap_from < e.frame
+                else ""
+            )
             out.append(f"At frame {e.frame} it is detected again{took}.")
             gap_from = None
     k = len(t) - 1
     leave = next((e for e in own if e.name == "leaves_fov"), None)
     end = next((e for e in own if e.name == "ends"), None)
     if leave is not None:
-        out.append(f"At frame {leave.frame} it leaves the field of view{_border(scene, t.xyxy[k])}.")
+        out.append(
+            f"At frame {leave.frame} it leaves the field of view{_border(scene, t.xyxy[k])}."
+        )
     elif end is not None:
         unseen = int(t.hidden_frames[k])
         why = f" unseen for {_dur(scene, unseen)}," if unseen else ""
-        out.append(f"At frame {end.frame} the track ends:{why} its absence could no longer be explained.")
+        out.append(
+            f"At frame {end.frame} the track ends:{why} its absence could no longer be explained."
+        )
     elif t.last == scene.last_frame:
         st = TrackState(int(t.state[k]))
-        now = {TrackState.VISIBLE: "visible", TrackState.MISSING: "with missing detections",
-               TrackState.HIDDEN: f"hidden behind {scene.describe(int(t.occluder[k]))}"}[st]
+        now = {
+            TrackState.VISIBLE: "visible",
+            TrackState.MISSING: "with missing detections",
+            TrackState.HIDDEN: f"hidden behind {scene.describe(int(t.occluder[k]))}",
+        }[st]
         vis = Visibility(int(t.visibility[k]))
         if st == TrackState.VISIBLE and vis == Visibility.PARTIALLY_OCCLUDED:
             now += ", partially occluded"
@@ -811,7 +1003,9 @@ def stories(scene: Scene, *, context: SceneContext | None = None) -> dict[int, l
     return {t.id: _story(scene, t, context) for t in order}
 
 
-def explain(scene: Scene, track_id: int | None = None, *, context: SceneContext | None = None) -> list[str]:
+def explain(
+    scene: Scene, track_id: int | None = None, *, context: SceneContext | None = None
+) -> list[str]:
     """The story of one track (or of every track, in order of appearance) as sentences.
 
     A track that is not in the scene gets the one sentence saying so.

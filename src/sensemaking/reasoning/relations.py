@@ -24,30 +24,71 @@ from typing import Any
 import numpy as np
 
 __all__ = [
-    "IA_RELATIONS", "INVERSE", "MOTION_KINDS", "RelationConfig", "MotionThresholds", "MotionFeatures",
-    "interval_relation_masks", "interval_relations", "rectangle_relations", "inverse_codes", "relation_name",
-    "near_pairs", "pair_relations", "order_pairs", "motion_features", "classify_motion", "track_motion", "relation_facts",
+    "IA_RELATIONS",
+    "INVERSE",
+    "MOTION_KINDS",
+    "RelationConfig",
+    "MotionThresholds",
+    "MotionFeatures",
+    "interval_relation_masks",
+    "interval_relations",
+    "rectangle_relations",
+    "inverse_codes",
+    "relation_name",
+    "near_pairs",
+    "pair_relations",
+    "order_pairs",
+    "motion_features",
+    "classify_motion",
+    "track_motion",
+    "relation_facts",
     "motion_facts",
 ]
 
 #: the 13 Allen relations; the index is the relation's integer code
 IA_RELATIONS: tuple[str, ...] = (
-    "before", "after", "during", "contains", "starts", "started_by", "finishes", "finished_by",
-    "overlaps", "overlapped_by", "meets", "met_by", "equal",
+    "before",
+    "after",
+    "during",
+    "contains",
+    "starts",
+    "started_by",
+    "finishes",
+    "finished_by",
+    "overlaps",
+    "overlapped_by",
+    "meets",
+    "met_by",
+    "equal",
 )
 _CODE = {name: i for i, name in enumerate(IA_RELATIONS)}
 #: converse of each relation: ``r(a, b)`` iff ``INVERSE[r](b, a)``
 INVERSE: dict[str, str] = {
-    "before": "after", "after": "before", "during": "contains", "contains": "during",
-    "starts": "started_by", "started_by": "starts", "finishes": "finished_by",
-    "finished_by": "finishes", "overlaps": "overlapped_by", "overlapped_by": "overlaps",
-    "meets": "met_by", "met_by": "meets", "equal": "equal",
+    "before": "after",
+    "after": "before",
+    "during": "contains",
+    "contains": "during",
+    "starts": "started_by",
+    "started_by": "starts",
+    "finishes": "finished_by",
+    "finished_by": "finishes",
+    "overlaps": "overlapped_by",
+    "overlapped_by": "overlaps",
+    "meets": "met_by",
+    "met_by": "meets",
+    "equal": "equal",
 }
 _INVERSE_CODE = np.array([_CODE[INVERSE[r]] for r in IA_RELATIONS], dtype=np.int8)
 
 #: qualitative motion kinds, the column order of :func:`classify_motion`
 MOTION_KINDS: tuple[str, ...] = (
-    "approaching", "receding", "moving_left", "moving_right", "stopped", "stopping", "looming",
+    "approaching",
+    "receding",
+    "moving_left",
+    "moving_right",
+    "stopped",
+    "stopping",
+    "looming",
     "keeping_distance",
 )
 
@@ -58,7 +99,9 @@ def _cmp(x: np.ndarray, y: np.ndarray, tol: np.ndarray) -> np.ndarray:
     return np.where(d < -tol, -1, np.where(d > tol, 1, 0)).astype(np.int8)
 
 
-def interval_relation_masks(a: np.ndarray, b: np.ndarray, tol: float | np.ndarray = 0.0) -> np.ndarray:
+def interval_relation_masks(
+    a: np.ndarray, b: np.ndarray, tol: float | np.ndarray = 0.0
+) -> np.ndarray:
     """(13, N) bool: which Allen relation holds between intervals ``a[i]`` and ``b[i]``.
 
     Args:
@@ -119,7 +162,9 @@ def _code_table() -> np.ndarray:
             for p in (-1, 0, 1):
                 for q in (-1, 0, 1):
                     masks = _masks_from_cmp(*(np.array([v], dtype=np.int8) for v in (s, e, p, q)))
-                    table[(s + 1) * 27 + (e + 1) * 9 + (p + 1) * 3 + (q + 1)] = int(np.argmax(masks[:, 0]))
+                    table[(s + 1) * 27 + (e + 1) * 9 + (p + 1) * 3 + (q + 1)] = int(
+                        np.argmax(masks[:, 0])
+                    )
     return table
 
 
@@ -191,7 +236,6 @@ class RelationConfig:
     tol_px: float = 3.0
     tol_rel: float = 0.05
 
-
     def __post_init__(self) -> None:
         if self.near < 0 or self.tol_px < 0 or self.tol_rel < 0:
             raise ValueError("RelationConfig values must be >= 0")
@@ -212,7 +256,9 @@ def near_pairs(xyxy: np.ndarray, near: float = 0.5) -> np.ndarray:
     h = x[:, 3] - x[:, 1]
     gap_x = np.maximum(x[None, :, 0] - x[:, None, 2], x[:, None, 0] - x[None, :, 2])
     gap_y = np.maximum(x[None, :, 1] - x[:, None, 3], x[:, None, 1] - x[None, :, 3])
-    ok = (gap_x <= near * np.maximum(w[:, None], w[None, :])) & (gap_y <= near * np.maximum(h[:, None], h[None, :]))
+    ok = (gap_x <= near * np.maximum(w[:, None], w[None, :])) & (
+        gap_y <= near * np.maximum(h[:, None], h[None, :])
+    )
     i, j = np.nonzero(ok & _upper(n))
     out = np.empty((i.shape[0], 2), dtype=np.int64)
     out[:, 0], out[:, 1] = i, j
@@ -225,8 +271,9 @@ def _upper(n: int) -> np.ndarray:
     return np.triu(np.ones((n, n), dtype=bool), 1)
 
 
-def pair_relations(xyxy: np.ndarray, config: RelationConfig | None = None,
-                   pairs: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def pair_relations(
+    xyxy: np.ndarray, config: RelationConfig | None = None, pairs: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Rectangle relations of the pairs that matter.
 
     Args:
@@ -280,7 +327,6 @@ class MotionThresholds:
     moving_px_s: float = 40.0
     looming_s: float = 0.5
 
-
     def __post_init__(self) -> None:
         if self.lag_s <= 0:
             raise ValueError("lag_s must be positive")
@@ -313,7 +359,6 @@ class MotionFeatures:
     speed: np.ndarray
 
 
-
 def motion_features(prev: np.ndarray, cur: np.ndarray, dt: float | np.ndarray) -> MotionFeatures:
     """Velocities of boxes from ``prev`` (N, 4) to ``cur`` (N, 4), ``dt`` seconds apart (scalar or (N,))."""
     p = np.asarray(prev, dtype=np.float64).reshape(-1, 4)
@@ -333,8 +378,11 @@ def motion_features(prev: np.ndarray, cur: np.ndarray, dt: float | np.ndarray) -
     return MotionFeatures(vx, vy, vbottom, growth, np.sqrt(vx * vx + vy * vy))
 
 
-def classify_motion(now: MotionFeatures, speed_before: np.ndarray | None = None,
-                    thresholds: MotionThresholds | None = None) -> np.ndarray:
+def classify_motion(
+    now: MotionFeatures,
+    speed_before: np.ndarray | None = None,
+    thresholds: MotionThresholds | None = None,
+) -> np.ndarray:
     """(N, 8) bool, columns :data:`MOTION_KINDS`.
 
     Args:
@@ -364,8 +412,9 @@ def classify_motion(now: MotionFeatures, speed_before: np.ndarray | None = None,
     return out
 
 
-def track_motion(frames: np.ndarray, xyxy: np.ndarray, fps: float,
-                 thresholds: MotionThresholds | None = None) -> tuple[np.ndarray, np.ndarray, MotionFeatures]:
+def track_motion(
+    frames: np.ndarray, xyxy: np.ndarray, fps: float, thresholds: MotionThresholds | None = None
+) -> tuple[np.ndarray, np.ndarray, MotionFeatures]:
     """Qualitative motion along one track.
 
     Args:
@@ -386,15 +435,21 @@ def track_motion(frames: np.ndarray, xyxy: np.ndarray, fps: float,
     ok = (j >= 0) & (f - f[jj] <= 2 * lag)
     idx = np.flatnonzero(ok)
     prev = jj[idx]
-    feats = motion_features(x[prev], x[idx], (f[idx] - f[prev]) / float(fps)) if idx.size else \
-        MotionFeatures(*(np.zeros(0) for _ in range(5)))
+    feats = (
+        motion_features(x[prev], x[idx], (f[idx] - f[prev]) / float(fps))
+        if idx.size
+        else MotionFeatures(*(np.zeros(0) for _ in range(5)))
+    )
     speed = np.full(f.shape[0], np.nan)
     speed[idx] = feats.speed
     kinds = classify_motion(feats, speed[prev], t)
     return f[idx], kinds, feats
 
+
 # -- facts ----------------------------------------------------------------------------------------
-def order_pairs(ids: np.ndarray, pairs: np.ndarray, codes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def order_pairs(
+    ids: np.ndarray, pairs: np.ndarray, codes: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Id pairs with the smaller id first, codes converted where a pair was swapped.
 
     Args:
@@ -411,20 +466,25 @@ def order_pairs(ids: np.ndarray, pairs: np.ndarray, codes: np.ndarray) -> tuple[
     return np.where(swap, b, a), np.where(swap, a, b), codes
 
 
-def relation_facts(frame: int, ids: np.ndarray, pairs: np.ndarray,
-                   codes: np.ndarray) -> list[tuple[Any, ...]]:
+def relation_facts(
+    frame: int, ids: np.ndarray, pairs: np.ndarray, codes: np.ndarray
+) -> list[tuple[Any, ...]]:
     """``ra(A,B,F,Rx,Ry)`` facts (tuples, see :mod:`~sensemaking.reasoning.facts`), one per pair,
     with ``A < B``. The encoding ``relations.lp`` derives the converse ``ra(B,A,F,...)``; give
     each unordered pair once.
     """
     a, b, codes = order_pairs(ids, np.asarray(pairs, dtype=np.int64).reshape(-1, 2), codes)
-    return [("ra", x, y, int(frame), IA_RELATIONS[rx], IA_RELATIONS[ry])
-            for x, y, (rx, ry) in zip(a.tolist(), b.tolist(), codes.tolist())]
+    return [
+        ("ra", x, y, int(frame), IA_RELATIONS[rx], IA_RELATIONS[ry])
+        for x, y, (rx, ry) in zip(a.tolist(), b.tolist(), codes.tolist())
+    ]
 
 
 def motion_facts(frame: int, ids: np.ndarray, kinds: np.ndarray) -> list[tuple[Any, ...]]:
     """``motion(T,F,Kind)`` facts (tuples) from (N, 8) bool :func:`classify_motion` output."""
     ids = np.asarray(ids, dtype=np.int64)
     rows, cols = np.nonzero(np.asarray(kinds, dtype=bool))
-    return [("motion", int(ids[r]), int(frame), MOTION_KINDS[k])
-            for r, k in zip(rows.tolist(), cols.tolist())]
+    return [
+        ("motion", int(ids[r]), int(frame), MOTION_KINDS[k])
+        for r, k in zip(rows.tolist(), cols.tolist())
+    ]

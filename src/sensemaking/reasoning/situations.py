@@ -25,7 +25,7 @@ from collections import OrderedDict
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from enum import Enum
-from functools import lru_cache
+from functools import cache, lru_cache
 from importlib import resources
 from os import PathLike
 from pathlib import Path
@@ -39,8 +39,17 @@ from sensemaking.reasoning.anticipation import AnticipationConfig
 from sensemaking.reasoning.facts import Fact, symbol
 from sensemaking.reasoning.relations import MotionThresholds, RelationConfig
 
-__all__ = ["Situation", "Warning", "SituationWarning", "SituationConfig", "SituationMatch",
-           "SituationSolver", "situation_constants", "encoding_text", "ALL_SITUATIONS"]
+__all__ = [
+    "Situation",
+    "Warning",
+    "SituationWarning",
+    "SituationConfig",
+    "SituationMatch",
+    "SituationSolver",
+    "situation_constants",
+    "encoding_text",
+    "ALL_SITUATIONS",
+]
 
 log = logging.getLogger(__name__)
 
@@ -92,13 +101,23 @@ class Warning:  # noqa: A001 - the name the API promises; SituationWarning is an
 
     def to_json(self) -> dict[str, Any]:
         """The JSON-lines record ``{"frame", "situation", "objects", "message", "details"}``."""
-        return {"frame": int(self.frame), "situation": self.situation, "objects": [int(o) for o in self.objects],
-                "message": self.message, "details": self.details}
+        return {
+            "frame": int(self.frame),
+            "situation": self.situation,
+            "objects": [int(o) for o in self.objects],
+            "message": self.message,
+            "details": self.details,
+        }
 
     @classmethod
     def from_json(cls, record: Mapping[str, Any]) -> Warning:
-        return cls(int(record["frame"]), str(record["situation"]), tuple(int(o) for o in record["objects"]),
-                   str(record["message"]), dict(record.get("details") or {}))
+        return cls(
+            int(record["frame"]),
+            str(record["situation"]),
+            tuple(int(o) for o in record["objects"]),
+            str(record["message"]),
+            dict(record.get("details") or {}),
+        )
 
     def __str__(self) -> str:
         return f"[{self.frame}] {self.situation}: {self.message}"
@@ -107,10 +126,14 @@ class Warning:  # noqa: A001 - the name the API promises; SituationWarning is an
 SituationWarning = Warning
 
 
-@lru_cache(maxsize=None)
+@cache
 def encoding_text(name: str) -> str:
     """Text of an encoding shipped in ``sensemaking/reasoning/encodings`` (e.g. ``"situations.lp"``)."""
-    return resources.files("sensemaking.reasoning").joinpath("encodings", name).read_text(encoding="utf-8")
+    return (
+        resources.files("sensemaking.reasoning")
+        .joinpath("encodings", name)
+        .read_text(encoding="utf-8")
+    )
 
 
 @lru_cache(maxsize=1)
@@ -139,8 +162,9 @@ def _parse_user_encoding(path: str | PathLike[str]) -> tuple[Any, ...]:
     try:
         # a user's rules go to base unless the file opens its own parts
         clingo_ast.parse_string("#program base.", stmts.append)
-        clingo_ast.parse_files([str(path)], stmts.append,
-                               logger=lambda _code, msg: messages.append(msg))
+        clingo_ast.parse_files(
+            [str(path)], stmts.append, logger=lambda _code, msg: messages.append(msg)
+        )
     except RuntimeError as exc:
         raise InputError(_first_line(messages, exc)) from None
     return tuple(stmts)
@@ -152,15 +176,15 @@ def _first_line(messages: list[str], exc: Exception) -> str:
     return " ".join(text.split())
 
 
-
-
 def situation_constants(overrides: Mapping[str, int] | None = None) -> dict[str, int]:
     """The ``#const`` parameters of situations.lp with ``overrides`` applied. Raises ValueError
     for unknown names or non-integer values."""
     consts = dict(_shipped()[1])
     for k, v in (overrides or {}).items():
         if k not in consts:
-            raise ValueError(f"unknown situation parameter {k!r} (one of {', '.join(sorted(consts))})")
+            raise ValueError(
+                f"unknown situation parameter {k!r} (one of {', '.join(sorted(consts))})"
+            )
         if isinstance(v, bool) or int(v) != v:
             raise ValueError(f"situation parameter {k} must be an integer, got {v!r}")
         consts[k] = int(v)
@@ -201,7 +225,10 @@ class SituationConfig:
     def window_frames(self, fps: float) -> int:
         """Frames in the window at ``fps``: ``window_s`` or the longest ``*_ms`` parameter, + 1."""
         consts = situation_constants(self.constants)
-        longest = max([self.window_s * 1000.0] + [v for k, v in consts.items() if k.endswith("_ms") and k != "he_lead_ms"])
+        longest = max(
+            [self.window_s * 1000.0]
+            + [v for k, v in consts.items() if k.endswith("_ms") and k != "he_lead_ms"]
+        )
         return int(-(-longest * fps // 1000)) + 1
 
 
@@ -240,9 +267,13 @@ class SituationSolver:
     encoding). ``calls`` counts clingo calls, ``hits`` answers from the cache.
     """
 
-    def __init__(self, parts: Sequence[str] = _ALL_PARTS,
-                 constants: Mapping[str, int] | None = None,
-                 extra_encodings: Sequence[str | PathLike[str]] = (), cache_size: int = 256):
+    def __init__(
+        self,
+        parts: Sequence[str] = _ALL_PARTS,
+        constants: Mapping[str, int] | None = None,
+        extra_encodings: Sequence[str | PathLike[str]] = (),
+        cache_size: int = 256,
+    ):
         situation_constants(constants)  # validates
         self._args = ["--warn=none"] + [f"-c{k}={int(v)}" for k, v in (constants or {}).items()]
         self._extra = tuple(str(p) for p in extra_encodings)
@@ -258,8 +289,10 @@ class SituationSolver:
         try:  # surface the user's grounding errors (unsafe variables, ...) now, as InputError
             self._solve(())
         except RuntimeError as exc:
-            raise InputError(f"situation encodings: {' '.join(str(exc).split())}",
-                             extra_encodings[0] if len(extra_encodings) == 1 else None) from None
+            raise InputError(
+                f"situation encodings: {' '.join(str(exc).split())}",
+                extra_encodings[0] if len(extra_encodings) == 1 else None,
+            ) from None
 
     def _program(self) -> tuple[Any, ...]:
         return _shipped()[0] + tuple(s for p in self._extra for s in _parse_user_encoding(p))
@@ -305,8 +338,11 @@ class SituationSolver:
         found: list[clingo.Symbol] = []
 
         def first(model: clingo.Model) -> bool:
-            found.extend(s for s in model.symbols(shown=True)
-                         if (s.name, len(s.arguments)) in (("warn", 2), ("info", 4)))
+            found.extend(
+                s
+                for s in model.symbols(shown=True)
+                if (s.name, len(s.arguments)) in (("warn", 2), ("info", 4))
+            )
             return False  # the first answer set is the answer
 
         ctl.solve(on_model=first)

@@ -17,11 +17,27 @@ from typing import Any
 
 from sensemaking.errors import InputError, require
 from sensemaking.io.media import (  # noqa: F401  (re-exported: frame sources live in io)
-    IMAGE_SUFFIXES, VIDEO_SUFFIXES, ImageFolder, VideoFrames, iter_video_frames, list_images,
+    IMAGE_SUFFIXES,
+    VIDEO_SUFFIXES,
+    ImageFolder,
+    VideoFrames,
+    iter_video_frames,
+    list_images,
 )
 
-__all__ = ["IMAGE_SUFFIXES", "VIDEO_SUFFIXES", "list_images", "ImageFolder", "VideoFrames",
-           "open_writer", "output_kind", "GifWriter", "VideoWriter", "PngFolderWriter"]
+__all__ = [
+    "IMAGE_SUFFIXES",
+    "VIDEO_SUFFIXES",
+    "list_images",
+    "ImageFolder",
+    "VideoFrames",
+    "open_writer",
+    "output_kind",
+    "GifWriter",
+    "VideoWriter",
+    "PngFolderWriter",
+]
+
 
 # writers ----------------------------------------------------------------------------------------
 def output_kind(path: str | os.PathLike[str]) -> str:
@@ -37,7 +53,9 @@ def output_kind(path: str | os.PathLike[str]) -> str:
         return "video"
     raise InputError(
         f"unknown output type {suffix!r}: use .gif, one of {', '.join(sorted(VIDEO_SUFFIXES))}, "
-        "or a folder (PNG frames)", p)
+        "or a folder (PNG frames)",
+        p,
+    )
 
 
 def open_writer(path: str | os.PathLike[str], size: tuple[int, int], fps: float) -> Any:
@@ -107,7 +125,9 @@ class GifWriter(_Writer):
     changed only (drawn over the previous frame), which makes encoding faster and files smaller.
     """
 
-    def __init__(self, path: str | os.PathLike[str], size: tuple[int, int], fps: float, loop: int = 0):
+    def __init__(
+        self, path: str | os.PathLike[str], size: tuple[int, int], fps: float, loop: int = 0
+    ):
         super().__init__(path, size, fps)
         self.loop = loop
         self._tmp = _temp_beside(self.path, ".gif")
@@ -125,7 +145,9 @@ class GifWriter(_Writer):
         left = top = 0
         if image.mode != "P":
             pil = require("PIL.Image", "viz")
-            image = image.convert("RGB").quantize(256, method=pil.Quantize.FASTOCTREE, dither=pil.Dither.NONE)
+            image = image.convert("RGB").quantize(
+                256, method=pil.Quantize.FASTOCTREE, dither=pil.Dither.NONE
+            )
             self._prev = None
         else:
             import numpy as np
@@ -134,7 +156,10 @@ class GifWriter(_Writer):
             prev, self._prev = self._prev, (pixels, pal)
             if prev is not None and prev[1] == pal and self._global_table is not None:
                 changed = pixels != prev[0]
-                rows, cols = np.flatnonzero(changed.any(axis=1)), np.flatnonzero(changed.any(axis=0))
+                rows, cols = (
+                    np.flatnonzero(changed.any(axis=1)),
+                    np.flatnonzero(changed.any(axis=0)),
+                )
                 if rows.size:
                     top, left = int(rows[0]), int(cols[0])
                     image = image.crop((left, top, int(cols[-1]) + 1, int(rows[-1]) + 1))
@@ -189,7 +214,7 @@ def _parse_single_gif(blob: bytes) -> tuple[bytes, bytes, bytes, bytes | None, b
     table = b""
     if lsd[4] & 0x80:
         n = 3 * (2 ** ((lsd[4] & 7) + 1))
-        table = blob[pos:pos + n]
+        table = blob[pos : pos + n]
         pos += n
     while pos < len(blob):
         tag = blob[pos]
@@ -199,12 +224,12 @@ def _parse_single_gif(blob: bytes) -> tuple[bytes, bytes, bytes, bytes | None, b
                 pos += blob[pos] + 1
             pos += 1
         elif tag == 0x2C:
-            descriptor = blob[pos:pos + 10]
+            descriptor = blob[pos : pos + 10]
             pos += 10
             local = None
             if descriptor[9] & 0x80:
                 n = 3 * (2 ** ((descriptor[9] & 7) + 1))
-                local = blob[pos:pos + n]
+                local = blob[pos : pos + n]
                 pos += n
             start = pos
             pos += 1  # LZW minimum code size
@@ -220,7 +245,9 @@ def _parse_single_gif(blob: bytes) -> tuple[bytes, bytes, bytes, bytes | None, b
 class VideoWriter(_Writer):
     """H.264 mp4 (VP9 for .webm) through imageio-ffmpeg's bundled ffmpeg; sizes must be even."""
 
-    def __init__(self, path: str | os.PathLike[str], size: tuple[int, int], fps: float, crf: int = 23):
+    def __init__(
+        self, path: str | os.PathLike[str], size: tuple[int, int], fps: float, crf: int = 23
+    ):
         super().__init__(path, size, fps)
         ffmpeg = require("imageio_ffmpeg", "viz")
         if size[0] % 2 or size[1] % 2:
@@ -228,14 +255,24 @@ class VideoWriter(_Writer):
         suffix = self.path.suffix.lower()
         self._tmp = _temp_beside(self.path, suffix)
         if suffix == ".webm":
-            codec, params = "libvpx-vp9", ["-crf", str(crf + 8), "-b:v", "0", "-deadline", "realtime", "-cpu-used", "8"]
+            codec, params = (
+                "libvpx-vp9",
+                ["-crf", str(crf + 8), "-b:v", "0", "-deadline", "realtime", "-cpu-used", "8"],
+            )
         else:
             codec, params = "libx264", ["-crf", str(crf), "-preset", "ultrafast"]
             if suffix in (".mp4", ".m4v", ".mov"):
                 params += ["-movflags", "+faststart"]
         self._gen = ffmpeg.write_frames(
-            str(self._tmp), self.size, pix_fmt_in="rgb24", pix_fmt_out="yuv420p", fps=self.fps,
-            quality=None, codec=codec, macro_block_size=1, output_params=params,
+            str(self._tmp),
+            self.size,
+            pix_fmt_in="rgb24",
+            pix_fmt_out="yuv420p",
+            fps=self.fps,
+            quality=None,
+            codec=codec,
+            macro_block_size=1,
+            output_params=params,
         )
         self._gen.send(None)
 
@@ -270,7 +307,9 @@ class PngFolderWriter(_Writer):
         if self.path.exists() and not self.path.is_dir():
             raise InputError("output exists and is not a folder", self.path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._tmp = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.", suffix=".part", dir=self.path.parent))
+        self._tmp = Path(
+            tempfile.mkdtemp(prefix=f".{self.path.name}.", suffix=".part", dir=self.path.parent)
+        )
 
     def write(self, image: Any, frame: int) -> None:
         image.save(self._tmp / f"{int(frame):06d}.png", "PNG", compress_level=1)
