@@ -270,7 +270,6 @@ class Tracker:
     def reset(self) -> None:
         """Forget every track; the next update is a first frame. Ids start again at 1."""
         self._tracks = TrackTable(self.config.kalman_config)
-        self._solver.reset()
         self._pending: dict[int, Event] = {}  # start events of tentative tracks
         self._next_id = 1
         self._frames_seen = 0
