@@ -68,9 +68,13 @@ def map_class_name(name: str) -> int:
 
 
 def _numpy(value: Any, dtype: Any = None) -> np.ndarray | None:
-    """A numpy array from a numpy array, list or (CPU/GPU, grad or not) torch tensor; None stays None."""
-    if value is None:
-        return None
+    """A numpy array from a numpy array, list or (CPU/GPU, grad or not) torch tensor; None stays
+    None."""
+    return None if value is None else _array(value, dtype)
+
+
+def _array(value: Any, dtype: Any = None) -> np.ndarray:
+    """A numpy array from a numpy array, list or (CPU/GPU, grad or not) torch tensor."""
     if hasattr(value, "detach"):
         value = value.detach()
     if hasattr(value, "cpu"):
@@ -175,7 +179,7 @@ def from_supervision(
         Detections with our class ids; ``data`` keeps ``source_class_id``, ``class_name`` and
         supervision's other per-box ``data`` columns. ``tracker_id`` is not carried over.
     """
-    xyxy = _numpy(det.xyxy, np.float64).reshape(-1, 4)
+    xyxy = _array(det.xyxy, np.float64).reshape(-1, 4)
     n = xyxy.shape[0]
     conf = _numpy(getattr(det, "confidence", None), np.float64)
     cls = _numpy(getattr(det, "class_id", None))
@@ -215,7 +219,7 @@ def from_ultralytics(
     boxes = getattr(result, "boxes", None)
     if boxes is None:
         raise ValueError("this ultralytics result has no boxes (not a detection model?)")
-    xyxy = _numpy(boxes.xyxy, np.float64).reshape(-1, 4)
+    xyxy = _array(boxes.xyxy, np.float64).reshape(-1, 4)
     conf = _numpy(getattr(boxes, "conf", None), np.float64)
     cls = _numpy(getattr(boxes, "cls", None))
     cls = None if cls is None else np.rint(cls.astype(np.float64)).astype(np.int64)
@@ -234,9 +238,10 @@ def from_ultralytics(
 def from_array(array: Any, *, frame: int | None = None) -> Detections:
     """Detections from an ``(N, 4|5|6)`` array: ``x1, y1, x2, y2[, confidence[, class_id]]``.
 
-    The class id column (float or int) is taken to be one of *our* ids (:mod:`sensemaking.classes`).
+    The class id column (float or int) is taken to be one of *our* ids
+    (:mod:`sensemaking.classes`).
     """
-    arr = _numpy(array, np.float64)
+    arr = _array(array, np.float64)
     if arr.size == 0:
         det = Detections.empty()
         return det if frame is None else det.with_(frame=np.full(0, frame))
@@ -304,7 +309,9 @@ def to_supervision(detections: Detections) -> Any:
         raise ImportError(
             "to_supervision needs the 'supervision' package: pip install supervision"
         ) from exc
-    data: dict[str, np.ndarray] = {k: np.asarray(v) for k, v in detections.data.items()}
+    data: dict[str, np.ndarray | list[Any]] = {
+        k: np.asarray(v) for k, v in detections.data.items()
+    }
     data.setdefault(
         "class_name",
         np.array(

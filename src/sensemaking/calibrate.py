@@ -166,8 +166,8 @@ def calibrate(
                 f"{seq.first_frame}..{last}: are these the same sequence?"
             )
         # a video without the class (or without detections) still says what is false (or missed)
-        rows = [int(x.frame.max()) for x in (seq.gt, seq.ignore) if x is not None and len(x)]
-        annotated = max(rows) if rows else last
+        last_rows = [int(x.frame.max()) for x in (seq.gt, seq.ignore) if x is not None and len(x)]
+        annotated = max(last_rows) if last_rows else last
         if len(seq.detections) and int(seq.detections.frame.max()) > annotated:
             raise InputError(
                 f"{seq.name}: detections reach frame {int(seq.detections.frame.max())}, the "
@@ -214,7 +214,7 @@ def calibrate(
                     chain_score.append(float(fd.confidence[k]))
                 chain_len[chain[k]] += 1
             prev_false, prev_chain = fd, chain
-        false_chains.extend(zip(chain_len, chain_score))
+        false_chains.extend(zip(chain_len, chain_score, strict=True))
         # objects: where they begin and end, and how long they go unseen in between
         for obj in np.unique(seq.gt.tracker_id):
             rows = np.flatnonzero(seq.gt.tracker_id == obj)

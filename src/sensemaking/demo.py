@@ -11,7 +11,7 @@ from pathlib import Path
 from sensemaking.classes import class_name
 from sensemaking.errors import MissingExtraError
 from sensemaking.io.kitti import write_kitti
-from sensemaking.io.sinks import EventsSink, TracksSink, WarningsSink
+from sensemaking.io.sinks import EventsSink, Sink, TracksSink, WarningsSink
 from sensemaking.pipeline import Pipeline
 from sensemaking.results import Event, FrameResult
 from sensemaking.synthetic import figure1_scene
@@ -35,7 +35,9 @@ _PHRASES = {
 
 def describe_event(event: Event, classes: dict[int, int], fps: float) -> str:
     """One readable sentence, e.g. ``frame 21 (2.1 s): cyclist #2 hides behind car #1``."""
-    names = [f"{class_name(classes.get(a, 0))} #{a}" for a in event.args]
+    names = [
+        f"{class_name(classes.get(a, 0) if isinstance(a, int) else 0)} #{a}" for a in event.args
+    ]
     phrase = _PHRASES.get(event.name, event.name + "({})").format(*names)
     return f"frame {event.frame} ({event.frame / fps:.1f} s): {phrase}"
 
@@ -83,7 +85,7 @@ def run_demo(
     }
     results: list[FrameResult] = []
     warnings: list = []
-    sinks = [
+    sinks: list[Sink] = [
         TracksSink(files["tracks"], "kitti"),
         EventsSink(files["events"]),
         WarningsSink(files["warnings"]),
@@ -97,7 +99,9 @@ def run_demo(
 
     events = [e for r in results for e in r.events]
     classes = {
-        int(t): int(c) for r in results for t, c in zip(r.tracks.tracker_id, r.tracks.class_id)
+        int(t): int(c)
+        for r in results
+        for t, c in zip(r.tracks.tracker_id, r.tracks.class_id, strict=True)
     }
     sentences = [describe_event(e, classes, config.fps) for e in events]
     write_kitti(files["detections"], synthetic.detections)

@@ -1,16 +1,17 @@
 """The one columnar type for boxes: detections in, tracks out.
 
 Modelled on supervision's ``Detections``: parallel numpy arrays, validated in
-``__post_init__``, indexable with an int, slice, index array or boolean mask.
+the constructor, indexable with an int, slice, index array or boolean mask.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 __all__ = [
     "Detections",
@@ -36,7 +37,7 @@ IMAGE_MARGIN = 10.0
 def _column(value: Any, n: int, dtype: type, default: float | int, name: str) -> np.ndarray:
     if value is None:
         return np.full(n, default, dtype=dtype)
-    arr = np.asarray(value, dtype=dtype)
+    arr: np.ndarray = np.asarray(value, dtype=dtype)
     if arr.ndim == 0:
         arr = np.full(n, arr.item(), dtype=dtype)
     if arr.shape != (n,):
@@ -44,7 +45,7 @@ def _column(value: Any, n: int, dtype: type, default: float | int, name: str) ->
     return arr
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, init=False)
 class Detections:
     """N boxes with their attributes, all arrays of length N.
 
@@ -56,39 +57,51 @@ class Detections:
         frame: (N,) int64 frame number as in the source (MOT 1-based, KITTI 0-based).
         source_row: (N,) int64, 1-based line in the input file the box came from, -1 if none.
         data: extra per-box columns, each an array whose first axis has length N.
+
+    The constructor takes each (N,) column as an array, a scalar (repeated N times) or None
+    (the default above); the attributes are always arrays.
     """
 
     xyxy: np.ndarray
-    confidence: np.ndarray | None = None
-    class_id: np.ndarray | None = None
-    tracker_id: np.ndarray | None = None
-    frame: np.ndarray | None = None
-    source_row: np.ndarray | None = None
-    data: Mapping[str, np.ndarray] = field(default_factory=dict)
+    confidence: np.ndarray
+    class_id: np.ndarray
+    tracker_id: np.ndarray
+    frame: np.ndarray
+    source_row: np.ndarray
+    data: Mapping[str, np.ndarray]
 
-    def __post_init__(self) -> None:
-        xyxy = np.asarray(self.xyxy, dtype=np.float64)
-        if xyxy.size == 0:
-            xyxy = xyxy.reshape(0, 4)
-        if xyxy.ndim != 2 or xyxy.shape[1] != 4:
-            raise ValueError(f"Detections.xyxy must have shape (N, 4), got {xyxy.shape}")
-        n = xyxy.shape[0]
+    def __init__(
+        self,
+        xyxy: ArrayLike,
+        confidence: ArrayLike | None = None,
+        class_id: ArrayLike | None = None,
+        tracker_id: ArrayLike | None = None,
+        frame: ArrayLike | None = None,
+        source_row: ArrayLike | None = None,
+        data: Mapping[str, ArrayLike] | None = None,
+    ) -> None:
+        boxes = np.asarray(xyxy, dtype=np.float64)
+        if boxes.size == 0:
+            boxes = boxes.reshape(0, 4)
+        if boxes.ndim != 2 or boxes.shape[1] != 4:
+            raise ValueError(f"Detections.xyxy must have shape (N, 4), got {boxes.shape}")
+        n = boxes.shape[0]
         set_ = object.__setattr__
-        set_(self, "xyxy", xyxy)
-        set_(self, "confidence", _column(self.confidence, n, np.float64, 1.0, "confidence"))
-        set_(self, "class_id", _column(self.class_id, n, np.int64, 0, "class_id"))
-        set_(self, "tracker_id", _column(self.tracker_id, n, np.int64, -1, "tracker_id"))
-        set_(self, "frame", _column(self.frame, n, np.int64, 0, "frame"))
-        set_(self, "source_row", _column(self.source_row, n, np.int64, -1, "source_row"))
-        data = {}
-        for key, value in dict(self.data).items():
+        set_(self, "xyxy", boxes)
+        set_(self, "confidence", _column(confidence, n, np.float64, 1.0, "confidence"))
+        set_(self, "class_id", _column(class_id, n, np.int64, 0, "class_id"))
+        set_(self, "tracker_id", _column(tracker_id, n, np.int64, -1, "tracker_id"))
+        set_(self, "frame", _column(frame, n, np.int64, 0, "frame"))
+        set_(self, "source_row", _column(source_row, n, np.int64, -1, "source_row"))
+        columns = {}
+        for key, value in dict(data or {}).items():
             arr = np.asarray(value)
             if arr.ndim == 0 or arr.shape[0] != n:
                 raise ValueError(
                     f"Detections.data[{key!r}] must have length {n}, got shape {arr.shape}"
                 )
-            data[key] = arr
-        set_(self, "data", data)
+            columns[key] = arr
+        set_(self, "data", columns)
 
     # construction -------------------------------------------------------------------------
     @classmethod

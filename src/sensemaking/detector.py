@@ -58,7 +58,8 @@ def load_detector(
     drop_unknown: bool = False,
     providers: list[str] | None = None,
 ) -> Detector:
-    """Load a local detector model; returns ``detector(image HxWx3 uint8 RGB, frame=0) -> Detections``.
+    """Load a local detector model; returns
+    ``detector(image HxWx3 uint8 RGB, frame=0) -> Detections``.
 
     Args:
         path: ``.onnx`` (run with onnxruntime) or ``.pt`` (run with ultralytics). Never downloaded.
@@ -141,7 +142,8 @@ def nms(xyxy: np.ndarray, scores: np.ndarray, classes: np.ndarray, iou: float) -
 def _letterbox(
     image: np.ndarray, size: tuple[int, int]
 ) -> tuple[np.ndarray, float, tuple[float, float]]:
-    """Resize keeping aspect into ``size = (h, w)``, pad with grey 114; returns (img, gain, (padx, pady))."""
+    """Resize keeping aspect into ``size = (h, w)``, pad with grey 114; returns
+    (img, gain, (padx, pady))."""
     pil = require("PIL.Image", "detector")
     h0, w0 = image.shape[:2]
     th, tw = size
@@ -233,7 +235,7 @@ class OnnxDetector(Detector):
         if out.ndim != 2:
             raise InputError(f"unexpected ONNX output shape {out.shape}", self.path)
         nc = len(self.names) or None
-        layout = self.layout
+        layout: str | None = self.layout
         if layout == "auto":
             layout = _guess_layout(out, nc)
             if layout is None:

@@ -62,8 +62,9 @@ class Pipeline:
     ``sinks`` (:class:`~sensemaking.io.sinks.Sink`).
 
     Args:
-        validate: check every frame's detections (:func:`~sensemaking.detections.validate_detections`,
-            with the tracker's image size) before the tracker sees them.
+        validate: check every frame's detections
+            (:func:`~sensemaking.detections.validate_detections`, with the tracker's image size)
+            before the tracker sees them.
         on_frames: called with the number of frames covered after each step or skip (progress).
     """
 

@@ -122,7 +122,8 @@ class FluentInterval:
 
     def asp(self) -> str:
         """The fact ``holds_during(Fluent(Args), Value, Start, End).``"""
-        return f"holds_during({self.fluent}({','.join(map(str, self.args))}),{self.value},{self.start},{self.end})."
+        args = ",".join(map(str, self.args))
+        return f"holds_during({self.fluent}({args}),{self.value},{self.start},{self.end})."
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -135,13 +136,14 @@ class FluentInterval:
 
 
 def _runs(pos: np.ndarray, key: np.ndarray) -> list[tuple[int, int]]:
-    """(first, last) index ranges where ``pos`` (scene frame positions) is consecutive and ``key`` constant."""
+    """(first, last) index ranges where ``pos`` (scene frame positions) is consecutive and
+    ``key`` constant."""
     if pos.shape[0] == 0:
         return []
     brk = (np.diff(pos) != 1) | (np.diff(key) != 0)
     starts = np.concatenate([[0], np.flatnonzero(brk) + 1])
     ends = np.concatenate([starts[1:] - 1, [pos.shape[0] - 1]])
-    return list(zip(starts.tolist(), ends.tolist()))
+    return list(zip(starts.tolist(), ends.tolist(), strict=True))
 
 
 class Scene:
@@ -450,7 +452,8 @@ class Scene:
                 raise bad(f"'frames' [{f0}, {f1}] must satisfy 0 <= first <= last <= {MAX_FRAME}")
             if f1 - f0 + 1 > span_limit:
                 raise bad(
-                    f"'frames' [{f0}, {f1}] spans {f1 - f0 + 1} frames, implausibly many for a file "
+                    f"'frames' [{f0}, {f1}] spans {f1 - f0 + 1} frames, "
+                    "implausibly many for a file "
                     f"of {content} rows and events (at most {span_limit})"
                 )
             frames = np.arange(f0, f1 + 1, dtype=np.int64)
@@ -471,7 +474,7 @@ class Scene:
             if frames_given is not None and not np.isin(t.frames, frames_given).all():
                 raise bad(f"tracks[{i}]: a frame not in 'frame_numbers'")
             tracks[t.id] = t
-        for i, t in enumerate(tracks.values()):
+        for t in tracks.values():
             occ = t.occluder[t.occluder >= 0]
             unknown = set(occ.tolist()) - set(tracks)
             if unknown:
@@ -480,7 +483,7 @@ class Scene:
         for i, e in enumerate(raw_events):
             if not isinstance(e, Mapping):
                 raise bad(f"events[{i}] must be an object")
-            ev = Event.from_json(e)
+            ev = Event.from_json(dict(e))
             if not re.fullmatch(r"[a-z][a-z0-9_]*", ev.name):
                 raise bad(f"events[{i}]: event name {ev.name!r} must be a lower-case identifier")
             if frames.size and not frames[0] <= ev.frame <= frames[-1]:
@@ -527,7 +530,8 @@ class Scene:
 
 
 def track_json(t: Track) -> dict[str, Any]:
-    """One entry of the scene JSON's ``"tracks"`` list (boxes rounded to 0.01 px, scores to 1e-4)."""
+    """One entry of the scene JSON's ``"tracks"`` list (boxes rounded to 0.01 px, scores to
+    1e-4)."""
     return {
         "id": t.id,
         "class": t.class_name,

@@ -49,13 +49,16 @@ class AbductionCosts:
     lost: int = (
         600  #: a track ending without explanation. Higher: tracks are kept as missing longer.
     )
-    dropped: int = 0  #: a tentative (unconfirmed) track ending: a hypothesis dropped. Higher: young tracks fight for detections.
+    #: a tentative (unconfirmed) track ending: a hypothesis dropped. Higher: young tracks fight
+    #: for detections.
+    dropped: int = 0
     hides: int = (
         50  #: hides_behind. Higher: fewer occlusion explanations, more missing detections.
     )
     missing: int = 250  #: missing_detections. Higher: tracks end instead of waiting.
     unseen: int = 20  #: per frame a track stays missing. Higher: missing tracks end sooner.
-    ignore: int = 600  #: ignoring a detection, times its confidence. Higher: more tracks from weak detections.
+    #: ignoring a detection, times its confidence. Higher: more tracks from weak detections.
+    ignore: int = 600
     #: a hidden or missing track seen again (unhides_from_behind or reappears). An unseen track's
     #: prediction is widened, so it fits a detection better than its drifted box deserves; hiding
     #: a visible track costs only ``hides``, and without this cost an unseen track took the
@@ -202,7 +205,8 @@ class TrackerConfig:
 
     @classmethod
     def for_dataset(cls, family: str, **changes: Any) -> TrackerConfig:
-        """The one parameter set per dataset family (``"kitti"`` or ``"mot"``); see docs/PARAMETERS.md."""
+        """The one parameter set per dataset family (``"kitti"`` or ``"mot"``); see
+        docs/PARAMETERS.md."""
         return settings.preset_config(family, **changes)  # presets/<family>.json
 
 
@@ -523,7 +527,7 @@ class Tracker:
         pos = {int(t): i for i, t in enumerate(self._tracks.id.tolist())}
         pairs = [
             (i, pos[o])
-            for i, o in zip(hid.tolist(), self._tracks.occluder[hid].tolist())
+            for i, o in zip(hid.tolist(), self._tracks.occluder[hid].tolist(), strict=True)
             if o in pos
         ]
         if not pairs:
@@ -559,7 +563,7 @@ class Tracker:
         matched_d: set[int] = set()
         if lik.size:
             rows, cols = linear_sum_assignment(-lik)
-            for r, k in zip(rows.tolist(), cols.tolist()):
+            for r, k in zip(rows.tolist(), cols.tolist(), strict=True):
                 if lik[r, k] > 0:
                     tid = int(self._tracks.id[r])
                     (ans.assign if self._tracks.unseen[r] == 0 else ans.resume)[tid] = k
@@ -594,8 +598,8 @@ class Tracker:
     def _apply(
         self, ans: Answer, dets: Detections, frame: int
     ) -> tuple[list[Event], dict[int, int]]:
-        """Update the tracks by the answer; return this frame's events and ``track id -> detection row``
-        of every track observed this frame (matched or new)."""
+        """Update the tracks by the answer; return this frame's events and
+        ``track id -> detection row`` of every track observed this frame (matched or new)."""
         c = self.config
         if len(self._tracks) == 0 and not (ans.start or ans.events or ans.fluents):
             return [], {}  # no track before or after: nothing to update, confirm or report
@@ -622,7 +626,7 @@ class Tracker:
             cols = np.array(sorted(ans.start), dtype=np.int64)  # new ids in detection order
             ids = np.arange(self._next_id, self._next_id + len(cols), dtype=np.int64)
             self._next_id += len(cols)
-            new_ids = {Det(k): int(t) for k, t in zip(cols.tolist(), ids.tolist())}
+            new_ids = {Det(k): int(t) for k, t in zip(cols.tolist(), ids.tolist(), strict=True)}
             vis = [VISIBILITY_VALUES.index(new_vis.get(j, "fully_visible")) for j in cols.tolist()]
             # confirmation of new tracks: by the general rule below
             self._tracks.add(
@@ -638,7 +642,8 @@ class Tracker:
         for fname, fargs, value in ans.fluents:
             if fname not in ("hidden_by", "visibility"):
                 continue  # the tracker carries these two (and in_fov, true while live)
-            i = index.get(fargs[0])  # None for ended tracks and new ones (done above)
+            # None for ended tracks and new ones (a Det, done above)
+            i = index.get(fargs[0]) if isinstance(fargs[0], int) else None
             if i is None:
                 continue
             if fname == "hidden_by":
@@ -748,8 +753,8 @@ def _track_output(
     visibility: np.ndarray,
     hidden_frames: np.ndarray,
 ) -> Detections:
-    """The columns of :meth:`Tracker._output` (N rows; ``xyxy`` (N, 4) float pixels, the rest (N,)),
-    which have the validated dtypes and shapes already: no validation every frame."""
+    """The columns of :meth:`Tracker._output` (N rows; ``xyxy`` (N, 4) float pixels, the rest
+    (N,)), which have the validated dtypes and shapes already: no validation every frame."""
     return Detections.trusted(
         xyxy=xyxy,
         confidence=confidence,
@@ -796,7 +801,8 @@ def _quantize(x: np.ndarray, levels: int, rounding=np.rint) -> np.ndarray:
 
 @lru_cache(maxsize=16)
 def _floored_grid(levels: int, iou: tuple[float, ...]) -> tuple[int, ...]:
-    """IoU thresholds on the solver's grid of ``levels`` steps, rounded down (asked every frame)."""
+    """IoU thresholds on the solver's grid of ``levels`` steps, rounded down (asked every
+    frame)."""
     return tuple(_quantize(np.array(iou), levels, np.floor).tolist())
 
 

@@ -27,8 +27,9 @@ import logging
 import threading
 import time
 from collections import OrderedDict
-from collections.abc import Iterable
+from collections.abc import Collection, Iterable
 from dataclasses import dataclass, replace
+from typing import Any
 
 import clingo
 from clingo import Symbol
@@ -123,7 +124,7 @@ def pieces(component: Component) -> list[tuple]:
 _RELATIONS = ("cand", "covers", "keeps_covering", "emerges", "hidden_by")
 
 
-def piece_facts(piece: tuple, uses: Iterable[str] = ()) -> frozenset[Symbol]:
+def piece_facts(piece: tuple, uses: Collection[str] = ()) -> frozenset[Symbol]:
     """The facts :meth:`Component.facts` writes for one element of :func:`pieces`: those of a
     component holding only that element (a track or detection row at index ``i``: the facts of
     ``i + 1`` copies of the row less those of ``i`` copies)."""
@@ -132,9 +133,13 @@ def piece_facts(piece: tuple, uses: Iterable[str] = ()) -> frozenset[Symbol]:
         return frozenset(replace(_NOTHING, first_frame=piece[1]).facts(uses))
     if name in ("tracks", "dets"):
         _, index, row = piece
-        more = replace(_NOTHING, **{name: (row,) * (index + 1)}).facts(uses)
-        return frozenset(more) - frozenset(replace(_NOTHING, **{name: (row,) * index}).facts(uses))
-    return frozenset(replace(_NOTHING, **{name: (piece[1],)}).facts(uses))
+        more: dict[str, Any] = {name: (row,) * (index + 1)}
+        less: dict[str, Any] = {name: (row,) * index}
+        return frozenset(replace(_NOTHING, **more).facts(uses)) - frozenset(
+            replace(_NOTHING, **less).facts(uses)
+        )
+    only: dict[str, Any] = {name: (piece[1],)}
+    return frozenset(replace(_NOTHING, **only).facts(uses))
 
 
 class _Grounded:
@@ -214,7 +219,9 @@ class _Grounded:
 
         def on_model(model: clingo.Model) -> None:
             best[:] = model.symbols(shown=True)
-            info["cost"] = sum(c for c, p in zip(model.cost, model.priority) if p >= 0)
+            info["cost"] = sum(
+                c for c, p in zip(model.cost, model.priority, strict=True) if p >= 0
+            )
 
         timed_out = False
         if budget_ms is None:
@@ -317,7 +324,7 @@ class SlotSolver:
             if true is None and grounded is not None and self._brings_values(component, grounded):
                 grounded = self._ground(shape, component)
                 true = grounded.literals_of(component)
-            if true is None:
+            if true is None or grounded is None:  # grounded is None only with true None
                 self.stats["outside"] += 1
                 return None
             answer = grounded.solve(true, budget_ms)

@@ -64,7 +64,8 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-#: the default ego corridor, fractions of (width, height): bottom-left, bottom-right, top-right, top-left
+#: the default ego corridor, fractions of (width, height): bottom-left, bottom-right, top-right,
+#: top-left
 DEFAULT_CORRIDOR: tuple[tuple[float, float], ...] = (
     (0.1, 1.0),
     (0.9, 1.0),
@@ -181,10 +182,11 @@ class Corridor:
     def span_at(self, y: np.ndarray, image_size: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
         """Corridor x range ``(xl, xr)`` (N,) at image rows ``y`` (N,) in pixels; NaN outside."""
         y = np.asarray(y, dtype=np.float64).reshape(-1)
-        ys, l, r = _profile(self.points, self.normalized, (int(image_size[0]), int(image_size[1])))
+        size = (int(image_size[0]), int(image_size[1]))
+        ys, left, right = _profile(self.points, self.normalized, size)
         out = (y < ys[0]) | (y > ys[-1])
-        return np.where(out, np.nan, np.interp(y, ys, l)), np.where(
-            out, np.nan, np.interp(y, ys, r)
+        return np.where(out, np.nan, np.interp(y, ys, left)), np.where(
+            out, np.nan, np.interp(y, ys, right)
         )
 
     def overlap(self, xyxy: np.ndarray, image_size: tuple[int, int]) -> np.ndarray:
@@ -228,7 +230,7 @@ class Corridor:
         nums = [float(v) for v in re.split(r"[\s,;]+", text.strip()) if v]
         if len(nums) < 6 or len(nums) % 2:
             raise InputError(f"corridor needs at least 3 x,y points, got {text!r}")
-        pts = tuple(zip(nums[0::2], nums[1::2]))
+        pts = tuple(zip(nums[0::2], nums[1::2], strict=True))
         return cls(pts, normalized=all(0.0 <= v <= 1.0 for v in nums))
 
 
@@ -313,7 +315,8 @@ class LaneMap:
     per_frame: Mapping[int, tuple[Lane, ...]] = field(default_factory=dict)
 
     def lanes_at(self, frame: int) -> tuple[Lane, ...]:
-        """The lanes in force at ``frame``: the last ``per_frame`` entry at or before it, else ``lanes``."""
+        """The lanes in force at ``frame``: the last ``per_frame`` entry at or before it, else
+        ``lanes``."""
         if self.per_frame:
             keys = [k for k in self.per_frame if k <= frame]
             if keys:

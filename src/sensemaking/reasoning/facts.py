@@ -112,13 +112,15 @@ def scene_facts(
         for t in scene.tracks.values():
             out += [
                 ("box", t.id, f, *b)
-                for f, b in zip(t.frames.tolist(), np.rint(t.xyxy).astype(np.int64).tolist())
+                for f, b in zip(
+                    t.frames.tolist(), np.rint(t.xyxy).astype(np.int64).tolist(), strict=True
+                )
             ]
     if states:
         for t in scene.tracks.values():
             out += [
                 ("state", t.id, f, states_names[s])
-                for f, s in zip(t.frames.tolist(), t.state.tolist())
+                for f, s in zip(t.frames.tolist(), t.state.tolist(), strict=True)
             ]
     out += [("occurs_at", (e.name, *e.args), e.frame) for e in scene.events]
     out += [
@@ -135,7 +137,7 @@ def scene_facts(
             inside = ctx.corridor.contains_boxes(xyxy, scene.image_size)
             out += [
                 ("in_corridor", t, f)
-                for t, f in zip(tracks[inside].tolist(), frames[inside].tolist())
+                for t, f in zip(tracks[inside].tolist(), frames[inside].tolist(), strict=True)
             ]
         if relations and frames.size:
             rc = relation_config or RelationConfig()
@@ -149,7 +151,7 @@ def scene_facts(
         for t in scene.tracks.values():
             vis = t.visible_mask()
             got, kinds, _ = track_motion(t.frames[vis], t.xyxy[vis], scene.fps, mt)
-            for f, k in zip(got.tolist(), kinds):
+            for f, k in zip(got.tolist(), kinds, strict=True):
                 out += motion_facts(f, np.array([t.id]), k[None, :])
     return out
 

@@ -259,11 +259,11 @@ class SituationMonitor:
         xyxy = tr.xyxy
         boxes = xyxy.tolist()
         fr.ids = ids
-        fr.state = {t: _STATE_NAMES[s] for t, s in zip(ids, states)}
-        self._class.update(zip(ids, cls))
+        fr.state = {t: _STATE_NAMES[s] for t, s in zip(ids, states, strict=True)}
+        self._class.update(zip(ids, cls, strict=True))
         self._last_live.update(dict.fromkeys(ids, f))
         moving = []  # (track, its entry now, the entry lag frames before)
-        for i, (t, s) in enumerate(zip(ids, states)):
+        for i, (t, s) in enumerate(zip(ids, states, strict=True)):
             if s == _VISIBLE:
                 h = self._hist.get(t)
                 if h is None:
@@ -287,7 +287,7 @@ class SituationMonitor:
                 fr.area[ids[i]] = round((x2 - x1) * (y2 - y1) * k)
 
         if fr.hidden_by:
-            by_id = dict(zip(ids, boxes))
+            by_id = dict(zip(ids, boxes, strict=True))
             for t, o in fr.hidden_by.items():
                 a = self._anticipate(t, o, f, by_id)
                 if a is not None:
@@ -298,7 +298,7 @@ class SituationMonitor:
         veh = [_ROLE[cls[i]] for i in rel]
         if len(rel) >= 2 and True in veh:
             pairs, codes = pair_relations(xyxy[rel], self.config.relations)
-            for (i, j), (cx, cy) in zip(pairs.tolist(), codes.tolist()):
+            for (i, j), (cx, cy) in zip(pairs.tolist(), codes.tolist(), strict=True):
                 if veh[i] or veh[j]:
                     a, b, rx, ry = ids[rel[i]], ids[rel[j]], IA_RELATIONS[cx], IA_RELATIONS[cy]
                     fr.ra.append((a, b, rx, ry) if a < b else (b, a, INVERSE[rx], INVERSE[ry]))
@@ -342,7 +342,12 @@ class SituationMonitor:
             feats, np.array([p[2] for _, _, p in moving], dtype=np.float64), self.config.motion
         )
         for (t, e, _), row, sp, vx, g in zip(
-            moving, kinds.tolist(), feats.speed.tolist(), feats.vx.tolist(), feats.growth.tolist()
+            moving,
+            kinds.tolist(),
+            feats.speed.tolist(),
+            feats.vx.tolist(),
+            feats.growth.tolist(),
+            strict=True,
         ):
             e[2], e[3], e[4] = sp, vx, g
             fr.motion[t] = tuple(compress(MOTION_KINDS, row))
@@ -416,7 +421,11 @@ class SituationMonitor:
             out += [("ra", local[a], local[b], g, rx, ry) for a, b, rx, ry in fr.ra]
             out += [
                 # constants in the events of a user's encoding stay as they are
-                ("occurs_at", (e.name, *(local.get(a, a) for a in e.args)), e.frame - n)
+                (
+                    "occurs_at",
+                    (e.name, *(local.get(a, a) if isinstance(a, int) else a for a in e.args)),
+                    e.frame - n,
+                )
                 for e in fr.events
             ]
             out += [
@@ -534,14 +543,21 @@ class SituationMonitor:
             else:
                 details["ttc_s"] = round(1.0 / g, 2) if g > 0 else None
                 ttc = f" (time to contact about {1.0 / g:.1f} s)" if g > 0 else ""
-                msg = f"{desc(veh)} in front of the ego vehicle brakes: the ego vehicle closes in fast{ttc}"
+                msg = (
+                    f"{desc(veh)} in front of the ego vehicle brakes: "
+                    f"the ego vehicle closes in fast{ttc}"
+                )
         elif s == "BLOCKED_LANE":
             (t,) = objs
             lanes = info.get("lane", [])
-            msg = f"lane {', '.join(str(x) for x in lanes) or '?'} is blocked by {desc(t)}, standing still"
+            lane_names = ", ".join(str(x) for x in lanes) or "?"
+            msg = f"lane {lane_names} is blocked by {desc(t)}, standing still"
         elif s == "EXITING_VEHICLE":
             p, veh = objs
-            msg = f"{desc(p)} appeared next to {desc(veh)}, which stands still: a person may be getting out"
+            msg = (
+                f"{desc(p)} appeared next to {desc(veh)}, which stands still: "
+                "a person may be getting out"
+            )
         else:  # a situation of a user's encoding
             msg = f"{s.lower().replace('_', ' ')}: " + ", ".join(desc(t) for t in objs)
         return Warning(f, s, tuple(int(o) for o in objs), msg, details)

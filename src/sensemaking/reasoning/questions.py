@@ -45,6 +45,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import clingo
+import numpy as np
 from clingo import ast as clingo_ast
 
 from sensemaking.errors import SensemakingError
@@ -292,7 +293,7 @@ def _check_ast(stmts: list[Any]) -> None:
 
     def walk(node: Any) -> None:
         name = str(node.ast_type).rsplit(".", 1)[-1]
-        if name in _FORBIDDEN_NODES or (name == "Function" and getattr(node, "external", 0)):
+        if name in _FORBIDDEN_NODES or (name == "Function" and getattr(node, "external", False)):
             raise QueryError(f"query: {name} is not allowed in a query")
         if name == "Program" and node.name != "base":
             raise QueryError("query: #program is not allowed in a query")
@@ -495,7 +496,7 @@ def _solve_limited(
         proc.join()
 
 
-def _facts(scene: Scene, context: SceneContext | None, **kw: bool) -> str:
+def _facts(scene: Scene, context: SceneContext | None, **kw: Any) -> str:
     return scene.to_facts(context=context, **kw)
 
 
@@ -555,7 +556,7 @@ def _where(scene: Scene, box: Any, context: SceneContext | None = None) -> str:
     corr = context.corridor if context is not None else Corridor()
     w = scene.image_size[0]
     cx = (box[0] + box[2]) / 2
-    if corr.contains_boxes(box[None, :] if hasattr(box, "shape") else [box], scene.image_size)[0]:
+    if corr.contains_boxes(np.asarray(box, dtype=np.float64), scene.image_size)[0]:
         place = "in front of the ego vehicle"
     else:
         place = "on the left" if cx < w / 3 else "on the right" if cx > 2 * w / 3 else "ahead"
@@ -582,7 +583,8 @@ def _q_tracks(scene: Scene, args: list[int], context: SceneContext | None) -> An
     for t in scene.tracks.values():
         counts = {s: int((t.state == s).sum()) for s in TrackState}
         lines.append(
-            f"{scene.describe(t.id)}: frames {t.first}-{t.last}, visible {counts[TrackState.VISIBLE]}, "
+            f"{scene.describe(t.id)}: frames {t.first}-{t.last}, "
+            f"visible {counts[TrackState.VISIBLE]}, "
             f"hidden {counts[TrackState.HIDDEN]}, missing {counts[TrackState.MISSING]}"
         )
     return Answer("tracks", tuple(lines or ["this scene has no tracks"]))
@@ -665,7 +667,8 @@ def _q_reappeared(scene: Scene, args: list[int], context: SceneContext | None) -
             else "after missing detections"
         )
         lines.append(
-            f"{scene.describe(tid)} reappeared at frame {f} {how}, unseen since frame {g}: {_dur(scene, f - g)}"
+            f"{scene.describe(tid)} reappeared at frame {f} {how}, unseen since frame {g}: "
+            f"{_dur(scene, f - g)}"
         )
     if not lines:
         t = scene.tracks[tid]
@@ -673,11 +676,13 @@ def _q_reappeared(scene: Scene, args: list[int], context: SceneContext | None) -
         if unseen.any():
             g = int(t.frames[unseen][0])
             lines = [
-                f"{scene.describe(tid)} did not reappear: unseen from frame {g} until its last frame {t.last}"
+                f"{scene.describe(tid)} did not reappear: unseen from frame {g} "
+                f"until its last frame {t.last}"
             ]
         else:
             lines = [
-                f"{scene.describe(tid)} never disappeared: visible whenever tracked (frames {t.first}-{t.last})"
+                f"{scene.describe(tid)} never disappeared: visible whenever tracked "
+                f"(frames {t.first}-{t.last})"
             ]
     return Answer(
         q, tuple(lines), atoms=tuple(str(s) for s in atoms), models=(tuple(str(s) for s in atoms),)
@@ -732,7 +737,8 @@ def _q_why_ended(scene: Scene, args: list[int], context: SceneContext | None) ->
     models, _, _, _ = _solve(
         facts
         + _encodings("questions.lp")
-        + f"\n#show.\n#show ended(T,L,R) : ended(T,L,R), T = {tid}.\n#show final_state(T,S) : final_state(T,S), T = {tid}."
+        + f"\n#show.\n#show ended(T,L,R) : ended(T,L,R), T = {tid}.\n"
+        + f"#show final_state(T,S) : final_state(T,S), T = {tid}."
     )
     atoms = models[0] if models else []
     ended = next(s for s in atoms if s.name == "ended")
@@ -743,7 +749,10 @@ def _q_why_ended(scene: Scene, args: list[int], context: SceneContext | None) ->
     d = scene.describe(tid)
     if reason == "left_fov":
         ev = next(e for e in scene.events_of(tid) if e.name == "leaves_fov")
-        line = f"{d} ended because it left the field of view{_border(scene, t.xyxy[k])} (event at frame {ev.frame}; last tracked at frame {last})"
+        line = (
+            f"{d} ended because it left the field of view{_border(scene, t.xyxy[k])} "
+            f"(event at frame {ev.frame}; last tracked at frame {last})"
+        )
     elif reason == "lost":
         ev = next(e for e in scene.events_of(tid) if e.name == "ends")
         unseen = int(t.hidden_frames[k])
@@ -751,14 +760,24 @@ def _q_why_ended(scene: Scene, args: list[int], context: SceneContext | None) ->
             why = f"it was last seen at frame {last}"
         elif st == TrackState.HIDDEN:
             why = (
-                f"it had been hidden behind {scene.describe(int(t.occluder[k]))} for {_dur(scene, unseen)} "
+                f"it had been hidden behind {scene.describe(int(t.occluder[k]))} "
+                f"for {_dur(scene, unseen)} "
                 f"since frame {last - unseen + 1}"
             )
         else:
-            why = f"its detections had been missing for {_dur(scene, unseen)} since frame {last - unseen + 1}"
-        line = f"{d} was lost at frame {ev.frame}: {why}, and the tracker could no longer explain its absence"
+            why = (
+                f"its detections had been missing for {_dur(scene, unseen)} "
+                f"since frame {last - unseen + 1}"
+            )
+        line = (
+            f"{d} was lost at frame {ev.frame}: {why}, "
+            "and the tracker could no longer explain its absence"
+        )
     elif reason == "scene_end":
-        line = f"{d} did not end: it was still tracked ({st.name.lower()}) at the last frame of the scene ({last})"
+        line = (
+            f"{d} did not end: it was still tracked ({st.name.lower()}) "
+            f"at the last frame of the scene ({last})"
+        )
     else:
         line = (
             f"{d} was last tracked at frame {last} ({st.name.lower()}); no event explains its end"
@@ -929,7 +948,8 @@ def _story(scene: Scene, t: Track, context: SceneContext | None) -> list[str]:
     start = next((e for e in own if e.name in ("enters_fov", "starts")), None)
     if start is not None and start.name == "enters_fov":
         out = [
-            f"{first} enters the field of view at frame {start.frame}{_border(scene, t.xyxy[0])}, {where}."
+            f"{first} enters the field of view at frame {start.frame}"
+            f"{_border(scene, t.xyxy[0])}, {where}."
         ]
     elif t.first == scene.first_frame:
         out = [f"{first} is in view from the first frame ({t.first}), {where}."]
@@ -942,9 +962,9 @@ def _story(scene: Scene, t: Track, context: SceneContext | None) -> list[str]:
     gap_from: int | None = None
     for e in evs:
         if e.name == "hides_behind" and e.args[0] == t.id:
-            out.append(f"At frame {e.frame} it hides behind {scene.describe(e.args[1])}.")
+            out.append(f"At frame {e.frame} it hides behind {scene.describe(int(e.args[1]))}.")
         elif e.name == "hides_behind" and len(e.args) > 1 and e.args[1] == t.id:
-            out.append(f"At frame {e.frame} it hides {scene.describe(e.args[0])} from view.")
+            out.append(f"At frame {e.frame} it hides {scene.describe(int(e.args[0]))} from view.")
         elif e.name == "unhides_from_behind" and e.args[0] == t.id:
             ep = max(
                 (iv for (o, s), iv in hidden.items() if o == e.args[1] and s < e.frame),
@@ -953,10 +973,13 @@ def _story(scene: Scene, t: Track, context: SceneContext | None) -> list[str]:
             )
             took = f" after {_dur(scene, e.frame - ep.start)}" if ep else ""
             out.append(
-                f"At frame {e.frame} it comes out from behind {scene.describe(e.args[1])}{took}."
+                f"At frame {e.frame} it comes out from behind "
+                f"{scene.describe(int(e.args[1]))}{took}."
             )
         elif e.name == "unhides_from_behind" and len(e.args) > 1 and e.args[1] == t.id:
-            out.append(f"At frame {e.frame} {scene.describe(e.args[0])} comes out from behind it.")
+            out.append(
+                f"At frame {e.frame} {scene.describe(int(e.args[0]))} comes out from behind it."
+            )
         elif e.name == "missing_detections" and e.args[0] == t.id:
             gap_from = e.frame
             out.append(f"From frame {e.frame} its detections are missing.")

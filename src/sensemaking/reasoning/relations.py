@@ -360,7 +360,8 @@ class MotionFeatures:
 
 
 def motion_features(prev: np.ndarray, cur: np.ndarray, dt: float | np.ndarray) -> MotionFeatures:
-    """Velocities of boxes from ``prev`` (N, 4) to ``cur`` (N, 4), ``dt`` seconds apart (scalar or (N,))."""
+    """Velocities of boxes from ``prev`` (N, 4) to ``cur`` (N, 4), ``dt`` seconds apart (scalar or
+    (N,))."""
     p = np.asarray(prev, dtype=np.float64).reshape(-1, 4)
     c = np.asarray(cur, dtype=np.float64).reshape(-1, 4)
     dt = np.asarray(dt, dtype=np.float64)
@@ -476,7 +477,7 @@ def relation_facts(
     a, b, codes = order_pairs(ids, np.asarray(pairs, dtype=np.int64).reshape(-1, 2), codes)
     return [
         ("ra", x, y, int(frame), IA_RELATIONS[rx], IA_RELATIONS[ry])
-        for x, y, (rx, ry) in zip(a.tolist(), b.tolist(), codes.tolist())
+        for x, y, (rx, ry) in zip(a.tolist(), b.tolist(), codes.tolist(), strict=True)
     ]
 
 
@@ -486,5 +487,5 @@ def motion_facts(frame: int, ids: np.ndarray, kinds: np.ndarray) -> list[tuple[A
     rows, cols = np.nonzero(np.asarray(kinds, dtype=bool))
     return [
         ("motion", int(ids[r]), int(frame), MOTION_KINDS[k])
-        for r, k in zip(rows.tolist(), cols.tolist())
+        for r, k in zip(rows.tolist(), cols.tolist(), strict=True)
     ]

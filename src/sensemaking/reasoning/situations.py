@@ -54,7 +54,7 @@ __all__ = [
 log = logging.getLogger(__name__)
 
 
-class Situation(str, Enum):
+class Situation(str, Enum):  # noqa: UP042 (StrEnum would change str() and format())
     """The situations of Table 3; ``value`` is the ASP name and the program part."""
 
     OVERTAKING = "overtaking"
@@ -66,7 +66,8 @@ class Situation(str, Enum):
 
     @classmethod
     def parse(cls, name: str) -> Situation:
-        """From ``"HIDDEN_ENTITY"``, ``"hidden_entity"`` or ``"hidden-entity"``. Raises ValueError."""
+        """From ``"HIDDEN_ENTITY"``, ``"hidden_entity"`` or ``"hidden-entity"``. Raises
+        ValueError."""
         key = str(name).strip().lower().replace("-", "_")
         for s in cls:
             if s.value == key:
@@ -128,7 +129,8 @@ SituationWarning = Warning
 
 @cache
 def encoding_text(name: str) -> str:
-    """Text of an encoding shipped in ``sensemaking/reasoning/encodings`` (e.g. ``"situations.lp"``)."""
+    """Text of an encoding shipped in ``sensemaking/reasoning/encodings`` (e.g.
+    ``"situations.lp"``)."""
     return (
         resources.files("sensemaking.reasoning")
         .joinpath("encodings", name)

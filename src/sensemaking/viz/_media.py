@@ -59,7 +59,8 @@ def output_kind(path: str | os.PathLike[str]) -> str:
 
 
 def open_writer(path: str | os.PathLike[str], size: tuple[int, int], fps: float) -> Any:
-    """The writer for ``path`` (see :func:`output_kind`); a context manager with ``write(image, frame)``."""
+    """The writer for ``path`` (see :func:`output_kind`); a context manager with
+    ``write(image, frame)``."""
     kind = output_kind(path)
     if kind == "gif":
         return GifWriter(path, size, fps)
@@ -97,7 +98,8 @@ class _Writer:
 
 
 def usual_mode(path: Path) -> None:
-    """Give ``path`` the permissions a plain ``open`` would (mkstemp / mkdtemp make them 0600 / 0700)."""
+    """Give ``path`` the permissions a plain ``open`` would (mkstemp / mkdtemp make them
+    0600 / 0700)."""
     umask = os.umask(0)
     os.umask(umask)
     os.chmod(path, (0o777 if path.is_dir() else 0o666) & ~umask)
@@ -202,7 +204,8 @@ class GifWriter(_Writer):
 
 
 def _parse_single_gif(blob: bytes) -> tuple[bytes, bytes, bytes, bytes | None, bytes]:
-    """Split a one-frame GIF into (screen descriptor, global table, image descriptor, local table, data).
+    """Split a one-frame GIF into (screen descriptor, global table, image descriptor, local table,
+    data).
 
     ``image descriptor`` is the 0x2C separator and the 9 bytes after it (10 bytes);
     ``data`` is the LZW minimum code size plus every sub-block and the terminator.
