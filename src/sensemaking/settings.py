@@ -474,7 +474,7 @@ def preset_config(family: str, **changes: Any) -> TrackerConfig:
 
 
 def load_config(
-    path: str | PathLike[str],
+    path: str | PathLike[str] | None,
     family: str | None = None,
     facts: Mapping[str, Any] | None = None,
     overrides: Iterable[str] = (),

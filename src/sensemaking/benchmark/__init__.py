@@ -1,4 +1,5 @@
-"""The benchmark runner: our tracker and its peers on KITTI / MOT17 / MOT15, evaluated the same way.
+"""The benchmark runner: our tracker and its peers on KITTI / MOT17 / MOT15, evaluated the same
+way.
 
 Submodules (imported lazily; nothing happens at import time):
 

@@ -92,7 +92,7 @@ def grid_points(grid: Mapping[str, SequenceABC[Any]]) -> list[dict[str, Any]]:
     slowest). A continue threshold above the start threshold is left out: a detection could then
     start a track that the next one like it cannot continue."""
     keys = list(grid)
-    points = [dict(zip(keys, values)) for values in product(*(grid[k] for k in keys))]
+    points = [dict(zip(keys, values, strict=True)) for values in product(*(grid[k] for k in keys))]
     return [
         p
         for p in points
@@ -299,7 +299,8 @@ def cross_validate(
         cv.objective_all.append(_score(per_bench, everything))
         say(
             f"[crossval {family}] grid point {i + 1}/{len(points)} "
-            f"{', '.join(f'{k}={v}' for k, v in point.items())}: mean HOTA {100 * cv.objective_all[-1]:.2f}"
+            f"{', '.join(f'{k}={v}' for k, v in point.items())}: "
+            f"mean HOTA {100 * cv.objective_all[-1]:.2f}"
         )
     cv.in_sample = int(np.argmax(cv.objective_all))
     # per video and grid point: mean over benchmarks of the HOTA of the video's sequences
@@ -365,7 +366,8 @@ def cross_validate(
             src = root / name / f"p{chosen[s.name]:02d}" / f"{s.name}.txt"
             (heldout_dir / f"{s.name}.txt").write_bytes(src.read_bytes())
         say(
-            f"[crossval {family}] {name}: cross-validated HOTA {100 * cv.heldout[name]['HOTA']:.2f}, "
+            f"[crossval {family}] {name}: "
+            f"cross-validated HOTA {100 * cv.heldout[name]['HOTA']:.2f}, "
             f"in-sample {100 * cv.insample[name]['HOTA']:.2f}"
         )
     cv.seconds = time.perf_counter() - start

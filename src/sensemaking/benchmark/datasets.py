@@ -57,7 +57,8 @@ class BenchmarkSpec:
         name: short id used on the command line and in file names, e.g. ``kitti-rrc-car``.
         title: one line for the report.
         family: which named parameter set of our tracker applies (``kitti`` / ``motchallenge``).
-        rules: the evaluation rules (``kitti``, ``mot17``, ``mot15``) of :mod:`sensemaking.evaluation`.
+        rules: the evaluation rules (``kitti``, ``mot17``, ``mot15``) of
+            :mod:`sensemaking.evaluation`.
         output_format: the format results are written in (``kitti`` or ``mot``).
         class_name: the one class evaluated (KITTI), or None (MOTChallenge: pedestrians).
         detector: detector folder name (KITTI) or sequence-name suffix (MOT17).
@@ -200,6 +201,7 @@ class Sequence:
     @property
     def frame_numbers(self) -> range:
         """Every frame of the sequence, including frames without detections."""
+        assert self.detections.frame is not None  # set by Detections.__post_init__
         last_det = (
             int(self.detections.frame.max()) if len(self.detections) else self.first_frame - 1
         )
@@ -259,7 +261,8 @@ def default_data_root() -> Path:
 
 
 def select_specs(only: Iterable[str] | None) -> list[BenchmarkSpec]:
-    """The specs named by ``only`` (exact names, globs like ``kitti-*``, or prefixes like ``kitti``).
+    """The specs named by ``only`` (exact names, globs like ``kitti-*``, or prefixes like
+    ``kitti``).
 
     Raises:
         InputError: a pattern matches no known benchmark.

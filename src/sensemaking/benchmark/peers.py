@@ -174,6 +174,7 @@ class PeerAdapter:
 
     def _to_sv(self, dets: Detections) -> Any:
         n = len(dets)
+        assert dets.class_id is not None  # set by __post_init__
         return self._sv.Detections(
             xyxy=dets.xyxy if n else np.empty((0, 4), dtype=np.float64),
             confidence=dets.confidence,
@@ -183,6 +184,7 @@ class PeerAdapter:
 
     def update(self, detections: Detections, frame: int) -> tuple[Detections, float]:
         if self.min_score is not None and len(detections):
+            assert detections.confidence is not None  # set by __post_init__
             detections = detections[detections.confidence >= self.min_score]
         sv_dets = self._to_sv(detections)
         start = time.perf_counter()
@@ -245,6 +247,7 @@ class BoxmotAdapter:
 
     def update(self, detections: Detections, frame: int) -> tuple[Detections, float]:
         if self.min_score is not None and len(detections):
+            assert detections.confidence is not None  # set by __post_init__
             detections = detections[detections.confidence >= self.min_score]
         n = len(detections)
         dets = np.zeros((n, 6), dtype=np.float64)
@@ -315,6 +318,7 @@ class OursAdapter:
         tracks = result.tracks
         if len(tracks) == 0:
             return Detections.empty(), elapsed
+        assert tracks.tracker_id is not None  # set by __post_init__
         keep = tracks.tracker_id >= 0
         state = tracks.data.get("state")
         if state is not None:

@@ -31,7 +31,8 @@ __all__ = [
 #: the paper's Table 2 (IJCAI 2019), quoted for reference: MOTA/MOTP/ML/MT in %, others counts
 PAPER_TABLE2: dict[str, dict[str, Any]] = {
     "kitti-cars": {
-        "title": "KITTI tracking, Cars: YOLOv3 detections, all 21 training sequences (8008 frames, "
+        "title": "KITTI tracking, Cars: YOLOv3 detections, all 21 training sequences "
+        "(8008 frames, "
         "636 targets), old KITTI devkit",
         "rows": {
             "without abduction": {
@@ -241,7 +242,7 @@ def _table(b: BenchmarkRun) -> list[str]:
                 "–",
             ]
             if legacy:
-                # the paper's KITTI numbers come from the old devkit (quoted once, in the main columns)
+                # the paper's KITTI numbers use the old devkit (quoted once, in the main columns)
                 cells += ["–", "–", "–"]
             cells += ["–", "–", "see below"]
             lines.append(f"| *paper Table 2, {row_name}* | " + " | ".join(cells) + " |")
@@ -260,7 +261,8 @@ def _variants_note(b: BenchmarkRun) -> str:
             continue
         o = other[0]
         parts.append(
-            f"{DISPLAY_NAMES.get(name, name)} {_variant_text(o)}: HOTA {_pct(_get(o.metrics, 'HOTA'))}, "
+            f"{DISPLAY_NAMES.get(name, name)} {_variant_text(o)}: HOTA "
+            f"{_pct(_get(o.metrics, 'HOTA'))}, "
             f"MOTA {_pct(_get(o.metrics, 'MOTA'))}, IDF1 {_pct(_get(o.metrics, 'IDF1'))}, "
             f"ID sw. {_int(_get(o.metrics, 'IDSW'))}"
         )
@@ -275,7 +277,8 @@ def _timing_note(b: BenchmarkRun) -> str:
             continue
         t = r.timing
         parts.append(
-            f"{DISPLAY_NAMES.get(name, name)} {t['median_ms']:.2f} / {t['p95_ms']:.1f} / {t['max_ms']:.0f}"
+            f"{DISPLAY_NAMES.get(name, name)} {t['median_ms']:.2f} / {t['p95_ms']:.1f} / "
+            f"{t['max_ms']:.0f}"
         )
     if not parts:
         return ""
@@ -345,9 +348,9 @@ RUN_MINUTES = 20.0
 
 
 def check_targets(b: BenchmarkRun) -> list[TargetCheck]:
-    """The targets of the benchmark issue checked on one benchmark's run (empty if ours is missing):
-    with abduction beats without on MOTA, IDF1 and HOTA, and on KITTI cars cuts the ID switches
-    at least threefold; ahead of every peer on IDF1 and HOTA;
+    """The targets of the benchmark issue checked on one benchmark's run (empty if ours is
+    missing): with abduction beats without on MOTA, IDF1 and HOTA, and on KITTI cars cuts the ID
+    switches at least threefold; ahead of every peer on IDF1 and HOTA;
     MOTA at most 0.5 points behind the best peer; fewer ID switches than any peer; time per frame
     at most twice the fastest peer's."""
     ours = b.chosen("ours")
@@ -369,7 +372,8 @@ def check_targets(b: BenchmarkRun) -> list[TargetCheck]:
                     f"{_pct(o)} vs {_pct(a)}",
                 )
             )
-        if b.spec.family == "kitti" and b.spec.class_name.lower() == "car":
+        cls = b.spec.class_name  # every KITTI spec has one
+        if b.spec.family == "kitti" and cls is not None and cls.lower() == "car":
             a, o = _get(abl.metrics, "IDSW"), _get(m, "IDSW")
             factor = a / o if o > 0 else float("inf")
             out.append(
@@ -382,8 +386,8 @@ def check_targets(b: BenchmarkRun) -> list[TargetCheck]:
                     "factor",
                 )
             )
-    peers = {k: b.chosen(k) for k in PEERS}
-    peers = {k: r for k, r in peers.items() if r is not None and r.error is None and r.metrics}
+    chosen = {k: b.chosen(k) for k in PEERS}
+    peers = {k: r for k, r in chosen.items() if r is not None and r.error is None and r.metrics}
     if not peers:
         return out
     for key in ("IDF1", "HOTA"):
@@ -447,7 +451,8 @@ def _targets_section(summary: RunSummary) -> list[str]:
     lines = [
         "## Targets",
         "",
-        f"The benchmark issue's targets, checked on this run: {met} of {len(checks)} met. *Margin* is "
+        f"The benchmark issue's targets, checked on this run: {met} of {len(checks)} met. "
+        "*Margin* is "
         "how far from the bound (percentage points for scores, counts for ID switches, the factor "
         "for time); negative means missed by that much.",
         "",
@@ -457,12 +462,14 @@ def _targets_section(summary: RunSummary) -> list[str]:
     for c in checks:
         margin = f"{c.margin:+.0f}" if c.unit == "count" else f"{c.margin:+.2f}"
         lines.append(
-            f"| {c.benchmark} | {c.target} | {'yes' if c.met else '**no**'} | {margin} | {c.detail} |"
+            f"| {c.benchmark} | {c.target} | {'yes' if c.met else '**no**'} | {margin} | "
+            f"{c.detail} |"
         )
     minutes = summary.total_seconds / 60
     lines += [
         "",
-        f"The whole run took {minutes:.1f} min: {'within' if minutes < RUN_MINUTES else '**over**'} the "
+        f"The whole run took {minutes:.1f} min: "
+        f"{'within' if minutes < RUN_MINUTES else '**over**'} the "
         f"target of {RUN_MINUTES:g} min.",
     ]
     return lines
@@ -480,11 +487,13 @@ def _machine_line(machine: Mapping[str, Any]) -> str:
         )
         if max(start[0], end[0], end[2]) > (machine.get("cores") or 1):
             load += (
-                " — above the core count: other work shared the CPUs, so absolute times are inflated "
+                " — above the core count: other work shared the CPUs, so absolute times are "
+                "inflated "
                 "(the ratios to ours are measured under the same conditions)"
             )
     return (
-        f"{machine.get('cpu', '?')}, {machine.get('cores', '?')} cores, {machine.get('platform', '?')}, "
+        f"{machine.get('cpu', '?')}, {machine.get('cores', '?')} cores, "
+        f"{machine.get('platform', '?')}, "
         f"Python {machine.get('python', '?')}; {versions}{load}"
     )
 
@@ -496,17 +505,22 @@ def render_markdown(summary: RunSummary, json_name: str = "benchmarks.json") -> 
     add("# Benchmarks")
     add("")
     add(
-        f"Generated by the benchmark runner on {summary.started}; do not edit by hand. Every number, "
-        f"both variants of every peer and the per-sequence results are in [`{json_name}`]({json_name})."
+        f"Generated by the benchmark runner on {summary.started}; do not edit by hand. Every "
+        "number, "
+        "both variants of every peer and the per-sequence results are in "
+        f"[`{json_name}`]({json_name})."
     )
     add("")
     add(
-        f"- **Reproduce:** `{summary.command or 'sensemaking benchmark'}` (from the repository root, "
-        "with the `benchmark` extra installed; the data folder is described in `../shared/data/README.md`)."
+        f"- **Reproduce:** `{summary.command or 'sensemaking benchmark'}` (from the repository "
+        "root, "
+        "with the `benchmark` extra installed; the data folder is described in "
+        "`../shared/data/README.md`)."
     )
     add(f"- **Machine:** {_machine_line(summary.machine)}.")
     add(
-        f"- **Total run time:** {summary.total_seconds:.0f} s ({summary.total_seconds / 60:.1f} min) for "
+        f"- **Total run time:** {summary.total_seconds:.0f} s ({summary.total_seconds / 60:.1f} "
+        "min) for "
         "reading, tracking, writing and evaluating everything below."
     )
     if summary.skipped:
@@ -522,47 +536,64 @@ def render_markdown(summary: RunSummary, json_name: str = "benchmarks.json") -> 
     add("")
     add(
         "- Scores follow TrackEval's definitions (CLEAR MOT, Identity, HOTA), computed by "
-        "`sensemaking.evaluation` with each dataset's rules (MOT17: only pedestrians with the consider "
-        "flag count, distractor matches removed; KITTI: Car and Pedestrian scored separately, Van / "
-        "Person_sitting / occluded / truncated ground truth are distractors, DontCare regions and boxes "
+        "`sensemaking.evaluation` with each dataset's rules (MOT17: only pedestrians with the "
+        "consider "
+        "flag count, distractor matches removed; KITTI: Car and Pedestrian scored separately, Van "
+        "/ "
+        "Person_sitting / occluded / truncated ground truth are distractors, DontCare regions and "
+        "boxes "
         "≤ 25 px tall are ignored; IoU 0.5). MOTA, MOTP, IDF1, HOTA in %; ML and MT in % of "
         "ground-truth tracks, as in the paper; FP, FN, ID sw., Frag. are counts."
     )
     add(
-        "- **ID sw.** uses TrackEval's rule: a switch counts also when the object was lost in between. "
-        "KITTI tables add MOTA, ID sw. and Frag. under the **old KITTI devkit** rule (a switch counts "
-        "only when the object was tracked in the previous frame), which is the rule behind the paper's "
+        "- **ID sw.** uses TrackEval's rule: a switch counts also when the object was lost in "
+        "between. "
+        "KITTI tables add MOTA, ID sw. and Frag. under the **old KITTI devkit** rule (a switch "
+        "counts "
+        "only when the object was tracked in the previous frame), which is the rule behind the "
+        "paper's "
         "KITTI numbers."
     )
     repeat = int(summary.machine.get("repeat", 1) or 1)
     add(
-        "- **ms/frame** is the mean wall time of one `update` call of the tracker (association only: "
-        "no file reading or writing, no format conversion), measured with `time.perf_counter` in this "
-        "run; **time ÷ ours** divides it by ours with abduction on the same benchmark in the same run. "
+        "- **ms/frame** is the mean wall time of one `update` call of the tracker (association "
+        "only: "
+        "no file reading or writing, no format conversion), measured with `time.perf_counter` in "
+        "this "
+        "run; **time ÷ ours** divides it by ours with abduction on the same benchmark in the same "
+        "run. "
         "The trackers take turns sequence by sequence"
         + (
-            f", and each runs every sequence {repeat} times: the fastest run's times count (the results "
-            "are the same in every run), so that a slow spell of a shared machine does not decide a ratio."
+            f", and each runs every sequence {repeat} times: the fastest run's times count (the "
+            "results "
+            "are the same in every run), so that a slow spell of a shared machine does not decide "
+            "a ratio."
             if repeat > 1
             else "."
         )
     )
     add(
-        '- **Ours** uses one named parameter set per dataset family (`TrackerConfig.for_dataset("kitti")`, '
+        "- **Ours** uses one named parameter set per dataset family "
+        '(`TrackerConfig.for_dataset("kitti")`, '
         '`TrackerConfig.for_dataset("motchallenge")`), with the frame rate and image size of each '
         "sequence; *without abduction* is the same tracker with `abduction=False` (Hungarian IoU "
-        "matching). One tracking pass writes two results: *matched tracks* (only tracks matched to a "
+        "matching). One tracking pass writes two results: *matched tracks* (only tracks matched "
+        "to a "
         "detection in that frame, at the detection's box) and *+ unseen tracks* (also the tracks "
         "abduced as hidden or with missing detections, at their predicted box, as the paper's "
         "abduced motion tracks do); the table shows the better by "
         f"{SELECT_BY} (column *input*), the other is listed under the table."
     )
     add(
-        f"- **Peers** from roboflow `trackers` (SORT, ByteTrack, OC-SORT) run twice: with their defaults "
-        "(only `frame_rate` set from the sequence) and with a score pre-filter at the threshold our "
+        "- **Peers** from roboflow `trackers` (SORT, ByteTrack, OC-SORT) run twice: with their "
+        "defaults "
+        "(only `frame_rate` set from the sequence) and with a score pre-filter at the threshold "
+        "our "
         "tracker needs to start a track; the table shows the better of the two by "
-        f"{SELECT_BY} (column *input*), the other is listed under the table. KITTI detection files are "
-        "per class, so every tracker tracks one class at a time. Their ids are shifted by one (they "
+        f"{SELECT_BY} (column *input*), the other is listed under the table. KITTI detection "
+        "files are "
+        "per class, so every tracker tracks one class at a time. Their ids are shifted by one "
+        "(they "
         "count from 0, MOTChallenge from 1). Defaults as installed:"
     )
     for name, params in summary.peer_defaults.items():
@@ -576,10 +607,14 @@ def render_markdown(summary: RunSummary, json_name: str = "benchmarks.json") -> 
     if boxmot:
         add(
             "- **boxmot peers** (`boxmot` "
-            f"{summary.machine.get('packages', {}).get('boxmot') or ''}) run once per sequence (not "
-            "repeated for timing), at boxmot's defaults through `update(dets, img)` with a blank image of "
-            "the sequence's size, and without the parts that read pixels: appearance embeddings (ReID) "
-            "and camera-motion compensation are switched off (a test feeds noise instead of the blank "
+            f"{summary.machine.get('packages', {}).get('boxmot') or ''}) run once per sequence "
+            "(not "
+            "repeated for timing), at boxmot's defaults through `update(dets, img)` with a blank "
+            "image of "
+            "the sequence's size, and without the parts that read pixels: appearance embeddings "
+            "(ReID) "
+            "and camera-motion compensation are switched off (a test feeds noise instead of the "
+            "blank "
             "image and gets the same tracks). Left out: "
             + "; ".join(f"{k} ({why})" for k, why in BOXMOT_LEFT_OUT.items())
             + ". Switched off per tracker: "
@@ -589,8 +624,10 @@ def render_markdown(summary: RunSummary, json_name: str = "benchmarks.json") -> 
             + "."
         )
     add(
-        "- *paper Table 2* rows quote the paper for orientation only: other detectors (YOLOv3 on KITTI, "
-        "Faster R-CNN on MOT17), all 21 KITTI / 7 MOT17 training sequences, the old devkit. They are "
+        "- *paper Table 2* rows quote the paper for orientation only: other detectors (YOLOv3 on "
+        "KITTI, "
+        "Faster R-CNN on MOT17), all 21 KITTI / 7 MOT17 training sequences, the old devkit. They "
+        "are "
         "not comparable number for number with the rows above."
     )
     add("")
@@ -607,7 +644,8 @@ def render_markdown(summary: RunSummary, json_name: str = "benchmarks.json") -> 
         add("")
         n = len(b.sequences)
         add(
-            f"{b.spec.title}: {n} sequence{'s' if n != 1 else ''} ({', '.join(b.sequences)}), {b.frames} frames."
+            f"{b.spec.title}: {n} sequence{'s' if n != 1 else ''} ({', '.join(b.sequences)}), "
+            f"{b.frames} frames."
         )
         if b.spec.note:
             add(b.spec.note)
@@ -628,7 +666,8 @@ def render_markdown(summary: RunSummary, json_name: str = "benchmarks.json") -> 
         if paper:
             devkit = (
                 (
-                    " Its MOTA, ID sw. and Frag. follow the old devkit rule: compare them with the "
+                    " Its MOTA, ID sw. and Frag. follow the old devkit rule: compare them with "
+                    "the "
                     "*(devkit)* columns."
                 )
                 if b.spec.rules == "kitti"
@@ -642,7 +681,10 @@ def render_markdown(summary: RunSummary, json_name: str = "benchmarks.json") -> 
 def _hmi(m: Mapping[str, float] | None) -> str:
     if not m:
         return "–"
-    return f"{_pct(_get(m, 'HOTA'))} / {_pct(_get(m, 'MOTA'))} / {_pct(_get(m, 'IDF1'))} / {_int(_get(m, 'IDSW'))}"
+    return (
+        f"{_pct(_get(m, 'HOTA'))} / {_pct(_get(m, 'MOTA'))} / {_pct(_get(m, 'IDF1'))} / "
+        f"{_int(_get(m, 'IDSW'))}"
+    )
 
 
 def _signed(x: float) -> str:
@@ -678,7 +720,8 @@ def _crossval_section(summary: RunSummary) -> list[str]:
     out = [
         "## Headline: cross-validated, HOTA / MOTA / IDF1 / ID sw.",
         "",
-        "Ours with abduction, each sequence scored with parameters chosen on the *other* videos of "
+        "Ours with abduction, each sequence scored with parameters chosen on the *other* videos "
+        "of "
         "its family (leave one video out; a KITTI sequence is held out from all four KITTI "
         "benchmarks, MOT17-05 from both of its benchmarks). *In-sample*: the grid point with the "
         "best mean HOTA on every sequence, scored on the same sequences. *Preset*: the shipped "
@@ -688,7 +731,8 @@ def _crossval_section(summary: RunSummary) -> list[str]:
         f"{100 * CV_GAP:g} of the in-sample one (the issue's target). Peers: the best by HOTA "
         "from the tables below (they have no tuned values).",
         "",
-        "| Benchmark | cross-validated | in-sample | preset | CV − in-sample HOTA | spread over folds "
+        "| Benchmark | cross-validated | in-sample | preset | CV − in-sample HOTA | spread over "
+        "folds "
         "| best peer |",
         "|---|---:|---:|---:|---:|---:|---|",
     ]
@@ -733,15 +777,18 @@ def render_parameters(summary: RunSummary | None = None) -> str:
     add("# Parameters")
     add("")
     add(
-        "Generated by `sensemaking benchmark` from the code (`sensemaking.settings`, the docstrings of "
-        "`TrackerConfig`, `AbductionCosts`, `KalmanConfig`) and from its cross-validation run; do not "
+        "Generated by `sensemaking benchmark` from the code (`sensemaking.settings`, the "
+        "docstrings of "
+        "`TrackerConfig`, `AbductionCosts`, `KalmanConfig`) and from its cross-validation run; do "
+        "not "
         "edit by hand." + (f" Run of {summary.started}: `{summary.command}`." if summary else "")
     )
     add("")
     add("## Every parameter")
     add("")
     add(
-        "Values outside the range are errors (`ParameterError`, one line naming the file or option "
+        "Values outside the range are errors (`ParameterError`, one line naming the file or "
+        "option "
         "and the key; the CLI exits with status 2). Scores are in the detector's units "
         "(PointRCNN logits are read as probabilities: the 15-column format is mapped through the "
         "sigmoid when read). Times are in seconds and become frames with `fps`."
@@ -755,7 +802,8 @@ def render_parameters(summary: RunSummary | None = None) -> str:
     add("")
     add(
         "Layers, each over the one before: the defaults above; the family preset "
-        "(`src/sensemaking/presets/<family>.json`; `sensemaking track --format kitti` uses `kitti`, "
+        "(`src/sensemaking/presets/<family>.json`; `sensemaking track --format kitti` uses "
+        "`kitti`, "
         "`--format mot` uses `mot`); a parameter file (`track --params FILE`); the input's facts "
         "(frame rate and image size from `seqinfo`, `--fps`, `--image-size`, `--no-abduction`, "
         "`--max-solve-ms`); then `--set KEY=VALUE` (repeatable; dotted keys reach the nested "
@@ -767,17 +815,21 @@ def render_parameters(summary: RunSummary | None = None) -> str:
     add("")
     add("```json")
     add(
-        '{\n  "format": "%s",\n  "base": "kitti",\n  "source": "where the values came from",\n'
+        '{\n  "format": "'
+        + settings.FORMAT
+        + '",\n  "base": "kitti",\n  "source": "where the values came from",\n'
         '  "params": {"min_hits": 2, "start_confidence": 0.7, "costs": {"appears": 250},\n'
-        '             "kalman.velocity_std": 0.1}\n}' % settings.FORMAT
+        '             "kalman.velocity_std": 0.1}\n}'
     )
     add("```")
     add("")
     add(
-        "`base` (optional: `kitti`, `mot` or `defaults`) is the preset the values change; without it "
+        "`base` (optional: `kitti`, `mot` or `defaults`) is the preset the values change; without "
+        "it "
         "`track` uses the preset of `--format` and the Python API "
         "(`sensemaking.settings.load_config(path, family=None)`) the defaults. "
-        "`settings.load_params(path)` returns the validated values; `settings.write_params` writes a "
+        "`settings.load_params(path)` returns the validated values; `settings.write_params` "
+        "writes a "
         "file; `TrackerConfig.for_dataset(family)` is the preset."
     )
     add("")
@@ -785,14 +837,20 @@ def render_parameters(summary: RunSummary | None = None) -> str:
     add("")
     add(
         "`sensemaking calibrate --format kitti --class car --gt GT1 --detections DET1 [--gt GT2 "
-        "--detections DET2 ...] --output mine.json` matches each detection to the ground truth of its "
+        "--detections DET2 ...] --output mine.json` matches each detection to the ground truth of "
+        "its "
         "frame (IoU ≥ 0.5; detections on other classes, DontCare regions or MOT's not-considered "
         "boxes count as neither) and writes a parameter file over the family preset: "
-        "`start_confidence` where P(true | score) reaches 0.5, `confirm_confidence` where it reaches "
-        "0.99, `min_confidence` keeping 98 % of the true detections, `min_hits` from how long false "
-        "detections repeat, `max_missing_s` from the 95th percentile of the annotated objects' gaps, "
-        "and `costs.enters` / `appears` / `leaves` / `lost` as −100 ln p of where objects begin and "
-        "end (at the image border or not; add-one smoothed). Then `sensemaking track ... --params mine.json`. The "
+        "`start_confidence` where P(true | score) reaches 0.5, `confirm_confidence` where it "
+        "reaches "
+        "0.99, `min_confidence` keeping 98 % of the true detections, `min_hits` from how long "
+        "false "
+        "detections repeat, `max_missing_s` from the 95th percentile of the annotated objects' "
+        "gaps, "
+        "and `costs.enters` / `appears` / `leaves` / `lost` as −100 ln p of where objects begin "
+        "and "
+        "end (at the image border or not; add-one smoothed). Then `sensemaking track ... --params "
+        "mine.json`. The "
         "presets below were not produced by it; its estimates are not cross-validated yet."
     )
     add("")
@@ -824,7 +882,8 @@ def _parameters_crossval(summary: RunSummary) -> list[str]:
     out = [
         "## Cross-validation",
         "",
-        "Folds are videos within a family (a KITTI sequence number across RRC / PointRCNN and car / "
+        "Folds are videos within a family (a KITTI sequence number across RRC / PointRCNN and car "
+        "/ "
         "pedestrian; MOT17-05 across YOLOX and FRCNN; each MOT15 sequence). Every grid point runs "
         "once on every sequence (a continue threshold above the start threshold is left out). "
         "For each fold the grid point is chosen on the *other* videos by least worst regret: on "
@@ -857,7 +916,8 @@ def _parameters_crossval(summary: RunSummary) -> list[str]:
         out.append("|---|---:|---:|---:|---:|---:|")
         for bench in cv.benchmarks:
             out.append(
-                f"| {bench} | {_hmi(cv.heldout.get(bench))} | {_hmi(cv.mean_heldout.get(bench))} | "
+                f"| {bench} | {_hmi(cv.heldout.get(bench))} | {_hmi(cv.mean_heldout.get(bench))} "
+                "| "
                 f"{_hmi(cv.insample.get(bench))} | {_hmi(cv.preset_metrics.get(bench))} | "
                 f"{_signed(cv.gap(bench))} |"
             )
@@ -941,7 +1001,8 @@ def write_json(summary: RunSummary, path: str | Path) -> Path:
 def write_report(
     summary: RunSummary, markdown_path: str | Path, json_path: str | Path | None = None
 ) -> tuple[Path, Path]:
-    """Write the markdown and the JSON beside it (default ``benchmarks.json`` in the same folder)."""
+    """Write the markdown and the JSON beside it (default ``benchmarks.json`` in the same
+    folder)."""
     md = Path(markdown_path)
     js = write_json(
         summary, json_path if json_path is not None else md.with_name("benchmarks.json")

@@ -125,7 +125,7 @@ def ours_score_threshold(config: TrackerConfig) -> float:
     return float(config.start_confidence)
 
 
-# -- results ---------------------------------------------------------------------------------------
+# -- results --------------------------------------------------------------------------------------
 @dataclass
 class TrackerRun:
     """One tracker (in one variant) on one benchmark.
@@ -298,7 +298,7 @@ class RunSummary:
         }
 
 
-# -- machine ---------------------------------------------------------------------------------------
+# -- machine --------------------------------------------------------------------------------------
 def _cpu_model() -> str:
     try:
         with open("/proc/cpuinfo", encoding="utf-8") as fh:
@@ -324,7 +324,7 @@ def machine_info() -> dict[str, Any]:
     import os
     from importlib import metadata
 
-    versions = {}
+    versions: dict[str, str | None] = {}
     for pkg in (
         "sensemaking",
         "numpy",
@@ -349,7 +349,7 @@ def machine_info() -> dict[str, Any]:
     }
 
 
-# -- tracking ----------------------------------------------------------------------------------------
+# -- tracking -------------------------------------------------------------------------------------
 def parse_trackers(names: Iterable[str] | str | None) -> list[str]:
     """Tracker keys in report order; accepts a comma-separated string. Raises InputError."""
     if names is None:
@@ -462,7 +462,7 @@ def _label(name: str, variant: str) -> str:
     return name if variant in ("default", "visible") else f"{name}-{variant}"
 
 
-# -- evaluation ------------------------------------------------------------------------------------
+# -- evaluation -----------------------------------------------------------------------------------
 def _rules_name(spec: BenchmarkSpec) -> str:
     return f"kitti-{spec.class_name}" if spec.rules == "kitti" else spec.rules
 
@@ -530,7 +530,7 @@ def _metrics_dict(m: Any, fields: SequenceABC[str] | None = None) -> dict[str, f
     return out
 
 
-# -- the run ---------------------------------------------------------------------------------------
+# -- the run --------------------------------------------------------------------------------------
 def run_benchmark(
     bench: Benchmark,
     trackers: SequenceABC[str],
@@ -558,7 +558,8 @@ def run_benchmark(
             result.ours_config = _config_json(cfg)
         except Exception as exc:  # the tracker may not be importable yet: peers still run
             log.warning(
-                "%s: our tracker's configuration is unavailable (%s); peers run without pre-filter",
+                "%s: our tracker's configuration is unavailable (%s); "
+                "peers run without pre-filter",
                 spec.name,
                 exc,
             )
@@ -574,7 +575,8 @@ def run_benchmark(
     failed: dict[tuple[str, str], TrackerRun] = {}
     for i, seq in enumerate(bench.sequences, 1):
         say(
-            f"[{spec.name}] sequence {seq.name} ({i}/{len(bench.sequences)}): {len(passes)} tracking passes"
+            f"[{spec.name}] sequence {seq.name} ({i}/{len(bench.sequences)}): "
+            f"{len(passes)} tracking passes"
         )
         for name, pass_name, min_score in passes:
             key = (name, pass_name)
@@ -593,6 +595,7 @@ def run_benchmark(
                     tracks = got if tracks is None else tracks
                     if seconds is None or took.sum() < seconds.sum():
                         seconds = took
+                assert tracks is not None and seconds is not None  # at least one run
                 times[key].append(seconds)
                 log.info(
                     "%s: %s (%s) %s: %d frames, %.2f ms/frame, slowest %.0f ms",
@@ -613,6 +616,7 @@ def run_benchmark(
                             min_score=min_score,
                             result_dir=output_dir / spec.name / _label(name, variant),
                         )
+                    assert run_.result_dir is not None  # set when the run was made
                     _write_results(spec, run_.result_dir / f"{seq.name}.txt", out)
             except MissingExtraError:
                 raise
@@ -625,6 +629,7 @@ def run_benchmark(
                 per_frame = np.concatenate(times[key]) if times[key] else np.zeros(0)
                 for run_ in runs[key].values():
                     run_.set_times(per_frame)
+                    assert run_.result_dir is not None  # set when the run was made
                     scores = _evaluate(bench, run_.result_dir, gt, modes)
                     run_.metrics, run_.per_sequence = scores["trackeval"]
                     if "kitti_legacy" in scores:
@@ -643,7 +648,8 @@ def run_benchmark(
             say(
                 f"[{spec.name}] {_label(name, variant):<20} {run_.frames:>6} frames "
                 f"{run_.ms_per_frame:8.2f} ms/frame  HOTA {100 * m.get('HOTA', np.nan):5.1f}  "
-                f"MOTA {100 * m.get('MOTA', np.nan):5.1f}  IDF1 {100 * m.get('IDF1', np.nan):5.1f}  "
+                f"MOTA {100 * m.get('MOTA', np.nan):5.1f}  "
+                f"IDF1 {100 * m.get('IDF1', np.nan):5.1f}  "
                 f"IDSW {m.get('IDSW', np.nan):.0f}"
             )
     return result

@@ -48,7 +48,8 @@ class _Parser(argparse.ArgumentParser):
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="sensemaking",
-        description="Online abductive visual sensemaking: tracking with explanations (ASP/clingo).",
+        description="Online abductive visual sensemaking: "
+        "tracking with explanations (ASP/clingo).",
     )
     parser.add_argument("--version", action="version", version=f"sensemaking {__version__}")
     parser.add_argument(

@@ -24,16 +24,19 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "ask",
         help="ask a question about a scene: a named question or ASP rules with #show",
-        description="Answer a question about a scene written by `sensemaking track --scene PATH`.\n\n"
+        description="Answer a question about a scene written by "
+        "`sensemaking track --scene PATH`.\n\n"
         "QUERY is a named question:\n" + named + "\n\n"
-        "or ASP rules over the scene's predicates (track/2, box/6, state/3, occurs_at/2, holds_at/3, "
-        "holds_during/4, in_corridor/2, ra/5, motion/3, ...; see reasoning/encodings/scene.lp), e.g.\n"
+        "or ASP rules over the scene's predicates (track/2, box/6, state/3, occurs_at/2, "
+        "holds_at/3, holds_during/4, in_corridor/2, ra/5, motion/3, ...; "
+        "see reasoning/encodings/scene.lp), e.g.\n"
         "  sensemaking ask scene.json 'q(T) :- occurs_at(hides_behind(T,_),_). #show q/1.'\n"
-        "Without #show the predicates the rules define are shown; a query of constraints only answers "
-        "yes or no. A file name ending in .lp is read as the query.\n\n"
-        "Queries may not use #include, #script, #external or other directives that reach outside the "
-        "scene (allowed: rules, constraints, aggregates, #show, #minimize/#maximize); they run under "
-        "--timeout, --max-atoms and --max-memory, and answer sets are printed as they are found.",
+        "Without #show the predicates the rules define are shown; a query of constraints only "
+        "answers yes or no. A file name ending in .lp is read as the query.\n\n"
+        "Queries may not use #include, #script, #external or other directives that reach "
+        "outside the scene (allowed: rules, constraints, aggregates, #show, #minimize/#maximize); "
+        "they run under --timeout, --max-atoms and --max-memory, and answer sets are printed as "
+        "they are found.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     # one list: argparse cannot tell an optional SCENE from the question's first word when options

@@ -1,4 +1,5 @@
-"""``sensemaking benchmark``: our tracker and its peers on KITTI / MOT17 / MOT15, one run, one report."""
+"""``sensemaking benchmark``: our tracker and its peers on KITTI / MOT17 / MOT15, one run, one
+report."""
 
 from __future__ import annotations
 
@@ -17,10 +18,12 @@ DEFAULT_REPEAT = 3
 def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "benchmark",
-        help="run ours and SORT / ByteTrack / OC-SORT on the benchmark data and write docs/BENCHMARKS.md",
-        description="Track every benchmark found in the data folder with our tracker (with and without "
-        "abduction) and the peers from the 'trackers' package, evaluate with the dataset's rules, and write "
-        "a markdown report with a JSON twin. Needs the 'benchmark' extra for the peers.",
+        help="run ours and SORT / ByteTrack / OC-SORT on the benchmark data and write "
+        "docs/BENCHMARKS.md",
+        description="Track every benchmark found in the data folder with our tracker (with and "
+        "without abduction) and the peers from the 'trackers' package, evaluate with the "
+        "dataset's rules, and write a markdown report with a JSON twin. "
+        "Needs the 'benchmark' extra for the peers.",
     )
     p.add_argument(
         "--data",
@@ -73,7 +76,8 @@ def register(subparsers: Any) -> None:
         type=int,
         default=DEFAULT_REPEAT,
         help="runs of every tracker on every sequence; the per-frame times of the fastest count "
-        f"(default {DEFAULT_REPEAT}: a busy machine's slow spells inflate single runs; results are the same)",
+        f"(default {DEFAULT_REPEAT}: a busy machine's slow spells inflate single runs; "
+        "results are the same)",
     )
     p.add_argument(
         "--no-crossval",

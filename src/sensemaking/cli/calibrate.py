@@ -48,7 +48,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--seqinfo",
         type=Path,
         default=None,
-        help="seqinfo.ini (MOT) or seqinfo.csv (KITTI); by default looked up beside the detections",
+        help="seqinfo.ini (MOT) or seqinfo.csv (KITTI); "
+        "by default looked up beside the detections",
     )
     p.add_argument("--fps", type=float, default=None, help="frame rate when no seqinfo says it")
     p.add_argument("--output", required=True, type=Path, help="the parameter file to write (JSON)")
@@ -85,6 +86,7 @@ def _sequence(args: argparse.Namespace, gt_path: Path, det_path: Path):
         cid = class_id(args.class_name or "pedestrian")
         gt = read_mot(gt_path, kind="gt", default_class=cid)
         first = 1
+    assert gt.class_id is not None and gt.tracker_id is not None  # set by __post_init__
     target = (gt.class_id == cid) & (gt.tracker_id >= 0)
     if fmt == "mot" and "consider" in gt.data:
         target &= np.asarray(gt.data["consider"]) != 0
@@ -98,7 +100,11 @@ def _sequence(args: argparse.Namespace, gt_path: Path, det_path: Path):
     if fps is None:
         fps = settings.preset_config(fmt).fps
     settings.check_value("fps", fps)
-    annotated = [int(x.frame.max()) for x in (gt, ignore, dets) if len(x)]
+    annotated: list[int] = []
+    for x in (gt, ignore, dets):
+        if len(x):
+            assert x.frame is not None  # set by __post_init__
+            annotated.append(int(x.frame.max()))
     last_gt = max(annotated) if annotated else first
     n_frames = int(length) if length else last_gt - first + 1
     if last_gt > first + n_frames - 1:
@@ -133,7 +139,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--output would overwrite an input file", args.output)
     if args.output.is_dir():
         raise InputError("--output is a folder", args.output)
-    sequences = [_sequence(args, g, d) for g, d in zip(args.gt, args.detections)]
+    sequences = [_sequence(args, g, d) for g, d in zip(args.gt, args.detections, strict=True)]
     if all(len(s.gt) == 0 for s in sequences):  # one video without the class is fine, all is not
         raise InputError(f"no ground truth of class {args.class_name or 'pedestrian'}", args.gt[0])
     result = calibrate(sequences)

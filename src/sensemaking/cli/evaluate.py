@@ -31,15 +31,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="score tracker output against ground truth (HOTA, CLEAR MOT, IDF1), or judge "
         "its explanations (--explanations)",
         description=(
-            "Score tracker results against ground truth with TrackEval's metrics and dataset rules "
-            "(MOTChallenge, KITTI). --gt and --results are files (one sequence) or folders: "
-            "MOTChallenge <gt>/<seq>/gt/gt.txt + <results>/<seq>.txt; KITTI <gt>/label_02/<seq>.txt "
-            "(+ seqinfo.csv) + <results>/<seq>.txt. Prints a table (percentages); --json writes "
+            "Score tracker results against ground truth with TrackEval's metrics and dataset "
+            "rules (MOTChallenge, KITTI). --gt and --results are files (one sequence) or folders: "
+            "MOTChallenge <gt>/<seq>/gt/gt.txt + <results>/<seq>.txt; "
+            "KITTI <gt>/label_02/<seq>.txt (+ seqinfo.csv) + <results>/<seq>.txt. "
+            "Prints a table (percentages); --json writes "
             "every field as fractions in [0, 1]."
         ),
         epilog=(
-            "ID switches: 'trackeval' counts a switch whenever a gt object's track id changes, even "
-            "across frames where it was not tracked; 'kitti_legacy' follows the old KITTI devkit, "
+            "ID switches: 'trackeval' counts a switch whenever a gt object's track id changes, "
+            "even across frames where it was not tracked; "
+            "'kitti_legacy' follows the old KITTI devkit, "
             "which counts one only when the object was tracked in its previous labelled frame. "
             "The table and the JSON name the mode used."
         ),
@@ -125,16 +127,16 @@ def _sniff_gt(gt: Path) -> tuple[str, str | None]:
     if gt.is_dir():
         if (gt / "label_02").is_dir() or gt.name == "label_02":
             return "kitti", None
-        sample = gt / "gt" / "gt.txt"
-        if not sample.is_file():
+        found = [gt / "gt" / "gt.txt"]
+        if not found[0].is_file():
             found = sorted(gt.glob("*/gt/gt.txt"))
-            sample = found[0] if found else None
-        if sample is None:
+        if not found:
             if any(gt.glob("*.txt")):
                 return "kitti", None
             raise InputError(
                 "no ground truth found: expected <seq>/gt/gt.txt or label_02/<seq>.txt inside", gt
             )
+        sample = found[0]
     else:
         sample = gt
     try:
@@ -360,8 +362,10 @@ def _explanations(
             )
         else:
             gt = GroundTruth.from_mot(s.gt, image_size=size, fps=fps, n_frames=s.n_frames)
-        evs = _events(events[name])  # type: ignore[arg-type]
-        ws = _warnings(warnings[name]) if warnings[name] is not None else []
+        events_path, warnings_path = events[name], warnings[name]
+        assert events_path is not None  # --events is required above
+        evs = _events(events_path)
+        ws = _warnings(warnings_path) if warnings_path is not None else []
         results.append(evaluate_explanations(gt, s.tracks, evs, ws, name=name))
     label = benchmark + (f"/{','.join(classes)}" if classes else "")
     print(explanation_table({label: results}), end="")

@@ -13,8 +13,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "explain",
         help="tell each track's story: appearances, occlusions, missing detections, endings",
-        description="Explain a scene written by `sensemaking track --scene PATH`: one paragraph per "
-        "track, in order of appearance, built from the abduced events.",
+        description="Explain a scene written by `sensemaking track --scene PATH`: "
+        "one paragraph per track, in order of appearance, built from the abduced events.",
     )
     p.add_argument(
         "scene", type=Path, nargs="?", help="scene JSON (from `sensemaking track --scene`)"

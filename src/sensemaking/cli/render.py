@@ -14,9 +14,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "render",
         help="draw a scene's tracks, hidden objects, events and warnings onto its frames",
-        description="Draw a scene (from `sensemaking track --scene`) onto the sequence's images, a video, "
-        "or a plain canvas of the image size. The output kind follows the path: .mp4/.mkv/.mov/.avi/.webm "
-        "(ffmpeg), .gif, or a folder (one PNG per frame). Needs the 'viz' extra.",
+        description="Draw a scene (from `sensemaking track --scene`) onto the sequence's images, "
+        "a video, or a plain canvas of the image size. The output kind follows the path: "
+        ".mp4/.mkv/.mov/.avi/.webm (ffmpeg), .gif, or a folder (one PNG per frame). "
+        "Needs the 'viz' extra.",
     )
     p.add_argument("scene", type=Path, help="scene JSON written by `sensemaking track --scene`")
     p.add_argument(
@@ -38,7 +39,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--scale",
         type=float,
         default=None,
-        help="output px per image px (default: fit 640 px wide on a plain canvas, 1280 over images)",
+        help="output px per image px "
+        "(default: fit 640 px wide on a plain canvas, 1280 over images)",
     )
     p.add_argument("--frames", default=None, metavar="A:B", help="only frames A..B (inclusive)")
     p.add_argument(
@@ -57,7 +59,8 @@ def add_warning_options(p: argparse.ArgumentParser) -> None:
         "--warnings",
         type=Path,
         default=None,
-        help="warnings JSON lines from `sensemaking track --warnings` (default: recomputed from the scene)",
+        help="warnings JSON lines from `sensemaking track --warnings` "
+        "(default: recomputed from the scene)",
     )
     w.add_argument("--no-warnings", action="store_true", help="show no warnings")
 

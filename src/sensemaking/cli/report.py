@@ -12,10 +12,12 @@ from sensemaking.errors import InputError
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "report",
-        help="write a self-contained HTML report: timeline, stories, warnings, metrics, key frames",
-        description="Write one HTML file that opens offline: a timeline of every track's states and "
-        "events, each track's story, the warnings, the metrics against ground truth (with --gt) and "
-        "thumbnails of the key frames with the explanation drawn. Needs the 'viz' extra.",
+        help="write a self-contained HTML report: "
+        "timeline, stories, warnings, metrics, key frames",
+        description="Write one HTML file that opens offline: a timeline of every track's states "
+        "and events, each track's story, the warnings, the metrics against ground truth "
+        "(with --gt) and thumbnails of the key frames with the explanation drawn. "
+        "Needs the 'viz' extra.",
     )
     p.add_argument("scene", type=Path, help="scene JSON written by `sensemaking track --scene`")
     p.add_argument("--output", "-o", required=True, type=Path, help="the HTML file to write")

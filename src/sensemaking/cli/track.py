@@ -95,8 +95,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--fps",
         type=float,
         default=None,
-        help=f"frame rate, frames per second in [{MIN_FPS:g}, {MAX_FPS:g}] (default: seqinfo, else 30 MOT / "
-        "10 KITTI)",
+        help=f"frame rate, frames per second in [{MIN_FPS:g}, {MAX_FPS:g}] "
+        "(default: seqinfo, else 30 MOT / 10 KITTI)",
     )
     p.add_argument(
         "--image-size",
@@ -235,10 +235,9 @@ def _sequence_info(
     )
     for c in candidates:
         if c.is_file():
-            infos = read_kitti_seqinfo(c)
-            info = infos.get(det.stem)
-            if info is not None:
-                return check_fps(info.fps, "frame_rate", c), _checked_size(info, c), info.length
+            found = read_kitti_seqinfo(c).get(det.stem)
+            if found is not None:
+                return check_fps(found.fps, "frame_rate", c), _checked_size(found, c), found.length
     if args.seqinfo:
         raise InputError(
             f"sequence {det.stem!r} (the detection file's name) is not in seqinfo", args.seqinfo
@@ -410,7 +409,7 @@ def run(args: argparse.Namespace) -> int:
 
             close_all(sinks, ok=False)
             raise
-        # frames from a file were checked by the reader (same bounds); a detector's are checked here
+        # a file's frames were checked by the reader (same bounds); a detector's are checked here
         pipe = Pipeline(
             tracker,
             recorder,

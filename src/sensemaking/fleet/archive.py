@@ -303,10 +303,11 @@ def _columns(result: SequenceResult, head: dict[str, Any]) -> dict[str, dict[str
             k: np.zeros(0)
             for k in ("frames", "confidence", "state", "occluder", "visibility", "hidden_frames")
         }
-        xyxy, tid, cid, order = np.zeros((0, 4)), np.zeros(0, np.int64), np.zeros(0, np.int64), []
+        xyxy, tid, cid = np.zeros((0, 4)), np.zeros(0, np.int64), np.zeros(0, np.int64)
+        order = np.zeros(0, np.int64)
     states = [s.name.lower() for s in TrackState]
     vis = [v.asp for v in Visibility]
-    track_class = {t.id: t.class_name for t in tracks}
+    track_class: dict[int | str, str] = {t.id: t.class_name for t in tracks}
     cols: dict[str, dict[str, Any]] = {}
     cols["tracks"] = {
         "frame": cat["frames"][order].astype(np.int64),
@@ -458,6 +459,7 @@ def archive_sequence(
         "class": spec.class_name,
         "key": key,
     }
+    fps: float | None
     if result is not None:
         for table, cols in _columns(result, head).items():
             _write(table, cols, staged)
@@ -608,7 +610,9 @@ def load_scene(root: str | Path, dataset: str, sequence: str, key: str | None = 
             )
     events = [
         Event(int(f), str(name), (int(a),) if b is None else (int(a), int(b)))
-        for f, name, a, b in zip(ev["frame"], ev["event"], ev["track_id"], ev["other_id"])
+        for f, name, a, b in zip(
+            ev["frame"], ev["event"], ev["track_id"], ev["other_id"], strict=True
+        )
     ]
     first, last = runs["first_frame"], runs["last_frame"]
     frame_numbers = np.arange(first, last + 1) if first is not None else np.zeros(0, np.int64)
@@ -671,7 +675,9 @@ def compact(root: str | Path) -> int:
     root = Path(root)
     known: set[tuple[str, str, str, int, int]] = set()
     for _, m in segment_members(root):
-        known.update(zip(m["dataset"], m["sequence"], m["key"], m["ino"], m["mtime_ns"]))
+        known.update(
+            zip(m["dataset"], m["sequence"], m["key"], m["ino"], m["mtime_ns"], strict=True)
+        )
     loose = []
     for dataset, sequence, key, folder in published(root):
         ino, mtime = _folder_id(folder)
@@ -680,10 +686,7 @@ def compact(root: str | Path) -> int:
     if not loose:
         return 0
     name = (
-        "seg-"
-        + dt.datetime.now(dt.UTC).strftime("%Y%m%dT%H%M%S%f")
-        + "-"
-        + uuid.uuid4().hex[:6]
+        "seg-" + dt.datetime.now(dt.UTC).strftime("%Y%m%dT%H%M%S%f") + "-" + uuid.uuid4().hex[:6]
     )
     staged = root / STAGING / name
     staged.mkdir(parents=True)
@@ -714,7 +717,7 @@ def compact(root: str | Path) -> int:
     finally:
         for w in writers.values():
             w.close()
-    cols = list(zip(*[row[:5] for row in loose]))
+    cols = list(zip(*[row[:5] for row in loose], strict=True))
     members = pa.table(
         {
             "dataset": list(cols[0]),

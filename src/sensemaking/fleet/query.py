@@ -160,7 +160,10 @@ class QueryResult:
         if fmt == "json":
             return (
                 json.dumps(
-                    [dict(zip(self.columns, (_plain(v) for v in row))) for row in self.rows],
+                    [
+                        dict(zip(self.columns, (_plain(v) for v in row), strict=True))
+                        for row in self.rows
+                    ],
                     indent=1,
                     default=str,
                 )
@@ -177,7 +180,9 @@ class QueryResult:
             raise ValueError(f"unknown format {fmt!r}")
         cells = [self.columns] + [[_cell(v) for v in row] for row in self.rows]
         widths = [max(len(r[i]) for r in cells) for i in range(len(self.columns))]
-        lines = ["  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip() for r in cells]
+        lines = [
+            "  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)).rstrip() for r in cells
+        ]
         lines.insert(1, "  ".join("-" * w for w in widths))
         lines.append(f"({len(self.rows)} row{'s' if len(self.rows) != 1 else ''})")
         return "\n".join(lines) + "\n"
@@ -226,10 +231,11 @@ def connect(root: str | Path) -> Any:
     for dataset, sequence, key, folder in published(root):
         current[(dataset, sequence, key, *_folder_id(folder))] = folder
     segments: list[tuple[Path, list[tuple]]] = []  # (segment, its members replaced since)
-    in_segment = set()
+    in_segment: set[tuple] = set()
     for seg, m in segment_members(root):
-        stale = []
-        for member in zip(m["dataset"], m["sequence"], m["key"], m["ino"], m["mtime_ns"]):
+        stale: list[tuple] = []
+        columns = (m["dataset"], m["sequence"], m["key"], m["ino"], m["mtime_ns"])
+        for member in zip(*columns, strict=True):
             (in_segment.add if member in current else stale.append)(member)
         segments.append((seg, stale))
     loose = [folder for member, folder in current.items() if member not in in_segment]

@@ -137,6 +137,7 @@ def _detections(spec: SequenceSpec):
     if spec.class_name and len(dets):
         dets = dets.with_(class_id=np.full(len(dets), class_id(spec.class_name), dtype=np.int64))
     if spec.logit_scores and len(dets):
+        assert dets.confidence is not None  # set by __post_init__
         dets = dets.with_(confidence=1.0 / (1.0 + np.exp(-dets.confidence)))
     return dets
 
@@ -173,6 +174,7 @@ def _score(spec: SequenceSpec, gt: Any, scene: Scene, n_frames: int) -> dict[str
             )
     tracks = Detections.concatenate(parts) if parts else Detections.empty()
     if len(tracks):
+        assert tracks.frame is not None  # set by __post_init__
         tracks = tracks[np.argsort(tracks.frame, kind="stable")]
         if str(spec.rules).startswith("mot"):
             # MOT rules score one class (their "pedestrian"): the sequence's one class here

@@ -113,7 +113,7 @@ def input_checksums(spec: SequenceSpec) -> dict[str, str]:
     """sha256 (hex) of each input file by role (``det``, ``gt``); a file that cannot be read
     hashes as ``unreadable: <error>`` (its sequence then fails when run, with the reason)."""
     out: dict[str, str] = {}
-    for role, path in zip(("det", "gt"), spec.inputs):
+    for role, path in zip(("det", "gt"), spec.inputs, strict=False):  # gt may be absent
         h = hashlib.sha256()
         try:
             with open(path, "rb") as fh:
@@ -298,6 +298,7 @@ def find_sequences(roots: Iterable[str | Path]) -> tuple[list[SequenceSpec], lis
     """
     specs: list[SequenceSpec] = []
     skipped: list[str] = []
+    why: list[str]
     for root in roots:
         r = Path(root)
         if r.is_file():

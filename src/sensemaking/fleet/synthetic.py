@@ -48,8 +48,10 @@ def write_synthetic_fleet(
         )
         name = f"{i:06d}"
         det = scene.detections
+        assert det.frame is not None  # set by __post_init__
         write_mot(root / "det" / f"{name}.txt", det.with_(frame=det.frame + 1))
         gt = scene.ground_truth
+        assert gt.frame is not None  # set by __post_init__
         write_mot(
             root / "gt" / f"{name}.txt", gt.with_(frame=gt.frame + 1, confidence=np.ones(len(gt)))
         )

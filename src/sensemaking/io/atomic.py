@@ -79,7 +79,8 @@ class PartFile:
 def atomic_write(
     path: str | os.PathLike[str], mode: str = "w", encoding: str | None = "utf-8"
 ) -> Iterator[IO]:
-    """Open a temporary file beside ``path``; on success rename it over ``path``, on error delete it."""
+    """Open a temporary file beside ``path``; on success rename it over ``path``, on error
+    delete it."""
     part = PartFile(path, mode, encoding)
     try:
         yield part.handle

@@ -1,4 +1,5 @@
-"""KITTI tracking text files: ``seqinfo.csv``, labels / tracking results, RRC and PointRCNN detections.
+"""KITTI tracking text files: ``seqinfo.csv``, labels / tracking results, RRC and PointRCNN
+detections.
 
 Frames are 0-based; boxes are corners ``x1 y1 x2 y2`` in pixels, kept as they are.
 """
@@ -151,6 +152,7 @@ def read_kitti_labels(path: PathLike) -> Detections:
     """
     table = parse_table(path, sep=None, names=KITTI_LABEL_LAYOUTS, text_cols=(2,))
     dets = kitti_labels_from_table(table)
+    assert dets.tracker_id is not None and dets.frame is not None  # set by __post_init__
     return dets[np.lexsort((dets.tracker_id, dets.frame))]
 
 
@@ -179,7 +181,8 @@ def kitti_labels_from_table(table: Table) -> Detections:
         i = int(np.argmax(lookup[inverse] < 0))
         table.fail(
             i,
-            f"unknown object type {table.texts[2][i]!r} (KITTI types: {', '.join(KITTI_NAMES.values())})",
+            f"unknown object type {table.texts[2][i]!r} "
+            f"(KITTI types: {', '.join(KITTI_NAMES.values())})",
         )
     v = table.values
     table.positive_size(v[:, 8] - v[:, 6], v[:, 9] - v[:, 7])
@@ -211,7 +214,8 @@ def write_kitti(path: PathLike, tracks: Detections) -> None:
 
     Uses ``data`` columns ``truncated``, ``occluded``, ``alpha``, ``dimensions``, ``location``,
     ``rotation_y`` when present, else KITTI's placeholders (-1, -1, -10, -1 -1 -1,
-    -1000 -1000 -1000, -10). Every class needs a KITTI type name (:data:`~sensemaking.classes.KITTI_NAMES`).
+    -1000 -1000 -1000, -10). Every class needs a KITTI type name
+    (:data:`~sensemaking.classes.KITTI_NAMES`).
     Lossless: :func:`read_kitti_labels` gives back the same arrays bit for bit.
     """
     text = format_kitti(tracks, path)
@@ -221,8 +225,11 @@ def write_kitti(path: PathLike, tracks: Detections) -> None:
 
 def format_kitti(tracks: Detections, path: PathLike | None = None) -> str:
     """The lines :func:`write_kitti` writes (sorted by frame, stable); ``path`` names the file in
-    errors. Frame by frame, the pieces of a frame-ordered run join to the same text as the whole."""
+    errors. Frame by frame, the pieces of a frame-ordered run join to the same text as the
+    whole."""
     n = len(tracks)
+    assert tracks.frame is not None and tracks.tracker_id is not None  # set by __post_init__
+    assert tracks.class_id is not None and tracks.confidence is not None
     names = {}
     for cid in np.unique(tracks.class_id).tolist():
         if cid not in KITTI_NAMES:
@@ -264,6 +271,7 @@ def format_kitti(tracks: Detections, path: PathLike | None = None) -> str:
         *column("location", -1000.0, 3),
         *column("rotation_y", -10.0),
         nums(tracks.confidence[order]),
+        strict=True,
     )
     return "".join(" ".join(fields) + "\n" for fields in cols)
 
@@ -275,10 +283,10 @@ def read_kitti_detections(path: PathLike, class_name: str | None = None) -> Dete
     folder's name (``.../rrc/car/0000.txt`` -> car). PointRCNN
     ``frame,type,x1,y1,x2,y2,score,h,w,l,x,y,z,rot_y,alpha``: class from ``type`` (1 pedestrian,
     2 car, 3 cyclist; ``class_name`` is not used), the score (a logit) mapped through the
-    sigmoid to a probability as ``confidence``, ``data`` ``"dimensions"`` (N, 3), ``"location"`` (N, 3), ``"rotation_y"``
-    (N,), ``"alpha"`` (N,) as in :func:`read_kitti_labels`. Boxes of zero width or height are
-    dropped with a warning. An empty file (no detections in the whole sequence) gives empty
-    Detections.
+    sigmoid to a probability as ``confidence``, ``data`` ``"dimensions"`` (N, 3),
+    ``"location"`` (N, 3), ``"rotation_y"`` (N,), ``"alpha"`` (N,) as in
+    :func:`read_kitti_labels`. Boxes of zero width or height are dropped with a warning. An
+    empty file (no detections in the whole sequence) gives empty Detections.
     """
     return kitti_detections_from_table(
         parse_table(path, sep=",", names=KITTI_DETECTION_LAYOUTS), class_name
@@ -353,7 +361,7 @@ def _rrc_class(path: PathLike, name: str | None) -> int:
         return class_id(folder)
     except KeyError:
         raise InputError(
-            f"cannot tell the class of these RRC detections: folder {folder!r} is not a class name; "
-            "pass class_name (e.g. --class car)",
+            f"cannot tell the class of these RRC detections: folder {folder!r} is not a class "
+            "name; pass class_name (e.g. --class car)",
             path,
         ) from None

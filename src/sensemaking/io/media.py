@@ -29,7 +29,8 @@ VIDEO_SUFFIXES = frozenset({".mp4", ".m4v", ".mov", ".mkv", ".avi", ".webm"})
 
 
 def list_images(folder: str | os.PathLike[str]) -> list[Path]:
-    """Image files of a folder (by suffix), sorted by name. Raises InputError when there are none."""
+    """Image files of a folder (by suffix), sorted by name. Raises InputError when there are
+    none."""
     root = Path(folder)
     if not root.is_dir():
         raise InputError("no such image folder", root)
@@ -59,7 +60,8 @@ class ImageFolder:
             self.size: tuple[int, int] = im.size
 
     def get(self, frame: int, size: tuple[int, int] | None = None) -> Any:
-        """The RGB Pillow image of ``frame`` resized to ``size`` (None when there is no such file)."""
+        """The RGB Pillow image of ``frame`` resized to ``size`` (None when there is no such
+        file)."""
         path = self.index.get(int(frame))
         if path is None:
             return None
@@ -80,11 +82,12 @@ class VideoFrames:
         self.first_frame = int(first_frame)
         self._iter = iter_video_frames(path)
         try:
-            self._next = next(self._iter)
+            self._next: np.ndarray | None = next(self._iter)
         except StopIteration:
             raise InputError("the video has no frames", path) from None
         self._pos = self.first_frame
-        self.size = (int(self._next.shape[1]), int(self._next.shape[0]))
+        first: np.ndarray = self._next
+        self.size = (int(first.shape[1]), int(first.shape[0]))
 
     def get(self, frame: int, size: tuple[int, int] | None = None) -> Any:
         """The RGB image of ``frame`` (frames must be asked in increasing order), or None."""

@@ -72,7 +72,8 @@ class SequenceInfo:
 
 
 def read_seqinfo(path: PathLike) -> SequenceInfo:
-    """Read a MOTChallenge ``seqinfo.ini`` (``path`` is the file or the sequence folder holding it).
+    """Read a MOTChallenge ``seqinfo.ini`` (``path`` is the file or the sequence folder holding
+    it).
 
     Needs ``seqLength``, ``imWidth``, ``imHeight`` and ``frameRate`` in section ``[Sequence]``;
     ``name`` defaults to the folder name.
@@ -152,10 +153,10 @@ def mot_from_table(
     if n == 0:
         if kind == "det":
             raise InputError("no detections in file", path)
-        data = (
+        no_data = (
             {"consider": np.zeros(0, np.int64), "visibility": np.zeros(0)} if kind == "gt" else {}
         )
-        return Detections(xyxy=np.zeros((0, 4)), data=data)
+        return Detections(xyxy=np.zeros((0, 4)), data=no_data)
 
     frames = table.integers(
         0,
@@ -205,6 +206,7 @@ def mot_from_table(
     if not keep.all():
         dets = dets[keep]
     if kind == "gt":
+        assert dets.tracker_id is not None and dets.frame is not None  # set by __post_init__
         dets = dets[np.lexsort((dets.tracker_id, dets.frame))]
     return dets
 
@@ -228,6 +230,8 @@ def format_mot(tracks: Detections) -> str:
         raise ValueError("cannot write boxes with non-finite coordinates")
     if len(tracks) and not ((xyxy[:, 2] > xyxy[:, 0]) & (xyxy[:, 3] > xyxy[:, 1])).all():
         raise ValueError("cannot write boxes of non-positive width or height")
+    assert tracks.frame is not None and tracks.tracker_id is not None  # set by __post_init__
+    assert tracks.confidence is not None
     order = frame_order(tracks.frame)
     xyxy = xyxy[order]
     x1, y1 = xyxy[:, 0], xyxy[:, 1]
@@ -239,6 +243,7 @@ def format_mot(tracks: Detections) -> str:
         nums(_span(x1, xyxy[:, 2])),
         nums(_span(y1, xyxy[:, 3])),
         nums(tracks.confidence[order]),
+        strict=True,
     )
     return "".join(f"{f},{i},{x},{y},{w},{h},{c},-1,-1,-1\n" for f, i, x, y, w, h, c in cols)
 

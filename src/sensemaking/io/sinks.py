@@ -34,6 +34,9 @@ from sensemaking.scene import SCENE_FORMAT, SCENE_VERSION, Track, track_json
 
 __all__ = ["Sink", "TracksSink", "EventsSink", "WarningsSink", "SceneSink", "check_output_paths"]
 
+#: an event as the scene file orders it: (frame, name, args)
+_EventKey = tuple[int, str, tuple[int | str, ...]]
+
 PathLike = str | os.PathLike[str]
 
 
@@ -121,6 +124,7 @@ class TracksSink:
             self._batch, self._batch_rows = [], 0
             self._file.handle.write(self._format(tracks))
             self.boxes += len(tracks)
+            assert tracks.tracker_id is not None  # set by __post_init__
             self.ids.update(np.unique(tracks.tracker_id).tolist())
 
     def skip(self, first: int, last: int) -> None:
@@ -238,8 +242,8 @@ class SceneSink:
         self._tracks: IO[bytes] = tempfile.TemporaryFile(dir=folder)
         self._events: IO[bytes] = tempfile.TemporaryFile(dir=folder)
         self.n_events = 0
-        self._pending: list[tuple[int, str, tuple[int, ...]]] = []  # a heap of events to write
-        self._last_event: tuple[int, str, tuple[int, ...]] | None = None
+        self._pending: list[_EventKey] = []  # a heap of events to write
+        self._last_event: _EventKey | None = None
         self._sorted = True
 
     def _add_frames(self, first: int, last: int) -> None:
@@ -259,6 +263,8 @@ class SceneSink:
         tr = result.tracks
         n = len(tr)
         if n:
+            assert tr.tracker_id is not None and tr.class_id is not None  # set by __post_init__
+            assert tr.confidence is not None
             d = tr.data
             self._batch.append(
                 (
@@ -287,7 +293,7 @@ class SceneSink:
         last = self._runs[-1][1] if self._runs else None
         batch, self._batch, self._batch_frames = self._batch, [], 0
         if batch:
-            cols = [np.concatenate(c) for c in zip(*batch)]
+            cols = [np.concatenate(c) for c in zip(*batch, strict=True)]
             frame, tid = cols[0], cols[1]
             order = np.lexsort((frame, tid))
             cuts = np.flatnonzero(np.diff(tid[order])) + 1
@@ -419,7 +425,8 @@ class SceneSink:
 
 
 def close_all(sinks: Iterable[Sink], *, ok: bool, interrupted: bool = False) -> None:
-    """``finish`` every sink (``ok``) or ``abort`` every one; each is tried even if another fails."""
+    """``finish`` every sink (``ok``) or ``abort`` every one; each is tried even if another
+    fails."""
     error: BaseException | None = None
     for sink in sinks:
         try:

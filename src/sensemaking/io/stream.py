@@ -55,11 +55,10 @@ def _layout(path: PathLike, fmt: Format) -> tuple[str, dict, tuple[int, ...]]:
     if fmt != "kitti":
         raise ValueError(f"unknown format {fmt!r}; expected 'mot' or 'kitti'")
     with reading(path) as p, p.open(encoding="utf-8-sig") as handle:
-        for number, line in enumerate(handle, start=1):
-            if line.strip():
-                break
-        else:
-            return "kitti-det", KITTI_DETECTION_LAYOUTS, ()
+        first = next(((i, s) for i, s in enumerate(handle, start=1) if s.strip()), None)
+    if first is None:
+        return "kitti-det", KITTI_DETECTION_LAYOUTS, ()
+    number, line = first
     line = line.strip()
     if "," in line:
         n = line.count(",") + 1
@@ -140,7 +139,8 @@ def iter_detection_frames(
         if previous is not None and frames_col[0] < previous:
             table.fail(
                 0,
-                f"frame {frames_col[0]} comes after frame {previous}: lines must be sorted by frame",
+                f"frame {frames_col[0]} comes after frame {previous}: "
+                "lines must be sorted by frame",
             )
         over = frames_col > limit
         if over.any():
@@ -158,6 +158,7 @@ def iter_detection_frames(
             dets = kitti_detections_from_table(table, class_name, logger=None)
         else:
             dets = kitti_labels_from_table(table)
+        assert dets.frame is not None and dets.source_row is not None  # set by __post_init__
         if len(dets) < len(table):
             kept = np.isin(table.rows, dets.source_row)
             dropped += int((~kept).sum())
@@ -170,6 +171,7 @@ def iter_detection_frames(
         if not parts:
             continue  # every box of the chunk dropped: a pending frame may still go on
         if pending is not None:
+            assert pending.frame is not None  # set by __post_init__
             if parts[0][0] == int(pending.frame[0]):
                 parts[0] = (parts[0][0], Detections.concatenate([pending, parts[0][1]]))
             else:
@@ -185,6 +187,7 @@ def iter_detection_frames(
     if pending is not None:
         n_frames += 1
         n_dets += len(pending)
+        assert pending.frame is not None  # set by __post_init__
         last = int(pending.frame[0])
         yield last, _ordered(pending, kind)
     if dropped:
@@ -199,9 +202,11 @@ def iter_detection_frames(
 
 
 def _split_frames(dets: Detections) -> list[tuple[int, Detections]]:
-    """``(frame, rows of that frame)`` of frame-sorted, validated Detections (slices, not copies)."""
+    """``(frame, rows of that frame)`` of frame-sorted, validated Detections (slices, not
+    copies)."""
     if len(dets) == 0:
         return []
+    assert dets.frame is not None  # set by __post_init__
     cuts = np.flatnonzero(np.diff(dets.frame)) + 1
     starts = [0, *cuts.tolist()]
     ends = [*cuts.tolist(), len(dets)]
@@ -210,11 +215,11 @@ def _split_frames(dets: Detections) -> list[tuple[int, Detections]]:
         (
             int(dets.frame[a]),
             Detections.trusted(
-                *(getattr(dets, c)[a:b] for c in cols),
+                **{c: getattr(dets, c)[a:b] for c in cols},
                 data={k: v[a:b] for k, v in dets.data.items()},
             ),
         )
-        for a, b in zip(starts, ends)
+        for a, b in zip(starts, ends, strict=True)
     ]
 
 
@@ -222,6 +227,7 @@ def _ordered(dets: Detections, kind: str) -> Detections:
     """A frame of a label file in (frame, id) order, as :func:`read_kitti_labels` gives it."""
     if kind != "kitti-labels" or len(dets) < 2:
         return dets
+    assert dets.tracker_id is not None  # set by __post_init__
     return dets[np.argsort(dets.tracker_id, kind="stable")]
 
 

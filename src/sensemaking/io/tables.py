@@ -316,7 +316,8 @@ def parse_slow(
 
 
 def num(x: float) -> str:
-    """Shortest text that parses back to exactly ``x`` (``repr``), ``.0`` dropped for whole numbers."""
+    """Shortest text that parses back to exactly ``x`` (``repr``), ``.0`` dropped for whole
+    numbers."""
     r = repr(float(x))
     return r[:-2] if r.endswith(".0") else r
 
