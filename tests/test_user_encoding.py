@@ -109,15 +109,22 @@ def test_track_cli_reports_user_events_and_situations(tmp_path):
             rows.append(f"{f + 1},-1,{x1},{y1},{x2 - x1},{y2 - y1},{c},-1,-1,-1")
     det.write_text("\n".join(rows) + "\n")
     rules = tmp_path / "stops.lp"
-    rules.write_text(STOPS + "\n")
+    rules.write_text(STOPS + "\noccurs(moving(T,fast)) :- track(T), speed(T,S), S > 100.\n")
     situations = tmp_path / "seen.lp"
     situations.write_text("warn(seen,(T,)) :- now(N), track(T,_), state(T,N,visible).\n")
     out, events, warnings = tmp_path / "out.txt", tmp_path / "ev.jsonl", tmp_path / "w.jsonl"
+    scene = tmp_path / "scene.json"
     code = main(["-q", "track", "--detections", str(det), "--format", "mot", "--output", str(out),
                  "--events", str(events), "--warnings", str(warnings), "--fps", "10",
+                 "--scene", str(scene),
                  "--image-size", "1000x500", "--rules", str(rules), "--situations", str(situations)])
     assert code == 0
     names = [json.loads(line)["event"] for line in events.read_text().splitlines()]
     assert "stops" in names and "starts" in names
+    # an event with a constant argument, in the events file and in the scene
+    assert "moving" in names
+    scene_events = json.loads(scene.read_text())["events"]
+    assert any(e["event"] == "moving" and e["args"][1] == "fast" for e in scene_events)
+    assert main(["-q", "explain", str(scene)]) == 0  # the scene with such events loads
     kinds = {json.loads(line)["situation"] for line in warnings.read_text().splitlines()}
     assert "SEEN" in kinds

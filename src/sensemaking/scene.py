@@ -488,7 +488,8 @@ class Scene:
                 raise bad(f"events[{i}]: event name {ev.name!r} must be a lower-case identifier")
             if frames.size and not frames[0] <= ev.frame <= frames[-1]:
                 raise bad(f"events[{i}]: frame {ev.frame} outside the scene's frames")
-            missing = [a for a in ev.args if a not in tracks]
+            # integers name tracks; constants (events of a user's rules) stand for themselves
+            missing = [a for a in ev.args if not isinstance(a, str) and a not in tracks]
             if missing:
                 raise bad(
                     f"events[{i}]: {ev.name} names track {missing[0]}, which is not in the scene"

@@ -29,13 +29,14 @@ from sensemaking.errors import InputError
 from sensemaking.io.atomic import PartFile
 from sensemaking.io.kitti import format_kitti
 from sensemaking.io.mot import format_mot
-from sensemaking.results import FrameResult
+from sensemaking.results import Event, FrameResult
 from sensemaking.scene import SCENE_FORMAT, SCENE_VERSION, Track, track_json
 
 __all__ = ["Sink", "TracksSink", "EventsSink", "WarningsSink", "SceneSink", "check_output_paths"]
 
 #: an event as the scene file orders it: (frame, name, args)
-_EventKey = tuple[int, str, tuple[int | str, ...]]
+#: an event's order (``Event.sort_key``: ids before constants) and the event
+_EventKey = tuple[tuple[int, str, tuple[tuple[int, int, str], ...]], Event]
 
 PathLike = str | os.PathLike[str]
 
@@ -283,7 +284,7 @@ class SceneSink:
         if self._batch_frames >= self.BATCH_FRAMES:
             self._group()
         for e in result.events:
-            heapq.heappush(self._pending, (e.frame, e.name, e.args))
+            heapq.heappush(self._pending, (e.sort_key(), e))
         self.n_events += len(result.events)
         self._flush_events(f - self.EVENT_LAG)
 
@@ -312,17 +313,12 @@ class SceneSink:
     def _flush_events(self, before: float) -> None:
         pending = self._pending
         lines = []
-        while pending and pending[0][0] < before:
+        while pending and pending[0][1].frame < before:
             key = heapq.heappop(pending)
-            if self._last_event is not None and key < self._last_event:
+            if self._last_event is not None and key[0] < self._last_event[0]:
                 self._sorted = False
             self._last_event = key
-            lines.append(
-                json.dumps(
-                    {"frame": key[0], "event": key[1], "args": list(key[2])}, separators=(",", ":")
-                )
-                + "\n"
-            )
+            lines.append(json.dumps(key[1].to_json(), separators=(",", ":")) + "\n")
         if lines:
             self._events.write("".join(lines).encode())
 
@@ -407,7 +403,7 @@ class SceneSink:
         if not self._sorted:  # rare: an event later than EVENT_LAG frames; sort them all
             lines = sorted(
                 self._events,
-                key=lambda b: (lambda r: (r["frame"], r["event"], r["args"]))(json.loads(b)),
+                key=lambda b: Event.from_json(json.loads(b)).sort_key(),
             )
         for k, line in enumerate(lines):
             out.write(("," if k else "") + line.decode().rstrip("\n"))
