@@ -45,8 +45,12 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frames", type=int, default=100)
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--overlap", type=float, default=0.3,
-                    help="fraction of tracks overlapping another in every frame (at least)")
+    ap.add_argument(
+        "--overlap",
+        type=float,
+        default=0.3,
+        help="fraction of tracks overlapping another in every frame (at least)",
+    )
     ap.add_argument("--tracks", default="5,10,20,50,100")
     ap.add_argument("--markdown", type=Path, default=None, help="also write the table as Markdown")
     args = ap.parse_args(argv)
