@@ -495,7 +495,7 @@ def test_components_keep_the_frames_optimum_on_a_dense_scene():
     frame in one program costs, on every frame of a dense scene with misses and false positives."""
     from sensemaking.abduction.components import ComponentSolver
     from sensemaking.synthetic import make_scene
-    from test_encoding import cost_of
+    from helpers import cost_of
 
     scene = make_scene(30, n_frames=40, overlap=0.5, seed=7, miss_rate=0.1, false_positive_rate=0.3)
     t = Tracker(TrackerConfig(fps=scene.fps, image_size=(scene.width, scene.height), min_confidence=0.2,

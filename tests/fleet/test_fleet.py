@@ -10,6 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import SHARED_DATA
+
 ray = pytest.importorskip("ray")
 pq = pytest.importorskip("pyarrow.parquet")
 pytest.importorskip("duckdb")
@@ -23,7 +25,6 @@ from sensemaking.fleet.run import RunParams, run_sequence  # noqa: E402
 from sensemaking.fleet.specs import find_sequences, read_manifest  # noqa: E402
 from sensemaking.fleet.synthetic import write_synthetic_fleet  # noqa: E402
 
-DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 
 
 @pytest.fixture(scope="module")
@@ -310,7 +311,7 @@ def test_manifest_errors_name_file_and_line(tmp_path: Path) -> None:
 
 
 @pytest.mark.integration
-@pytest.mark.skipif(not (DATA / "kitti").is_dir(), reason="needs ../shared/data")
+@pytest.mark.skipif(not (SHARED_DATA / "kitti").is_dir(), reason="needs ../shared/data")
 def test_readme_lines_on_a_few_shared_sequences(ray_local, tmp_path: Path, capsys) -> None:
     """The README's two lines, restricted to three sequences."""
     arc = tmp_path / "archive"
@@ -320,7 +321,7 @@ def test_readme_lines_on_a_few_shared_sequences(ray_local, tmp_path: Path, capsy
                 "-q",
                 "batch",
                 "--data",
-                str(DATA),
+                str(SHARED_DATA),
                 "--archive",
                 str(arc),
                 "--only",
