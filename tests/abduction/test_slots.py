@@ -167,6 +167,7 @@ def test_component_solver_answers_misses_from_the_slots() -> None:
 
 
 @pytest.mark.skipif(not (SHARED_DATA / "kitti").is_dir(), reason="needs ../shared/data/kitti")
+@pytest.mark.slow
 def test_real_kitti_components_same_optimum() -> None:
     from sensemaking.benchmark import datasets
     from sensemaking.benchmark.runner import ours_config

@@ -48,6 +48,7 @@ def _bench(names: list[str]) -> datasets.Benchmark:
 
 @pytest.mark.integration
 @pytest.mark.skipif(not (SHARED_DATA / "kitti").is_dir(), reason="needs ../shared/data/kitti")
+@pytest.mark.slow
 def test_a_fold_never_sees_its_own_video(tmp_path: Path) -> None:
     grid = {"start_confidence": (0.5, 0.8), "min_hits": (1, 3)}
     bench = _bench(["0000", "0002", "0004"])

@@ -20,6 +20,7 @@ from conftest import SHARED_DATA
 
 pytestmark = [
     pytest.mark.integration,
+    pytest.mark.slow,  # whole sequences through `track` and the runner
     pytest.mark.skipif(not SHARED_DATA.is_dir(), reason="needs ../shared/data"),
 ]
 

@@ -130,6 +130,7 @@ def test_the_api_refuses_them_too(scene_file: Path) -> None:
     assert answer.atoms and all("#script" in a for a in answer.atoms)
 
 
+@pytest.mark.slow
 def test_ask_stops_a_huge_grounding_at_its_limits(scene_file: Path, capsys) -> None:
     t0 = time.monotonic()
     assert (
@@ -516,6 +517,7 @@ def test_the_api_validates_like_the_cli_and_a_refused_frame_changes_nothing(dets
 
 
 # 8. SIGTERM ------------------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_sigterm_leaves_no_part_files_and_says_so(tmp_path: Path) -> None:
     det = write_det(tmp_path / "d" / "det.txt", n_frames=20000)
     env = dict(os.environ, PYTHONPATH=str(REPO / "src"))

@@ -245,6 +245,7 @@ def test_fixtures_parity(tmp_path):
 
 
 @pytest.mark.parametrize("benchmark, names", [("mot17", MOT17_SEQS), ("mot15", MOT15_SEQS)])
+@pytest.mark.slow
 def test_mot_benchmark_parity(tmp_path, benchmark, names):
     root = SHARED_DATA / benchmark
     res = tmp_path / "res"
@@ -274,6 +275,7 @@ def _seqmap(tmp: Path, names: list[str]) -> Path:
     return path
 
 
+@pytest.mark.slow
 def test_kitti_parity(tmp_path):
     root = SHARED_DATA / "kitti" / "training"
     info = read_kitti_seqinfo(root / "seqinfo.csv")

@@ -41,6 +41,7 @@ def test_demo_scene_cyclist_behind_turning_car_warns_while_hidden():
 
 
 @pytest.mark.integration
+@pytest.mark.slow
 def test_monitor_on_the_trackers_output():
     """Tracker + monitor over the synthetic occlusion suite: every HIDDEN_ENTITY warning names a
     track the tracker reports hidden at that frame, behind the named occluder."""

@@ -21,7 +21,7 @@ from sensemaking.viz.report import write_report  # noqa: E402
 
 from conftest import SHARED_DATA  # noqa: E402
 
-pytestmark = pytest.mark.integration
+pytestmark = [pytest.mark.integration, pytest.mark.slow]  # each test starts a browser
 
 CHROMIUM = Path("/usr/bin/chromium")
 FLAGS = [
