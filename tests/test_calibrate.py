@@ -14,7 +14,8 @@ from sensemaking.cli import main
 from sensemaking.detections import Detections
 from sensemaking.errors import InputError
 
-DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+from conftest import SHARED_DATA
+
 SIZE = (640, 480)
 
 
@@ -110,15 +111,15 @@ def test_bad_input_is_an_error() -> None:
         calibrate([CalibrationSequence("x", seq.gt, shifted, 0, 30, 10.0, SIZE)])
 
 
-needs_data = pytest.mark.skipif(not (DATA / "kitti").is_dir(), reason="needs ../shared/data")
+needs_data = pytest.mark.skipif(not (SHARED_DATA / "kitti").is_dir(), reason="needs ../shared/data")
 
 
 @pytest.mark.integration
 @needs_data
 def test_calibrate_then_track_round_trip(tmp_path: Path, capsys) -> None:
     labels, dets = (
-        DATA / "kitti" / "training" / "label_02",
-        DATA / "kitti" / "detections" / "rrc" / "car",
+        SHARED_DATA / "kitti" / "training" / "label_02",
+        SHARED_DATA / "kitti" / "detections" / "rrc" / "car",
     )
     params = tmp_path / "car.json"
     assert (
@@ -250,7 +251,7 @@ def test_cli_errors_are_one_line(tmp_path: Path, capsys, make_args, message: str
         "0 -1 DontCare -1 -1 -10 1 2 3 4 -1 -1 -1 -1000 -1000 -1000 -10\n"
     )
     out = tmp_path / "p.json"
-    assert main(["calibrate", *make_args(DATA, tmp_path), "--output", str(out)]) == 2
+    assert main(["calibrate", *make_args(SHARED_DATA, tmp_path), "--output", str(out)]) == 2
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1
     assert not out.exists()

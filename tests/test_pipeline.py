@@ -48,6 +48,7 @@ def run(tmp_path: Path, name: str, skip: bool) -> tuple[Pipeline, dict[str, byte
     return pipe, {k: p.read_bytes() for k, p in files.items()}
 
 
+@pytest.mark.slow
 def test_skipping_gaps_gives_the_same_outputs_as_stepping_every_frame(tmp_path: Path) -> None:
     skipped, a = run(tmp_path, "skip", True)
     stepped, b = run(tmp_path, "step", False)

@@ -453,6 +453,7 @@ def _idsw(scene: SyntheticScene, results: list[FrameResult]) -> int:
     return int(evaluate_sequence(gt, tracks, "mot15", n_frames=scene.n_frames)["IDSW"])
 
 
+@pytest.mark.slow
 def test_abduction_keeps_identities_the_ablation_loses(suite_runs):
     abd = {(seed, s.name): _idsw(s, a) for seed, s, a, _ in suite_runs}
     ablation = {(seed, s.name): _idsw(s, h) for seed, s, _, h in suite_runs}
@@ -461,6 +462,7 @@ def test_abduction_keeps_identities_the_ablation_loses(suite_runs):
     assert all(abd[k] <= ablation[k] for k in abd)
 
 
+@pytest.mark.slow
 def test_ablation_emits_no_occlusion_or_fov_events(suite_runs):
     occlusion = {"hides_behind", "unhides_from_behind", "enters_fov", "leaves_fov"}
     abd = {e.name for _, _, a, _ in suite_runs for r in a for e in r.events}
@@ -472,6 +474,7 @@ def test_ablation_emits_no_occlusion_or_fov_events(suite_runs):
     assert not hidden
 
 
+@pytest.mark.slow
 def test_figure1_cyclist_hides_behind_the_car_and_unhides(suite_runs):
     cyclist = CLASS_IDS["cyclist"]
     for seed, scene, results, _ in suite_runs:
@@ -490,12 +493,13 @@ def test_figure1_cyclist_hides_behind_the_car_and_unhides(suite_runs):
         assert unhides[0].args == (tid, car)
 
 
+@pytest.mark.slow
 def test_components_keep_the_frames_optimum_on_a_dense_scene():
     """Independent components solved apart (and answered from the cache) cost what the whole
     frame in one program costs, on every frame of a dense scene with misses and false positives."""
     from sensemaking.abduction.components import ComponentSolver
     from sensemaking.synthetic import make_scene
-    from test_encoding import cost_of
+    from helpers import cost_of
 
     scene = make_scene(30, n_frames=40, overlap=0.5, seed=7, miss_rate=0.1, false_positive_rate=0.3)
     t = Tracker(TrackerConfig(fps=scene.fps, image_size=(scene.width, scene.height), min_confidence=0.2,

@@ -14,39 +14,17 @@ import numpy as np
 import pytest
 
 from sensemaking.abduction.problem import FrameProblem
-from sensemaking.abduction.solver import AbductionSolver, Det, load_encoding
+from sensemaking.abduction.solver import AbductionSolver, Det
 
-ENCODING = load_encoding()
+from helpers import ENCODING, cost, cost_of, facts_text, optimal
 
 
 # ---- helpers ------------------------------------------------------------------------------
-def optimal(facts: str, consts: dict[str, int] | None = None, extra: str = "") -> list[tuple[int, list[str]]]:
-    """Every optimal answer (cost, sorted shown atoms), distinct in the shown atoms."""
-    opts = ["--opt-mode=optN", "--warn=none", "0"] + [f"-c{k}={v}" for k, v in (consts or {}).items()]
-    ctl = clingo.Control(opts)
-    ctl.add("base", [], ENCODING)
-    ctl.add("base", [], facts + "\n" + extra)
-    ctl.ground([("base", [])])
-    found: dict[tuple[str, ...], int] = {}
-
-    def on_model(m: clingo.Model) -> None:
-        if m.optimality_proven or not m.cost:  # no weak constraint grounded: every model is optimal
-            found[tuple(sorted(str(s) for s in m.symbols(shown=True)))] = sum(m.cost)
-
-    result = ctl.solve(on_model=on_model)
-    assert result.satisfiable, "the encoding must always have an answer"
-    return sorted((c, list(a)) for a, c in found.items())
-
-
 def solve(facts: str, consts: dict[str, int] | None = None, extra: str = "") -> list[str]:
     """The unique optimal answer's sorted shown atoms (fails if the optimum is not unique)."""
     models = optimal(facts, consts, extra)
     assert len(models) == 1, f"optimum not unique: {models}"
     return models[0][1]
-
-
-def cost(facts: str, consts: dict[str, int] | None = None) -> int:
-    return optimal(facts, consts)[0][0]
 
 
 def track(t: int, *, halted: bool = False, cls: int = 1, vis: str = "fully_visible", flags: tuple[str, ...] = ()) -> str:
@@ -442,12 +420,6 @@ def _problem() -> FrameProblem:
     )
 
 
-def facts_text(p: FrameProblem) -> str:
-    """The whole problem's facts (tracks renumbered 0..T-1 in their order) as program text."""
-    component, _, _ = p.whole()
-    return "".join(f"{s}." for s in component.facts())
-
-
 def test_problem_facts_and_solver_answer():
     facts = facts_text(_problem())  # tracks 1, 2, 3 are local 0, 1, 2
     assert "cand(1,d(0),850)." in facts and "covers(d(0),0)." in facts and "halted(2)." in facts
@@ -494,19 +466,6 @@ def test_determinism_same_input_same_atoms():
     first, second = AbductionSolver().solve(problem), AbductionSolver().solve(problem)
     assert first.atoms() == second.atoms() and first.fluents == second.fluents
     assert first.cost == second.cost == cost(facts_text(problem))
-
-
-def cost_of(problem: FrameProblem, answer) -> int:
-    """The whole frame's cost of an answer's actions and events (forced into the program)."""
-    _, ids, _ = problem.whole()
-    local = {t: i for i, t in enumerate(ids)}
-    forced = [f":- not assign({local[t]},d({d}))." for t, d in answer.assign.items()]
-    forced += [f":- not resume({local[t]},d({d}))." for t, d in answer.resume.items()]
-    forced += [f":- not start(d({d}))." for d in answer.start]
-    forced += [f":- not {n}({local[t]})." for n in ("end", "halt") for t in getattr(answer, n)]
-    forced += [f":- not occurs({n}({','.join(str(local[a]) if isinstance(a, int) else f'd({a.row})' for a in args)}))."
-               for n, args in answer.events]
-    return cost(facts_text(problem) + "\n".join(forced))
 
 
 @pytest.mark.parametrize("seed", range(6))

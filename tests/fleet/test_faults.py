@@ -45,6 +45,7 @@ def _content(root: Path) -> dict[str, list[tuple]]:
     return out
 
 
+@pytest.mark.slow
 def test_driver_killed_mid_run_leaves_an_archive_a_second_batch_completes(tmp_path: Path) -> None:
     manifest = write_synthetic_fleet(tmp_path / "fleet", 10, n_frames=60)
     arc = tmp_path / "arc"
@@ -96,6 +97,7 @@ def test_driver_killed_mid_run_leaves_an_archive_a_second_batch_completes(tmp_pa
     assert not list((arc / "_staging").iterdir())
 
 
+@pytest.mark.slow
 def test_two_node_cluster_spreads_tasks_and_writes_the_single_node_archive(tmp_path: Path) -> None:
     from ray.cluster_utils import Cluster
 

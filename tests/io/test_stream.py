@@ -12,7 +12,8 @@ from sensemaking.errors import InputError
 from sensemaking.io.formats import read_detections
 from sensemaking.io.stream import iter_detection_frames, scan_detections
 
-DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+from conftest import SHARED_DATA
+
 
 
 def assert_same_frames(path: Path, fmt: str, chunk_lines: int) -> None:
@@ -80,10 +81,10 @@ def test_zero_size_boxes_are_dropped_with_one_warning(tmp_path: Path, caplog) ->
 @pytest.mark.integration
 def test_shared_files_stream_as_they_read_whole() -> None:
     files = (
-        sorted((DATA / "mot17").glob("*/det/det.txt"))[:2]
-        + sorted((DATA / "kitti" / "detections" / "rrc" / "car").glob("*.txt"))[:2]
-        + sorted((DATA / "kitti" / "detections" / "pointrcnn").glob("*/0000.txt"))[:1]
-        + sorted((DATA / "kitti" / "training" / "label_02").glob("*.txt"))[:1]
+        sorted((SHARED_DATA / "mot17").glob("*/det/det.txt"))[:2]
+        + sorted((SHARED_DATA / "kitti" / "detections" / "rrc" / "car").glob("*.txt"))[:2]
+        + sorted((SHARED_DATA / "kitti" / "detections" / "pointrcnn").glob("*/0000.txt"))[:1]
+        + sorted((SHARED_DATA / "kitti" / "training" / "label_02").glob("*.txt"))[:1]
     )
     if not files:
         pytest.skip("../shared/data not found")

@@ -14,7 +14,7 @@ from sensemaking.detections import Detections
 from sensemaking.io.formats import read_detections, write_results
 from sensemaking.io.mot import SequenceInfo, read_mot, read_seqinfo, write_mot
 
-from io_checks import DATA, assert_same, data  # noqa: F401 (data is a fixture)
+from helpers import assert_same
 
 
 def write(tmp_path: Path, text: str, name: str = "det.txt") -> Path:
@@ -220,16 +220,16 @@ def test_read_seqinfo_file_and_folder(tmp_path: Path) -> None:
 
 
 @pytest.fixture(scope="module")
-def parsed(data: Path) -> tuple[dict[str, Detections], float]:
+def parsed(shared_data: Path) -> tuple[dict[str, Detections], float]:
     """Every MOT file of the shared data, read once: (relative path -> Detections, seconds taken)."""
     start = time.perf_counter()
     out: dict[str, Detections] = {}
-    for path in sorted(data.glob("mot*/*/det/det.txt")):
-        out[str(path.relative_to(data))] = read_detections(path, "mot")
-    for path in sorted(data.glob("mot*/*/gt/gt.txt")) + sorted(data.glob("metric-fixtures/*/gt.txt")):
-        out[str(path.relative_to(data))] = read_mot(path, kind="gt")
-    for path in sorted(data.glob("metric-fixtures/*/test.txt")):
-        out[str(path.relative_to(data))] = read_mot(path, kind="results")
+    for path in sorted(shared_data.glob("mot*/*/det/det.txt")):
+        out[str(path.relative_to(shared_data))] = read_detections(path, "mot")
+    for path in sorted(shared_data.glob("mot*/*/gt/gt.txt")) + sorted(shared_data.glob("metric-fixtures/*/gt.txt")):
+        out[str(path.relative_to(shared_data))] = read_mot(path, kind="gt")
+    for path in sorted(shared_data.glob("metric-fixtures/*/test.txt")):
+        out[str(path.relative_to(shared_data))] = read_mot(path, kind="results")
     return out, time.perf_counter() - start
 
 
@@ -242,7 +242,7 @@ def test_all_mot_files_parse_fast(parsed: tuple[dict[str, Detections], float]) -
 
 
 @pytest.mark.integration
-def test_known_rows_mot17(data: Path, parsed: tuple[dict[str, Detections], float]) -> None:
+def test_known_rows_mot17(shared_data: Path, parsed: tuple[dict[str, Detections], float]) -> None:
     files = parsed[0]
     det = files["mot17/MOT17-02-YOLOX-half/det/det.txt"]
     assert len(det) == 24951
@@ -251,7 +251,7 @@ def test_known_rows_mot17(data: Path, parsed: tuple[dict[str, Detections], float
     first = (det.frame[0], det.confidence[0], det.class_id[0], det.tracker_id[0], det.source_row[0])
     assert first == (1, 0.94, 1, -1, 1)
     assert det.confidence.min() == 0.01 and det.confidence.max() == 0.95
-    assert det.frame.max() == read_seqinfo(data / "mot17/MOT17-02-YOLOX-half").length == 299
+    assert det.frame.max() == read_seqinfo(shared_data / "mot17/MOT17-02-YOLOX-half").length == 299
 
     frcnn = files["mot17/MOT17-05-FRCNN/det/det.txt"]  # 7 fields
     assert len(frcnn) == 3848
@@ -272,7 +272,7 @@ def test_known_rows_mot17(data: Path, parsed: tuple[dict[str, Detections], float
 
 
 @pytest.mark.integration
-def test_known_rows_mot15_and_fixtures(data: Path, parsed: tuple[dict[str, Detections], float]) -> None:
+def test_known_rows_mot15_and_fixtures(shared_data: Path, parsed: tuple[dict[str, Detections], float]) -> None:
     files = parsed[0]
     gt = files["mot15/ETH-Bahnhof/gt/gt.txt"]
     assert len(gt) == 7670
@@ -285,7 +285,7 @@ def test_known_rows_mot15_and_fixtures(data: Path, parsed: tuple[dict[str, Detec
     # line 1: 1,3,113.84,274.5,57.307,130.05,-1,-1,-1,-1
     np.testing.assert_array_equal(res.xyxy[0], [113.84, 274.5, 113.84 + 57.307, 274.5 + 130.05])
     assert (res.frame[0], res.tracker_id[0], res.confidence[0]) == (1, 3, -1.0)
-    assert read_seqinfo(data / "mot15/TUD-Campus/seqinfo.ini") == SequenceInfo("TUD-Campus", 71, 640, 480, 25.0)
+    assert read_seqinfo(shared_data / "mot15/TUD-Campus/seqinfo.ini") == SequenceInfo("TUD-Campus", 71, 640, 480, 25.0)
 
 
 @pytest.mark.integration
@@ -302,14 +302,14 @@ def test_round_trip_every_mot_file(parsed: tuple[dict[str, Detections], float], 
 
 
 @pytest.mark.integration
-def test_every_sequence_fits_its_seqinfo(data: Path, parsed: tuple[dict[str, Detections], float]) -> None:
-    seqs = sorted(p.parent for p in data.glob("mot*/*/seqinfo.ini"))
+def test_every_sequence_fits_its_seqinfo(shared_data: Path, parsed: tuple[dict[str, Detections], float]) -> None:
+    seqs = sorted(p.parent for p in shared_data.glob("mot*/*/seqinfo.ini"))
     assert len(seqs) == 11
     for seq in seqs:
         info = read_seqinfo(seq)
         assert info.name == seq.name and info.width > 0 and info.height > 0 and info.fps > 0
         for kind in ("det", "gt"):
-            boxes = parsed[0][str((seq / kind / f"{kind}.txt").relative_to(data))]
+            boxes = parsed[0][str((seq / kind / f"{kind}.txt").relative_to(shared_data))]
             assert boxes.frame.min() >= 1 and boxes.frame.max() <= info.length, seq
 
 

@@ -17,7 +17,7 @@ from sensemaking.io.formats import read_detections, write_results
 from sensemaking.io.kitti import read_kitti_detections, read_kitti_labels, read_kitti_seqinfo, write_kitti
 from sensemaking.io.mot import SequenceInfo
 
-from io_checks import DATA, assert_same, data, same_array  # noqa: F401 (data is a fixture)
+from helpers import assert_same, same_array
 CAR, PED, CYC, VAN, DONTCARE = (CLASS_IDS[n] for n in ("car", "pedestrian", "cyclist", "van", "dontcare"))
 
 LABELS = (
@@ -194,12 +194,12 @@ def test_read_kitti_seqinfo(tmp_path: Path) -> None:
 
 
 @pytest.fixture(scope="module")
-def parsed(data: Path) -> tuple[dict[str, Detections], float]:
+def parsed(shared_data: Path) -> tuple[dict[str, Detections], float]:
     """Every KITTI file of the shared data, read once: (relative path -> Detections, seconds)."""
     start = time.perf_counter()
-    out = {str(p.relative_to(data)): read_kitti_labels(p) for p in sorted(data.glob("kitti/training/label_02/*.txt"))}
-    for p in sorted(data.glob("kitti/detections/*/*/*.txt")):
-        out[str(p.relative_to(data))] = read_detections(p, "kitti")
+    out = {str(p.relative_to(shared_data)): read_kitti_labels(p) for p in sorted(shared_data.glob("kitti/training/label_02/*.txt"))}
+    for p in sorted(shared_data.glob("kitti/detections/*/*/*.txt")):
+        out[str(p.relative_to(shared_data))] = read_detections(p, "kitti")
     return out, time.perf_counter() - start
 
 
@@ -260,8 +260,8 @@ def test_round_trip_every_kitti_file(parsed: tuple[dict[str, Detections], float]
 
 
 @pytest.mark.integration
-def test_kitti_seqinfo_fits_labels(data: Path, parsed: tuple[dict[str, Detections], float]) -> None:
-    infos = read_kitti_seqinfo(data / "kitti/training/seqinfo.csv")
+def test_kitti_seqinfo_fits_labels(shared_data: Path, parsed: tuple[dict[str, Detections], float]) -> None:
+    infos = read_kitti_seqinfo(shared_data / "kitti/training/seqinfo.csv")
     assert sorted(infos) == [f"{i:04d}" for i in range(11)]
     assert infos["0000"] == SequenceInfo("0000", 154, 1242, 375, 10.0)
     for seq, info in infos.items():

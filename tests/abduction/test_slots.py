@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import random
-from pathlib import Path
 
 import clingo
 import numpy as np
@@ -15,7 +14,8 @@ from sensemaking.abduction.problem import TRACK_FLAGS, Component, FrameProblem
 from sensemaking.abduction.slots import SlotSolver, Shape, piece_facts, pieces, shape_of
 from sensemaking.abduction.solver import AbductionSolver, Answer, _parsed
 
-DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data"
+from conftest import SHARED_DATA
+
 GRID = [k * 1000 // 40 for k in range(41)]
 
 
@@ -166,14 +166,15 @@ def test_component_solver_answers_misses_from_the_slots() -> None:
     assert answers[0].assign == {4: 0, 9: 1}
 
 
-@pytest.mark.skipif(not (DATA / "kitti").is_dir(), reason="needs ../shared/data/kitti")
+@pytest.mark.skipif(not (SHARED_DATA / "kitti").is_dir(), reason="needs ../shared/data/kitti")
+@pytest.mark.slow
 def test_real_kitti_components_same_optimum() -> None:
     from sensemaking.benchmark import datasets
     from sensemaking.benchmark.runner import ours_config
     from sensemaking.detections import Detections
     from sensemaking.tracker import Tracker
 
-    found = datasets.discover(DATA, only=["kitti-rrc-car"])
+    found = datasets.discover(SHARED_DATA, only=["kitti-rrc-car"])
     (spec, sources), = found.found
     bench = datasets.load_benchmark(spec, [s for s in sources if s.name == "0000"])
     seq = bench.sequences[0]

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,7 +11,9 @@ from sensemaking.reasoning.online import SituationMonitor
 from sensemaking.reasoning.situations import SituationConfig
 from sensemaking.results import TrackState
 
-KITTI = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "kitti"
+from conftest import SHARED_DATA
+
+KITTI = SHARED_DATA / "kitti"
 
 
 def _oracle_results(sc, hide_cover: float = 0.6):
@@ -40,6 +41,7 @@ def test_demo_scene_cyclist_behind_turning_car_warns_while_hidden():
 
 
 @pytest.mark.integration
+@pytest.mark.slow
 def test_monitor_on_the_trackers_output():
     """Tracker + monitor over the synthetic occlusion suite: every HIDDEN_ENTITY warning names a
     track the tracker reports hidden at that frame, behind the named occluder."""

@@ -19,9 +19,10 @@ from sensemaking.detections import Detections
 from sensemaking.evaluation.explanations import evaluate_explanations, load_ground_truth
 from sensemaking.results import Event
 
-DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
-KITTI_GT = DATA / "kitti" / "training" / "label_02" / "0001.txt"
-MOT_GT = DATA / "mot17" / "MOT17-05-YOLOX-half" / "gt" / "gt.txt"
+from conftest import SHARED_DATA
+
+KITTI_GT = SHARED_DATA / "kitti" / "training" / "label_02" / "0001.txt"
+MOT_GT = SHARED_DATA / "mot17" / "MOT17-05-YOLOX-half" / "gt" / "gt.txt"
 
 
 def _tracks(rows: list[tuple[int, int, list[float]]]) -> Detections:

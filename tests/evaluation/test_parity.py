@@ -22,11 +22,12 @@ from sensemaking.classes import CLASS_IDS
 from sensemaking.detections import Detections
 from sensemaking.evaluation import COMBINED, evaluate, load_kitti_benchmark, load_mot_benchmark
 
+from conftest import SHARED_DATA
+
 pytestmark = pytest.mark.integration
 
-DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
-if not DATA.is_dir():  # pragma: no cover - depends on the checkout
-    pytest.skip(f"benchmark data not found at {DATA}", allow_module_level=True)
+if not SHARED_DATA.is_dir():  # pragma: no cover - depends on the checkout
+    pytest.skip(f"benchmark data not found at {SHARED_DATA}", allow_module_level=True)
 trackeval = pytest.importorskip("trackeval")
 
 from sensemaking.io.kitti import read_kitti_labels, read_kitti_seqinfo, write_kitti  # noqa: E402
@@ -223,7 +224,7 @@ def _unique_sorted(d: Detections) -> Detections:
 
 def test_fixtures_parity(tmp_path):
     """TUD-Campus and TUD-Stadtmitte with their classic tracker output test.txt (MOT15 rules)."""
-    root = DATA / "metric-fixtures"
+    root = SHARED_DATA / "metric-fixtures"
     seqs = {}
     for name, n in (("TUD-Campus", 71), ("TUD-Stadtmitte", 179)):
         (tmp_path / "res").mkdir(exist_ok=True)
@@ -244,8 +245,9 @@ def test_fixtures_parity(tmp_path):
 
 
 @pytest.mark.parametrize("benchmark, names", [("mot17", MOT17_SEQS), ("mot15", MOT15_SEQS)])
+@pytest.mark.slow
 def test_mot_benchmark_parity(tmp_path, benchmark, names):
-    root = DATA / benchmark
+    root = SHARED_DATA / benchmark
     res = tmp_path / "res"
     res.mkdir()
     seqs = {}
@@ -273,8 +275,9 @@ def _seqmap(tmp: Path, names: list[str]) -> Path:
     return path
 
 
+@pytest.mark.slow
 def test_kitti_parity(tmp_path):
-    root = DATA / "kitti" / "training"
+    root = SHARED_DATA / "kitti" / "training"
     info = read_kitti_seqinfo(root / "seqinfo.csv")
     res = tmp_path / "res"
     res.mkdir()

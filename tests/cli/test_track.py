@@ -13,7 +13,8 @@ from sensemaking.io.kitti import read_kitti_labels
 from sensemaking.io.mot import read_mot
 from sensemaking.synthetic import crossing_scene
 
-DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+from conftest import SHARED_DATA
+
 
 
 def write_mot_det(path: Path, scene) -> None:
@@ -138,9 +139,9 @@ def test_demo_hides_and_unhides_the_cyclist_with_the_same_id(tmp_path: Path) -> 
 
 
 @pytest.mark.integration
-@pytest.mark.skipif(not DATA.exists(), reason="../shared/data not present")
+@pytest.mark.skipif(not SHARED_DATA.exists(), reason="../shared/data not present")
 def test_track_kitti_rrc_sequence(tmp_path: Path) -> None:
-    det = DATA / "kitti" / "detections" / "rrc" / "car" / "0000.txt"
+    det = SHARED_DATA / "kitti" / "detections" / "rrc" / "car" / "0000.txt"
     out = tmp_path / "0000.txt"
     assert main(["-q", "track", "--detections", str(det), "--format", "kitti", "--output", str(out),
                  "--events", str(tmp_path / "ev.jsonl")]) == 0

@@ -20,8 +20,7 @@ from sensemaking.errors import InputError
 from sensemaking.io.mot import read_mot
 from sensemaking.synthetic import crossing_scene
 
-ROOT = Path(__file__).resolve().parents[1]
-
+from conftest import REPO
 
 def write_det(path: Path, n_frames: int = 30, frame_offset: int = 1) -> Path:
     """A small MOT det.txt: one box per frame moving right."""
@@ -131,6 +130,7 @@ def test_the_api_refuses_them_too(scene_file: Path) -> None:
     assert answer.atoms and all("#script" in a for a in answer.atoms)
 
 
+@pytest.mark.slow
 def test_ask_stops_a_huge_grounding_at_its_limits(scene_file: Path, capsys) -> None:
     t0 = time.monotonic()
     assert (
@@ -517,9 +517,10 @@ def test_the_api_validates_like_the_cli_and_a_refused_frame_changes_nothing(dets
 
 
 # 8. SIGTERM ------------------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_sigterm_leaves_no_part_files_and_says_so(tmp_path: Path) -> None:
     det = write_det(tmp_path / "d" / "det.txt", n_frames=20000)
-    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
+    env = dict(os.environ, PYTHONPATH=str(REPO / "src"))
     proc = subprocess.Popen(
         [
             sys.executable,
@@ -610,7 +611,7 @@ def test_the_wall_clock_budget_says_results_depend_on_load(capsys) -> None:
         main(["track", "--help"])
     text = " ".join(capsys.readouterr().out.split())
     assert "--max-solve-ms" in text and "depend on the machine's load" in text
-    readme = " ".join((ROOT / "README.md").read_text().split())
+    readme = " ".join((REPO / "README.md").read_text().split())
     assert "results then depend on the machine's load" in readme
 
 

@@ -19,10 +19,11 @@ from test_render import occlusion_run  # noqa: E402
 
 from sensemaking.viz.report import write_report  # noqa: E402
 
-pytestmark = pytest.mark.integration
+from conftest import SHARED_DATA  # noqa: E402
+
+pytestmark = [pytest.mark.integration, pytest.mark.slow]  # each test starts a browser
 
 CHROMIUM = Path("/usr/bin/chromium")
-DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 FLAGS = [
     "--headless",
     "--no-sandbox",
@@ -130,7 +131,7 @@ def test_browser_screenshot_is_not_blank(tmp_path: Path):
 
 def _kitti_scene():
     """Scene of KITTI 0000 (RRC car detections) tracked by our tracker."""
-    det_path = DATA / "kitti" / "detections" / "rrc" / "car" / "0000.txt"
+    det_path = SHARED_DATA / "kitti" / "detections" / "rrc" / "car" / "0000.txt"
     if not det_path.exists():
         pytest.skip(f"{det_path} is absent (benchmark data lives in ../shared/data)")
     from sensemaking.detections import Detections
@@ -138,7 +139,7 @@ def _kitti_scene():
     from sensemaking.scene import SceneRecorder
     from sensemaking.tracker import Tracker, TrackerConfig
 
-    info = read_kitti_seqinfo(DATA / "kitti" / "training" / "seqinfo.csv")["0000"]
+    info = read_kitti_seqinfo(SHARED_DATA / "kitti" / "training" / "seqinfo.csv")["0000"]
     dets = read_kitti_detections(det_path, "car")
     size = (info.width, info.height)
     tracker = Tracker(TrackerConfig.for_dataset("kitti", fps=info.fps, image_size=size))
@@ -153,7 +154,7 @@ def test_browser_kitti_report(tmp_path: Path):
     scene = _kitti_scene()
     scene_path = tmp_path / "scene.json"
     scene.save(scene_path)
-    gt = DATA / "kitti" / "training" / "label_02" / "0000.txt"
+    gt = SHARED_DATA / "kitti" / "training" / "label_02" / "0000.txt"
     page = write_report(scene_path, tmp_path / "kitti.html", gt=gt, gt_format="kitti")
     html = page.read_text(encoding="utf-8")
     assert not re.search(r"https?:", html)

@@ -358,6 +358,7 @@ PLANS = [  # (name, real file, cases, argv builder, extra real file passed to th
 _ONE_IS_AN_ANSWER = {"explain", "ask", "ask-hidden"}
 
 
+@pytest.mark.slow
 def test_fuzz_every_verb(tmp_path: Path, reals: dict[str, bytes], capsys) -> None:
     pytest.importorskip("PIL")  # render / report need the viz extra
     rng = random.Random(SEED)

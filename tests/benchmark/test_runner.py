@@ -248,6 +248,7 @@ def test_cli_list_and_run(fake_data: Path, tmp_path: Path, capsys: pytest.Captur
     assert main(["benchmark", "--data", str(fake_data), "--only", "nope", "--list"]) == 2
 
 
+@pytest.mark.slow
 def test_jobs_run_benchmarks_in_worker_processes(fake_data: Path, tmp_path: Path) -> None:
     names = _trackers_under_test()[-1:]
     one = runner.run(data=fake_data, output=tmp_path / "a", only=["mot15", "mot17"], trackers=names)

@@ -10,6 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import SHARED_DATA
+
 ray = pytest.importorskip("ray")
 pq = pytest.importorskip("pyarrow.parquet")
 pytest.importorskip("duckdb")
@@ -23,7 +25,6 @@ from sensemaking.fleet.run import RunParams, run_sequence  # noqa: E402
 from sensemaking.fleet.specs import find_sequences, read_manifest  # noqa: E402
 from sensemaking.fleet.synthetic import write_synthetic_fleet  # noqa: E402
 
-DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 
 
 @pytest.fixture(scope="module")
@@ -54,6 +55,7 @@ def _rows(root: Path, table: str) -> list[dict]:
     return [r for f in files for r in pq.read_table(f, partitioning=None).to_pylist()]
 
 
+@pytest.mark.slow
 def test_batch_archives_every_table_then_skips_then_forces(
     ray_local, fleet: Path, tmp_path: Path
 ) -> None:
@@ -114,6 +116,7 @@ def test_batch_archives_every_table_then_skips_then_forces(
     assert len(across.rows) == 8
 
 
+@pytest.mark.slow
 def test_bad_sequence_is_archived_as_failed_and_the_others_go_on(
     ray_local, fleet: Path, tmp_path: Path
 ) -> None:
@@ -145,6 +148,7 @@ def test_bad_sequence_is_archived_as_failed_and_the_others_go_on(
     assert runs["good"]["run_id"] == summary.run_id and runs["bad"]["run_id"] != summary.run_id
 
 
+@pytest.mark.slow
 def test_worker_killed_mid_sequence_is_retried_and_archived_once(
     ray_local, fleet: Path, tmp_path: Path
 ) -> None:
@@ -185,6 +189,7 @@ def test_worker_killed_mid_sequence_is_retried_and_archived_once(
     assert len(list((arc / "_staging").iterdir())) == 1
 
 
+@pytest.mark.slow
 def test_scene_from_archive_equals_the_recorded_scene(
     ray_local, fleet: Path, tmp_path: Path
 ) -> None:
@@ -208,6 +213,7 @@ def test_scene_from_archive_equals_the_recorded_scene(
         load_scene(arc, "synthetic", "nope")
 
 
+@pytest.mark.slow
 def test_queries_answer_and_fail_cleanly(ray_local, fleet: Path, tmp_path: Path) -> None:
     arc = tmp_path / "arc"
     run_batch(read_manifest(fleet), arc, workers=2)
@@ -231,6 +237,7 @@ def test_queries_answer_and_fail_cleanly(ray_local, fleet: Path, tmp_path: Path)
         run_query(tmp_path, "sequences")
 
 
+@pytest.mark.slow
 def test_cli_batch_query_ask_explain(ray_local, fleet: Path, tmp_path: Path, capsys) -> None:
     arc = tmp_path / "arc"
     assert (
@@ -310,7 +317,8 @@ def test_manifest_errors_name_file_and_line(tmp_path: Path) -> None:
 
 
 @pytest.mark.integration
-@pytest.mark.skipif(not (DATA / "kitti").is_dir(), reason="needs ../shared/data")
+@pytest.mark.skipif(not (SHARED_DATA / "kitti").is_dir(), reason="needs ../shared/data")
+@pytest.mark.slow
 def test_readme_lines_on_a_few_shared_sequences(ray_local, tmp_path: Path, capsys) -> None:
     """The README's two lines, restricted to three sequences."""
     arc = tmp_path / "archive"
@@ -320,7 +328,7 @@ def test_readme_lines_on_a_few_shared_sequences(ray_local, tmp_path: Path, capsy
                 "-q",
                 "batch",
                 "--data",
-                str(DATA),
+                str(SHARED_DATA),
                 "--archive",
                 str(arc),
                 "--only",

@@ -11,7 +11,8 @@ import pytest
 from sensemaking.benchmark import crossval, datasets
 from sensemaking.detections import Detections
 
-DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+from conftest import SHARED_DATA
+
 
 
 def test_folds_are_videos() -> None:
@@ -40,13 +41,14 @@ def test_grid_is_small_and_holds_the_presets() -> None:
 
 
 def _bench(names: list[str]) -> datasets.Benchmark:
-    found = datasets.discover(DATA, only=["kitti-rrc-pedestrian"])
+    found = datasets.discover(SHARED_DATA, only=["kitti-rrc-pedestrian"])
     ((spec, sources),) = found.found
     return datasets.load_benchmark(spec, [s for s in sources if s.name in names])
 
 
 @pytest.mark.integration
-@pytest.mark.skipif(not (DATA / "kitti").is_dir(), reason="needs ../shared/data/kitti")
+@pytest.mark.skipif(not (SHARED_DATA / "kitti").is_dir(), reason="needs ../shared/data/kitti")
+@pytest.mark.slow
 def test_a_fold_never_sees_its_own_video(tmp_path: Path) -> None:
     grid = {"start_confidence": (0.5, 0.8), "min_hits": (1, 3)}
     bench = _bench(["0000", "0002", "0004"])
@@ -82,7 +84,7 @@ def test_a_fold_never_sees_its_own_video(tmp_path: Path) -> None:
 
 
 def test_one_video_is_not_cross_validated(tmp_path: Path) -> None:
-    if not (DATA / "kitti").is_dir():
+    if not (SHARED_DATA / "kitti").is_dir():
         pytest.skip("needs ../shared/data/kitti")
     with pytest.raises(ValueError, match="two videos or more"):
         crossval.cross_validate([_bench(["0000"])], tmp_path, grid={"min_hits": (1, 2)})

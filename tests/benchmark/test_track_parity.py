@@ -15,11 +15,13 @@ import pytest
 from sensemaking.benchmark import datasets, runner
 from sensemaking.cli import main
 
-DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+from conftest import SHARED_DATA
+
 
 pytestmark = [
     pytest.mark.integration,
-    pytest.mark.skipif(not DATA.is_dir(), reason="needs ../shared/data"),
+    pytest.mark.slow,  # whole sequences through `track` and the runner
+    pytest.mark.skipif(not SHARED_DATA.is_dir(), reason="needs ../shared/data"),
 ]
 
 
@@ -53,7 +55,7 @@ pytestmark = [
 def test_track_then_evaluate_equals_the_runner(
     tmp_path: Path, bench_name: str, sequence: str, fmt: str, gt_arg: str, extra: list[str]
 ) -> None:
-    found = datasets.discover(DATA, only=[bench_name])
+    found = datasets.discover(SHARED_DATA, only=[bench_name])
     ((spec, sources),) = found.found
     bench = datasets.load_benchmark(spec, [s for s in sources if s.name == sequence])
     result = runner.run_benchmark(bench, ["ours"], tmp_path / "runner")
@@ -87,7 +89,7 @@ def test_track_then_evaluate_equals_the_runner(
                 "-q",
                 "evaluate",
                 "--gt",
-                str(DATA / gt_arg),
+                str(SHARED_DATA / gt_arg),
                 "--results",
                 str(out),
                 "--format",

@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import importlib.util
 import sys
-from pathlib import Path
 
 import pytest
 
-SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "reasoning_overhead.py"
-KITTI = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "kitti"
+from conftest import REPO, SHARED_DATA
+
+SCRIPT = REPO / "benchmarks" / "reasoning_overhead.py"
+KITTI = SHARED_DATA / "kitti"
 
 
 def _load():
