@@ -70,7 +70,9 @@ def test_driver_killed_mid_run_leaves_an_archive_a_second_batch_completes(tmp_pa
         while len(_published(arc)) < 2 and time.monotonic() < deadline and driver.poll() is None:
             time.sleep(0.05)
         assert driver.poll() is None, "the batch ended before it could be killed"
-        os.kill(driver.pid, signal.SIGKILL)
+        # the driver and the local Ray it started (its process group), at once: nothing goes
+        # on publishing after the kill, whatever the machine's load
+        os.killpg(driver.pid, signal.SIGKILL)
         driver.wait(timeout=30)
     finally:
         if driver.poll() is None:
