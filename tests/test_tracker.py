@@ -611,3 +611,35 @@ def test_output_without_tracks_has_the_columns_of_the_general_output():
     assert empty.data.keys() == general.data.keys()
     for key, col in empty.data.items():
         assert col.dtype == general.data[key].dtype and col.shape == (0,), key
+
+
+def test_trackers_in_threads_agree_with_sequential_runs():
+    """The cache of clingo's answers and the slot Controls are shared by the process's trackers:
+    trackers running in threads give what they give one after the other."""
+    import threading
+
+    from sensemaking.synthetic import make_scene
+
+    scenes = [make_scene(10, n_frames=40, overlap=0.4, seed=s) for s in range(3)]
+
+    def run(scene) -> list:
+        t = Tracker(TrackerConfig(fps=scene.fps, image_size=(scene.width, scene.height)))
+        out = []
+        for f, dets in scene.frames():
+            r = t.update(dets, frame=f)
+            out.append((r.tracks.tracker_id.tolist(), r.tracks.xyxy.tolist(), r.events))
+        return out
+
+    sequential = [run(s) for s in scenes]
+    threaded: list = [None] * len(scenes)
+
+    def work(i: int) -> None:
+        threaded[i] = run(scenes[i])
+
+    threads = [threading.Thread(target=work, args=(i,)) for i in range(len(scenes))]
+    for th in threads:
+        th.start()
+    for th in threads:
+        th.join()
+    assert threaded == sequential
+    assert all(any(events for _, _, events in run_) for run_ in sequential)
