@@ -116,10 +116,14 @@ def run_demo(
     for line in explain(scene):
         echo("  " + line)
     echo("Warnings:")
-    for w in warnings:
+    said = [w for w in warnings if w.objects]  # without objects: a situation not checked
+    for w in said:
         echo(f"  frame {w.frame}: {w.situation} {list(w.objects)}: {w.message}")
-    if not warnings:
+    if not said:
         echo("  (none)")
+    for w in warnings:
+        if not w.objects:
+            echo(f"  (not checked: {w.message})")
     if render:
         try:
             from sensemaking.viz.render import render_scene

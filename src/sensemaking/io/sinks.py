@@ -174,6 +174,9 @@ class WarningsSink:
         self.part = self._file.part
 
     def frame(self, result: FrameResult, warnings: list[Any]) -> None:
+        # a situation that cannot be checked (no objects) is a notice the monitor logs, not a
+        # warning record
+        warnings = [w for w in warnings if w.objects]
         if warnings:
             for w in warnings:
                 self._file.handle.write(json.dumps(w.to_json()) + "\n")
