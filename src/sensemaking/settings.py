@@ -493,6 +493,18 @@ def load_config(
     config = apply_settings(config, params, where)
     if facts:
         config = apply_settings(config, facts)
+    sets = parse_overrides(overrides)
+    if sets:
+        try:
+            config = apply_settings(config, sets)
+        except ParameterError as exc:
+            raise ParameterError(f"--set: {exc.problem}") from None
+    return config
+
+
+def parse_overrides(overrides: Iterable[str]) -> dict[str, Any]:
+    """``KEY=VALUE`` texts (``--set``) as dotted key -> typed value, each checked against
+    :data:`PARAMETERS`. Raises :class:`ParameterError` naming the item."""
     sets: dict[str, Any] = {}
     for item in overrides:
         key, sep, text = item.partition("=")
@@ -505,12 +517,7 @@ def load_config(
             sets[key] = parse_value(key, text)
         except ParameterError as exc:
             raise ParameterError(f"--set {exc.problem}") from None
-    if sets:
-        try:
-            config = apply_settings(config, sets)
-        except ParameterError as exc:
-            raise ParameterError(f"--set: {exc.problem}") from None
-    return config
+    return sets
 
 
 def write_params(

@@ -7,7 +7,6 @@ replaced by ``sensemaking.pipeline`` when that exists.
 
 from __future__ import annotations
 
-import json
 import time
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -53,29 +52,18 @@ class RunParams:
     def from_strings(
         cls, items: list[str], abduction: bool = True, max_solve_ms: float | None = None
     ) -> RunParams:
-        """From ``KEY=VALUE`` strings (values read as JSON, else as text).
+        """From ``KEY=VALUE`` strings (``--set``: typed, dotted keys reach nested settings).
 
         Raises:
-            InputError: a malformed item or an unknown field.
+            InputError: a malformed item, an unknown parameter or a bad value.
         """
-        from sensemaking.tracker import TrackerConfig
+        from sensemaking import settings
 
-        fields = [k for k in TrackerConfig.__dataclass_fields__ if k not in ("costs", "kalman")]
-        out: dict[str, Any] = {}
-        for item in items:
-            key, sep, value = item.partition("=")
-            if not sep or key not in fields:
-                raise InputError(
-                    f"--set {item!r}: expected KEY=VALUE with KEY one of {', '.join(fields)}"
-                )
-            try:
-                out[key] = json.loads(value)
-            except json.JSONDecodeError:
-                out[key] = value
+        out = settings.parse_overrides(items)
         params = cls(abduction, tuple(sorted(out.items())), max_solve_ms)
         tracker_config(
             SequenceSpec("check", "check", "-", "mot"), params
-        )  # fail early on bad values
+        )  # fail early on values that do not go together
         return params
 
 
@@ -86,19 +74,15 @@ def tracker_config(spec: SequenceSpec, params: RunParams) -> TrackerConfig:
     Raises:
         InputError: an override has a bad value.
     """
-    from sensemaking.tracker import TrackerConfig
+    from sensemaking import settings
 
-    changes: dict[str, Any] = {"abduction": params.abduction, "max_solve_ms": params.max_solve_ms}
+    facts: dict[str, Any] = {"abduction": params.abduction, "max_solve_ms": params.max_solve_ms}
     if spec.fps:
-        changes["fps"] = float(spec.fps)
+        facts["fps"] = float(spec.fps)
     if spec.image_size:
-        changes["image_size"] = (int(spec.image_size[0]), int(spec.image_size[1]))
-    for key, value in params.overrides:
-        changes[key] = tuple(value) if isinstance(value, list) else value
-    try:
-        return TrackerConfig.for_dataset(spec.family, **changes)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"bad tracker parameter: {exc}") from None
+        facts["image_size"] = (int(spec.image_size[0]), int(spec.image_size[1]))
+    config = settings.apply_settings(settings.preset_config(spec.family), facts)
+    return settings.apply_settings(config, dict(params.overrides), "--set")
 
 
 @dataclass(eq=False)
