@@ -210,9 +210,10 @@ def test_min_hits_tentative_tracks_are_not_reported():
     assert ids(results[0]) == [1] and names(results[0].events) == ["starts(1)@0"]
     assert ids(results[5]) == [1] and ids(results[6]) == [1]
     assert not results[5].events and not results[6].events
-    # confirmed on its third hit: reported, with its start event (dated when it started)
+    # confirmed on its third hit: reported, with its start event (dated then: the first frame
+    # it is output, so that the event log and the tracks agree)
     assert ids(results[7]) == [1, 2]
-    assert results[7].events == [Event(5, "starts", (2,))]
+    assert results[7].events == [Event(7, "starts", (2,))]
     # the false positive (track 3) is never reported, nor are its events
     assert all(3 not in ids(r) for r in results)
     assert not any(3 in e.args for r in results for e in r.events)

@@ -4,13 +4,17 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from enum import IntEnum
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from sensemaking.detections import Detections
 
-__all__ = ["TrackState", "Visibility", "Event", "FrameResult", "EVENT_NAMES"]
+if TYPE_CHECKING:  # pragma: no cover
+    from sensemaking.abduction.problem import FrameProblem
+    from sensemaking.abduction.solver import AbductionSolver
+
+__all__ = ["TrackState", "Visibility", "Event", "FrameResult", "FrameAbduction", "EVENT_NAMES"]
 
 
 class TrackState(IntEnum):
@@ -85,6 +89,22 @@ class Event:
 
 
 @dataclass(frozen=True, eq=False)
+class FrameAbduction:
+    """What the tracker abduced a frame's answer from, to ask it again (``ask why``).
+
+    Attributes:
+        problem: the frame's :class:`~sensemaking.abduction.problem.FrameProblem` (detections
+            by row of the frame's input).
+        new_tracks: detection row -> id of the track it started this frame (tentative ones too).
+        solver: the solver (program, constants, work budget) that answered it.
+    """
+
+    problem: FrameProblem
+    new_tracks: dict[int, int]
+    solver: AbductionSolver
+
+
+@dataclass(frozen=True, eq=False)
 class FrameResult:
     """The tracker's answer for one frame.
 
@@ -95,9 +115,13 @@ class FrameResult:
             for a hidden or missing one ``xyxy`` is the Kalman prediction and ``source_row`` -1.
             ``data`` columns: ``state`` (:class:`TrackState`), ``occluder`` (track id or -1),
             ``visibility`` (:class:`Visibility`), ``hidden_frames`` (frames since last seen).
-        events: the events abduced for this frame, sorted.
+        events: the events of this frame, sorted. A tentative track's start event
+            (``starts``/``enters_fov``) is reported, and dated, at the frame the track is
+            confirmed: the first frame it is output.
         solve_ms: wall time of the abduction step (grounding + solving), milliseconds.
         timed_out: True when the solve budget ran out and the best answer so far was used.
+        abduction: the frame's problem as the encoding saw it (:class:`FrameAbduction`), or
+            None (no abduction this frame, or a fallback to Hungarian matching).
     """
 
     frame: int
@@ -105,6 +129,7 @@ class FrameResult:
     events: list[Event] = field(default_factory=list)
     solve_ms: float = 0.0
     timed_out: bool = False
+    abduction: FrameAbduction | None = None
 
     @property
     def visible(self) -> Detections:

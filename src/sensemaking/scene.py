@@ -21,7 +21,12 @@ Scene JSON (``"format": "sensemaking.scene"``, ``"version": 1``)::
                  "occluder": [-1 | track id, ...],
                  "visibility": ["fully_visible" | "partially_occluded" | "fully_occluded", ...],
                  "hidden_frames": [...]}],            # frames since last matched
-     "events": [{"frame": 12, "event": "hides_behind", "args": [7, 3]}, ...]}
+     "events": [{"frame": 12, "event": "hides_behind", "args": [7, 3]}, ...],
+     "abduction": {...}}                              # optional: the problems behind the events
+
+``"abduction"`` (format in :mod:`sensemaking.abduction.record`) keeps the facts of the part of
+each frame an event was abduced from, so that ``sensemaking ask SCENE why TRACK FRAME`` can
+solve it again and name the next-best explanations with their costs.
 """
 
 from __future__ import annotations
@@ -45,6 +50,8 @@ from sensemaking.io.atomic import atomic_write
 from sensemaking.results import Event, FrameResult, TrackState, Visibility
 
 if TYPE_CHECKING:  # pragma: no cover
+    from sensemaking.abduction.record import AbductionRecord, ProblemRecord
+    from sensemaking.abduction.solver import AbductionSolver
     from sensemaking.reasoning.context import SceneContext
     from sensemaking.reasoning.relations import MotionThresholds, RelationConfig
 
@@ -155,6 +162,8 @@ class Scene:
         frames: (F,) the frame numbers recorded, increasing (frames without tracks included).
         fps: frames per second. image_size: ``(width, height)`` pixels, or None if unknown.
         metadata: free-form JSON-able information (source, tracker parameters).
+        abduction: the problems the events were abduced from
+            (:class:`~sensemaking.abduction.record.AbductionRecord`), or None.
     """
 
     def __init__(
@@ -165,9 +174,12 @@ class Scene:
         fps: float = 10.0,
         image_size: tuple[int, int] | None = None,
         metadata: Mapping[str, Any] | None = None,
+        abduction: AbductionRecord | None = None,
     ):
         if fps <= 0:
             raise ValueError(f"fps must be positive, got {fps}")
+        #: the abduction problems behind the events (for ``ask why``), or None
+        self.abduction = abduction
         self.tracks: dict[int, Track] = dict(sorted(tracks.items()))
         self.events: list[Event] = sorted(events)
         fr = np.unique(np.asarray(frames, dtype=np.int64))
@@ -365,6 +377,8 @@ class Scene:
         record["metadata"] = self.metadata
         record["tracks"] = [track_json(t) for t in self.tracks.values()]
         record["events"] = [e.to_json() for e in self.events]
+        if self.abduction is not None:
+            record["abduction"] = self.abduction.to_json()
         return record
 
     @classmethod
@@ -498,6 +512,11 @@ class Scene:
         metadata = record.get("metadata") or {}
         if not isinstance(metadata, Mapping):
             raise bad("'metadata' must be an object")
+        abduction = None
+        if record.get("abduction") is not None:
+            from sensemaking.abduction.record import AbductionRecord
+
+            abduction = AbductionRecord.from_json(record["abduction"], where)
         return cls(
             tracks,
             events,
@@ -505,6 +524,7 @@ class Scene:
             fps=float(fps),
             image_size=None if size is None else (int(size[0]), int(size[1])),
             metadata=metadata,
+            abduction=abduction,
         )
 
     def save(self, path: str | PathLike[str]) -> None:
@@ -653,6 +673,9 @@ class SceneRecorder:
     Args:
         fps: frames per second of the sequence. image_size: ``(width, height)`` pixels or None.
         metadata: free-form JSON-able information stored with the scene.
+        problems: keep the abduction problem behind every event (the components of the frame
+            that hold its subject, as facts; see :mod:`sensemaking.abduction.record`), so that
+            ``ask why`` can solve them again. Memory: in proportion to the events.
     """
 
     #: buffered columns: name -> (dtype, shape of one row, value when the result lacks the column)
@@ -672,12 +695,14 @@ class SceneRecorder:
         fps: float = 10.0,
         image_size: tuple[int, int] | None = None,
         metadata: Mapping[str, Any] | None = None,
+        problems: bool = True,
     ):
         if fps <= 0:
             raise ValueError(f"fps must be positive, got {fps}")
         self.fps = float(fps)
         self.image_size = image_size
         self.metadata = dict(metadata or {})
+        self.problems = problems
         self.reset()
 
     def reset(self) -> None:
@@ -690,6 +715,8 @@ class SceneRecorder:
             k: np.empty((0,) + shape, dtype) for k, (dtype, shape, _) in self._COLUMNS.items()
         }
         self._events: list[Event] = []
+        self._problems: list[ProblemRecord] = []
+        self._solver: AbductionSolver | None = None
 
     def __len__(self) -> int:
         return len(self._frames)
@@ -722,6 +749,12 @@ class SceneRecorder:
             self._row_frames.append(f)
             self._row_counts.append(n)
         self._events.extend(result.events)
+        ab = result.abduction
+        if self.problems and ab is not None and (result.events or ab.new_tracks):
+            from sensemaking.abduction.record import problems_of_frame
+
+            self._problems += problems_of_frame(f, ab, result.events)
+            self._solver = ab.solver
 
     def scene(self) -> Scene:
         """The scene recorded so far."""
@@ -747,6 +780,17 @@ class SceneRecorder:
                     visibility=col["visibility"][chunk],
                     hidden_frames=col["hidden_frames"][chunk],
                 )
+        abduction = None
+        if self._solver is not None:
+            from sensemaking.abduction.record import (
+                AbductionRecord,
+                keep_named,
+                recorded_constants,
+            )
+
+            constants, budget = recorded_constants(self._solver)
+            kept = keep_named(self._problems, self._events, tracks)
+            abduction = AbductionRecord(constants, budget, kept)
         return Scene(
             tracks,
             self._events,
@@ -754,4 +798,5 @@ class SceneRecorder:
             fps=self.fps,
             image_size=self.image_size,
             metadata=self.metadata,
+            abduction=abduction,
         )

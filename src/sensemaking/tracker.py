@@ -26,7 +26,7 @@ from sensemaking.abduction.solver import AbductionSolver, Answer, Det, read_enco
 from sensemaking.detections import Detections, check_frame_number, validate_detections
 from sensemaking.geometry import box_area, intersection, iou, iou_from_intersection, safe_ratio
 from sensemaking.motion import KalmanConfig
-from sensemaking.results import Event, FrameResult, TrackState
+from sensemaking.results import Event, FrameAbduction, FrameResult, TrackState
 from sensemaking.track_table import TrackTable
 
 __all__ = ["TrackerConfig", "Tracker", "FrameResult", "Event", "TrackState"]
@@ -313,6 +313,7 @@ class Tracker:
 
         pred = self._tracks.kf.predict(1) if len(self._tracks) else np.zeros((0, 4))
         t0 = time.perf_counter()
+        self._frame_problem: FrameProblem | None = None
         if self.config.abduction:
             answer, timed_out = self._abduce(pred, dets)
         else:
@@ -320,12 +321,18 @@ class Tracker:
         solve_ms = (time.perf_counter() - t0) * 1000.0
         self.stats["solve_ms"] += solve_ms
         events, matched = self._apply(answer, dets, frame)
+        abduction = None
+        if self._frame_problem is not None:
+            started = set(answer.start)
+            new_tracks = {row: tid for tid, row in matched.items() if row in started}
+            abduction = FrameAbduction(self._frame_problem, new_tracks, self._solver.solver)
         return FrameResult(
             frame=frame,
             tracks=self._output(dets, matched, frame),
             events=events,
             solve_ms=solve_ms,
             timed_out=timed_out,
+            abduction=abduction,
         )
 
     # -- association --------------------------------------------------------------------------
@@ -544,7 +551,9 @@ class Tracker:
     def _abduce(self, pred: np.ndarray, dets: Detections) -> tuple[Answer, bool]:
         """Abduce the frame through the encoding (component by component, see
         :mod:`sensemaking.abduction.components`); Hungarian matching if no model in budget."""
-        answer = self._solver.solve(self._problem(pred, dets), budget_ms=self.config.max_solve_ms)
+        problem = self._problem(pred, dets)
+        answer = self._solver.solve(problem, budget_ms=self.config.max_solve_ms)
+        self._frame_problem = problem if answer is not None else None  # for FrameResult.abduction
         if answer is None:
             self.stats["timed_out"] += 1
             self.stats["fallback"] += 1
@@ -670,11 +679,12 @@ class Tracker:
                 confirm |= (self._tracks.unseen == 0) & (self._tracks.conf >= c.confirm_confidence)
             newly_confirmed = tentative & confirm
             self._tracks.confirmed |= newly_confirmed
-            # a tentative track's start event waits until the track is confirmed
+            # a tentative track's start event waits until the track is confirmed, and is dated
+            # then: the first frame the track is output (the event log agrees with the tracks)
             for i in np.flatnonzero(newly_confirmed).tolist():
                 pending = self._pending.pop(int(self._tracks.id[i]), None)
                 if pending is not None:
-                    events.append(pending)
+                    events.append(replace(pending, frame=frame))
         # events, with detections renamed to their new track ids; a tentative track's events
         # other than its start are not reported
         confirmed = set(self._tracks.id[self._tracks.confirmed].tolist()) if ans.events else set()

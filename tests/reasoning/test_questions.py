@@ -153,7 +153,7 @@ def test_empty_query_and_aliases(scene):
         ask(scene, "   ")
     assert ask(scene, "why_ended 3").lines == ask(scene, "why-ended 3").lines
     assert set(NAMED_QUESTIONS) == {"tracks", "events", "hidden", "reappeared", "in-front", "why-ended", "story",
-                                    "warnings"}
+                                    "warnings", "why"}
 
 
 def test_warnings_question_replays_the_monitor(scene):

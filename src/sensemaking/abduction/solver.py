@@ -18,12 +18,14 @@ from pathlib import Path
 from typing import NamedTuple
 
 import clingo
-from clingo import Symbol, SymbolType
+from clingo import Function, Number, Symbol, SymbolType
 from clingo.ast import ASTType, ProgramBuilder, parse_string
 
 from sensemaking.abduction.problem import FrameProblem
 
 __all__ = [
+    "Alternative",
+    "Alternatives",
     "Answer",
     "AbductionSolver",
     "Det",
@@ -250,15 +252,104 @@ class AbductionSolver:
         return None if answer is None else answer.mapped(track_ids, det_rows)
 
     def solve_facts(
-        self, facts: Iterable[Symbol], budget_ms: float | None = None
+        self,
+        facts: Iterable[Symbol],
+        budget_ms: float | None = None,
+        forbid: Iterable[Iterable[Symbol]] = (),
     ) -> Answer | None:
         """Abduce the optimal hypothesis for the facts; None if no model was found in budget.
 
         ``budget_ms`` bounds grounding plus solving in wall-clock time; past it the best model
         so far is used (``Answer.timed_out``). None means not even one model was found within
         the budgets (the caller falls back) -- or the problem is unsatisfiable, which the
-        packaged encoding rules out.
+        packaged encoding rules out. ``forbid``: conjunctions of shown atoms (e.g.
+        ``occurs(hides_behind(0,1))``) that no answer may hold together: integrity constraints
+        added to the ground program (for :meth:`alternatives`; none in the normal path).
         """
+        found = self._run(facts, budget_ms, forbid)
+        return None if found is None else found[1]
+
+    def alternatives(
+        self,
+        problem: FrameProblem,
+        event: tuple[str, tuple[Ref, ...]],
+        k: int = 3,
+        *,
+        decompose: bool | None = None,
+    ) -> Alternatives:
+        """The next-best explanations of ``event``'s subject (its first argument) in this frame.
+
+        ``event`` is ``(name, args)`` in the frame's terms (track ids, :class:`Det` rows), as
+        in :attr:`Answer.events`. The part of the frame that holds the subject is solved as the
+        tracker solves it (its component; the whole frame when ``decompose`` is False, default:
+        components only for the packaged encoding), then again with the event forbidden, then
+        with each explanation found so far forbidden too, up to ``k`` alternatives: the cheapest
+        answers of the encoding that explain the subject otherwise, each with its cost. Raises
+        ValueError when the event names an object the frame does not have.
+        """
+        if decompose is None:
+            decompose = self.program == load_encoding()
+        name, args = event
+        if not args:
+            raise ValueError(f"event {name} names no object")
+        parts = problem.components() if decompose else [problem.whole()]
+        for component, track_ids, det_rows in parts:
+            local = _local_refs(args, track_ids, len(component.tracks), det_rows)
+            if local is None:
+                continue
+            found = self.alternatives_facts(
+                component.facts(self.uses), (name, local), k
+            )
+            return found.mapped(track_ids, det_rows)
+        raise ValueError(f"event {name}{tuple(args)} names an object this frame does not have")
+
+    def alternatives_facts(
+        self, facts: Iterable[Symbol], event: tuple[str, tuple[Ref, ...]], k: int = 3
+    ) -> Alternatives:
+        """:meth:`alternatives` of the program of ``facts`` (local terms: ints name tracks,
+        :class:`Det` detections ``d(J)``). Work: at most ``k`` + 1 solves, each under the
+        solver's ``max_conflicts`` budget."""
+        if k < 0:
+            raise ValueError(f"k must be >= 0, got {k}")
+        facts = list(facts)
+        name, args = event
+        target = Function("occurs", [Function(name, [_symbol(a) for a in args])])
+        subject = _symbol(args[0])
+        found = self._run(facts)
+        if found is None:
+            return Alternatives(event, None, [])
+        chosen_atoms, chosen = found
+        if target not in chosen_atoms:
+            return Alternatives(event, chosen, [])
+        mine = {a for a in chosen_atoms if _names(a, subject)}
+        forbid: list[list[Symbol]] = [[target]]
+        out: list[Alternative] = []
+        while len(out) < k:
+            found = self._run(facts, forbid=forbid)
+            if found is None:
+                break
+            atoms, answer = found
+            theirs = {a for a in atoms if _names(a, subject)}
+            if not theirs:
+                break
+            out.append(
+                Alternative(
+                    answer=answer,
+                    delta=_delta(answer.cost, chosen.cost),
+                    instead=tuple(_atom(a) for a in sorted(theirs - mine)),
+                    rather=tuple(_atom(a) for a in sorted(mine - theirs)),
+                )
+            )
+            forbid.append(sorted(theirs))
+        return Alternatives(event, chosen, out)
+
+    def _run(
+        self,
+        facts: Iterable[Symbol],
+        budget_ms: float | None = None,
+        forbid: Iterable[Iterable[Symbol]] = (),
+    ) -> tuple[list[Symbol], Answer] | None:
+        """The shown atoms of the optimal model and their :class:`Answer` (see solve_facts)."""
         t0 = time.perf_counter()
         ctl = clingo.Control(self.options, logger=_quiet_logger)
         with ProgramBuilder(ctl) as builder:
@@ -268,6 +359,7 @@ class AbductionSolver:
             for fact in facts:
                 backend.add_rule([backend.add_atom(fact)])
         ctl.ground([("base", [])])
+        _add_forbidden(ctl, forbid)
         best: list[Symbol] = []
         info: dict[str, int] = {}
 
@@ -297,7 +389,157 @@ class AbductionSolver:
         answer.budget_hit = not answer.optimal and not timed_out
         answer.timed_out = timed_out
         answer.solve_ms = ms
-        return answer
+        return best, answer
+
+@dataclass(frozen=True)
+class Alternative:
+    """One alternative explanation: the best answer of the encoding once the chosen explanation
+    (and the alternatives before this one) is forbidden.
+
+    Attributes:
+        answer: the whole answer of the part of the frame (its ``cost`` at priority >= 0).
+        delta: ``answer.cost`` minus the chosen answer's cost (>= 0 when both are optimal;
+            None when a cost is not known).
+        instead: what this answer holds about the subject and the chosen one does not, as
+            ``(name, args)``: events (``missing_detections``, ...) and actions (``end``,
+            ``halt``, ``assign``, ``resume``, ``start``, ``ignore_trk``, ``ignore_det``).
+        rather: what the chosen answer holds about the subject and this one does not.
+    """
+
+    answer: Answer
+    delta: int | None
+    instead: tuple[tuple[str, tuple[Ref, ...]], ...]
+    rather: tuple[tuple[str, tuple[Ref, ...]], ...]
+
+    @property
+    def cost(self) -> int | None:
+        return self.answer.cost
+
+    def mapped(self, track_ids: list[int], det_rows: list[int]) -> Alternative:
+        """In the frame's terms (see :meth:`Answer.mapped`)."""
+        ref = _mapper(track_ids, det_rows)
+        return Alternative(
+            answer=self.answer.mapped(track_ids, det_rows),
+            delta=self.delta,
+            instead=tuple((n, tuple(map(ref, a))) for n, a in self.instead),
+            rather=tuple((n, tuple(map(ref, a))) for n, a in self.rather),
+        )
+
+
+@dataclass(frozen=True)
+class Alternatives:
+    """The chosen explanation of ``event`` and its next-best alternatives, cheapest first.
+
+    ``chosen`` is None when no model was found within the budget; ``alternatives`` is empty when
+    the chosen answer does not hold the event (then it is not this encoding's answer) or nothing
+    else explains the subject.
+    """
+
+    event: tuple[str, tuple[Ref, ...]]
+    chosen: Answer | None
+    alternatives: list[Alternative]
+
+    @property
+    def holds(self) -> bool:
+        """The chosen answer holds the event."""
+        return self.chosen is not None and self.event in self.chosen.events
+
+    def mapped(self, track_ids: list[int], det_rows: list[int]) -> Alternatives:
+        """In the frame's terms (see :meth:`Answer.mapped`)."""
+        ref = _mapper(track_ids, det_rows)
+        name, args = self.event
+        return Alternatives(
+            (name, tuple(map(ref, args))),
+            None if self.chosen is None else self.chosen.mapped(track_ids, det_rows),
+            [a.mapped(track_ids, det_rows) for a in self.alternatives],
+        )
+
+
+#: the shown actions (tracking.lp's #show), each naming tracks and detections
+_ACTIONS = frozenset({"assign", "resume", "start", "end", "halt", "ignore_trk", "ignore_det"})
+
+
+def _symbol(x: Ref) -> Symbol:
+    if isinstance(x, Det):
+        return Function("d", [Number(x.row)])
+    if isinstance(x, int):
+        return Number(x)
+    return Function(str(x))
+
+
+def _names(atom: Symbol, subject: Symbol) -> bool:
+    """The shown atom is about ``subject``: an event with it as first argument, or an action
+    that names it."""
+    if atom.name == "occurs" and len(atom.arguments) == 1:
+        inner = atom.arguments[0].arguments
+        return bool(inner) and inner[0] == subject
+    return atom.name in _ACTIONS and subject in atom.arguments
+
+
+def _atom(atom: Symbol) -> tuple[str, tuple[Ref, ...]]:
+    """A shown event or action as ``(name, args)``."""
+    if atom.name == "occurs":
+        atom = atom.arguments[0]
+    return atom.name, tuple(_ref(a) for a in atom.arguments)
+
+
+def _delta(cost: int | None, base: int | None) -> int | None:
+    return None if cost is None or base is None else cost - base
+
+
+def _mapper(track_ids: list[int], det_rows: list[int]):
+    def ref(x: Ref) -> Ref:
+        if isinstance(x, Det):
+            return Det(det_rows[x.row])
+        if isinstance(x, int) and 0 <= x < len(track_ids):
+            return track_ids[x]
+        return x
+
+    return ref
+
+
+def _local_refs(
+    args: tuple[Ref, ...], track_ids: list[int], own: int, det_rows: list[int]
+) -> tuple[Ref, ...] | None:
+    """``args`` (track ids, :class:`Det` rows) in a component's local terms; None when they are
+    not all in it. The first must be one of its ``own`` tracks or a detection; later ones (an
+    occluder) may be an occluder outside it that ``track_ids`` names after its own tracks."""
+    tracks = {t: i for i, t in enumerate(track_ids)}
+    dets = {d: j for j, d in enumerate(det_rows)}
+
+    def local(x: Ref) -> Ref | None:
+        if isinstance(x, Det):
+            return Det(dets[x.row]) if x.row in dets else None
+        if isinstance(x, int):
+            return tracks.get(x)
+        return x
+
+    first = local(args[0])
+    if first is None or (isinstance(first, int) and first >= own):
+        return None
+    rest = [local(a) for a in args[1:]]
+    if any(r is None for r in rest):
+        return None
+    return (first, *rest)  # type: ignore[return-value]
+
+
+def _add_forbidden(ctl: clingo.Control, forbid: Iterable[Iterable[Symbol]]) -> None:
+    """Integrity constraints ``:- a1, ..., an.`` over ground atoms; a conjunction with an atom
+    the ground program lacks can never hold and needs none."""
+    rules = []
+    for conjunction in forbid:
+        lits = []
+        for sym in conjunction:
+            atom = ctl.symbolic_atoms[sym]
+            if atom is None:
+                break
+            lits.append(atom.literal)
+        else:
+            rules.append(lits)
+    if rules:
+        with ctl.backend() as backend:
+            for lits in rules:
+                backend.add_rule([], lits)
 
 
 def _quiet_logger(code: clingo.MessageCode, message: str) -> None:

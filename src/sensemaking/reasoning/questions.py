@@ -11,6 +11,8 @@ or a named question:
 ``reappeared T``     when track T became visible again, and after what
 ``in-front F``       what was in front of the ego vehicle (in the corridor) at frame F
 ``why-ended T``      why track T ended
+``why T [F]``        why track T's events (at frame F) were chosen: the next-best explanations
+                     of the encoding, with their costs ("why not ...?")
 ``story [T]``        each track's story in sentences (same as :func:`explain`)
 ``warnings``         safety-critical situations, replaying the scene through the monitor
 ==================== ===========================================================
@@ -116,6 +118,8 @@ NAMED_QUESTIONS: dict[str, str] = {
     "reappeared": "reappeared TRACK -- when the track became visible again, and after what",
     "in-front": "in-front FRAME -- what was in front of the ego vehicle at that frame",
     "why-ended": "why-ended TRACK -- why the track ended",
+    "why": "why TRACK [FRAME] -- the explanation of the track's events (at FRAME) against the "
+    "next-best ones, with their costs",
     "story": "story [TRACK] -- each track's story in sentences",
     "warnings": "warnings -- safety-critical situations over the scene",
 }
@@ -126,6 +130,7 @@ _ARGS = {
     "reappeared": (1, 1),
     "in-front": (1, 1),
     "why-ended": (1, 1),
+    "why": (1, 2),
     "story": (0, 1),
     "warnings": (0, 0),
 }
@@ -134,6 +139,9 @@ _ALIASES = {
     "infront": "in-front",
     "why_ended": "why-ended",
     "ended": "why-ended",
+    "why-not": "why",
+    "why_not": "why",
+    "alternatives": "why",
     "explain": "story",
     "reappear": "reappeared",
     "hidden_by": "hidden",
@@ -787,6 +795,149 @@ def _q_why_ended(scene: Scene, args: list[int], context: SceneContext | None) ->
     )
 
 
+#: how many alternatives ``why`` names per event
+WHY_ALTERNATIVES = 3
+
+#: an event or action of the encoding, as a phrase about its subject (``{o}``: the other object)
+_PHRASES = {
+    "enters_fov": "enters the field of view",
+    "starts": "appears inside the view",
+    "leaves_fov": "leaves the field of view",
+    "ends": "ends, unexplained (lost)",
+    "hides_behind": "hides behind {o}",
+    "unhides_from_behind": "comes out from behind {o}",
+    "missing_detections": "is not detected (missing detections)",
+    "reappears": "is detected again (reappears)",
+    "assign": "is matched to {o}",
+    "resume": "is matched again to {o}",
+    "start": "starts a new track",
+    "ignore_det": "is ignored (a detection explained by no track)",
+    "ignore_trk": "stays unseen",
+    "halt": "stops being seen",
+    "end": "ends",
+}
+#: actions that an event of the same subject says more precisely
+_IMPLIED = {"start", "end", "halt"}
+
+
+def _name_ref(scene: Scene, record: Any, x: Any) -> str:
+    """A local name of a recorded problem (or a track id) in words."""
+    from sensemaking.abduction.solver import Det
+
+    ref = record.global_ref(x)
+    if isinstance(ref, Det):
+        return "a detection that started no track"
+    return scene.describe(ref) if isinstance(ref, int) else str(ref)
+
+
+def _phrase(
+    scene: Scene, record: Any, name: str, args: tuple[Any, ...], subject: Any = None
+) -> str:
+    if name in ("assign", "resume") and len(args) == 2 and args[1] == subject:
+        return f"is the detection of {_name_ref(scene, record, args[0])}"
+    other = _name_ref(scene, record, args[1]) if len(args) > 1 else ""
+    text = _PHRASES.get(name)
+    if text is None:
+        return f"{name}({', '.join(_name_ref(scene, record, a) for a in args)})"
+    return text.format(o=other)
+
+
+def _phrases(
+    scene: Scene, record: Any, atoms: tuple[tuple[str, tuple], ...], subject: Any
+) -> str:
+    """What an alternative holds about the subject, in words (actions an event implies, such
+    as ``end`` beside ``leaves_fov``, left out)."""
+    from sensemaking.results import EVENT_NAMES
+
+    events = [a for a in atoms if a[0] in EVENT_NAMES or a[0] not in _PHRASES]
+    shown = [a for a in atoms if a in events or (a[0] not in _IMPLIED or not events)]
+    return " and ".join(_phrase(scene, record, n, a, subject) for n, a in shown) or "nothing"
+
+
+def _atom_text(name: str, args: tuple[Any, ...]) -> str:
+    from sensemaking.abduction.solver import Det
+
+    def fmt(x: Any) -> str:
+        return f"d({x.row})" if isinstance(x, Det) else str(x)
+
+    return f"{name}({','.join(map(fmt, args))})"
+
+
+def _q_why(scene: Scene, args: list[int], context: SceneContext | None) -> Answer:
+    """The chosen explanation of each event of a track (at a frame) and the next-best ones,
+    from the abduction problem the scene recorded (solved again, with the event forbidden)."""
+    tid = args[0]
+    q = "why " + " ".join(map(str, args))
+    if tid not in scene:
+        raise QueryError(_missing_track(scene, tid))
+    t = scene.tracks[tid]
+    d = scene.describe(tid)
+    own = [e for e in scene.events if e.args and e.args[0] == tid]
+    lo = min([t.first] + [e.frame for e in own])
+    hi = max([t.last] + [e.frame for e in own])
+    if len(args) == 2:
+        frame = args[1]
+        if not lo <= frame <= hi:
+            raise QueryError(f"frame {frame} is out of range: {d} is in frames {lo}-{hi}")
+        own = [e for e in own if e.frame == frame]
+    if scene.abduction is None:
+        raise QueryError(
+            "this scene does not record the abduction problems behind its events (written "
+            "before they were recorded, or with a user's encoding): run `sensemaking track "
+            "--scene` again"
+        )
+    if not own:
+        at = f" at frame {args[1]}" if len(args) == 2 else ""
+        frames = sorted({e.frame for e in scene.events_of(tid) if e.args[0] == tid})
+        listing = ", ".join(map(str, frames)) if frames else "none"
+        return Answer(q, (f"{d} has no event{at} (frames with its events: {listing})",))
+    lines: list[str] = []
+    atoms: list[str] = []
+    for ev in own:
+        found = scene.abduction.alternatives(ev, WHY_ALTERNATIVES)
+        said = f"At frame {ev.frame}, {d} {_phrase(scene, _Ids(), ev.name, ev.args)}"
+        if found is None:
+            lines.append(f"{said}: the scene holds no abduction problem for this event.")
+            continue
+        record, alts = found
+        chosen, subject = alts.chosen, alts.event[1][0]
+        if chosen is None or not alts.holds:
+            lines.append(
+                f"{said}: solving its recorded problem again does not give this event "
+                "(the solver's budget ended the search differently)."
+            )
+            continue
+        where = f" (abduced at frame {record.frame}, when its detection started the track)"
+        said += where if record.frame != ev.frame else ""
+        if not alts.alternatives:
+            lines.append(f"{said} (cost {chosen.cost}): nothing else explains it.")
+            continue
+        rather = "; ".join(
+            f"{_phrases(scene, record, a.instead, subject)} (cost {a.cost}, {a.delta:+d})"
+            for a in alts.alternatives
+        )
+        lines.append(f"{said} (cost {chosen.cost}) rather than: {rather}.")
+        atoms.append(f"chosen({_atom_text(ev.name, ev.args)},{ev.frame},{chosen.cost})")
+        for rank, a in enumerate(alts.alternatives, 1):
+            for name, refs in a.instead:
+                ids = tuple(record.global_ref(x) for x in refs)
+                atoms.append(
+                    f"alternative({tid},{ev.frame},{rank},{_atom_text(name, ids)},"
+                    f"{a.cost},{a.delta})"
+                )
+    return Answer(q, tuple(lines), atoms=tuple(atoms), models=(tuple(atoms),))
+
+
+class _Ids:
+    """Names track ids as they are (the event log's terms)."""
+
+    @staticmethod
+    def global_ref(x: Any) -> Any:
+        return x
+
+    dets: tuple[int, ...] = ()
+
+
 def _q_story(scene: Scene, args: list[int], context: SceneContext | None) -> Answer:
     q = "story" + (f" {args[0]}" if args else "")
     return Answer(q, tuple(explain(scene, args[0] if args else None, context=context)))
@@ -812,6 +963,7 @@ _HANDLERS: dict[str, Callable[[Scene, list[int], SceneContext | None], Answer]] 
     "reappeared": _q_reappeared,
     "in-front": _q_in_front,
     "why-ended": _q_why_ended,
+    "why": _q_why,
     "story": _q_story,
     "warnings": _q_warnings,
 }
