@@ -133,3 +133,12 @@ def test_why_without_an_event_at_the_frame(edge_file):
     assert str(answer) == "track 1 (pedestrian) has no event at frame 4 (frames with its events: 0, 6)"
     with pytest.raises(QueryError):
         ask(scene, "why 1 2 3")
+
+
+def test_explain_why_adds_the_alternatives_to_the_story(edge_file, capsys):
+    assert main(["explain", str(edge_file), "--track", "1", "--why"]) == 0
+    out = capsys.readouterr().out
+    assert "rather than: leaves the field of view" in out
+    assert out.index("At frame 6, track 1 (pedestrian) hides behind") > 0
+    assert main(["explain", str(edge_file), "--why"]) == 2
+    assert "--why needs --track K" in capsys.readouterr().err

@@ -45,6 +45,7 @@ __all__ = [
     "problems_of_frame",
     "recorded_constants",
     "keep_named",
+    "named_here",
     "START_EVENTS",
 ]
 
@@ -142,13 +143,9 @@ class AbductionRecord:
         if not isinstance(subject, int):
             return None
         if event.name in START_EVENTS:
-            found = [
-                p for p in self.problems if p.frame <= event.frame and subject in p.dets
-            ]
+            found = [p for p in self.problems if p.frame <= event.frame and subject in p.dets]
             return found[-1] if found else None
-        return next(
-            (p for p in self.problems if p.frame == event.frame and p.owns(subject)), None
-        )
+        return next((p for p in self.problems if p.frame == event.frame and p.owns(subject)), None)
 
     def alternatives(
         self, event: Event, k: int = 3, where: str | None = None
@@ -158,11 +155,14 @@ class AbductionRecord:
         problem = self.problem_of(event)
         if problem is None:
             return None
-        local = tuple(problem.local(a) if isinstance(a, int) else a for a in event.args)
-        if any(a is None for a in local):
-            return None
+        local: list[Ref] = []
+        for a in event.args:
+            ref = problem.local(a) if isinstance(a, int) else a
+            if ref is None:
+                return None
+            local.append(ref)
         found = self.solver().alternatives_facts(
-            problem.symbols(where), (event.name, local), k  # type: ignore[arg-type]
+            problem.symbols(where), (event.name, tuple(local)), k
         )
         return problem, found
 
@@ -176,7 +176,7 @@ class AbductionRecord:
 
     @classmethod
     def from_json(cls, record: Any, where: str | None = None) -> AbductionRecord:
-        """Read and check the ``"abduction"`` entry (facts are parsed when asked)."""
+        """Read and check the ``"abduction"`` entry: every fact must parse as a ground atom."""
 
         def bad(problem: str) -> InputError:
             return InputError(f"malformed scene: abduction: {problem}", where)
@@ -204,18 +204,21 @@ class AbductionRecord:
             tracks, dets, facts = p.get("tracks"), p.get("dets"), p.get("facts")
             frame, own = p.get("frame"), p.get("own")
             if not (
-                _is_int(frame)
+                isinstance(frame, int)
+                and _is_int(frame)
                 and _int_list(tracks)
                 and _int_list(dets)
-                and _is_int(own)
+                and isinstance(own, int)
+                and isinstance(tracks, list)
+                and isinstance(dets, list)
                 and 0 <= own <= len(tracks)
                 and isinstance(facts, list)
                 and all(isinstance(x, str) for x in facts)
             ):
                 raise bad(f"problems[{i}] must have frame, tracks, own, dets and facts")
-            problems.append(
-                ProblemRecord(int(frame), tuple(tracks), int(own), tuple(dets), tuple(facts))
-            )
+            problem = ProblemRecord(int(frame), tuple(tracks), int(own), tuple(dets), tuple(facts))
+            problem.symbols(where)  # every fact a ground atom, checked while the file is known
+            problems.append(problem)
         return cls({str(k): int(v) for k, v in constants.items()}, budget, problems)
 
 
@@ -257,21 +260,31 @@ def recorded_constants(solver: AbductionSolver) -> tuple[dict[str, int], int | N
     return dict(solver.constants), budget
 
 
+def named_here(problem: ProblemRecord, events: Iterable[Event]) -> bool:
+    """One of the problem's own tracks is the subject of one of ``events`` of its frame."""
+    own = set(problem.tracks[: problem.n_tracks])
+    return any(
+        e.frame == problem.frame and e.args and e.args[0] in own
+        for e in events
+        if isinstance(e.args[0] if e.args else None, int)
+    )
+
+
 def keep_named(
     problems: Iterable[ProblemRecord], events: Iterable[Event], tracks: Iterable[int]
 ) -> list[ProblemRecord]:
     """The problems some event needs: its frame's, holding its subject, or where one of the
     scene's tracks started (a tentative track dropped unconfirmed needs none)."""
     kept_tracks = set(tracks)
-    named = {(e.frame, e.args[0]) for e in events if e.args and isinstance(e.args[0], int)}
-    out = []
-    for p in problems:
-        own = p.tracks[: p.n_tracks]
-        if any(d in kept_tracks for d in p.dets if d >= 0) or any(
-            (p.frame, t) in named for t in own
-        ):
-            out.append(p)
-    return out
+    by_frame: dict[int, list[Event]] = {}
+    for e in events:
+        by_frame.setdefault(e.frame, []).append(e)
+    return [
+        p
+        for p in problems
+        if any(d in kept_tracks for d in p.dets if d >= 0)
+        or named_here(p, by_frame.get(p.frame, ()))
+    ]
 
 
 def _is_int(v: Any) -> bool:

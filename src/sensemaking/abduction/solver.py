@@ -297,9 +297,7 @@ class AbductionSolver:
             local = _local_refs(args, track_ids, len(component.tracks), det_rows)
             if local is None:
                 continue
-            found = self.alternatives_facts(
-                component.facts(self.uses), (name, local), k
-            )
+            found = self.alternatives_facts(component.facts(self.uses), (name, local), k)
             return found.mapped(track_ids, det_rows)
         raise ValueError(f"event {name}{tuple(args)} names an object this frame does not have")
 
@@ -390,6 +388,7 @@ class AbductionSolver:
         answer.timed_out = timed_out
         answer.solve_ms = ms
         return best, answer
+
 
 @dataclass(frozen=True)
 class Alternative:
@@ -517,10 +516,13 @@ def _local_refs(
     first = local(args[0])
     if first is None or (isinstance(first, int) and first >= own):
         return None
-    rest = [local(a) for a in args[1:]]
-    if any(r is None for r in rest):
-        return None
-    return (first, *rest)  # type: ignore[return-value]
+    rest: list[Ref] = []
+    for a in args[1:]:
+        r = local(a)
+        if r is None:
+            return None
+        rest.append(r)
+    return (first, *rest)
 
 
 def _add_forbidden(ctl: clingo.Control, forbid: Iterable[Iterable[Symbol]]) -> None:

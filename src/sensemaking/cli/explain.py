@@ -6,6 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
+from sensemaking.errors import InputError
 from sensemaking.fleet.cli import add_archive_options, scene_from_args
 
 
@@ -22,17 +23,27 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--track", type=int, default=None, metavar="K", help="only the story of track K"
     )
+    p.add_argument(
+        "--why",
+        action="store_true",
+        help="with --track: after the story, each event's next-best explanations and their "
+        "costs (as `sensemaking ask SCENE why K`)",
+    )
     p.add_argument("--json", action="store_true", help='print {"track id": [sentences]} as JSON')
     add_archive_options(p)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    from sensemaking.reasoning.questions import explain, stories
+    from sensemaking.reasoning.questions import ask, explain, stories
 
+    if args.why and args.track is None:
+        raise InputError("--why needs --track K (the track whose events to weigh)")
     scene = scene_from_args(args)
     if args.track is not None:
         sentences = explain(scene, args.track)
+        if args.why and args.track in scene:
+            sentences += list(ask(scene, f"why {args.track}").lines)
         if args.json:
             print(json.dumps({str(args.track): sentences}, indent=2))
         else:

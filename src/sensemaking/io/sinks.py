@@ -205,6 +205,8 @@ class SceneSink:
     Args:
         path: the scene file. fps: frames per second. image_size: ``(width, height)`` or None.
         metadata: free-form JSON-able information stored with the scene.
+        problems: keep the abduction problems behind the events, as
+            :class:`~sensemaking.scene.SceneRecorder` does (spilled to a temporary file).
     """
 
     #: the buffered columns, in order ("track" is the id, not stored with the rows)
@@ -227,8 +229,11 @@ class SceneSink:
         fps: float,
         image_size: tuple[int, int] | None = None,
         metadata: Mapping[str, Any] | None = None,
+        problems: bool = True,
     ):
         self.path = Path(path)
+        self.problems = problems
+        self._solver: Any = None  # the solver of the problems recorded (constants, budget)
         self.fps = float(fps)
         self.image_size = None if image_size is None else (int(image_size[0]), int(image_size[1]))
         self.metadata = dict(metadata or {})
@@ -245,6 +250,7 @@ class SceneSink:
         folder = self.path.absolute().parent
         self._tracks: IO[bytes] = tempfile.TemporaryFile(dir=folder)
         self._events: IO[bytes] = tempfile.TemporaryFile(dir=folder)
+        self._problems: IO[bytes] = tempfile.TemporaryFile(dir=folder)
         self.n_events = 0
         self._pending: list[_EventKey] = []  # a heap of events to write
         self._last_event: _EventKey | None = None
@@ -290,6 +296,15 @@ class SceneSink:
             heapq.heappush(self._pending, (e.sort_key(), e))
         self.n_events += len(result.events)
         self._flush_events(f - self.EVENT_LAG)
+        ab = result.abduction
+        if self.problems and ab is not None and (result.events or ab.new_tracks):
+            from sensemaking.abduction.record import named_here, problems_of_frame
+
+            for p in problems_of_frame(f, ab, result.events):
+                started = [d for d in p.dets if d >= 0]
+                line = [named_here(p, result.events), started, p.to_json()]
+                self._problems.write((json.dumps(line, separators=(",", ":")) + "\n").encode())
+            self._solver = ab.solver
 
     def _group(self) -> None:
         """Move the buffered frames' rows to their tracks; tracks not in the last frame have
@@ -410,7 +425,10 @@ class SceneSink:
             )
         for k, line in enumerate(lines):
             out.write(("," if k else "") + line.decode().rstrip("\n"))
-        out.write("]}\n")
+        out.write("]")
+        if self._solver is not None:
+            self._write_problems(out)
+        out.write("}\n")
         self._close_temporary()
         self._file.commit()
 
@@ -418,9 +436,28 @@ class SceneSink:
         self._close_temporary()
         self._file.discard()
 
+    def _write_problems(self, out: Any) -> None:
+        """The scene's ``"abduction"`` entry: the problems an event or a kept track needs
+        (:func:`~sensemaking.abduction.record.keep_named`), in frame order."""
+        from sensemaking.abduction.record import AbductionRecord, recorded_constants
+
+        head = AbductionRecord(*recorded_constants(self._solver)).to_json()
+        del head["problems"]  # the last key: written below, one problem at a time
+        out.write(',"abduction":' + json.dumps(head, separators=(",", ":"))[:-1])
+        out.write(',"problems":[')
+        self._problems.seek(0)
+        k = 0
+        for raw in self._problems:
+            named, started, problem = json.loads(raw)
+            if named or any(t in self._index for t in started):
+                out.write(("," if k else "") + json.dumps(problem, separators=(",", ":")))
+                k += 1
+        out.write("]}")
+
     def _close_temporary(self) -> None:
         self._tracks.close()
         self._events.close()
+        self._problems.close()
 
 
 def close_all(sinks: Iterable[Sink], *, ok: bool, interrupted: bool = False) -> None:

@@ -817,7 +817,7 @@ _PHRASES = {
     "end": "ends",
 }
 #: actions that an event of the same subject says more precisely
-_IMPLIED = {"start", "end", "halt"}
+_IMPLIED = {"start", "end", "halt", "ignore_trk"}
 
 
 def _name_ref(scene: Scene, record: Any, x: Any) -> str:
@@ -842,9 +842,7 @@ def _phrase(
     return text.format(o=other)
 
 
-def _phrases(
-    scene: Scene, record: Any, atoms: tuple[tuple[str, tuple], ...], subject: Any
-) -> str:
+def _phrases(scene: Scene, record: Any, atoms: tuple[tuple[str, tuple], ...], subject: Any) -> str:
     """What an alternative holds about the subject, in words (actions an event implies, such
     as ``end`` beside ``leaves_fov``, left out)."""
     from sensemaking.results import EVENT_NAMES
