@@ -336,6 +336,7 @@ class AbductionSolver:
                     delta=_delta(answer.cost, chosen.cost),
                     instead=tuple(_atom(a) for a in sorted(theirs - mine)),
                     rather=tuple(_atom(a) for a in sorted(mine - theirs)),
+                    about=tuple(_atom(a) for a in sorted(theirs)),
                 )
             )
             forbid.append(sorted(theirs))
@@ -403,12 +404,15 @@ class Alternative:
             ``(name, args)``: events (``missing_detections``, ...) and actions (``end``,
             ``halt``, ``assign``, ``resume``, ``start``, ``ignore_trk``, ``ignore_det``).
         rather: what the chosen answer holds about the subject and this one does not.
+        about: everything this answer holds about the subject (``instead`` is empty when it
+            is part of the chosen explanation, e.g. a track left unseen without hiding).
     """
 
     answer: Answer
     delta: int | None
     instead: tuple[tuple[str, tuple[Ref, ...]], ...]
     rather: tuple[tuple[str, tuple[Ref, ...]], ...]
+    about: tuple[tuple[str, tuple[Ref, ...]], ...] = ()
 
     @property
     def cost(self) -> int | None:
@@ -422,6 +426,7 @@ class Alternative:
             delta=self.delta,
             instead=tuple((n, tuple(map(ref, a))) for n, a in self.instead),
             rather=tuple((n, tuple(map(ref, a))) for n, a in self.rather),
+            about=tuple((n, tuple(map(ref, a))) for n, a in self.about),
         )
 
 

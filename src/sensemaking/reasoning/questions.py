@@ -911,13 +911,14 @@ def _q_why(scene: Scene, args: list[int], context: SceneContext | None) -> Answe
             lines.append(f"{said} (cost {chosen.cost}): nothing else explains it.")
             continue
         rather = "; ".join(
-            f"{_phrases(scene, record, a.instead, subject)} (cost {a.cost}, {a.delta:+d})"
+            f"{_phrases(scene, record, a.instead or a.about, subject)} "
+            f"(cost {a.cost}, {a.delta:+d})"
             for a in alts.alternatives
         )
         lines.append(f"{said} (cost {chosen.cost}) rather than: {rather}.")
         atoms.append(f"chosen({_atom_text(ev.name, ev.args)},{ev.frame},{chosen.cost})")
         for rank, a in enumerate(alts.alternatives, 1):
-            for name, refs in a.instead:
+            for name, refs in a.instead or a.about:
                 ids = tuple(record.global_ref(x) for x in refs)
                 atoms.append(
                     f"alternative({tid},{ev.frame},{rank},{_atom_text(name, ids)},"
