@@ -223,6 +223,7 @@ def run_sequence(spec: SequenceSpec, params: RunParams | None = None) -> Sequenc
         fps=config.fps,
         image_size=config.image_size,
         metadata={"dataset": spec.dataset, "sequence": spec.sequence, "source": spec.det_path},
+        problems=False,  # the archive keeps tables, not the abduction problems behind events
     )
     monitor = SituationMonitor(fps=config.fps, image_size=config.image_size)
     collected = _Warnings()

@@ -222,7 +222,9 @@ def scene_of(run: Run) -> Any:
     except ImportError:
         return None
     size = (int(run.width), int(run.height)) if run.width and run.height else None
-    rec = SceneRecorder(fps=float(run.fps or 10.0), image_size=size, metadata={"name": run.name})
+    rec = SceneRecorder(
+        fps=float(run.fps or 10.0), image_size=size, metadata={"name": run.name}, problems=False
+    )
     for r in run.results:
         rec.add(r)
     run.scene = rec.scene()
