@@ -142,3 +142,28 @@ def test_explain_why_adds_the_alternatives_to_the_story(edge_file, capsys):
     assert out.index("At frame 6, track 1 (pedestrian) hides behind") > 0
     assert main(["explain", str(edge_file), "--why"]) == 2
     assert "--why needs --track K" in capsys.readouterr().err
+
+
+def test_every_event_of_a_run_comes_back_from_its_recorded_problem():
+    from sensemaking.synthetic import crossing_scene
+
+    synthetic = crossing_scene(0)
+    t = Tracker(
+        TrackerConfig(image_size=(synthetic.width, synthetic.height), min_hits=2),
+    )
+    rec = SceneRecorder(image_size=(synthetic.width, synthetic.height))
+    for f, d in synthetic.frames():
+        rec.add(t.update(d, frame=f))
+    scene = rec.scene()
+    assert scene.abduction is not None and len(scene.events) >= 4
+    assert {"hides_behind", "unhides_from_behind"} <= {e.name for e in scene.events}
+    for e in scene.events:
+        found = scene.abduction.alternatives(e, 0)
+        assert found is not None, e
+        record, alts = found
+        assert alts.holds, e
+        assert record.frame <= e.frame
+    # a recorder told not to keep them keeps none
+    quiet = SceneRecorder(problems=False)
+    quiet.add(t.update(Detections.empty(), frame=10_000))
+    assert quiet.scene().abduction is None
