@@ -101,7 +101,7 @@ class ProblemRecord:
         out = []
         for i, text in enumerate(self.facts):
             try:
-                sym = clingo.parse_term(text)
+                sym = clingo.parse_term(text, logger=_quiet)
             except RuntimeError:
                 sym = None
             if sym is None or sym.type != SymbolType.Function or not _NAME.fullmatch(sym.name):
@@ -285,6 +285,10 @@ def keep_named(
         if any(d in kept_tracks for d in p.dets if d >= 0)
         or named_here(p, by_frame.get(p.frame, ()))
     ]
+
+
+def _quiet(code: clingo.MessageCode, message: str) -> None:
+    """clingo's parser messages: the InputError says what is wrong (nothing on stderr)."""
 
 
 def _is_int(v: Any) -> bool:
