@@ -820,36 +820,55 @@ _PHRASES = {
 _IMPLIED = {"start", "end", "halt", "ignore_trk"}
 
 
-def _name_ref(scene: Scene, record: Any, x: Any) -> str:
-    """A local name of a recorded problem (or a track id) in words."""
-    from sensemaking.abduction.solver import Det
+class _Namer:
+    """Names the objects of a recorded problem (or of the event log, ``record`` None) in words.
 
-    ref = record.global_ref(x)
-    if isinstance(ref, Det):
-        return "a detection that started no track"
-    return scene.describe(ref) if isinstance(ref, int) else str(ref)
+    A detection is named by what it was in the chosen answer: the track it started, or the
+    detection of the track it continued, or an ignored one."""
 
+    def __init__(self, scene: Scene, record: Any = None, chosen: Any = None):
+        self.scene, self.record = scene, record
+        self.of_track: dict[int, int] = {}  # local detection -> local track it went to
+        if chosen is not None:
+            self.of_track = {d: t for t, d in {**chosen.assign, **chosen.resume}.items()}
 
-def _phrase(
-    scene: Scene, record: Any, name: str, args: tuple[Any, ...], subject: Any = None
-) -> str:
-    if name in ("assign", "resume") and len(args) == 2 and args[1] == subject:
-        return f"is the detection of {_name_ref(scene, record, args[0])}"
-    other = _name_ref(scene, record, args[1]) if len(args) > 1 else ""
-    text = _PHRASES.get(name)
-    if text is None:
-        return f"{name}({', '.join(_name_ref(scene, record, a) for a in args)})"
-    return text.format(o=other)
+    def name(self, x: Any) -> str:
+        from sensemaking.abduction.solver import Det
 
+        ref = x if self.record is None else self.record.global_ref(x)
+        if isinstance(ref, Det):
+            t = self.of_track.get(ref.row)
+            return "an ignored detection" if t is None else f"the detection of {self.name(t)}"
+        return self.scene.describe(ref) if isinstance(ref, int) else str(ref)
 
-def _phrases(scene: Scene, record: Any, atoms: tuple[tuple[str, tuple], ...], subject: Any) -> str:
-    """What an alternative holds about the subject, in words (actions an event implies, such
-    as ``end`` beside ``leaves_fov``, left out)."""
-    from sensemaking.results import EVENT_NAMES
+    def phrase(self, name: str, args: tuple[Any, ...], subject: Any = None) -> str:
+        """An event or action as a phrase about its subject (its first argument, or
+        ``subject`` when that is the detection of an ``assign``/``resume``)."""
+        if name in ("assign", "resume") and len(args) == 2 and args[1] == subject:
+            return f"is the detection of {self.name(args[0])}"
+        text = _PHRASES.get(name)
+        if text is None:
+            return f"{name}({', '.join(self.name(a) for a in args)})"
+        return text.format(o=self.name(args[1]) if len(args) > 1 else "")
 
-    events = [a for a in atoms if a[0] in EVENT_NAMES or a[0] not in _PHRASES]
-    shown = [a for a in atoms if a in events or (a[0] not in _IMPLIED or not events)]
-    return " and ".join(_phrase(scene, record, n, a, subject) for n, a in shown) or "nothing"
+    def phrases(self, atoms: tuple[tuple[str, tuple], ...], subject: Any) -> str:
+        """What an alternative holds about the subject (actions an event implies, such as
+        ``end`` beside ``leaves_fov``, left out)."""
+        from sensemaking.results import EVENT_NAMES
+
+        events = [a for a in atoms if a[0] in EVENT_NAMES or a[0] not in _PHRASES]
+        shown = [a for a in atoms if a in events or (a[0] not in _IMPLIED or not events)]
+        return " and ".join(self.phrase(n, a, subject) for n, a in shown) or "nothing"
+
+    def elsewhere(self, chosen: Any, other: Any, subject: Any) -> str:
+        """Events of other objects that the alternative holds and the chosen answer does not."""
+        new = [
+            (n, a)
+            for n, a in other.events
+            if (n, a) not in chosen.events and a and a[0] != subject and n in _PHRASES
+        ]
+        said = [f"{self.name(a[0])} {self.phrase(n, a)}" for n, a in new]
+        return f", while {' and '.join(said)}" if said else ""
 
 
 def _atom_text(name: str, args: tuple[Any, ...]) -> str:
@@ -893,7 +912,7 @@ def _q_why(scene: Scene, args: list[int], context: SceneContext | None) -> Answe
     atoms: list[str] = []
     for ev in own:
         found = scene.abduction.alternatives(ev, WHY_ALTERNATIVES)
-        said = f"At frame {ev.frame}, {d} {_phrase(scene, _Ids(), ev.name, ev.args)}"
+        said = f"At frame {ev.frame}, {d} {_Namer(scene).phrase(ev.name, ev.args)}"
         if found is None:
             lines.append(f"{said}: the scene holds no abduction problem for this event.")
             continue
@@ -910,8 +929,10 @@ def _q_why(scene: Scene, args: list[int], context: SceneContext | None) -> Answe
         if not alts.alternatives:
             lines.append(f"{said} (cost {chosen.cost}): nothing else explains it.")
             continue
+        namer = _Namer(scene, record, chosen)
         rather = "; ".join(
-            f"{_phrases(scene, record, a.instead or a.about, subject)} "
+            f"{namer.phrases(a.instead or a.about, subject)}"
+            f"{namer.elsewhere(chosen, a.answer, subject)} "
             f"(cost {a.cost}, {a.delta:+d})"
             for a in alts.alternatives
         )
@@ -925,16 +946,6 @@ def _q_why(scene: Scene, args: list[int], context: SceneContext | None) -> Answe
                     f"{a.cost},{a.delta})"
                 )
     return Answer(q, tuple(lines), atoms=tuple(atoms), models=(tuple(atoms),))
-
-
-class _Ids:
-    """Names track ids as they are (the event log's terms)."""
-
-    @staticmethod
-    def global_ref(x: Any) -> Any:
-        return x
-
-    dets: tuple[int, ...] = ()
 
 
 def _q_story(scene: Scene, args: list[int], context: SceneContext | None) -> Answer:
