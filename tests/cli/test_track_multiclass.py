@@ -1,0 +1,202 @@
+"""`track` of several classes at once: class files of one sequence tracked jointly, so that a
+cyclist can hide behind a car; results written per class in the benchmark's layout."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sensemaking.classes import CLASS_IDS
+from sensemaking.cli import main
+from sensemaking.io.kitti import read_kitti_labels
+from sensemaking.synthetic import crossing_scene
+
+from conftest import SHARED_DATA
+
+CAR, CYCLIST, PEDESTRIAN = CLASS_IDS["car"], CLASS_IDS["cyclist"], CLASS_IDS["pedestrian"]
+
+
+def write_rrc(path: Path, dets) -> None:
+    """KITTI RRC detections ``frame,x1,y1,x2,y2,score`` (the class is the folder's name)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    order = np.argsort(dets.frame, kind="stable")
+    path.write_text(
+        "".join(
+            f"{dets.frame[i]},{x1:.2f},{y1:.2f},{x2:.2f},{y2:.2f},{dets.confidence[i]:.3f}\n"
+            for i, (x1, y1, x2, y2) in zip(order, dets.xyxy[order])
+        )
+    )
+
+
+@pytest.fixture()
+def car_and_cyclist(tmp_path: Path) -> tuple[Path, Path]:
+    """A cyclist passing behind a car (its detections missing for 10 frames), as two KITTI RRC
+    class files ``car/0042.txt`` and ``cyclist/0042.txt`` of sequence 0042."""
+    scene = crossing_scene(3, gap=10, far_speed=6.0, near_class=CAR, far_class=CYCLIST)
+    d = scene.detections
+    root = tmp_path / "dets"
+    write_rrc(root / "car" / "0042.txt", d[d.class_id == CAR])
+    write_rrc(root / "cyclist" / "0042.txt", d[d.class_id == CYCLIST])
+    (root / "seqinfo.csv").write_text(
+        f"seq,num_frames,im_width,im_height,frame_rate\n0042,{scene.n_frames},1242,375,10\n"
+    )
+    return root / "car" / "0042.txt", root / "cyclist" / "0042.txt"
+
+
+def events_of(path: Path) -> list[dict]:
+    return [json.loads(line) for line in path.read_text().splitlines()]
+
+
+def test_joint_run_hides_the_cyclist_behind_the_car(tmp_path: Path, car_and_cyclist) -> None:
+    car, cyclist = car_and_cyclist
+    out, ev = tmp_path / "joint" / "{class}" / "0042.txt", tmp_path / "joint.jsonl"
+    assert main(["-q", "track", "--format", "kitti", "--detections", str(car), str(cyclist),
+                 "--output", str(out), "--events", str(ev)]) == 0
+    cars = read_kitti_labels(tmp_path / "joint" / "car" / "0042.txt")
+    cyclists = read_kitti_labels(tmp_path / "joint" / "cyclist" / "0042.txt")
+    assert set(cars.class_id.tolist()) == {CAR} and set(cyclists.class_id.tolist()) == {CYCLIST}
+    # one shared id space: no id in both files; the cyclist keeps its one id across the car
+    assert not set(cars.tracker_id.tolist()) & set(cyclists.tracker_id.tolist())
+    assert len(np.unique(cyclists.tracker_id)) == 1
+    (cyc_id,), (car_id,) = np.unique(cyclists.tracker_id), np.unique(cars.tracker_id)
+    records = events_of(ev)
+    hides = [r for r in records if r["event"] == "hides_behind"]
+    unhides = [r for r in records if r["event"] == "unhides_from_behind"]
+    assert [r["args"] for r in hides] == [[int(cyc_id), int(car_id)]]
+    assert [r["args"] for r in unhides] == [[int(cyc_id), int(car_id)]]
+
+    # tracked alone (its own run, as before), the cyclist has nothing to hide behind
+    alone = tmp_path / "alone.jsonl"
+    assert main(["-q", "track", "--format", "kitti", "--detections", str(cyclist),
+                 "--output", str(tmp_path / "alone.txt"), "--events", str(alone)]) == 0
+    assert not [r for r in events_of(alone) if r["event"] == "hides_behind"]
+
+
+def test_per_class_files_are_the_one_file_split_by_class(tmp_path: Path, car_and_cyclist) -> None:
+    """The {class} layout writes exactly the lines of the single KITTI results file, each in its
+    class's file; `evaluate` scores both the same."""
+    car, cyclist = car_and_cyclist
+    one = tmp_path / "one" / "0042.txt"
+    split = tmp_path / "split" / "{class}" / "0042.txt"
+    for out in (one, split):
+        assert main(["-q", "track", "--format", "kitti", "--detections", str(car), str(cyclist),
+                     "--output", str(out)]) == 0
+    lines = one.read_text().splitlines()
+    for name, kitti in (("car", "Car"), ("cyclist", "Cyclist")):
+        part = (tmp_path / "split" / name / "0042.txt").read_text().splitlines()
+        assert part == [line for line in lines if line.split()[2] == kitti]
+        assert part  # both classes were tracked
+    assert not (tmp_path / "split" / "pedestrian").exists()
+
+
+def test_empty_class_file_still_gets_its_results_file(tmp_path: Path, car_and_cyclist) -> None:
+    car, _ = car_and_cyclist
+    ped = car.parent.parent / "pedestrian" / "0042.txt"
+    ped.parent.mkdir()
+    ped.write_text("")
+    assert main(["-q", "track", "--format", "kitti", "--detections", str(car), str(ped),
+                 "--output", str(tmp_path / "r" / "{class}" / "0042.txt")]) == 0
+    assert (tmp_path / "r" / "pedestrian" / "0042.txt").read_text() == ""
+    assert len(read_kitti_labels(tmp_path / "r" / "car" / "0042.txt")) > 0
+
+
+def test_repeated_option_is_the_same_as_a_list(tmp_path: Path, car_and_cyclist) -> None:
+    car, cyclist = car_and_cyclist
+    a, b = tmp_path / "a.txt", tmp_path / "b.txt"
+    assert main(["-q", "track", "--format", "kitti", "--detections", str(car), str(cyclist),
+                 "--output", str(a)]) == 0
+    assert main(["-q", "track", "--format", "kitti", "--detections", str(car),
+                 "--detections", str(cyclist), "--output", str(b)]) == 0
+    assert a.read_text() == b.read_text()
+
+
+@pytest.mark.parametrize(
+    ("problem", "expected"),
+    [
+        ("other_sequence", "different sequences"),
+        ("same_file", "given twice"),
+        ("same_class", "class car is also in"),
+        ("unknown_class", "unknown class name 'bogus'"),
+        ("class_count", "one class per file"),
+        ("too_long", "beyond the sequence"),
+        ("mot_one_file", "no class column"),
+    ],
+)
+def test_bad_multiclass_input_is_one_line_exit_2(
+    tmp_path: Path, car_and_cyclist, capsys, problem: str, expected: str
+) -> None:
+    car, cyclist = car_and_cyclist
+    files, extra, fmt = [car, cyclist], [], "kitti"
+    out = tmp_path / "out" / "{class}" / "0042.txt"
+    if problem == "other_sequence":
+        other = cyclist.with_name("0043.txt")
+        other.write_text(cyclist.read_text())
+        files = [car, other]
+    elif problem == "same_file":
+        files = [car, car.parent / ".." / "car" / "0042.txt"]
+    elif problem == "same_class":
+        twin = tmp_path / "twin" / "car" / "0042.txt"
+        twin.parent.mkdir(parents=True)
+        twin.write_text(car.read_text())
+        files = [car, twin]
+    elif problem == "unknown_class":
+        extra = ["--class", "car,bogus"]
+    elif problem == "class_count":
+        extra = ["--class", "car"]
+    elif problem == "too_long":
+        n = len(car.read_text().splitlines())
+        cyclist.write_text(cyclist.read_text() + "9999,10,10,50,50,0.9\n")
+        assert len(car.read_text().splitlines()) == n
+    elif problem == "mot_one_file":
+        fmt, out = "mot", tmp_path / "out" / "res.txt"
+        seq = tmp_path / "SEQ-01" / "det"
+        seq.mkdir(parents=True)
+        (seq / "det.txt").write_text("1,-1,10,10,20,20,0.9\n")
+        other = tmp_path / "SEQ-01" / "det2"
+        other.mkdir()
+        files = [seq / "det.txt", other / "SEQ-01.txt"]
+        (other / "SEQ-01.txt").write_text("1,-1,100,10,20,20,0.9\n")
+        extra = ["--class", "pedestrian,car"]
+    before = {f: f.read_bytes() for f in files if f.exists()}
+    code = main(["track", "--format", fmt, "--detections", *map(str, files),
+                 "--output", str(out), "--events", str(tmp_path / "out" / "ev.jsonl"), *extra])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert expected in err
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").rglob("*"))
+    assert {f: f.read_bytes() for f in before} == before  # the input untouched
+
+
+def test_class_field_needs_detection_files(tmp_path: Path, capsys) -> None:
+    video = tmp_path / "frames"
+    video.mkdir()
+    code = main(["track", "--source", str(video), "--detector", str(tmp_path / "m.onnx"),
+                 "--output", str(tmp_path / "{class}" / "r.txt")])
+    assert code == 2
+    assert "{class} needs --detections" in capsys.readouterr().err
+
+
+# -- KITTI PointRCNN: the paper's case on real data ------------------------------------------------
+POINTRCNN = SHARED_DATA / "kitti" / "detections" / "pointrcnn"
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not POINTRCNN.is_dir(), reason="../shared/data not present")
+def test_kitti_cyclist_hides_behind_a_car_in_a_joint_run(tmp_path: Path) -> None:
+    seq = CYCLIST_BEHIND_CAR_SEQUENCE
+    files = [POINTRCNN / c / f"{seq}.txt" for c in ("car", "pedestrian", "cyclist")]
+    ev = tmp_path / "ev.jsonl"
+    assert main(["-q", "track", "--format", "kitti", "--detections", *map(str, files),
+                 "--output", str(tmp_path / "{class}" / f"{seq}.txt"), "--events", str(ev)]) == 0
+    classes: dict[int, int] = {}
+    for c in ("car", "pedestrian", "cyclist"):
+        res = read_kitti_labels(tmp_path / c / f"{seq}.txt")
+        assert set(res.class_id.tolist()) <= {CLASS_IDS[c]}
+        classes.update(dict.fromkeys(res.tracker_id.tolist(), CLASS_IDS[c]))
+    hides = [r["args"] for r in events_of(ev) if r["event"] == "hides_behind"]
+    across = [(t, o) for t, o in hides if classes.get(t) == CYCLIST and classes.get(o) == CAR]
+    assert across, hides
