@@ -180,16 +180,22 @@ def test_class_field_needs_detection_files(tmp_path: Path, capsys) -> None:
     assert "{class} needs --detections" in capsys.readouterr().err
 
 
-# -- KITTI PointRCNN: the paper's case on real data ------------------------------------------------
-POINTRCNN = SHARED_DATA / "kitti" / "detections" / "pointrcnn"
+# -- KITTI PointRCNN: the paper's case on real data ---------------------------------------------
+KITTI = SHARED_DATA / "kitti"
+POINTRCNN = KITTI / "detections" / "pointrcnn"
+#: a sequence where a cyclist passes behind a car (ground-truth cyclist 4 behind car 1, ~frame 91)
+CYCLIST_BEHIND_CAR_SEQUENCE = "0002"
 
 
 @pytest.mark.slow
 @pytest.mark.skipif(not POINTRCNN.is_dir(), reason="../shared/data not present")
 def test_kitti_cyclist_hides_behind_a_car_in_a_joint_run(tmp_path: Path) -> None:
+    from sensemaking.evaluation.explanations import GroundTruth, evaluate_explanations
+    from sensemaking.results import Event
+
     seq = CYCLIST_BEHIND_CAR_SEQUENCE
     files = [POINTRCNN / c / f"{seq}.txt" for c in ("car", "pedestrian", "cyclist")]
-    ev = tmp_path / "ev.jsonl"
+    ev, one = tmp_path / "ev.jsonl", tmp_path / "all" / f"{seq}.txt"
     assert main(["-q", "track", "--format", "kitti", "--detections", *map(str, files),
                  "--output", str(tmp_path / "{class}" / f"{seq}.txt"), "--events", str(ev)]) == 0
     classes: dict[int, int] = {}
@@ -197,6 +203,32 @@ def test_kitti_cyclist_hides_behind_a_car_in_a_joint_run(tmp_path: Path) -> None
         res = read_kitti_labels(tmp_path / c / f"{seq}.txt")
         assert set(res.class_id.tolist()) <= {CLASS_IDS[c]}
         classes.update(dict.fromkeys(res.tracker_id.tolist(), CLASS_IDS[c]))
-    hides = [r["args"] for r in events_of(ev) if r["event"] == "hides_behind"]
-    across = [(t, o) for t, o in hides if classes.get(t) == CYCLIST and classes.get(o) == CAR]
-    assert across, hides
+    events = [Event.from_json(r) for r in events_of(ev)]
+    across = [e for e in events if e.name == "hides_behind"
+              and classes.get(e.args[0]) == CYCLIST and classes.get(e.args[1]) == CAR]
+    assert across, [e for e in events if e.name == "hides_behind"]
+    # judged against the multi-class ground truth: the cyclist was occluded, the car in front
+    # covering it, and the same cyclist came out again
+    assert main(["-q", "track", "--format", "kitti", "--detections", *map(str, files),
+                 "--output", str(one)]) == 0
+    labels = read_kitti_labels(KITTI / "training" / "label_02" / f"{seq}.txt")
+    truth = GroundTruth.from_kitti(labels, image_size=(1242, 375),
+                                   classes=("car", "pedestrian", "cyclist"))
+    verdicts = evaluate_explanations(truth, read_kitti_labels(one), events).events
+    judged = [v for v in verdicts if v.event in across]
+    assert any(v.verdict == "plausible" and v.identity == "kept" for v in judged), judged
+    gt_class = {int(i): int(c) for i, c in zip(labels.tracker_id, labels.class_id, strict=True)}
+    good = next(v for v in judged if v.verdict == "plausible")
+    assert [gt_class[g] for g in good.gt] == [CYCLIST, CAR]
+
+    # the per-class files score as the one file does (KITTI scores a class's rows only)
+    gt_file = KITTI / "training" / "label_02" / f"{seq}.txt"
+    scores = {}
+    for c in ("car", "pedestrian"):
+        for name, results in ((f"{c}-split", tmp_path / c / f"{seq}.txt"), (f"{c}-one", one)):
+            out = tmp_path / f"{name}.json"
+            assert main(["-q", "evaluate", "--gt", str(gt_file), "--results", str(results),
+                         "--benchmark", "kitti", "--classes", c, "--json", str(out)]) == 0
+            scores[name] = json.loads(out.read_text())["classes"][c]["combined"]
+        assert scores[f"{c}-split"] == scores[f"{c}-one"]
+    assert scores["car-one"]["HOTA"] > 0.3 and scores["pedestrian-one"]["HOTA"] > 0.1
