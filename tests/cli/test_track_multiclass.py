@@ -220,6 +220,16 @@ def test_kitti_cyclist_hides_behind_a_car_in_a_joint_run(tmp_path: Path) -> None
     gt_class = {int(i): int(c) for i, c in zip(labels.tracker_id, labels.class_id, strict=True)}
     good = next(v for v in judged if v.verdict == "plausible")
     assert [gt_class[g] for g in good.gt] == [CYCLIST, CAR]
+    # the same verdict from `evaluate --explanations` with cyclists among the classes
+    verdicts_json = tmp_path / "verdicts.json"
+    assert main(["-q", "evaluate", "--explanations", "--gt", str(KITTI / "training" / "label_02" /
+                 f"{seq}.txt"), "--results", str(one), "--events", str(ev),
+                 "--classes", "car,pedestrian,cyclist", "--json", str(verdicts_json)]) == 0
+    doc = json.loads(verdicts_json.read_text())["sequences"][seq]["events"]
+    assert {"frame": good.event.frame, "event": "hides_behind", "args": list(good.event.args),
+            "verdict": "plausible"}.items() <= next(
+        r for r in doc if r["event"] == "hides_behind" and r["args"] == list(good.event.args)
+        and r["frame"] == good.event.frame).items()
 
     # the per-class files score as the one file does (KITTI scores a class's rows only)
     gt_file = KITTI / "training" / "label_02" / f"{seq}.txt"
