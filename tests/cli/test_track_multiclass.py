@@ -113,6 +113,36 @@ def test_repeated_option_is_the_same_as_a_list(tmp_path: Path, car_and_cyclist) 
     assert a.read_text() == b.read_text()
 
 
+def test_classes_apart_track_as_in_separate_runs(tmp_path: Path) -> None:
+    """Cars and pedestrians that never overlap, without the shared motion prior: the joint run's
+    per-class files are the separate runs' files but for the id numbers (one id space)."""
+    cars = crossing_scene(1, gap=6, near_class=CAR, far_class=CAR).detections
+    peds = crossing_scene(2, gap=9, far_speed=5.0).detections
+    peds = peds.with_(xyxy=peds.xyxy + np.array([0.0, 500.0, 0.0, 500.0]))  # below the cars
+    root = tmp_path / "dets"
+    write_rrc(root / "car" / "0005.txt", cars)
+    write_rrc(root / "pedestrian" / "0005.txt", peds)
+    n = int(max(cars.frame.max(), peds.frame.max())) + 1
+    (root / "seqinfo.csv").write_text(
+        f"seq,num_frames,im_width,im_height,frame_rate\n0005,{n},1242,1000,10\n"
+    )
+    files = [root / "car" / "0005.txt", root / "pedestrian" / "0005.txt"]
+    common = ["-q", "track", "--format", "kitti", "--set", "inherit_motion=false"]
+    assert main([*common, "--detections", *map(str, files),
+                 "--output", str(tmp_path / "joint" / "{class}" / "0005.txt")]) == 0
+    for f in files:
+        c = f.parent.name
+        assert main([*common, "--detections", str(f),
+                     "--output", str(tmp_path / "sep" / c / "0005.txt")]) == 0
+        joint = read_kitti_labels(tmp_path / "joint" / c / "0005.txt")
+        sep = read_kitti_labels(tmp_path / "sep" / c / "0005.txt")
+        assert len(joint) == len(sep) > 0
+        assert np.array_equal(joint.frame, sep.frame) and np.array_equal(joint.xyxy, sep.xyxy)
+        ids = dict(zip(joint.tracker_id.tolist(), sep.tracker_id.tolist(), strict=True))
+        assert len(set(ids.values())) == len(ids)  # a one-to-one renaming of the ids
+        assert [ids[t] for t in joint.tracker_id.tolist()] == sep.tracker_id.tolist()
+
+
 @pytest.mark.parametrize(
     ("problem", "expected"),
     [
