@@ -153,6 +153,7 @@ def test_classes_apart_track_as_in_separate_runs(tmp_path: Path) -> None:
         ("class_count", "one class per file"),
         ("too_long", "beyond the sequence"),
         ("mot_one_file", "no class column"),
+        ("overwrite_input", "--output (car) would overwrite the input"),
     ],
 )
 def test_bad_multiclass_input_is_one_line_exit_2(
@@ -190,6 +191,8 @@ def test_bad_multiclass_input_is_one_line_exit_2(
         files = [seq / "det.txt", other / "SEQ-01.txt"]
         (other / "SEQ-01.txt").write_text("1,-1,100,10,20,20,0.9\n")
         extra = ["--class", "pedestrian,car"]
+    elif problem == "overwrite_input":
+        extra = ["--output", str(car.parent.parent / "{class}" / "0042.txt")]  # the last wins
     before = {f: f.read_bytes() for f in files if f.exists()}
     code = main(["track", "--format", fmt, "--detections", *map(str, files),
                  "--output", str(out), "--events", str(tmp_path / "out" / "ev.jsonl"), *extra])

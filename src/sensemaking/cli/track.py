@@ -523,9 +523,11 @@ def run(args: argparse.Namespace) -> int:
         frames, first, last, classes = _file_frames(args, config, length)
         class_files = _output_paths(args, classes)
         if class_files is not None:
+            from sensemaking.classes import class_name
+
             check_output_paths(
                 {
-                    **{f"--output ({p.parent.name})": p for p in class_files.values()},
+                    **{f"--output ({class_name(c)})": p for c, p in class_files.items()},
                     **outputs,
                 },
                 inputs,
