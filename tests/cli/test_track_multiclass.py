@@ -92,6 +92,48 @@ def test_per_class_files_are_the_one_file_split_by_class(tmp_path: Path, car_and
     assert not (tmp_path / "split" / "pedestrian").exists()
 
 
+def pointrcnn_lines(dets) -> list[tuple[int, str]]:
+    """(frame, PointRCNN line) of each detection: type 1 pedestrian, 2 car, 3 cyclist; the score
+    a logit."""
+    code = {PEDESTRIAN: 1, CAR: 2, CYCLIST: 3}
+    out = []
+    for i, (x1, y1, x2, y2) in enumerate(dets.xyxy):
+        p = min(float(dets.confidence[i]), 0.999)
+        logit = np.log(p / (1 - p))
+        out.append((int(dets.frame[i]), f"{dets.frame[i]},{code[int(dets.class_id[i])]},{x1:.2f},"
+                    f"{y1:.2f},{x2:.2f},{y2:.2f},{logit:.4f},1.5,0.6,1.7,2.0,1.6,20.0,0.1,0.2\n"))
+    return out
+
+
+def test_one_multiclass_file_is_the_class_files_together(tmp_path: Path) -> None:
+    """A PointRCNN file with every class (its type column) tracks as the class files do."""
+    scene = crossing_scene(3, gap=10, far_speed=6.0, near_class=CAR, far_class=CYCLIST)
+    d = scene.detections
+    d = d[np.lexsort((d.class_id, d.frame))]  # by frame, cars (3) before cyclists (16)
+    root = tmp_path / "pointrcnn"
+    for c in ("car", "cyclist", "all"):
+        (root / c).mkdir(parents=True)
+    lines = pointrcnn_lines(d)
+    (root / "all" / "0042.txt").write_text("".join(line for _, line in lines))
+    for c, cid in (("car", CAR), ("cyclist", CYCLIST)):
+        (root / c / "0042.txt").write_text(
+            "".join(line for (_, line), k in zip(lines, d.class_id, strict=True) if k == cid))
+    (root / "seqinfo.csv").write_text(
+        f"seq,num_frames,im_width,im_height,frame_rate\n0042,{scene.n_frames},1242,375,10\n"
+    )
+    one, two = tmp_path / "one" / "{class}" / "0042.txt", tmp_path / "two" / "{class}" / "0042.txt"
+    ev1, ev2 = tmp_path / "one.jsonl", tmp_path / "two.jsonl"
+    assert main(["-q", "track", "--format", "kitti", "--detections", str(root / "all" / "0042.txt"),
+                 "--output", str(one), "--events", str(ev1)]) == 0
+    assert main(["-q", "track", "--format", "kitti", "--detections", str(root / "car" / "0042.txt"),
+                 str(root / "cyclist" / "0042.txt"), "--output", str(two), "--events", str(ev2)]) == 0
+    for c in ("car", "cyclist"):
+        a = (tmp_path / "one" / c / "0042.txt").read_text()
+        assert a and a == (tmp_path / "two" / c / "0042.txt").read_text()
+    assert ev1.read_text() == ev2.read_text()
+    assert "hides_behind" in ev1.read_text()
+
+
 def test_empty_class_file_still_gets_its_results_file(tmp_path: Path, car_and_cyclist) -> None:
     car, _ = car_and_cyclist
     ped = car.parent.parent / "pedestrian" / "0042.txt"
