@@ -383,6 +383,14 @@ def _file_frames(args: argparse.Namespace, config: Any, length: int | None):
         for path, name in zip(files, names, strict=True)
     ]
     frames = streams[0] if len(streams) == 1 else merge_frames(streams, keys)
+    if len(classes) > 1:
+        from sensemaking.classes import class_name
+
+        log.info(
+            "tracking %d classes in one tracker: %s",
+            len(classes),
+            ", ".join(class_name(c) for c in sorted(classes)),
+        )
     return frames, first, last, sorted(classes)
 
 
