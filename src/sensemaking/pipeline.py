@@ -4,6 +4,14 @@ frame. ``sensemaking track`` and the demo run through it; so can any other calle
     with Pipeline(tracker, monitor=monitor, sinks=[TracksSink(path, "mot")]) as pipe:
         summary = pipe.run(frames, first_frame=1, last_frame=length)   # (frame, Detections) pairs
 
+Several classes at once (one tracker, one id space; a track matches detections of its class only
+and may hide behind any object): merge the class files' frames and write one file per class::
+
+    streams = [iter_detection_frames(p, "kitti") for p in ("car/0001.txt", "cyclist/0001.txt")]
+    paths = class_paths("runs/{class}/0001.txt", [CLASS_IDS["car"], CLASS_IDS["cyclist"]])
+    with Pipeline(tracker, sinks=[ClassTracksSink(paths, "kitti")]) as pipe:
+        pipe.run(merge_frames(streams, keep_data=()), first_frame=0, last_frame=length - 1)
+
 ``step(frame, detections)`` does one frame (validated first: a refused frame changes nothing).
 ``run`` also steps the frames between the given ones, with no detections, as the tracker ages
 its tracks by frames; once nothing is live (no track, the monitor's window empty of anything

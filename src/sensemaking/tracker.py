@@ -644,7 +644,7 @@ class Tracker:
                 dets.class_id[cols],
                 dets.confidence[cols],
                 np.array(vis),
-                velocity=self._scene_velocity(),
+                velocity=self._scene_velocity(dets.class_id[cols]),
             )
             observed.update({new_ids[Det(j)]: j for j in cols.tolist()})
         # fluents: the answer holds the values that changed; the others carry on (inertia)
@@ -709,18 +709,25 @@ class Tracker:
         events.sort(key=Event.sort_key)
         return events, observed
 
-    def _scene_velocity(self) -> np.ndarray:
-        """(4,) prior velocity of new tracks (pixels per frame): the median ``cx, cy`` velocity of
-        the established visible tracks, 0 without ``inherit_motion`` or without any of them. One
-        established track is enough: a lone car leading a convoy into view is the only motion
-        known, and the fit at rest still counts for the new tracks (see ``_uncertain``)."""
-        prior = np.zeros(4)
-        if not self.config.inherit_motion or len(self._tracks) == 0:
-            return prior
-        settled = (self._tracks.unseen == 0) & (self._tracks.hits >= self.config.min_hits + 2)
-        if settled.any():
-            prior[:2] = np.median(self._tracks.kf.velocity()[settled, :2], axis=0)
-        return prior
+    def _scene_velocity(self, classes: np.ndarray | None = None) -> np.ndarray:
+        """(K, 4) prior velocity of K new tracks of ``classes`` (pixels per frame): the median
+        ``cx, cy`` velocity of the established visible tracks of the same class, 0 without
+        ``inherit_motion`` or without any of them ((4,) over every class when ``classes`` is
+        None). One established track is enough: a lone car leading a convoy into view is the
+        only motion known, and the fit at rest still counts for the new tracks (see
+        ``_uncertain``). Per class because cars and pedestrians move apart: a joint run of
+        several classes starts each class's tracks as its own run would."""
+        pooled = classes is None
+        kinds = np.zeros(1, dtype=np.int64) if classes is None else np.asarray(classes)
+        prior = np.zeros((len(kinds), 4))
+        if self.config.inherit_motion and len(self._tracks):
+            settled = (self._tracks.unseen == 0) & (self._tracks.hits >= self.config.min_hits + 2)
+            velocity = self._tracks.kf.velocity()[:, :2]
+            for cls in np.unique(kinds).tolist():
+                same = settled if pooled else settled & (self._tracks.cls == cls)
+                if same.any():
+                    prior[kinds == cls, :2] = np.median(velocity[same], axis=0)
+        return prior[0] if pooled else prior
 
     def _output(self, dets: Detections, observed: dict[int, int], frame: int) -> Detections:
         """Every live confirmed track: its detection's box if observed, else the prediction."""

@@ -183,7 +183,9 @@ def run(args: argparse.Namespace) -> int:
     try:
         rules = rules_for_benchmark(benchmark, classes)
     except ValueError as exc:
-        parser.error(str(exc))
+        # explanations of a joint run are judged for any KITTI type (cyclists); scores are not
+        if not (args.explanations and fmt == "kitti" and _kitti_types(classes)):
+            parser.error(str(exc))
 
     load = load_kitti_benchmark if fmt == "kitti" else load_mot_benchmark
     if args.explanations:
@@ -200,6 +202,16 @@ def run(args: argparse.Namespace) -> int:
             handle.write(report.to_json() + "\n")
         log.info("wrote %s", args.json)
     return 0
+
+
+def _kitti_types(classes: list[str] | None) -> bool:
+    """Every name is a KITTI object type (the explanation judge matches any of them)."""
+    from sensemaking.classes import KITTI_NAMES, class_id
+
+    try:
+        return bool(classes) and all(class_id(c) in KITTI_NAMES for c in classes or ())
+    except KeyError:
+        return False
 
 
 # -- --explanations ----------------------------------------------------------------------------

@@ -28,7 +28,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument(
-        "--detections", type=Path, help="detections file (MOT det.txt or a KITTI file)"
+        "--detections",
+        type=Path,
+        nargs="+",
+        action="extend",
+        metavar="FILE",
+        help="detections file (MOT det.txt or a KITTI file; a PointRCNN or KITTI label file may "
+        "hold several classes). Several files of one sequence, e.g. one per class "
+        "(car/0001.txt pedestrian/0001.txt cyclist/0001.txt), are tracked jointly in one "
+        "tracker: a track matches detections of its class only, may hide behind an object of "
+        "any class, and ids are shared (repeatable)",
     )
     src.add_argument(
         "--source",
@@ -49,7 +58,14 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="format of input and output (required with --detections; --source writes mot)",
     )
     p.add_argument(
-        "--output", required=True, type=Path, help="tracking results, in the input's format"
+        "--output",
+        required=True,
+        type=Path,
+        help="tracking results, in the input's format. A path with {class} writes one file per "
+        "class, the benchmark's layout (e.g. runs/{class}/0001.txt -> runs/car/0001.txt, "
+        "runs/pedestrian/0001.txt, ..., one per class of the input, empty if it has no "
+        "track); without it every class goes to one file (KITTI's own results format; "
+        "MOTChallenge results have no class column, so several classes need {class})",
     )
     p.add_argument(
         "--events", type=Path, help='events as JSON lines {"frame":…, "event":…, "args":[…]}'
@@ -82,7 +98,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         dest="class_name",
         default=None,
         help="class of the detections when the file does not say (e.g. car for KITTI RRC "
-        "files; with --format kitti a KITTI type)",
+        "files, whose folder names it by default; with --format kitti a KITTI type); with "
+        "several --detections files one class per file, comma-separated (car,pedestrian)",
     )
     p.add_argument(
         "--seqinfo",
@@ -179,6 +196,8 @@ def check_fps(fps: float, where: str, path: Path | None = None) -> float:
 
 def _check_options(args: argparse.Namespace) -> None:
     """Every option's unit and range, before any file is read."""
+    from sensemaking.io.tables import class_id_of
+
     if args.fps is not None:
         check_fps(args.fps, "--fps")
     if args.max_solve_ms is not None and not (
@@ -190,15 +209,59 @@ def _check_options(args: argparse.Namespace) -> None:
         )
     if args.image_size is not None:
         parse_size(args.image_size)
-    if args.class_name is not None:
-        from sensemaking.classes import KITTI_NAMES
-        from sensemaking.io.tables import class_id_of
+    for name in _class_names(args):
+        if name is not None:
+            _check_kitti_class(args, class_id_of(name), f"--class {name}")
 
-        cid = class_id_of(args.class_name)
-        if args.format == "kitti" and cid not in KITTI_NAMES:
+
+def _check_kitti_class(args: argparse.Namespace, cid: int, where: str) -> None:
+    """KITTI results name every class by a KITTI type: refuse a class without one."""
+    from sensemaking.classes import KITTI_NAMES
+
+    if args.format == "kitti" and cid not in KITTI_NAMES:
+        raise InputError(
+            f"{where}: KITTI results have no type for it (KITTI types: "
+            f"{', '.join(KITTI_NAMES.values())})"
+        )
+
+
+def _class_names(args: argparse.Namespace) -> list[str | None]:
+    """``--class`` per detection file: one name for one file, a comma-separated list (one per
+    file) for several, None for each when not given."""
+    files = getattr(args, "detection_files", None) or [args.detections]
+    if args.class_name is None:
+        return [None] * len(files)
+    if len(files) == 1:
+        return [args.class_name]
+    names = [n.strip() for n in args.class_name.split(",")]
+    if len(names) != len(files):
+        raise InputError(
+            f"--class {args.class_name}: with {len(files)} --detections files, give one class "
+            f"per file, comma-separated (got {len(names)})"
+        )
+    return names
+
+
+def _check_input_files(args: argparse.Namespace) -> None:
+    """Several detection files must be distinct files of one sequence (same sequence name)."""
+    from sensemaking.io.stream import sequence_name
+
+    files = args.detection_files
+    seen: dict[str, Path] = {}
+    for f in files:
+        key = str(f.resolve())
+        if key in seen:
+            raise InputError(f"detection file given twice (also as {seen[key]})", f)
+        seen[key] = f
+    names = {f: sequence_name(f, args.format) for f in files}
+    first = files[0]
+    for f in files[1:]:
+        if names[f] != names[first]:
             raise InputError(
-                f"--class {args.class_name}: KITTI results have no type for it (KITTI types: "
-                f"{', '.join(KITTI_NAMES.values())})"
+                f"detection files of different sequences: {names[f]!r} here, {names[first]!r} "
+                f"in {first} (files tracked together must be one sequence's, named alike, "
+                "e.g. car/0001.txt pedestrian/0001.txt)",
+                f,
             )
 
 
@@ -276,32 +339,96 @@ def tracker_config(args: argparse.Namespace, fps: float | None, size: tuple[int,
 
 
 def _file_frames(args: argparse.Namespace, config: Any, length: int | None):
-    """(frames as (frame, Detections) pairs, first frame, last frame) of a detections file,
-    checked whole before (so that a bad line stops the run before any work) and then read
-    again frame by frame."""
-    from sensemaking.io.stream import iter_detection_frames, scan_detections
+    """(frames as (frame, Detections) pairs, first frame, last frame, class ids) of the
+    detection files, each checked whole before (so that a bad line stops the run before any
+    work) and then read again frame by frame; several files merged frame by frame."""
+    from sensemaking.io.stream import iter_detection_frames, merge_frames, scan_detections
 
     first = 1 if args.format == "mot" else 0
     seq_last = None if length is None else first + length - 1
-    log.info("checking %s before tracking", args.detections)
-    summary = scan_detections(
-        args.detections,
-        args.format,
-        args.class_name,
-        image_size=config.image_size,
-        last_frame=seq_last,
-    )
-    last = summary.last
+    files, names = args.detection_files, _class_names(args)
+    last: int | None = None
+    classes: set[int] = set()
+    owner: dict[int, Path] = {}  # class id -> the file that has it
+    keys: set[str] | None = None
+    for path, name in zip(files, names, strict=True):
+        log.info("checking %s before tracking", path)
+        summary = scan_detections(
+            path, args.format, name, image_size=config.image_size, last_frame=seq_last
+        )
+        if summary.last is not None:
+            last = summary.last if last is None else max(last, summary.last)
+        hint = _file_class(path, name, args.format)
+        mine = set(summary.classes) | ({hint} if hint is not None else set())
+        for c in sorted(mine):
+            if c in owner:
+                from sensemaking.classes import class_name
+
+                raise InputError(
+                    f"class {class_name(c)} is also in {owner[c]}: give each class once "
+                    "(tracked together, the same objects would be tracked twice)",
+                    path,
+                )
+            owner[c] = path
+            _check_kitti_class(args, c, f"{path}: class {c}")
+        classes |= mine
+        if summary.detections:
+            keys = set(summary.data_keys) if keys is None else keys & set(summary.data_keys)
     if seq_last is not None:
         last = seq_last if last is None else max(last, seq_last)
-    frames = iter_detection_frames(
-        args.detections,
-        args.format,
-        args.class_name,
-        image_size=config.image_size,
-        last_frame=seq_last,
-    )
-    return frames, first, last
+    streams = [
+        iter_detection_frames(
+            path, args.format, name, image_size=config.image_size, last_frame=seq_last
+        )
+        for path, name in zip(files, names, strict=True)
+    ]
+    frames = streams[0] if len(streams) == 1 else merge_frames(streams, keys)
+    if len(classes) > 1:
+        from sensemaking.classes import class_name
+
+        log.info(
+            "tracking %d classes in one tracker: %s",
+            len(classes),
+            ", ".join(class_name(c) for c in sorted(classes)),
+        )
+    return frames, first, last, sorted(classes)
+
+
+def _file_class(path: Path, name: str | None, fmt: str) -> int | None:
+    """The class a detection file is of even when it is empty: ``--class``, else (KITTI) its
+    folder's name when that is a class name (``.../cyclist/0003.txt``); None if neither says."""
+    from sensemaking.classes import class_id
+
+    if name is not None:
+        return class_id(name)
+    if fmt != "kitti":
+        return None
+    try:
+        return class_id(path.resolve().parent.name)
+    except KeyError:
+        return None
+
+
+def _output_paths(args: argparse.Namespace, classes: list[int]) -> dict[int, Path] | None:
+    """Class id -> results file when ``--output`` has the {class} field, else None (one file);
+    refuses several classes in one MOTChallenge file (it has no class column)."""
+    from sensemaking.io.sinks import CLASS_FIELD, class_paths
+
+    if CLASS_FIELD in str(args.output):
+        if not classes:
+            raise InputError(
+                f"--output has {CLASS_FIELD} but the input names no class (give --class)",
+                args.output,
+            )
+        return class_paths(args.output, classes)
+    if args.format == "mot" and len(classes) > 1:
+        raise InputError(
+            f"--output: MOTChallenge results have no class column, and the input has "
+            f"{len(classes)} classes: put {CLASS_FIELD} in the path (e.g. runs/{CLASS_FIELD}/"
+            f"{args.output.name}) for one file per class",
+            args.output,
+        )
+    return None
 
 
 def _video_frames(args: argparse.Namespace):
@@ -331,8 +458,23 @@ def _video_frames(args: argparse.Namespace):
     return frames(), (int(first.shape[1]), int(first.shape[0]))
 
 
+def _scene_metadata(args: argparse.Namespace, source: Path) -> dict[str, Any]:
+    """The scene's name and source (``sources`` too when several files were tracked)."""
+    if len(args.detection_files) > 1:
+        from sensemaking.io.stream import sequence_name
+
+        return {
+            "name": sequence_name(source, args.format),
+            "source": str(source),
+            "sources": [str(f) for f in args.detection_files],
+        }
+    return {"name": Path(source).stem, "source": str(source)}
+
+
 def run(args: argparse.Namespace) -> int:
     from sensemaking.io.sinks import (
+        CLASS_FIELD,
+        ClassTracksSink,
         EventsSink,
         SceneSink,
         TracksSink,
@@ -342,17 +484,29 @@ def run(args: argparse.Namespace) -> int:
     from sensemaking.pipeline import Pipeline
     from sensemaking.tracker import Tracker
 
+    # several files (one per class) are one input; args.detections is the first (seqinfo, name)
+    args.detection_files = list(args.detections or [])
+    args.detections = args.detection_files[0] if args.detection_files else None
     if args.detections is not None and args.format is None:
         raise InputError("--format mot|kitti is required with --detections")
     _check_options(args)
+    per_class = CLASS_FIELD in str(args.output)
+    if per_class and args.detections is None:
+        raise InputError(
+            f"--output with {CLASS_FIELD} needs --detections (the classes are read from the "
+            "files before tracking)",
+            args.output,
+        )
+    if args.detections is not None:
+        _check_input_files(args)
     outputs = {
-        "--output": args.output,
+        "--output": None if per_class else args.output,
         "--events": args.events,
         "--scene": args.scene,
         "--warnings": args.warnings,
     }
     inputs = {
-        "--detections": args.detections,
+        **{f"--detections {d}": d for d in args.detection_files},
         "--source": args.source,
         "--detector": args.detector,
         "--seqinfo": args.seqinfo,
@@ -372,8 +526,20 @@ def run(args: argparse.Namespace) -> int:
         size = parse_size(args.image_size)
     config = tracker_config(args, fps, size)
     first = last = None
+    class_files: dict[int, Path] | None = None
     if args.detections is not None:
-        frames, first, last = _file_frames(args, config, length)
+        frames, first, last, classes = _file_frames(args, config, length)
+        class_files = _output_paths(args, classes)
+        if class_files is not None:
+            from sensemaking.classes import class_name
+
+            check_output_paths(
+                {
+                    **{f"--output ({class_name(c)})": p for c, p in class_files.items()},
+                    **outputs,
+                },
+                inputs,
+            )
     tracker = Tracker(config, encoding=args.encoding, rules=args.rules)
     recorder = monitor = None
     if args.situations and not args.warnings:
@@ -389,7 +555,12 @@ def run(args: argparse.Namespace) -> int:
     with Progress(total, "tracking", enabled=not args.quiet) as progress:
         sinks: list[Any] = []
         try:
-            sinks.append(TracksSink(args.output, args.format, write_hidden=args.write_hidden))
+            if class_files is not None:
+                sinks.append(
+                    ClassTracksSink(class_files, args.format, write_hidden=args.write_hidden)
+                )
+            else:
+                sinks.append(TracksSink(args.output, args.format, write_hidden=args.write_hidden))
             if args.events:
                 sinks.append(EventsSink(args.events))
             if args.warnings:
@@ -401,7 +572,7 @@ def run(args: argparse.Namespace) -> int:
                         args.scene,
                         fps=config.fps,
                         image_size=config.image_size,
-                        metadata={"name": Path(source).stem, "source": str(source)},
+                        metadata=_scene_metadata(args, source),
                     )
                 )
         except BaseException:
@@ -448,8 +619,9 @@ def run(args: argparse.Namespace) -> int:
         stats["timed_out"],
     )
     if not args.quiet:
+        where = ", ".join(str(p) for p in class_files.values()) if class_files else args.output
         print(
-            f"{args.output}: {n_tracks} tracks over {summary.frames} frames, "
+            f"{where}: {n_tracks} tracks over {summary.frames} frames, "
             f"{summary.events} events ({per_frame:.2f} ms/frame association"
             + (
                 f", {stats['timed_out']} frames over the solve budget"

@@ -32,7 +32,17 @@ from sensemaking.io.mot import format_mot
 from sensemaking.results import Event, FrameResult
 from sensemaking.scene import SCENE_FORMAT, SCENE_VERSION, Track, track_json
 
-__all__ = ["Sink", "TracksSink", "EventsSink", "WarningsSink", "SceneSink", "check_output_paths"]
+__all__ = [
+    "Sink",
+    "TracksSink",
+    "ClassTracksSink",
+    "EventsSink",
+    "WarningsSink",
+    "SceneSink",
+    "check_output_paths",
+    "class_paths",
+    "CLASS_FIELD",
+]
 
 #: an event as the scene file orders it: (frame, name, args)
 #: an event's order (``Event.sort_key``: ids before constants) and the event
@@ -137,6 +147,79 @@ class TracksSink:
 
     def abort(self, interrupted: bool = False) -> None:
         self._file.discard()
+
+
+#: the field of an output path replaced by each class's name (``runs/{class}/0001.txt``)
+CLASS_FIELD = "{class}"
+
+
+def class_paths(template: PathLike, classes: Iterable[int]) -> dict[int, Path]:
+    """Class id -> output path: ``template`` with :data:`CLASS_FIELD` replaced by the class's
+    name (``runs/{class}/0001.txt`` -> ``runs/car/0001.txt``, the KITTI benchmark's layout of
+    one results folder per class). Raises ValueError if ``template`` has no such field."""
+    from sensemaking.classes import class_name
+
+    text = os.fspath(template)
+    if CLASS_FIELD not in text:
+        raise ValueError(f"output path {text!r} has no {CLASS_FIELD} field")
+    return {int(c): Path(text.replace(CLASS_FIELD, class_name(c))) for c in sorted(classes)}
+
+
+class ClassTracksSink:
+    """Tracking results written per class: one :class:`TracksSink` per class id of ``paths``
+    (e.g. from :func:`class_paths`), each row to the file of its track's class, so that a joint
+    run of several classes gives the files of separate runs (the benchmark's per-class layout)
+    and is scored class by class the same way. Every file is made, empty for a class without
+    tracks; a track of a class not in ``paths`` is a ValueError. ``boxes`` and ``ids`` count
+    over all classes."""
+
+    def __init__(self, paths: Mapping[int, PathLike], fmt: str, *, write_hidden: bool = False):
+        if not paths:
+            raise ValueError("ClassTracksSink needs at least one class")
+        self.paths = {int(c): Path(p) for c, p in paths.items()}
+        self.write_hidden = write_hidden
+        self._sinks: dict[int, TracksSink] = {}
+        try:
+            for c, p in self.paths.items():
+                self._sinks[c] = TracksSink(p, fmt, write_hidden=write_hidden)
+        except BaseException:
+            close_all(self._sinks.values(), ok=False)
+            raise
+        self._classes = np.array(sorted(self._sinks), dtype=np.int64)
+
+    @property
+    def boxes(self) -> int:
+        return sum(s.boxes for s in self._sinks.values())
+
+    @property
+    def ids(self) -> set[int]:
+        return set().union(*(s.ids for s in self._sinks.values()))
+
+    def frame(self, result: FrameResult, warnings: list[Any]) -> None:
+        tracks = result.tracks
+        assert tracks.class_id is not None  # set by __post_init__
+        if len(tracks) == 0:
+            return
+        unknown = ~np.isin(tracks.class_id, self._classes)
+        if unknown.any():
+            from sensemaking.classes import class_name
+
+            c = int(tracks.class_id[np.argmax(unknown)])
+            raise ValueError(f"a track of class {c} ({class_name(c)}) has no results file")
+        for c, sink in self._sinks.items():
+            rows = tracks.class_id == c
+            if rows.any():
+                part = tracks if rows.all() else tracks[rows]
+                sink.frame(FrameResult(frame=result.frame, tracks=part, events=[]), warnings)
+
+    def skip(self, first: int, last: int) -> None:
+        pass
+
+    def finish(self) -> None:
+        close_all(self._sinks.values(), ok=True)
+
+    def abort(self, interrupted: bool = False) -> None:
+        close_all(self._sinks.values(), ok=False, interrupted=interrupted)
 
 
 class EventsSink:

@@ -9,9 +9,11 @@ file before it does any work and know its frame range.
 
 from __future__ import annotations
 
+import heapq
 import logging
-from collections.abc import Iterator
+from collections.abc import Collection, Iterable, Iterator, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -27,7 +29,14 @@ from sensemaking.io.kitti import (
 from sensemaking.io.mot import MOT_LAYOUTS, mot_from_table
 from sensemaking.io.tables import PathLike, class_id_of, parse_lines, reading
 
-__all__ = ["iter_detection_frames", "scan_detections", "DetectionsSummary", "CHUNK_LINES"]
+__all__ = [
+    "iter_detection_frames",
+    "scan_detections",
+    "merge_frames",
+    "sequence_name",
+    "DetectionsSummary",
+    "CHUNK_LINES",
+]
 
 log = logging.getLogger(__name__)
 
@@ -39,13 +48,16 @@ CHUNK_LINES = 65536
 class DetectionsSummary:
     """What a pass over a detection file found: ``first``/``last`` frame with detections,
     ``frames`` (number of frames with detections), ``detections`` (boxes kept), ``dropped``
-    (boxes of zero width or height dropped)."""
+    (boxes of zero width or height dropped), ``classes`` (the class ids of the boxes kept,
+    sorted), ``data_keys`` (the ``Detections.data`` columns of the file's kind, sorted)."""
 
     first: int | None
     last: int | None
     frames: int
     detections: int
     dropped: int
+    classes: tuple[int, ...] = ()
+    data_keys: tuple[str, ...] = ()
 
 
 def _layout(path: PathLike, fmt: Format) -> tuple[str, dict, tuple[int, ...]]:
@@ -127,6 +139,8 @@ def iter_detection_frames(
     n_frames = n_dets = dropped = 0
     last: int | None = None
     first_drop: int | None = None
+    classes: set[int] = set()
+    data_keys: tuple[str, ...] = ()
     for body, rows in _chunks(path, chunk_lines):
         table = parse_lines(path, body, rows, sep=sep, names=names, text_cols=text_cols)
         names = {table.ncols: names[table.ncols]}  # every chunk has the first line's layout
@@ -167,6 +181,10 @@ def iter_detection_frames(
         validate_detections(dets, image_size, str(path))
         if first is None and len(dets):
             first = int(dets.frame[0])
+        if len(dets):
+            assert dets.class_id is not None  # set by __post_init__
+            classes.update(np.unique(dets.class_id).tolist())
+            data_keys = tuple(sorted(dets.data))
         parts = _split_frames(dets)
         if not parts:
             continue  # every box of the chunk dropped: a pending frame may still go on
@@ -198,7 +216,11 @@ def iter_detection_frames(
             first_drop,
         )
     if summary is not None:
-        summary.append(DetectionsSummary(first, last, n_frames, n_dets, dropped))
+        summary.append(
+            DetectionsSummary(
+                first, last, n_frames, n_dets, dropped, tuple(sorted(classes)), data_keys
+            )
+        )
 
 
 def _split_frames(dets: Detections) -> list[tuple[int, Detections]]:
@@ -253,3 +275,42 @@ def scan_detections(
     ):
         pass
     return out[0]
+
+
+def merge_frames(
+    streams: Sequence[Iterable[tuple[int, Detections]]],
+    keep_data: Collection[str] | None = None,
+) -> Iterator[tuple[int, Detections]]:
+    """Several ``(frame, Detections)`` streams of one sequence (each in increasing frame order,
+    e.g. one :func:`iter_detection_frames` per class file) as one: a frame's rows are those of
+    every stream with that frame, in stream order. ``keep_data``: the ``data`` columns kept
+    (the others dropped, so that detectors with different columns can be mixed); None keeps
+    them all (they must then agree). Memory: one frame per stream."""
+    tagged = (((f, k, d) for f, d in stream) for k, stream in enumerate(streams))
+    # heapq.merge is stable: equal frames come in stream order
+    merged = heapq.merge(*tagged, key=lambda item: item[0])
+    keep = None if keep_data is None else set(keep_data)
+    frame: int | None = None
+    parts: list[Detections] = []
+    for f, _, dets in merged:
+        if keep is not None and set(dets.data) != keep:
+            dets = dets.with_(data={k: v for k, v in dets.data.items() if k in keep})
+        if f != frame and parts:
+            assert frame is not None
+            yield frame, parts[0] if len(parts) == 1 else Detections.concatenate(parts)
+            parts = []
+        frame = f
+        parts.append(dets)
+    if parts:
+        assert frame is not None
+        yield frame, parts[0] if len(parts) == 1 else Detections.concatenate(parts)
+
+
+def sequence_name(path: PathLike, fmt: Format) -> str:
+    """The sequence a detection file belongs to, by the benchmark's layout: KITTI
+    ``<class>/<seq>.txt`` -> ``<seq>``; MOTChallenge ``<seq>/det/det.txt`` -> ``<seq>``, any
+    other MOT file its name without extension."""
+    p = Path(path)
+    if fmt == "mot" and p.name == "det.txt" and p.parent.name == "det":
+        return p.parent.parent.name
+    return p.stem
