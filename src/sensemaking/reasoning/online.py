@@ -372,7 +372,12 @@ class SituationMonitor:
     def active(self) -> list[Warning]:
         """Every situation holding at the current frame, as warnings of this frame."""
         if self._active is None:
-            self._active = [self._warning(self._last_frame, d) for d in self._found]  # type: ignore[arg-type]
+            f = self._last_frame
+            assert f is not None  # _found is filled by update
+            self._active = [
+                self._warning(f, d, self._open[(d.situation, d.objects)].number)
+                for d in self._found
+            ]
         return list(self._active)
 
     def run(self, results: Iterable[FrameResult]) -> list[Warning]:
