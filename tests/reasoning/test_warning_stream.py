@@ -154,3 +154,15 @@ def test_a_person_exiting_keeps_its_class_in_the_record(tmp_path: Path):
     records = stream(tmp_path, [car, person], 20, SituationConfig(situations={"EXITING_VEHICLE"}))
     starts = [r for r in records if r["record"] == "start"]
     assert starts and starts[0]["details"]["classes"] == ["pedestrian", "car"]
+
+
+def test_readers_of_the_warnings_file_take_the_starts(tmp_path: Path):
+    # render's reader (viz) skips the end records: a warning is drawn where it starts
+    pytest.importorskip("sensemaking.viz._run")
+    from sensemaking.viz._run import read_warnings
+
+    box_ = (420, 170, 820, 370)
+    truck = Obj(1, TRUCK, {**linear(range(0, 10), box_), **linear(range(25, 30), box_)})
+    stream(tmp_path, [truck], 30, SituationConfig(situations={"REDUCED_VISIBILITY"}))
+    got = read_warnings(tmp_path / "warnings.jsonl")
+    assert [(w["frame"], w["record"]) for w in got] == [(0, "start"), (25, "start")]

@@ -198,6 +198,7 @@ def run_sequence(spec: SequenceSpec, params: RunParams | None = None) -> Sequenc
     Raises:
         InputError (or another SensemakingError): the sequence's input is bad.
     """
+    from sensemaking import settings
     from sensemaking.pipeline import Pipeline
     from sensemaking.reasoning.online import SituationMonitor
     from sensemaking.scene import SceneRecorder
@@ -224,7 +225,11 @@ def run_sequence(spec: SequenceSpec, params: RunParams | None = None) -> Sequenc
         image_size=config.image_size,
         metadata={"dataset": spec.dataset, "sequence": spec.sequence, "source": spec.det_path},
     )
-    monitor = SituationMonitor(fps=config.fps, image_size=config.image_size)
+    monitor = SituationMonitor(
+        fps=config.fps,
+        image_size=config.image_size,
+        profile=settings.preset_profile(spec.family),  # the family's camera: ego vehicle or not
+    )
     collected = _Warnings()
     frames = ((f, d) for f, d in dets.frames() if first <= f <= last)
     with Pipeline(tracker, recorder, monitor, [collected], validate=False) as pipe:
