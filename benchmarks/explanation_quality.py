@@ -31,6 +31,7 @@ from sensemaking.evaluation.explanations import (
 )
 from sensemaking.io.atomic import atomic_write
 from sensemaking.reasoning.online import SituationMonitor
+from sensemaking.settings import preset_profile
 from sensemaking.tracker import Tracker
 
 
@@ -40,7 +41,11 @@ def track_sequence(bench: Benchmark, seq: Sequence) -> tuple[Detections, list, l
     size = (int(seq.info.width), int(seq.info.height))
     config = ours_config(bench.spec.family, fps=float(seq.info.fps), image_size=size)
     tracker = Tracker(config)
-    monitor = SituationMonitor(fps=config.fps, image_size=config.image_size)
+    monitor = SituationMonitor(
+        fps=config.fps,
+        image_size=config.image_size,
+        profile=preset_profile(bench.spec.family),  # as `track` runs: the family's profile
+    )
     frames = dict(seq.detections.frames())
     outputs, events, warnings = [], [], []
     for f in seq.frame_numbers:

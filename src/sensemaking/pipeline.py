@@ -47,6 +47,8 @@ class FrameStep:
 
     result: FrameResult
     warnings: list[Any] = field(default_factory=list)
+    #: warning episodes ended at this frame (:class:`~sensemaking.reasoning.online.WarningEnd`)
+    ended: list[Any] = field(default_factory=list)
 
 
 @dataclass
@@ -125,8 +127,10 @@ class Pipeline:
         if self.recorder is not None:
             self.recorder.add(result)
         warnings = list(self.monitor.update(result)) if self.monitor is not None else []
+        ended = list(getattr(self.monitor, "ended", ()))
         for sink in self.sinks:
             sink.frame(result, warnings)
+        self._end_warnings(ended)
         s = self.summary
         s.frames += 1
         s.stepped += 1
@@ -138,7 +142,21 @@ class Pipeline:
         self._quiet = self._quiet + 1 if idle else 0
         if self.on_frames is not None:
             self.on_frames(1)
-        return FrameStep(result, warnings)
+        return FrameStep(result, warnings, ended)
+
+    def _end_warnings(self, ends: list[Any]) -> None:
+        """Give the ends of warning episodes to the sinks that take them (``end_warnings``)."""
+        if ends:
+            for sink in self.sinks:
+                take = getattr(sink, "end_warnings", None)
+                if take is not None:
+                    take(ends)
+
+    def _finish_warnings(self, reason: str) -> None:
+        """End the monitor's open warning episodes (the input ended or was interrupted)."""
+        finish = getattr(self.monitor, "finish", None)
+        if callable(finish):
+            self._end_warnings(list(finish(reason)))
 
     def _tracker_idle(self) -> bool:
         """True when an empty frame would change nothing in the tracker but its frame counters:
@@ -156,6 +174,7 @@ class Pipeline:
         while f <= last:
             if self._horizon >= 0 and self._quiet > self._horizon:
                 n = last - f + 1
+                self._finish_warnings("cleared")  # nothing holds over the frames skipped
                 if self.recorder is not None:  # it keeps every frame number: add them as empty
                     for g in range(f, last + 1):
                         self.recorder.add(
@@ -213,12 +232,22 @@ class Pipeline:
         """Make every sink's file (renamed into place together at the end)."""
         if not self._closed:
             self._closed = True
+            try:
+                self._finish_warnings("end_of_input")
+            except BaseException:
+                close_all(self.sinks, ok=False)
+                raise
             close_all(self.sinks, ok=True)
 
     def abort(self, interrupted: bool = False) -> None:
         """Delete what the sinks wrote (but the warnings, when ``interrupted``)."""
         if not self._closed:
             self._closed = True
+            if interrupted:  # the warnings file is kept: its open episodes end here
+                try:
+                    self._finish_warnings("interrupted")
+                except Exception:  # noqa: BLE001 - the sinks still need closing
+                    log.warning("could not end the open warning episodes", exc_info=True)
             close_all(self.sinks, ok=False, interrupted=interrupted)
 
     def __enter__(self) -> Pipeline:

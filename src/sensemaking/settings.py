@@ -12,6 +12,7 @@ it); :func:`parse_value` turns the text of ``--set KEY=VALUE`` into a typed valu
       "format": "sensemaking-params/1",
       "base": "kitti",
       "source": "where the values came from (free text)",
+      "profile": "driving",
       "params": {"min_hits": 3, "start_confidence": 0.8, "costs": {"resumes": 200},
                  "kalman.velocity_std": 0.1}
     }
@@ -21,6 +22,12 @@ dotted (``"costs.resumes": 200``). ``base`` (optional) names the preset the valu
 (``kitti``, ``mot`` or ``defaults``); without it the caller's family applies. A ``.toml`` file
 with the same keys (``[params]``, ``[params.costs]``) is read as well. Unknown keys, wrong types
 and values out of range are errors naming the file and the key.
+
+``profile`` (optional) is the scene profile of the family's cameras, ``driving`` (a camera on an
+ego vehicle: the ego-vehicle situations apply) or ``fixed`` (a standing or handheld camera, no
+ego vehicle); the presets name theirs (:func:`preset_profile`: KITTI ``driving``, MOT
+``fixed``), ``sensemaking track --profile`` overrides it. Which situations apply to each profile
+is stated in ``reasoning/encodings/situations.lp``.
 """
 
 from __future__ import annotations
@@ -55,6 +62,8 @@ __all__ = [
     "check_value",
     "preset_params",
     "preset_source",
+    "preset_profile",
+    "SCENE_PROFILES",
     "preset_config",
     "load_params",
     "read_params_file",
@@ -80,7 +89,9 @@ _FAMILY_ALIASES = {
 #: the ``format`` tag of parameter files this version reads and writes
 FORMAT = "sensemaking-params/1"
 _NESTED = ("costs", "kalman")
-_FILE_KEYS = {"format", "base", "source", "params"}
+_FILE_KEYS = {"format", "base", "source", "params", "profile"}
+#: scene profiles: a camera on an ego vehicle, or a standing / handheld camera without one
+SCENE_PROFILES: tuple[str, ...] = ("driving", "fixed")
 
 
 class ParameterError(InputError):
@@ -349,6 +360,11 @@ def preset_source(family: str) -> str:
     return str(_preset_document(family).get("source", ""))
 
 
+def preset_profile(family: str) -> str:
+    """The scene profile a family's preset names (``driving`` when it names none)."""
+    return str(_preset_document(family).get("profile", "driving"))
+
+
 def _flatten(params: Mapping[str, Any], where: str) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for key, value in params.items():
@@ -372,6 +388,11 @@ def _document_params(doc: Any, where: str) -> dict[str, Any]:
     fmt = doc.get("format", FORMAT)
     if fmt != FORMAT:
         raise ParameterError(f"format {fmt!r} is not {FORMAT!r}", where)
+    profile = doc.get("profile", SCENE_PROFILES[0])
+    if profile not in SCENE_PROFILES:
+        raise ParameterError(
+            f"profile {profile!r} is not one of {', '.join(SCENE_PROFILES)}", where
+        )
     params = doc.get("params", {})
     if not isinstance(params, Mapping):
         raise ParameterError("'params' must be a table of parameter: value", where)

@@ -288,6 +288,8 @@ def _events(path: Path) -> list:
 def _warnings(path: Path) -> list[dict]:
     out = []
     for r in _json_lines(path):
+        if r.get("record") == "end":  # the end of a warning episode: judged at its start
+            continue
         objs = r.get("objects")
         ok = (
             isinstance(r.get("frame"), int)

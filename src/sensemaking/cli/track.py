@@ -161,6 +161,38 @@ def register(sub: argparse._SubParsersAction) -> None:
         "`warn(stopped_ahead,(T,)) :- ...` (repeatable)",
     )
     p.add_argument(
+        "--lanes",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="lanes JSON for --warnings (pixels; format in docs/SITUATIONS.md and "
+        "sensemaking.reasoning.context): BLOCKED_LANE is checked, warnings say the lane",
+    )
+    p.add_argument(
+        "--segmentation",
+        type=Path,
+        default=None,
+        metavar="PATH",
+        help="label maps for --warnings: a folder of <frame>.npy/.png or one file (a standing "
+        "camera); an object beside the road blocks no lane",
+    )
+    p.add_argument(
+        "--labels",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help='label names of --segmentation, JSON {"0": "road", ...} (default: labels.json '
+        "beside the maps, else the Cityscapes train ids)",
+    )
+    p.add_argument(
+        "--profile",
+        choices=("driving", "fixed"),
+        default=None,
+        help="scene profile for --warnings: driving (a camera on an ego vehicle) or fixed "
+        "(a standing or handheld camera: no ego-vehicle warnings); default: the preset's "
+        "(KITTI driving, MOT fixed)",
+    )
+    p.add_argument(
         "--params",
         dest="params_file",
         type=Path,
@@ -471,6 +503,37 @@ def _scene_metadata(args: argparse.Namespace, source: Path) -> dict[str, Any]:
     return {"name": Path(source).stem, "source": str(source)}
 
 
+def _situation_context(args: argparse.Namespace) -> tuple[Any, str]:
+    """The scene context (lanes, segmentation) and the scene profile of --warnings, read and
+    checked before any work."""
+    from sensemaking import settings
+    from sensemaking.reasoning.context import SceneContext
+
+    needs = [
+        name
+        for name, given in (
+            ("--situations", args.situations),
+            ("--lanes", args.lanes),
+            ("--segmentation", args.segmentation),
+            ("--labels", args.labels),
+            ("--profile", args.profile),
+        )
+        if given
+    ]
+    if needs and not args.warnings:
+        raise InputError(f"{needs[0]} needs --warnings PATH (where the warnings go)")
+    if args.labels is not None and args.segmentation is None:
+        raise InputError("--labels names the labels of --segmentation: give --segmentation")
+    family = "kitti" if args.format == "kitti" else "mot"
+    profile = args.profile or settings.preset_profile(family)
+    if not args.warnings:
+        return None, profile
+    context = SceneContext.load(
+        lanes=args.lanes, segmentation=args.segmentation, labels=args.labels
+    )
+    return context, profile
+
+
 def run(args: argparse.Namespace) -> int:
     from sensemaking.io.sinks import (
         CLASS_FIELD,
@@ -513,8 +576,12 @@ def run(args: argparse.Namespace) -> int:
         "--encoding": args.encoding,
         **{f"--rules {r}": r for r in args.rules},
         **{f"--situations {r}": r for r in args.situations},
+        "--lanes": args.lanes,
+        "--segmentation": args.segmentation,
+        "--labels": args.labels,
     }
     check_output_paths(outputs, inputs)
+    context, profile = _situation_context(args)
     fps = size = length = None
     if args.detections is not None:
         fps, size, length = _sequence_info(args)
@@ -542,13 +609,15 @@ def run(args: argparse.Namespace) -> int:
             )
     tracker = Tracker(config, encoding=args.encoding, rules=args.rules)
     recorder = monitor = None
-    if args.situations and not args.warnings:
-        raise InputError("--situations needs --warnings PATH (where the warnings go)")
     if args.warnings:
         from sensemaking.reasoning.online import SituationMonitor
 
         monitor = SituationMonitor(
-            fps=config.fps, image_size=config.image_size, extra_encodings=args.situations
+            context=context,
+            fps=config.fps,
+            image_size=config.image_size,
+            extra_encodings=args.situations,
+            profile=profile,
         )
     source = args.detections or args.source
     total = 0 if last is None or first is None else last - first + 1

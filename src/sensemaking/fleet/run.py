@@ -198,6 +198,7 @@ def run_sequence(spec: SequenceSpec, params: RunParams | None = None) -> Sequenc
     Raises:
         InputError (or another SensemakingError): the sequence's input is bad.
     """
+    from sensemaking import settings
     from sensemaking.pipeline import Pipeline
     from sensemaking.reasoning.online import SituationMonitor
     from sensemaking.scene import SceneRecorder
@@ -225,7 +226,11 @@ def run_sequence(spec: SequenceSpec, params: RunParams | None = None) -> Sequenc
         metadata={"dataset": spec.dataset, "sequence": spec.sequence, "source": spec.det_path},
         problems=False,  # the archive keeps tables, not the abduction problems behind events
     )
-    monitor = SituationMonitor(fps=config.fps, image_size=config.image_size)
+    monitor = SituationMonitor(
+        fps=config.fps,
+        image_size=config.image_size,
+        profile=settings.preset_profile(spec.family),  # the family's camera: ego vehicle or not
+    )
     collected = _Warnings()
     frames = ((f, d) for f, d in dets.frames() if first <= f <= last)
     with Pipeline(tracker, recorder, monitor, [collected], validate=False) as pipe:

@@ -246,25 +246,44 @@ class EventsSink:
 
 
 class WarningsSink:
-    """Warnings as JSON lines, flushed as they are issued into ``<path>.part`` (``tail -f`` it;
-    its name is in ``part``); kept in place when the run is interrupted, as the record of what
-    was said."""
+    """Warnings as a stream of episodes, JSON lines flushed as they are issued into
+    ``<path>.part`` (``tail -f`` it; its name is in ``part``); kept in place when the run is
+    interrupted, as the record of what was said.
+
+    Each warning episode is two records (:mod:`sensemaking.reasoning.online`): a start record
+    ``{"record": "start", "episode": N, "severity": 1..3, "lane_position": "ego"|"left"|"right"|
+    "unknown", "frame", "situation", "objects", "message", "details"}`` when the situation starts
+    to hold, and an end record ``{"record": "end", "episode": N, "frame", "situation",
+    "objects", "start_frame", "last_frame", "frames", "reason"}`` once it has stopped holding
+    (or the input ended). A situation holding over consecutive frames is one episode.
+    """
 
     def __init__(self, path: PathLike):
         self.path = Path(path)
         self.count = 0
+        self.ended = 0
         self._file = PartFile(self.path, visible=True)
         self.part = self._file.part
 
     def frame(self, result: FrameResult, warnings: list[Any]) -> None:
         # a situation that cannot be checked (no objects) is a notice the monitor logs, not a
         # warning record
+        from sensemaking.reasoning.online import start_record
+
         warnings = [w for w in warnings if w.objects]
         if warnings:
             for w in warnings:
-                self._file.handle.write(json.dumps(w.to_json()) + "\n")
+                self._file.handle.write(json.dumps(start_record(w)) + "\n")
             self._file.handle.flush()
             self.count += len(warnings)
+
+    def end_warnings(self, ends: list[Any]) -> None:
+        """End records of warning episodes (:class:`~sensemaking.reasoning.online.WarningEnd`)."""
+        if ends:
+            for e in ends:
+                self._file.handle.write(json.dumps(e.to_json()) + "\n")
+            self._file.handle.flush()
+            self.ended += len(ends)
 
     def skip(self, first: int, last: int) -> None:
         pass

@@ -1,12 +1,30 @@
 """Anticipating where and when a hidden object reappears (Figure 4 of the paper).
 
 An object hidden behind an occluder keeps moving as it did when it was last seen; so does the
-occluder. Both boxes are extrapolated linearly (each corner's velocity fitted by least squares
-over the last few visible boxes) and the object *reappears* at the first future frame at which
-less than ``reappear_coverage`` of its extrapolated box is covered by the occluder's. The
-position there (bottom centre of the extrapolated box, where the object stands on the road) is
-checked against the ego corridor; a reappearance in the corridor is what HIDDEN_ENTITY warns
-about, while the object is still hidden, with the lead time in frames and seconds.
+occluder. Both boxes are extrapolated from the last few visible boxes and the object
+*reappears* at the first future frame at which less than ``reappear_coverage`` of its
+extrapolated box is covered by the occluder's. The position there (bottom centre of the
+extrapolated box, where the object stands on the road) is checked against the ego corridor; a
+reappearance in the corridor is what HIDDEN_ENTITY warns about, while the object is still
+hidden, with the lead time in frames and seconds.
+
+Two motion models (``AnticipationConfig.motion_model``):
+
+* ``linear`` (the default): each box corner moves at its own constant velocity in the image
+  (least squares).
+* ``pinhole`` (needs the image size, else ``linear``): each object moves at a constant
+  velocity *relative to the camera* in 3D, seen through a pinhole camera whose principal point
+  is the image centre ``(cx, cy)``. For an object of height H at depth Z(t) = Z0 + vz t, the box
+  height is h = f H / Z, so ``1/h`` is linear in time; the box centre's offset from the
+  principal point is f X / Z, so ``(x - cx) / h`` = X / H is linear in time, and so are
+  ``(y2 - cy) / h`` (the bottom) and the aspect ``w / h``. These four are fitted by least
+  squares over the last visible boxes and the box is rebuilt from them at any frame. A car
+  passing close by accelerates across the image and grows; a distant one moves almost
+  linearly: both follow from the same model. An object whose fitted ``1/h`` reaches zero has
+  passed the camera: it does not come back into view (an occluder that has passed covers
+  nothing). It fits the scale (``1/h``) from a few boxes, so box noise weighs more than in
+  the linear model: measured on KITTI (docs/DESIGN-NOTES.md) it predicts near, fast-passing
+  cars better and is no better overall, hence not the default.
 """
 
 from __future__ import annotations
@@ -43,18 +61,24 @@ class AnticipationConfig:
         horizon_s: how far ahead to look, seconds.
         velocity_points: visible boxes used to fit a velocity (the most recent ones).
         velocity_span_s: only boxes at most this long before the last visible one are used.
+        motion_model: ``pinhole`` (constant 3D velocity relative to the camera; needs the image
+            size, else ``linear``) or ``linear`` (constant image velocity of each box corner);
+            see the module docstring.
     """
 
     reappear_coverage: float = 0.5
     horizon_s: float = 5.0
     velocity_points: int = 5
     velocity_span_s: float = 1.0
+    motion_model: str = "linear"
 
     def __post_init__(self) -> None:
         if not 0 < self.reappear_coverage <= 1:
             raise ValueError("reappear_coverage must lie in (0, 1]")
         if self.horizon_s <= 0 or self.velocity_points < 1 or self.velocity_span_s <= 0:
             raise ValueError("horizon_s, velocity_points and velocity_span_s must be positive")
+        if self.motion_model not in ("pinhole", "linear"):
+            raise ValueError("motion_model must be 'pinhole' or 'linear'")
 
 
 @dataclass(frozen=True)
@@ -183,6 +207,69 @@ def _first_uncovered(
     return None
 
 
+class _Pinhole:
+    """A box moving at a constant 3D velocity relative to a pinhole camera: ``(1/h, (xc - cx)/h,
+    (y2 - cy)/h, w/h)`` linear in the frame number (fitted by :func:`fit_motion`)."""
+
+    __slots__ = ("last", "q", "dq", "cx", "cy")
+
+    def __init__(
+        self, frames: np.ndarray, xyxy: np.ndarray, points: int, span: float, centre: tuple
+    ) -> None:
+        b = np.asarray(xyxy, dtype=np.float64).reshape(-1, 4)
+        h = np.maximum(b[:, 3] - b[:, 1], 1.0)
+        self.cx, self.cy = centre
+        q = np.stack(
+            [
+                1.0 / h,
+                ((b[:, 0] + b[:, 2]) / 2 - self.cx) / h,
+                (b[:, 3] - self.cy) / h,
+                np.maximum(b[:, 2] - b[:, 0], 1.0) / h,
+            ],
+            axis=1,
+        )
+        last, q0, dq = fit_motion(frames, q, points, span)
+        self.last, self.q, self.dq = last, q0.tolist(), dq.tolist()
+
+    def box(self, frame: int) -> list[float] | None:
+        """The box at ``frame`` (pixels), None once the object has passed the camera."""
+        dt = float(frame) - self.last
+        u = self.q[0] + self.dq[0] * dt
+        if u <= 1e-6:  # 1/h at zero: the object is at the camera's plane
+            return None
+        h = 1.0 / u
+        xc = self.cx + (self.q[1] + self.dq[1] * dt) * h
+        y2 = self.cy + (self.q[2] + self.dq[2] * dt) * h
+        hw = max((self.q[3] + self.dq[3] * dt) * h, 1.0) / 2
+        return [xc - hw, y2 - h, xc + hw, y2]
+
+
+def _first_uncovered_pinhole(
+    t: _Pinhole, o: _Pinhole, now: int, steps: int, coverage: float
+) -> tuple[int, list[float], bool] | None:
+    """:func:`_first_uncovered` for the pinhole motion model; None also when the object passes
+    the camera first."""
+
+    def covered(k: int) -> tuple[list[float] | None, bool]:
+        tb = t.box(now + k)
+        if tb is None:
+            return None, False
+        ob = o.box(now + k)
+        return tb, ob is None or _coverage(tb, ob) < coverage
+
+    tb, out = covered(0)
+    if tb is None:
+        return None
+    overdue = out
+    for k in range(1, steps + 1):
+        tb, out = covered(k)
+        if tb is None:
+            return None
+        if out:
+            return k, tb, overdue and k == 1
+    return None
+
+
 def anticipate(
     hidden_frames: np.ndarray,
     hidden_xyxy: np.ndarray,
@@ -220,20 +307,26 @@ def anticipate(
     if len(hidden_frames) == 0 or len(occluder_frames) == 0:
         return None
     span = c.velocity_span_s * fps
-    t_last, t_box, t_vel = fit_motion(hidden_frames, hidden_xyxy, c.velocity_points, span)
-    o_last, o_box, o_vel = fit_motion(occluder_frames, occluder_xyxy, c.velocity_points, span)
     horizon = max(1, int(round(c.horizon_s * fps)))
-    found = _first_uncovered(
-        t_last,
-        t_box.tolist(),
-        t_vel.tolist(),
-        o_last,
-        o_box.tolist(),
-        o_vel.tolist(),
-        now,
-        horizon,
-        c.reappear_coverage,
-    )
+    if c.motion_model == "pinhole" and image_size is not None:
+        centre = (image_size[0] / 2.0, image_size[1] / 2.0)
+        pt = _Pinhole(hidden_frames, hidden_xyxy, c.velocity_points, span, centre)
+        po = _Pinhole(occluder_frames, occluder_xyxy, c.velocity_points, span, centre)
+        found = _first_uncovered_pinhole(pt, po, now, horizon, c.reappear_coverage)
+    else:
+        t_last, t_box, t_vel = fit_motion(hidden_frames, hidden_xyxy, c.velocity_points, span)
+        o_last, o_box, o_vel = fit_motion(occluder_frames, occluder_xyxy, c.velocity_points, span)
+        found = _first_uncovered(
+            t_last,
+            t_box.tolist(),
+            t_vel.tolist(),
+            o_last,
+            o_box.tolist(),
+            o_vel.tolist(),
+            now,
+            horizon,
+            c.reappear_coverage,
+        )
     if found is None:
         return None
     k, box, overdue = found

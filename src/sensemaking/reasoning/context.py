@@ -359,6 +359,10 @@ def load_lanes(path: str | PathLike[str]) -> LaneMap:
         raise InputError("lanes file not found", p) from None
     except json.JSONDecodeError as exc:
         raise InputError(f"not valid JSON: {exc.msg}", p, exc.lineno) from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f"not UTF-8 text ({exc.reason} at byte {exc.start})", p) from None
+    except OSError as exc:  # a directory, no permission, ...
+        raise InputError(f"cannot read lanes file: {exc.strerror or exc}", p) from None
     return LaneMap.from_json(record, str(p))
 
 

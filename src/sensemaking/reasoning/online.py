@@ -9,8 +9,36 @@ gives the whole window to clingo as facts (frames relative to now, tracks by the
 window: see situations.lp) and reads ``warn/2`` and ``info/4`` off the answer: every situation,
 built in or added in a user's encoding, is decided by situations.lp, never in Python.
 
-A warning is returned when its situation starts to hold; :attr:`SituationMonitor.active`
-lists every situation holding at the current frame.
+Warnings are episodes. A warning is returned when its situation starts to hold (the start of
+an episode); the situation holding on over the next frames is the same episode, not a new
+warning, and so is a gap of at most ``rearm_s`` (a detection missed for a frame does not end a
+warning and start another); :attr:`SituationMonitor.ended` lists the episodes that ended at the
+current frame (:class:`WarningEnd`: the situation has not held for more than ``rearm_s``), and
+:meth:`SituationMonitor.finish` ends those still open when the input ends.
+:attr:`SituationMonitor.active` lists every situation holding at the current frame.
+
+Each warning carries, in its details, its episode number, a **severity** on the scale of
+:data:`SEVERITY_NAMES` and the **lane position** of its first object (:data:`LANE_POSITIONS`):
+
+* severity 1 *advisory* (be aware: OVERTAKING, REDUCED_VISIBILITY), 2 *caution* (be ready to
+  act: HIDDEN_ENTITY, BLOCKED_LANE, EXITING_VEHICLE, a user's situation), 3 *warning* (act now:
+  SUDDEN_STOP). HIDDEN_ENTITY, BLOCKED_LANE and EXITING_VEHICLE are raised to 3 when their
+  object is on the ego lane. A user's encoding may set a warning's severity with
+  ``info(S,Objs,severity,N)``, N in 1..3.
+* lane position: ``ego``, ``left`` or ``right`` of the ego lane, or ``unknown``. The point is
+  where the object stands on the road: the bottom centre of its box now (HIDDEN_ENTITY: of the
+  anticipated box where it reappears). With lanes, the ego lane is the lane under the bottom
+  centre of the image (the camera looks along it; of several, the one reaching lowest); the
+  point is ``ego`` inside it, ``left``/``right`` beside it at the point's row, ``unknown``
+  above or below the lane. Without lanes (or no lane under the image's bottom centre) the
+  image rule: the ego lane is the middle half of the ego corridor's width at the point's row
+  (the default corridor spans the ego lane and half of each neighbour), left or right of it
+  ``left``/``right``, above the corridor ``unknown``. Without an ego vehicle (profile
+  ``fixed``) or without the image size: ``unknown``.
+
+The **scene profile** (``profile``: ``driving``, a camera on an ego vehicle, or ``fixed``, a
+standing or handheld camera) is given to the rules as the fact ``profile(P)``; situations.lp
+states which situations apply to each (the ego-vehicle ones only when driving).
 """
 
 from __future__ import annotations
@@ -19,6 +47,7 @@ import logging
 import time
 from collections import deque
 from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
 from itertools import compress
 from os import PathLike
 from typing import Any
@@ -47,8 +76,16 @@ from sensemaking.reasoning.situations import (
     Warning,
 )
 from sensemaking.results import Event, FrameResult, TrackState
+from sensemaking.settings import SCENE_PROFILES
 
-__all__ = ["SituationMonitor"]
+__all__ = [
+    "SituationMonitor",
+    "WarningEnd",
+    "PROFILES",
+    "SEVERITY_NAMES",
+    "LANE_POSITIONS",
+    "start_record",
+]
 
 log = logging.getLogger(__name__)
 
@@ -57,6 +94,81 @@ _VISIBLE, _HIDDEN = int(TrackState.VISIBLE), int(TrackState.HIDDEN)
 #: class ids of the near-pair relations: True for a vehicle, False for a person
 _ROLE: dict[int, bool] = {**dict.fromkeys(PEOPLE, False), **dict.fromkeys(VEHICLES, True)}
 _ORDER: dict[str, int] = {s.name: i for i, s in enumerate(Situation)}
+
+#: scene profiles: a camera on an ego vehicle, or a standing / handheld camera without one
+PROFILES: tuple[str, ...] = SCENE_PROFILES
+#: the severity scale of warnings (see the module docstring)
+SEVERITY_NAMES: dict[int, str] = {1: "advisory", 2: "caution", 3: "warning"}
+#: where a warning's object stands relative to the ego lane
+LANE_POSITIONS: tuple[str, ...] = ("ego", "left", "right", "unknown")
+_SEVERITY: dict[str, int] = {
+    "OVERTAKING": 1,
+    "REDUCED_VISIBILITY": 1,
+    "HIDDEN_ENTITY": 2,
+    "BLOCKED_LANE": 2,
+    "EXITING_VEHICLE": 2,
+    "SUDDEN_STOP": 3,
+}
+#: situations whose severity rises to 3 when their object is on the ego lane
+_EGO_LANE_RAISES = frozenset({"HIDDEN_ENTITY", "BLOCKED_LANE", "EXITING_VEHICLE"})
+_USER_SEVERITY = 2
+
+
+@dataclass(frozen=True)
+class WarningEnd:
+    """The end of a warning episode.
+
+    Attributes:
+        frame: the frame at which the episode is known to be over (the situation has not held
+            for more than ``rearm_s``; or the input ended).
+        situation, objects: as in the warning that started it.
+        episode: the episode number (``details["episode"]`` of that warning).
+        start_frame, last_frame: the first and the last frame the situation held.
+        reason: ``cleared`` (it stopped holding), ``end_of_input`` or ``interrupted``.
+    """
+
+    frame: int
+    situation: str
+    objects: tuple[int, ...]
+    episode: int
+    start_frame: int
+    last_frame: int
+    reason: str = "cleared"
+
+    def to_json(self) -> dict[str, Any]:
+        """The JSON-lines end record of the warnings stream."""
+        return {
+            "record": "end",
+            "episode": self.episode,
+            "frame": self.frame,
+            "situation": self.situation,
+            "objects": list(self.objects),
+            "start_frame": self.start_frame,
+            "last_frame": self.last_frame,
+            "frames": self.last_frame - self.start_frame + 1,
+            "reason": self.reason,
+        }
+
+
+def start_record(w: Warning) -> dict[str, Any]:
+    """The JSON-lines start record of a warning episode: the warning's record
+    (:meth:`~sensemaking.reasoning.situations.Warning.to_json`) with ``record``, ``episode``,
+    ``severity`` and ``lane_position`` at its top."""
+    d = w.details
+    return {
+        "record": "start",
+        "episode": d.get("episode"),
+        "severity": d.get("severity"),
+        "lane_position": d.get("lane_position", "unknown"),
+        **w.to_json(),
+    }
+
+
+class _Episode:
+    __slots__ = ("number", "start", "last")
+
+    def __init__(self, number: int, start: int) -> None:
+        self.number, self.start, self.last = number, start, start
 
 
 class _Frame:
@@ -107,6 +219,8 @@ class SituationMonitor:
             ``base``): a new situation is a rule ``warn(name,(T,...))``, warned as ``NAME``;
             its details are ``info(name,(T,...),key,value)``. The input predicates are those
             documented in situations.lp. Raises InputError for a file clingo cannot read.
+        profile: the scene profile, ``driving`` (a camera on an ego vehicle) or ``fixed`` (no
+            ego vehicle: situations.lp issues none of the ego-vehicle situations).
 
     ``update(result)`` once per frame in order, ``reset()`` before another sequence.
     ``stats`` counts frames, clingo calls, answers from the cache of clingo's answers and the
@@ -120,7 +234,11 @@ class SituationMonitor:
         fps: float = 10.0,
         image_size: tuple[int, int] | None = (1242, 375),
         extra_encodings: Sequence[str | PathLike[str]] = (),
+        profile: str = "driving",
     ):
+        if profile not in PROFILES:
+            raise ValueError(f"unknown scene profile {profile!r} (one of {', '.join(PROFILES)})")
+        self.profile = profile
         if fps <= 0:
             raise ValueError(f"fps must be positive, got {fps}")
         if image_size is not None and (image_size[0] <= 0 or image_size[1] <= 0):
@@ -165,7 +283,10 @@ class SituationMonitor:
         self._hist: dict[int, deque[list[Any]]] = {}
         self._class: dict[int, int] = {}
         self._last_live: dict[int, int] = {}
-        self._last_held: dict[tuple[str, tuple[int, ...]], int] = {}
+        self._open: dict[tuple[str, tuple[int, ...]], _Episode] = {}
+        self._episodes = 0
+        self._ended: list[WarningEnd] = []
+        self._boxes: dict[int, list[float]] = {}  # track -> box at the current frame
         self._seq_start: int | None = None
         self._last_frame: int | None = None
         self._anticip: dict[int, Anticipation] = {}
@@ -195,6 +316,8 @@ class SituationMonitor:
         new: list[Warning] = []
         if self._seq_start is None:
             self._seq_start = f
+            if self.profile != "driving":
+                log.info("scene profile %s: no ego vehicle, no ego-vehicle warnings", self.profile)
             for s, why in self._skipped.items():
                 log.info("%s not checked: it %s", s.name, why)
                 new.append(
@@ -205,12 +328,19 @@ class SituationMonitor:
         facts, tracks = self._facts()
         found = self._read(self._solver.answer(facts), tracks, f)
         self._found, self._active = found, None
+        self._ended = [
+            self._end(key, min(f, ep.last + self._rearm + 1), "cleared")
+            for key, ep in list(self._open.items())
+            if f - ep.last > self._rearm
+        ]
         for d in found:
             key = (d.situation, d.objects)
-            last = self._last_held.get(key)
-            if last is None or f - last > self._rearm:
-                new.append(self._warning(f, d))
-            self._last_held[key] = f
+            ep = self._open.get(key)
+            if ep is None:
+                self._episodes += 1
+                ep = self._open[key] = _Episode(self._episodes, f)
+                new.append(self._warning(f, d, ep.number))
+            ep.last = f
         self._forget(f)
         self.stats["frames"] += 1
         self.stats["solver_calls"] = self._solver.calls - self._calls0
@@ -218,11 +348,36 @@ class SituationMonitor:
         self.stats["ms"] += (time.perf_counter() - t0) * 1000.0
         return new
 
+    def _end(self, key: tuple[str, tuple[int, ...]], frame: int, reason: str) -> WarningEnd:
+        ep = self._open.pop(key)
+        return WarningEnd(frame, key[0], key[1], ep.number, ep.start, ep.last, reason)
+
+    @property
+    def ended(self) -> list[WarningEnd]:
+        """The warning episodes that ended at the current frame."""
+        return list(self._ended)
+
+    def finish(self, reason: str = "end_of_input") -> list[WarningEnd]:
+        """End every open episode (the input ended, or was interrupted: ``reason``); at the last
+        frame seen, or the frame the episode would have ended at if sooner."""
+        if self._last_frame is None:
+            return []
+        f = self._last_frame
+        return [
+            self._end(key, min(f, ep.last + self._rearm + 1), reason)
+            for key, ep in sorted(self._open.items(), key=lambda kv: kv[1].number)
+        ]
+
     @property
     def active(self) -> list[Warning]:
         """Every situation holding at the current frame, as warnings of this frame."""
         if self._active is None:
-            self._active = [self._warning(self._last_frame, d) for d in self._found]  # type: ignore[arg-type]
+            f = self._last_frame
+            assert f is not None  # _found is filled by update
+            self._active = [
+                self._warning(f, d, self._open[(d.situation, d.objects)].number)
+                for d in self._found
+            ]
         return list(self._active)
 
     def run(self, results: Iterable[FrameResult]) -> list[Warning]:
@@ -246,6 +401,7 @@ class SituationMonitor:
             )
         ids = tr.tracker_id.tolist()
         n = len(ids)
+        self._boxes = {}
         if n == 0:
             return
         cls = tr.class_id.tolist()
@@ -259,6 +415,7 @@ class SituationMonitor:
         xyxy = tr.xyxy
         boxes = xyxy.tolist()
         fr.ids = ids
+        self._boxes = dict(zip(ids, boxes, strict=True))
         fr.state = {t: _STATE_NAMES[s] for t, s in zip(ids, states, strict=True)}
         self._class.update(zip(ids, cls, strict=True))
         self._last_live.update(dict.fromkeys(ids, f))
@@ -401,7 +558,7 @@ class SituationMonitor:
         )
         tracks = sorted(mentioned)
         local = {t: i for i, t in enumerate(tracks)}
-        out: list[Fact] = [("now", 0), ("frame_ms", self._frame_ms)]
+        out: list[Fact] = [("now", 0), ("frame_ms", self._frame_ms), ("profile", self.profile)]
         if self._seq_start is not None and self._seq_start >= frames[0].frame:
             out.append(("seq_start", self._seq_start - n))
         for t in tracks:
@@ -493,20 +650,58 @@ class SituationMonitor:
         for t in [t for t, last in self._last_live.items() if f - last > self._window]:
             for d in (self._hist, self._class, self._last_live):
                 d.pop(t, None)
-        for key in [k for k, last in self._last_held.items() if f - last > self._rearm]:
-            del self._last_held[key]
 
     # -- warnings -------------------------------------------------------------------------------
     def _describe(self, t: int) -> str:
         c = self._class.get(t)
         return f"track {t} ({class_name(c)})" if c is not None else f"track {t}"
 
-    def _warning(self, f: int, d: SituationMatch) -> Warning:
+    def _lane_position(self, point: tuple[float, float] | None) -> str:
+        """``ego``, ``left``, ``right`` or ``unknown``: where ``(x, y)`` (pixels) stands relative
+        to the ego lane (the rule of the module docstring)."""
+        if point is None or self.profile != "driving" or self.image_size is None:
+            return "unknown"
+        x, y = point
+        w, h = self.image_size
+        ego = None
+        lanes = self.context.lanes.lanes_at(self._last_frame or 0) if self.context.lanes else ()
+        lowest = -np.inf
+        for lane in lanes:  # the lane under the image's bottom centre, reaching lowest
+            row = min(lane.left[-1, 1], lane.right[-1, 1])
+            if lane.contains_points(np.array([[w / 2.0, row]]))[0] and row > lowest:
+                ego, lowest = lane, row
+        if ego is not None:
+            xl, xr = (float(v[0]) for v in ego.span_at(np.array([y])))
+        else:
+            cl, cr = (float(v[0]) for v in self.context.corridor.span_at(np.array([y]), (w, h)))
+            xl, xr = cl + (cr - cl) / 4, cr - (cr - cl) / 4
+        if xl != xl or xr != xr:  # NaN: the row is outside the lane or the corridor
+            return "unknown"
+        return "left" if x < xl else "right" if x > xr else "ego"
+
+    def _warning(self, f: int, d: SituationMatch, episode: int | None = None) -> Warning:
         s, objs, info = d.situation, d.objects, d.info
         desc = self._describe
         details: dict[str, Any] = {"classes": [class_name(self._class.get(t, 0)) for t in objs]}
         for k, v in info.items():
             details[k] = v[0] if len(v) == 1 else v
+        if episode is not None:
+            details["episode"] = episode
+        point: tuple[float, float] | None = None
+        if s == "HIDDEN_ENTITY" and objs and objs[0] in self._anticip:
+            point = self._anticip[objs[0]].position
+        elif objs and objs[0] in self._boxes:
+            box = self._boxes[objs[0]]
+            point = ((box[0] + box[2]) / 2.0, box[3])
+        lane_position = self._lane_position(point)
+        details["lane_position"] = lane_position
+        severity = _SEVERITY.get(s, _USER_SEVERITY)
+        if s in _EGO_LANE_RAISES and lane_position == "ego":
+            severity = 3
+        given = details.get("severity")
+        if isinstance(given, int) and given in SEVERITY_NAMES:  # a user's encoding says it
+            severity = given
+        details["severity"] = severity
         if s == "OVERTAKING":
             a, b = objs
             msg = f"{desc(a)} is overtaking {desc(b)}"

@@ -276,7 +276,9 @@ def _from_scene(scene: Any) -> Run:
 
 
 def read_warnings(path: str | os.PathLike[str]) -> list[dict[str, Any]]:
-    """Warnings from a JSON-lines file (``sensemaking track --warnings``), one object per line."""
+    """Warnings from a JSON-lines file (``sensemaking track --warnings``), one object per line;
+    the end records of warning episodes (``"record": "end"``) are left out: a warning is drawn
+    where it starts."""
     import json
 
     from sensemaking.errors import InputError
@@ -300,5 +302,6 @@ def read_warnings(path: str | os.PathLike[str]) -> list[dict[str, Any]]:
             record["frame"] = int(record["frame"])
         except (TypeError, ValueError):
             raise InputError(f"frame must be an integer, got {record['frame']!r}", p, i) from None
-        out.append(record)
+        if record.get("record") != "end":
+            out.append(record)
     return out
