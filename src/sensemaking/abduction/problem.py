@@ -6,8 +6,8 @@ constraints state the same thresholds, so the gate is an optimisation, never a c
 answer.
 
 A frame falls apart into *components*: tracks and detections linked by ``cand``, ``covers``,
-``keeps_covering`` and ``emerges`` facts. :meth:`FrameProblem.components` describes each one
-canonically (:class:`Component`: local indices, so the same facts give the same key), and
+``keeps_covering``, ``emerges`` and ``fits`` facts. :meth:`FrameProblem.components` describes
+each one canonically (:class:`Component`: local indices, so the same facts give the same key), and
 :meth:`Component.facts` writes its facts as clingo symbols.
 """
 
@@ -52,6 +52,7 @@ class Component:
         keeps_covering: ``(detection, track)``.
         emerges: ``(detection, track)``.
         hidden_by: ``(track, occluder)``.
+        fits: ``(track, detection)``, a subset of the ``covers`` pairs.
     """
 
     first_frame: bool
@@ -62,6 +63,7 @@ class Component:
     keeps_covering: tuple[tuple[int, int], ...]
     emerges: tuple[tuple[int, int], ...]
     hidden_by: tuple[tuple[int, int], ...]
+    fits: tuple[tuple[int, int], ...] = ()
 
     @property
     def n_refs(self) -> int:
@@ -110,6 +112,8 @@ class Component:
             add(Function("covers", [det(j), track(t)]))
             if rank >= 0:
                 add(Function("cover_rank", [det(j), track(t), _number(rank)]))
+        for t, j in self.fits:
+            add(Function("fits", [track(t), det(j)]))
         for j, t in self.keeps_covering:
             add(Function("keeps_covering", [det(j), track(t)]))
         for j, t in self.emerges:
@@ -141,7 +145,12 @@ class FrameProblem:
         cand: (K, 3) int rows ``track index, detection index, likelihood 0..1000``.
         uncertain: (T,) bool, seen only once: widened prediction, gated like a halted track.
         covers: (P, 2) int rows ``detection index, track index``: the detection is in front of
-            the track's predicted box and covers at least the hiding fraction of it.
+            the track's predicted box (:func:`sensemaking.geometry.in_front`: 3D depth where both
+            have one, else box bottom, never in front of a box cut by the image border) and
+            covers at least the hiding fraction of it.
+        fits: (F, 2) int rows ``track index, detection index``, a subset of the ``covers``
+            pairs: the detection fits the track's prediction at least at the resume likelihood
+            (and its class, when classes count): it could be the track's own observation.
         keeps_covering: (Q, 2) int rows, as ``covers`` with the lower "stay hidden" fraction.
         hidden_by: (H, 2) int rows ``track id, occluder track id`` true in the previous frame.
         emerges: (E, 2) int rows ``detection index, track index``: the detection touches the box
@@ -173,6 +182,7 @@ class FrameProblem:
     cand: np.ndarray
     uncertain: np.ndarray | None = None
     covers: np.ndarray = field(default_factory=_empty_rows)
+    fits: np.ndarray = field(default_factory=_empty_rows)
     keeps_covering: np.ndarray = field(default_factory=_empty_rows)
     hidden_by: np.ndarray = field(default_factory=_empty_rows)
     emerges: np.ndarray = field(default_factory=_empty_rows)
@@ -248,6 +258,8 @@ class FrameProblem:
         for rel in (self.covers, self.keeps_covering, self.emerges):
             for d, t in rel.tolist():
                 parent[find(t)] = find(nt + d)
+        for t, d in self.fits.tolist():  # covered pairs already: for a part that stands alone
+            parent[find(t)] = find(nt + d)
         groups: dict[int, tuple[list[int], list[int]]] = {}
         for x in range(nt + nd):
             g = groups.setdefault(find(x), ([], []))
@@ -299,12 +311,15 @@ class FrameProblem:
             where_t.update(dict.fromkeys(ts, g))
             where_d.update(dict.fromkeys(ds, g))
         parts: list[dict[str, list]] = [
-            {"cand": [], "covers": [], "keeps": [], "emerges": [], "hidden": []} for _ in groups
+            {"cand": [], "covers": [], "fits": [], "keeps": [], "emerges": [], "hidden": []}
+            for _ in groups
         ]
         for t, d, lik in self.cand.tolist():
             parts[where_t[t]]["cand"].append((t, d, lik, (t, d) in preferred))
         for (d, t), r in zip(self.covers.tolist(), self.cover_ranks().tolist(), strict=True):
             parts[where_t[t]]["covers"].append((d, t, r))
+        for t, d in self.fits.tolist():
+            parts[where_t[t]]["fits"].append((t, d))
         for name, rel in (("keeps", self.keeps_covering), ("emerges", self.emerges)):
             for d, t in rel.tolist():
                 parts[where_t[t]][name].append((d, t))
@@ -335,6 +350,7 @@ class FrameProblem:
                 keeps_covering=tuple((ld[d], lt[t]) for d, t in found["keeps"]),
                 emerges=tuple((ld[d], lt[t]) for d, t in found["emerges"]),
                 hidden_by=tuple(hidden),
+                fits=tuple((lt[t], ld[d]) for t, d in found["fits"]),
             )
             out.append((component, local_ids, list(ds)))
         return out
