@@ -115,15 +115,6 @@ def cut_by_border(
     return (x[:, 0] <= margin) | (x[:, 2] >= w - margin) | (x[:, 3] >= h - margin)
 
 
-#: "in front" needs a margin beyond measurement jitter, the tolerance with which the scene's
-#: interval relations call two end points equal (``reasoning.relations.RelationConfig``
-#: defaults): box bottoms must differ by more than ``FRONT_TOL_PX`` pixels and
-#: ``FRONT_TOL_REL`` of the smaller box's height; depths by more than ``FRONT_TOL_REL`` of the
-#: farther one. Two boxes of one object (a duplicate detection) are then in front of neither.
-FRONT_TOL_PX = 3.0
-FRONT_TOL_REL = 0.05
-
-
 def in_front(
     xyxy: np.ndarray,
     depth: np.ndarray | None = None,
@@ -136,11 +127,9 @@ def in_front(
     The order, fixed by geometry and not by any score:
 
     * both boxes have a depth (finite ``depth``, metres along the optical axis, e.g. a 3D
-      detector's ``z``): ``i`` is in front iff it is nearer by more than the tolerance,
-      ``depth[i] < (1 - FRONT_TOL_REL) * depth[j]``;
+      detector's ``z``): ``i`` is in front iff it is nearer, ``depth[i] < depth[j]``;
     * otherwise, on a flat ground plane seen from above, the box whose bottom edge is lower in
-      the image stands nearer: ``y2[i] > y2[j] + max(FRONT_TOL_PX, FRONT_TOL_REL * min(h[i],
-      h[j]))`` -- but only when ``j``'s bottom is known, i.e.
+      the image stands nearer: ``y2[i] > y2[j]`` -- but only when ``j``'s bottom is known, i.e.
       ``j`` is not cut by the image border (``cut[j]``, :func:`cut_by_border`): a cut object
       may reach below its visible box, so nothing is in front of it by box bottom. A cut ``i``
       can still be in front: its true bottom is at least as low as the visible one.
@@ -154,9 +143,8 @@ def in_front(
     x = np.asarray(xyxy, dtype=np.float64).reshape(-1, 4)
     n = len(x)
     r = n if rows is None else rows
-    bottom, height = x[:, 3], x[:, 3] - x[:, 1]
-    tol = np.maximum(FRONT_TOL_PX, FRONT_TOL_REL * np.minimum(height[:r, None], height[None, :]))
-    front = bottom[:r, None] > bottom[None, :] + tol
+    bottom = x[:, 3]
+    front = bottom[:r, None] > bottom[None, :]
     if cut is not None:
         front &= ~np.asarray(cut, dtype=bool)[None, :]
     if depth is not None:
@@ -165,6 +153,6 @@ def in_front(
         if known.any():
             both = known[:r, None] & known[None, :]
             with np.errstate(invalid="ignore"):
-                nearer = z[:r, None] < (1.0 - FRONT_TOL_REL) * z[None, :]
+                nearer = z[:r, None] < z[None, :]
             front = np.where(both, nearer, front)
     return front

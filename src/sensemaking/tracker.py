@@ -452,9 +452,8 @@ class Tracker:
         # coverage by boxes in front only (geometry.in_front: 3D depth where both have one, else
         # the lower bottom of a box not cut by the border; never a box by itself)
         depth = np.concatenate([self._tracks.depth, dets.depth])
-        front = in_front(
-            boxes[:nb], depth, cut_by_border(boxes[:nb], c.image_size, c.border_margin)
-        )
+        cut = cut_by_border(boxes[:nb], c.image_size, c.border_margin)
+        front = in_front(boxes[:nb], depth, cut)
         in_front_cov = np.where(front.T, covered, 0.0)
         lik, qlik = self._gate(pred, dets, plain, uncertain, extra)
         ti, dj = np.nonzero(lik > 0)
@@ -519,6 +518,7 @@ class Tracker:
             cand_exact=cand_exact,
             covers_exact=covers_exact,
             speed=self._speed() if "speed" in self._solver.solver.uses else None,
+            cut=cut[:n],
         )
 
     def _speed(self) -> np.ndarray:

@@ -24,7 +24,7 @@ __all__ = ["FrameProblem", "Component", "VISIBILITY_VALUES", "TRACK_FLAGS"]
 
 VISIBILITY_VALUES = ("fully_visible", "partially_occluded", "fully_occluded")
 #: the per-track flags of the facts, in the order of :attr:`Component.tracks` rows
-TRACK_FLAGS = ("tentative", "uncertain", "expired", "outside", "at_border", "overlapped")
+TRACK_FLAGS = ("tentative", "uncertain", "expired", "outside", "at_border", "overlapped", "cut")
 
 _TRUE = Function("true")
 _ZERO = _number(0)
@@ -45,7 +45,7 @@ class Component:
     Attributes:
         first_frame: the ``first_frame`` fact.
         tracks: per track ``(active, tentative, uncertain, expired, outside, at_border,
-            overlapped, class, visibility index, speed in px/s or -1)``.
+            overlapped, cut, class, visibility index, speed in px/s or -1)``.
         dets: per detection ``(confidence 0..1000, class, at border, overlapped)``.
         cand: ``(track, detection, likelihood 0..1000, preferred)``.
         covers: ``(detection, track, rank or -1)``.
@@ -165,6 +165,8 @@ class FrameProblem:
             detections (``cover_rank/3``): a lowest-priority tie-break between occluders.
         speed: (T,) int predicted speed of each track's box centre, pixels per second, or None
             (the ``speed/2`` facts, for encodings that read them).
+        cut: (T,) bool, predicted box reaches the left, right or bottom image border
+            (:func:`sensemaking.geometry.cut_by_border`), or None (no track is).
     """
 
     track_id: np.ndarray
@@ -191,6 +193,7 @@ class FrameProblem:
     cand_exact: np.ndarray | None = None
     covers_exact: np.ndarray | None = None
     speed: np.ndarray | None = None
+    cut: np.ndarray | None = None
 
     @property
     def n_tracks(self) -> int:
@@ -281,6 +284,7 @@ class FrameProblem:
             self.outside,
             self.at_border,
             self.overlapped,
+            self.cut if self.cut is not None else np.zeros(nt, dtype=bool),
         ]
         vis = self.visibility if self.visibility is not None else np.zeros(nt, dtype=np.int64)
         speed = self.speed if self.speed is not None else np.full(nt, -1, dtype=np.int64)
