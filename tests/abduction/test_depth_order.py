@@ -169,3 +169,18 @@ def test_a_track_cut_by_the_border_leaves_rather_than_starts_hiding():
     assert all("occurs(hides_behind(1,2))" in ev for ev in _events(inside))
     assert all("occurs(hides_behind(1,2))" in ev for ev in _events(inside.replace("at_border(1).", "")))
 
+
+
+def test_depth_from_a_3d_detector_is_carried_into_the_track_table():
+    loc = np.array([[1.0, 1.5, 12.5], [0.0, 1.5, -1000.0]])
+    dets = Detections(np.array([[0, 0, 10, 10], [20, 0, 30, 10]], dtype=float),
+                      data={"location": loc})
+    assert dets.depth[0] == 12.5 and np.isnan(dets.depth[1])  # KITTI's placeholder: unknown
+    assert np.isnan(Detections(np.array([[0, 0, 10, 10]], dtype=float)).depth).all()
+    own = Detections(np.array([[0, 0, 10, 10]], dtype=float), data={"depth": [7.0]})
+    assert own.depth.tolist() == [7.0]
+    t = Tracker(TrackerConfig(fps=10, image_size=SIZE))
+    t.update(frame([100, 100, 200, 200], depth=[20.0]), frame=0)
+    assert t._tracks.depth.tolist() == [20.0]
+    t.update(frame([102, 100, 202, 200], depth=[19.0]), frame=1)
+    assert t._tracks.depth.tolist() == [19.0]  # the depth of the last match
