@@ -120,6 +120,8 @@ def in_front(
     depth: np.ndarray | None = None,
     cut: np.ndarray | None = None,
     rows: int | None = None,
+    tol_px: float = 0.0,
+    tol_rel: float = 0.0,
 ) -> np.ndarray:
     """(R, N) bool: box ``i`` (of the first ``rows``, default all N) is in front of box ``j``,
     i.e. nearer to the camera; never a box in front of itself.
@@ -127,9 +129,11 @@ def in_front(
     The order, fixed by geometry and not by any score:
 
     * both boxes have a depth (finite ``depth``, metres along the optical axis, e.g. a 3D
-      detector's ``z``): ``i`` is in front iff it is nearer, ``depth[i] < depth[j]``;
+      detector's ``z``): ``i`` is in front iff it is nearer, ``depth[i] < (1 - tol_rel) *
+      depth[j]``;
     * otherwise, on a flat ground plane seen from above, the box whose bottom edge is lower in
-      the image stands nearer: ``y2[i] > y2[j]`` -- but only when ``j``'s bottom is known, i.e.
+      the image stands nearer: ``y2[i] > y2[j] + max(tol_px, tol_rel * min(h[i], h[j]))`` --
+      but only when ``j``'s bottom is known, i.e.
       ``j`` is not cut by the image border (``cut[j]``, :func:`cut_by_border`): a cut object
       may reach below its visible box, so nothing is in front of it by box bottom. A cut ``i``
       can still be in front: its true bottom is at least as low as the visible one.
@@ -139,12 +143,20 @@ def in_front(
         depth: (N,) depth in metres, NaN where unknown; None: no depths.
         cut: (N,) bool, the box is cut by the image border; None: no box is.
         rows: judge only the first ``rows`` boxes as the one in front (default N).
+        tol_px, tol_rel: a margin beyond jitter, pixels and fraction (0: none, the tracker's
+            facts). With a margin the order is stricter, never reversed: what is in front with
+            a margin is in front without one.
     """
     x = np.asarray(xyxy, dtype=np.float64).reshape(-1, 4)
     n = len(x)
     r = n if rows is None else rows
     bottom = x[:, 3]
-    front = bottom[:r, None] > bottom[None, :]
+    if tol_px > 0 or tol_rel > 0:
+        height = x[:, 3] - x[:, 1]
+        tol = np.maximum(tol_px, tol_rel * np.minimum(height[:r, None], height[None, :]))
+        front = bottom[:r, None] > bottom[None, :] + tol
+    else:
+        front = bottom[:r, None] > bottom[None, :]
     if cut is not None:
         front &= ~np.asarray(cut, dtype=bool)[None, :]
     if depth is not None:
@@ -153,6 +165,6 @@ def in_front(
         if known.any():
             both = known[:r, None] & known[None, :]
             with np.errstate(invalid="ignore"):
-                nearer = z[:r, None] < z[None, :]
+                nearer = z[:r, None] < (1.0 - tol_rel) * z[None, :]
             front = np.where(both, nearer, front)
     return front

@@ -184,3 +184,25 @@ def test_depth_from_a_3d_detector_is_carried_into_the_track_table():
     assert t._tracks.depth.tolist() == [20.0]
     t.update(frame([102, 100, 202, 200], depth=[19.0]), frame=1)
     assert t._tracks.depth.tolist() == [19.0]  # the depth of the last match
+
+
+def test_pair_front_with_the_relations_margin_is_the_lower_bottom_y_relation():
+    # without depths and cut boxes, front/3 is "bottom_lower" of the y relation pair_relations
+    # gives (the same tolerance; boxes taller than twice it, so no degenerate meets), and the
+    # tracker's order (no margin) never says the reverse
+    from sensemaking.reasoning.relations import IA_RELATIONS, RelationConfig, pair_relations
+
+    lower = {"after", "met_by", "overlapped_by", "contains", "started_by"}
+    rng = np.random.default_rng(3)
+    xy = rng.uniform(0, 300, (60, 2))
+    boxes = np.concatenate([xy, xy + rng.uniform(20, 80, (60, 2))], axis=1)
+    pairs, codes = pair_relations(boxes, RelationConfig(near=10.0))
+    front = pair_front(boxes, pairs, config=RelationConfig())
+    assert len(pairs) > 100
+    assert [f == 1 for f in front.tolist()] == [IA_RELATIONS[c[1]] in lower for c in codes.tolist()]
+    plain = in_front(boxes)
+    for (i, j), f in zip(pairs.tolist(), front.tolist(), strict=True):
+        if f == 1:
+            assert plain[i, j]
+        elif f == -1:
+            assert plain[j, i]

@@ -147,7 +147,7 @@ def scene_facts(
             for chunk in np.split(order, np.flatnonzero(np.diff(frames[order])) + 1):
                 if chunk.size >= 2:
                     pairs, codes = pair_relations(xyxy[chunk], rc)
-                    front = pair_front(xyxy[chunk], pairs, image_size=scene.image_size)
+                    front = pair_front(xyxy[chunk], pairs, image_size=scene.image_size, config=rc)
                     out += relation_facts(
                         int(frames[chunk[0]]), tracks[chunk], pairs, codes, front
                     )

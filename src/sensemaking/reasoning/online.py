@@ -301,7 +301,9 @@ class SituationMonitor:
         veh = [_ROLE[cls[i]] for i in rel]
         if len(rel) >= 2 and True in veh:
             pairs, codes = pair_relations(xyxy[rel], self.config.relations)
-            front = pair_front(xyxy[rel], pairs, tr.depth[rel], self.image_size).tolist()
+            front = pair_front(
+                xyxy[rel], pairs, tr.depth[rel], self.image_size, config=self.config.relations
+            ).tolist()
             for (i, j), (cx, cy), fa in zip(pairs.tolist(), codes.tolist(), front, strict=True):
                 if veh[i] or veh[j]:
                     a, b, rx, ry = ids[rel[i]], ids[rel[j]], IA_RELATIONS[cx], IA_RELATIONS[cy]

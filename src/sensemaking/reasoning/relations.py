@@ -517,6 +517,7 @@ def pair_front(
     depth: np.ndarray | None = None,
     image_size: tuple[int, int] | None = None,
     margin: float = BORDER_MARGIN_PX,
+    config: RelationConfig | None = None,
 ) -> np.ndarray:
     """(P,) int8: +1 where box ``pairs[k, 0]`` is in front of box ``pairs[k, 1]``, -1 where it
     is behind, 0 where neither is known to be in front (:func:`sensemaking.geometry.in_front`).
@@ -526,12 +527,19 @@ def pair_front(
         depth: (N,) metres along the optical axis, NaN where unknown (``Detections.depth``).
         image_size: ``(width, height)``: boxes within ``margin`` pixels of its left, right or
             bottom border are cut (:func:`sensemaking.geometry.cut_by_border`); None: none is.
+        config: its tolerances (``tol_px``, ``tol_rel``) are the margin beyond jitter: box
+            bottoms closer than that are ``equal`` to the interval relations, and neither box
+            is in front (as ``bottom_lower/1`` of the y relation says). The tracker's facts use
+            no margin; so whatever is in front here is in front there too, never the reverse.
     """
     pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
     if len(pairs) == 0:
         return np.zeros(0, dtype=np.int8)
     x = np.asarray(xyxy, dtype=np.float64).reshape(-1, 4)
-    front = in_front(x, depth, cut_by_border(x, image_size, margin))
+    c = config or RelationConfig()
+    front = in_front(
+        x, depth, cut_by_border(x, image_size, margin), tol_px=c.tol_px, tol_rel=c.tol_rel
+    )
     a, b = pairs[:, 0], pairs[:, 1]
     return (front[a, b].astype(np.int8) - front[b, a].astype(np.int8)).astype(np.int8)
 
