@@ -4,6 +4,7 @@ and no track hidden behind its own successor (issue 15, item 2)."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from sensemaking.classes import CLASS_IDS
 from sensemaking.detections import Detections
@@ -206,3 +207,30 @@ def test_pair_front_with_the_relations_margin_is_the_lower_bottom_y_relation():
             assert plain[i, j]
         elif f == -1:
             assert plain[j, i]
+
+
+@pytest.mark.slow
+def test_kitti_cars_cut_by_the_border_are_not_hidden(shared_data):
+    # KITTI 0005 (RRC car): before the cut rule two parked cars cut off at the border, leaving
+    # the view, were said to hide behind cars farther away (implausible per the labels)
+    from sensemaking.benchmark.datasets import iter_benchmarks
+    from sensemaking.benchmark.runner import ours_config
+    from sensemaking.evaluation.explanations import evaluate_explanations, load_ground_truth
+
+    bench = next(iter(iter_benchmarks(shared_data, ["kitti-rrc-car"])))
+    seq = next(s for s in bench.sequences if s.name == "0005")
+    size = (int(seq.info.width), int(seq.info.height))
+    tracker = Tracker(ours_config("kitti", fps=float(seq.info.fps), image_size=size))
+    frames = dict(seq.detections.frames())
+    outputs, events = [], []
+    for f in seq.frame_numbers:
+        result = tracker.update(frames.get(f, Detections.empty()), frame=f)
+        outputs.append(result.visible)
+        events += result.events
+    gt = load_ground_truth(seq.gt_path, "kitti", image_size=size, fps=float(seq.info.fps),
+                           classes=("car",), n_frames=int(seq.info.length))
+    verdicts = evaluate_explanations(gt, Detections.concatenate(outputs), events).events
+    hides = [v for v in verdicts if v.event.name == "hides_behind"]
+    assert hides  # real occlusions are still explained as hiding
+    assert not [v for v in hides if v.verdict == "implausible" and v.border]
+    assert sum(v.event.name == "leaves_fov" and v.verdict == "plausible" for v in verdicts) > 10
