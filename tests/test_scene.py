@@ -141,7 +141,7 @@ def test_to_facts_is_valid_asp_with_the_documented_predicates(scene):
     names: set[str] = set()
     ctl.solve(on_model=lambda m: names.update(s.name for s in m.symbols(atoms=True)))
     assert names == {"scene_frames", "frame", "fps", "image", "track", "first_frame", "last_frame", "box", "state",
-                     "occurs_at", "holds_during", "in_corridor", "ra", "motion"}
+                     "occurs_at", "holds_during", "in_corridor", "ra", "front", "motion"}
     assert "track(1,cyclist)." in text and "box(2,0,760,170,960,290)." in text
     assert "state(1,21,hidden)." in text and "occurs_at(hides_behind(1,2),21)." in text
     assert "frame(0)." in text and "frame(44)." in text and "frame(45)." not in text

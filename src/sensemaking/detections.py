@@ -56,7 +56,8 @@ class Detections:
         tracker_id: (N,) int64 track id, -1 where no track is assigned.
         frame: (N,) int64 frame number as in the source (MOT 1-based, KITTI 0-based).
         source_row: (N,) int64, 1-based line in the input file the box came from, -1 if none.
-        data: extra per-box columns, each an array whose first axis has length N.
+        data: extra per-box columns, each an array whose first axis has length N
+            (e.g. ``"location"`` (N, 3) of a 3D detector, read by :attr:`depth`).
 
     The constructor takes each (N,) column as an array, a scalar (repeated N times) or None
     (the default above); the attributes are always arrays.
@@ -191,6 +192,22 @@ class Detections:
         out = self.xyxy.copy()
         out[:, 2:] -= out[:, :2]
         return out
+
+    @property
+    def depth(self) -> np.ndarray:
+        """(N,) distance in metres along the camera's optical axis, NaN where unknown: the
+        ``"depth"`` data column if there is one, else the ``z`` of a 3D detector's
+        ``"location"`` column (KITTI camera coordinates, as PointRCNN gives them). Depths that
+        are not finite or not positive (placeholders such as KITTI's -1000) are unknown."""
+        z = self.data.get("depth")
+        if z is None:
+            loc = self.data.get("location")
+            if loc is None or loc.ndim != 2 or loc.shape[1] != 3:
+                return np.full(len(self), np.nan)
+            z = loc[:, 2]
+        z = np.asarray(z, dtype=np.float64).reshape(len(self))
+        with np.errstate(invalid="ignore"):
+            return np.where(np.isfinite(z) & (z > 0), z, np.nan)
 
     @property
     def area(self) -> np.ndarray:

@@ -1,4 +1,5 @@
-"""Batched box geometry on (N, 4) ``x1, y1, x2, y2`` arrays in pixels."""
+"""Batched box geometry on (N, 4) ``x1, y1, x2, y2`` arrays in pixels, and the one depth order
+("in front of") that the tracker's occlusion facts and the scene's ``closer`` relation share."""
 
 from __future__ import annotations
 
@@ -16,6 +17,8 @@ __all__ = [
     "xyxy_to_cxcywh",
     "cxcywh_to_xyxy",
     "clip_to_image",
+    "cut_by_border",
+    "in_front",
 ]
 
 
@@ -96,3 +99,72 @@ def clip_to_image(xyxy: np.ndarray, width: float, height: float) -> np.ndarray:
     out[:, [0, 2]] = np.clip(out[:, [0, 2]], 0.0, width)
     out[:, [1, 3]] = np.clip(out[:, [1, 3]], 0.0, height)
     return out
+
+
+def cut_by_border(
+    xyxy: np.ndarray, image_size: tuple[float, float] | None, margin: float = 0.0
+) -> np.ndarray:
+    """(N,) bool: the box reaches the left, right or bottom border of the ``(W, H)`` image
+    (within ``margin`` pixels) -- where the object may go on beyond the image, so the box's
+    bottom edge is only an upper bound of its foot point. The top border is not counted: it
+    cuts the top of a box, never its bottom. All False without an image size."""
+    x = np.asarray(xyxy, dtype=np.float64).reshape(-1, 4)
+    if image_size is None:
+        return np.zeros(len(x), dtype=bool)
+    w, h = float(image_size[0]), float(image_size[1])
+    return (x[:, 0] <= margin) | (x[:, 2] >= w - margin) | (x[:, 3] >= h - margin)
+
+
+def in_front(
+    xyxy: np.ndarray,
+    depth: np.ndarray | None = None,
+    cut: np.ndarray | None = None,
+    rows: int | None = None,
+    tol_px: float = 0.0,
+    tol_rel: float = 0.0,
+) -> np.ndarray:
+    """(R, N) bool: box ``i`` (of the first ``rows``, default all N) is in front of box ``j``,
+    i.e. nearer to the camera; never a box in front of itself.
+
+    The order, fixed by geometry and not by any score:
+
+    * both boxes have a depth (finite ``depth``, metres along the optical axis, e.g. a 3D
+      detector's ``z``): ``i`` is in front iff it is nearer, ``depth[i] < (1 - tol_rel) *
+      depth[j]``;
+    * otherwise, on a flat ground plane seen from above, the box whose bottom edge is lower in
+      the image stands nearer: ``y2[i] > y2[j] + max(tol_px, tol_rel * min(h[i], h[j]))`` --
+      but only when ``j``'s bottom is known, i.e.
+      ``j`` is not cut by the image border (``cut[j]``, :func:`cut_by_border`): a cut object
+      may reach below its visible box, so nothing is in front of it by box bottom. A cut ``i``
+      can still be in front: its true bottom is at least as low as the visible one.
+
+    Args:
+        xyxy: (N, 4) boxes in pixels.
+        depth: (N,) depth in metres, NaN where unknown; None: no depths.
+        cut: (N,) bool, the box is cut by the image border; None: no box is.
+        rows: judge only the first ``rows`` boxes as the one in front (default N).
+        tol_px, tol_rel: a margin beyond jitter, pixels and fraction (0: none, the tracker's
+            facts). With a margin the order is stricter, never reversed: what is in front with
+            a margin is in front without one.
+    """
+    x = np.asarray(xyxy, dtype=np.float64).reshape(-1, 4)
+    n = len(x)
+    r = n if rows is None else rows
+    bottom = x[:, 3]
+    if tol_px > 0 or tol_rel > 0:
+        height = x[:, 3] - x[:, 1]
+        tol = np.maximum(tol_px, tol_rel * np.minimum(height[:r, None], height[None, :]))
+        front = bottom[:r, None] > bottom[None, :] + tol
+    else:
+        front = bottom[:r, None] > bottom[None, :]
+    if cut is not None:
+        front &= ~np.asarray(cut, dtype=bool)[None, :]
+    if depth is not None:
+        z = np.asarray(depth, dtype=np.float64)
+        known = np.isfinite(z)
+        if known.any():
+            both = known[:r, None] & known[None, :]
+            with np.errstate(invalid="ignore"):
+                nearer = z[:r, None] < (1.0 - tol_rel) * z[None, :]
+            front = np.where(both, nearer, front)
+    return front

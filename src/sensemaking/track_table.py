@@ -18,7 +18,9 @@ class TrackTable:
         occluder: id of the track it hides behind, -1 if none. vis: index into the
         visibility values (``abduction.problem.VISIBILITY_VALUES``). unseen: frames since last
         matched. hits: frames matched. conf: last detection score (detector units).
-        confirmed: reported (enough hits). kf: the Kalman filters, one row per track.
+        confirmed: reported (enough hits). depth: metres along the optical axis at the last
+        match (``Detections.depth``), NaN where its detector gives none. kf: the Kalman
+        filters, one row per track.
     """
 
     #: the columns, with their dtypes
@@ -32,6 +34,7 @@ class TrackTable:
         "hits": np.int64,
         "conf": np.float64,
         "confirmed": bool,
+        "depth": np.float64,
     }
 
     id: np.ndarray
@@ -43,6 +46,7 @@ class TrackTable:
     hits: np.ndarray
     conf: np.ndarray
     confirmed: np.ndarray
+    depth: np.ndarray
 
     def __init__(self, kalman: KalmanConfig | None = None) -> None:
         self.kf = KalmanBank(kalman)
@@ -64,9 +68,11 @@ class TrackTable:
         conf: np.ndarray,
         vis: np.ndarray,
         velocity: np.ndarray | None = None,
+        depth: np.ndarray | None = None,
     ) -> None:
         """Append K new visible tracks seen once: (K,) ids, (K, 4) boxes in pixels, classes,
-        scores, visibility indices; ``velocity`` (4,) their prior velocity (pixels per frame)."""
+        scores, visibility indices; ``velocity`` (4,) their prior velocity (pixels per frame);
+        ``depth`` (K,) metres, NaN or None where unknown."""
         k = len(ids)
         self.kf.add(xyxy, velocity=velocity)
         new = {
@@ -79,6 +85,7 @@ class TrackTable:
             "hits": np.ones(k),
             "conf": conf,
             "confirmed": np.zeros(k, dtype=bool),
+            "depth": np.full(k, np.nan) if depth is None else depth,
         }
         for name, dtype in self.COLUMNS.items():
             setattr(

@@ -24,7 +24,15 @@ from sensemaking.abduction.components import ComponentSolver
 from sensemaking.abduction.problem import VISIBILITY_VALUES, FrameProblem
 from sensemaking.abduction.solver import AbductionSolver, Answer, Det, read_encoding
 from sensemaking.detections import Detections, check_frame_number, validate_detections
-from sensemaking.geometry import box_area, intersection, iou, iou_from_intersection, safe_ratio
+from sensemaking.geometry import (
+    box_area,
+    cut_by_border,
+    in_front,
+    intersection,
+    iou,
+    iou_from_intersection,
+    safe_ratio,
+)
 from sensemaking.motion import KalmanConfig
 from sensemaking.results import Event, FrameAbduction, FrameResult, TrackState
 from sensemaking.track_table import TrackTable
@@ -448,9 +456,12 @@ class Tracker:
             # are not used)
             fit = iou_from_intersection(inter[:, n:nb], area, area[n:nb])
             plain, extra = fit[:n], fit[nb:]
-        # coverage by boxes in front only (bottom lower in the image; never a box by itself)
-        bottom = boxes[:nb, 3]
-        in_front = np.where(bottom[None, :] > bottom[:, None], covered, 0.0)
+        # coverage by boxes in front only (geometry.in_front: 3D depth where both have one, else
+        # the lower bottom of a box not cut by the border; never a box by itself)
+        depth = np.concatenate([self._tracks.depth, dets.depth])
+        cut = cut_by_border(boxes[:nb], c.image_size, c.border_margin)
+        front = in_front(boxes[:nb], depth, cut)
+        in_front_cov = np.where(front.T, covered, 0.0)
         lik, qlik = self._gate(pred, dets, plain, uncertain, extra)
         ti, dj = np.nonzero(lik > 0)
         cand = _int_columns(ti, dj, qlik[ti, dj])
@@ -458,17 +469,22 @@ class Tracker:
         at_all, outside_all = self._borders(boxes[:nb], area[:nb])
         at_border, outside, det_border = at_all[:n], outside_all[:n], at_all[n:]
         start_ok = dets.confidence >= c.start_confidence
-        covers = keeps = np.zeros((0, 2), dtype=np.int64)
+        covers = keeps = fits = np.zeros((0, 2), dtype=np.int64)
         covers_exact = np.zeros(0)
         overlapped = np.zeros(n, dtype=bool)
         if n > 1:
-            overlapped = in_front[:n, :n].max(axis=1) >= c.partial_cover
+            overlapped = in_front_cov[:n, :n].max(axis=1) >= c.partial_cover
         if n and nd:
             # an occluder is visible: measure coverage with its detection, not its prediction
-            dcov = in_front[:n, n:]
+            dcov = in_front_cov[:n, n:]
             back, dj = np.nonzero(dcov >= c.hide_cover)
             covers = _int_columns(dj, back)
             covers_exact = dcov[back, dj]
+            # covering detections that fit the track as its own observation would (fits/2)
+            own = qlik[back, dj] >= self._thresholds(c.iou_resume)[0]
+            if c.class_aware:
+                own &= self._tracks.cls[back] == dets.class_id[dj]
+            fits = _int_columns(back[own], dj[own])
             if (self._tracks.occluder >= 0).any():
                 back, dj = np.nonzero(
                     (dcov >= c.keep_cover) & (self._tracks.occluder >= 0)[:, None]
@@ -476,7 +492,7 @@ class Tracker:
                 keeps = _int_columns(dj, back)
         det_overlapped = np.zeros(nd, dtype=bool)
         if nd > 1:
-            det_overlapped = in_front[n:, n:].max(axis=1) >= c.partial_cover
+            det_overlapped = in_front_cov[n:, n:].max(axis=1) >= c.partial_cover
         expired = self._expired()
         hid = np.flatnonzero((self._tracks.state == _HIDDEN) & (self._tracks.occluder >= 0))
         emerges = self._emerges(pred, dets, hid, lik)
@@ -500,6 +516,7 @@ class Tracker:
             det_overlapped=det_overlapped,
             cand=cand,
             covers=covers,
+            fits=fits,
             keeps_covering=keeps,
             hidden_by=_int_columns(self._tracks.id[hid], self._tracks.occluder[hid]),
             emerges=emerges,
@@ -508,6 +525,7 @@ class Tracker:
             cand_exact=cand_exact,
             covers_exact=covers_exact,
             speed=self._speed() if "speed" in self._solver.solver.uses else None,
+            cut=cut[:n],
         )
 
     def _speed(self) -> np.ndarray:
@@ -625,6 +643,7 @@ class Tracker:
             self._tracks.state[rows] = TrackState.VISIBLE
             self._tracks.hits[rows] += 1
             self._tracks.conf[rows] = dets.confidence[cols]
+            self._tracks.depth[rows] = dets.depth[cols]
         observed = dict(matched)
         # new tracks (first, so that fluents and events can name them)
         new_vis = {
@@ -645,6 +664,7 @@ class Tracker:
                 dets.confidence[cols],
                 np.array(vis),
                 velocity=self._scene_velocity(dets.class_id[cols]),
+                depth=dets.depth[cols],
             )
             observed.update({new_ids[Det(j)]: j for j in cols.tolist()})
         # fluents: the answer holds the values that changed; the others carry on (inertia)

@@ -36,9 +36,10 @@ def random_component(rng: random.Random, nt: int, nd: int, no: int,
     hidden = tuple((t, rng.randrange(nt + no)) for t in range(nt) if rng.random() < 0.4)
     if no and nt and not any(o >= nt for _, o in hidden):
         hidden += ((0, nt + no - 1),)
+    fits = tuple((t, d) for d, t, _ in covers if rng.random() < 0.5)  # a subset of covers
     return Component(rng.random() < 0.1, tracks, dets, cand, tuple(covers),
                      tuple((d, t) for t, d in pairs if rng.random() < 0.3),
-                     tuple((d, t) for t, d in pairs if rng.random() < 0.3), hidden)
+                     tuple((d, t) for t, d in pairs if rng.random() < 0.3), hidden, fits)
 
 
 def optimal_answers(solver: AbductionSolver, component: Component) -> set[tuple[str, ...]]:

@@ -35,7 +35,9 @@ def test_converse_closer_side_by_side_touching():
     assert atoms(prog, "relations.lp", show="#show ra/5.") == [
         "ra(1,2,0,before,overlaps)", "ra(2,1,0,after,overlapped_by)",
         "ra(3,4,0,overlaps,finishes)", "ra(4,3,0,overlapped_by,finished_by)"]
-    assert atoms(prog, "relations.lp", show="#show closer/3.") == ["closer(2,1,0)"]
+    # depth order is not read off the y relation: closer/3 is front/3 (relations.pair_front)
+    assert atoms(prog, "relations.lp", show="#show closer/3.") == []
+    assert atoms(prog + "front(2,1,0).", "relations.lp", show="#show closer/3.") == ["closer(2,1,0)"]
     assert atoms(prog, "relations.lp", show="#show side_by_side/3.") == [
         "side_by_side(1,2,0)", "side_by_side(2,1,0)", "side_by_side(3,4,0)", "side_by_side(4,3,0)"]
     assert atoms(prog, "relations.lp", show="#show touching/3.") == ["touching(3,4,0)", "touching(4,3,0)"]
@@ -119,7 +121,8 @@ def test_constants_and_defaults():
 
 
 def test_overtaking_rule():
-    flip = ("vehicle(1). vehicle(2). ra(1,2,7,before,after). ra(1,2,10,before,before).")
+    flip = ("vehicle(1). vehicle(2). ra(1,2,7,before,after). ra(1,2,10,before,before). "
+            "front(1,2,7). front(2,1,10).")
     assert sit(flip, "overtaking") == ["info(overtaking,(1,2),nearer_until,frame(7))",
                                        "warn(overtaking,(1,2))"]
     # oncoming: the overtaken vehicle approaches
@@ -127,7 +130,8 @@ def test_overtaking_rule():
     # too long ago for ov_ms
     assert sit(flip, "overtaking", ov_ms=200) == []
     # one behind the other (x during): not side by side
-    assert sit("vehicle(1). vehicle(2). ra(1,2,7,during,after). ra(1,2,10,during,before).", "overtaking") == []
+    assert sit("vehicle(1). vehicle(2). ra(1,2,7,during,after). ra(1,2,10,during,before). "
+               "front(1,2,7). front(2,1,10).", "overtaking") == []
 
 
 def test_hidden_entity_rule():

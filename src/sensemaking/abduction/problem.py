@@ -6,8 +6,8 @@ constraints state the same thresholds, so the gate is an optimisation, never a c
 answer.
 
 A frame falls apart into *components*: tracks and detections linked by ``cand``, ``covers``,
-``keeps_covering`` and ``emerges`` facts. :meth:`FrameProblem.components` describes each one
-canonically (:class:`Component`: local indices, so the same facts give the same key), and
+``keeps_covering``, ``emerges`` and ``fits`` facts. :meth:`FrameProblem.components` describes
+each one canonically (:class:`Component`: local indices, so the same facts give the same key), and
 :meth:`Component.facts` writes its facts as clingo symbols.
 """
 
@@ -24,7 +24,7 @@ __all__ = ["FrameProblem", "Component", "VISIBILITY_VALUES", "TRACK_FLAGS"]
 
 VISIBILITY_VALUES = ("fully_visible", "partially_occluded", "fully_occluded")
 #: the per-track flags of the facts, in the order of :attr:`Component.tracks` rows
-TRACK_FLAGS = ("tentative", "uncertain", "expired", "outside", "at_border", "overlapped")
+TRACK_FLAGS = ("tentative", "uncertain", "expired", "outside", "at_border", "overlapped", "cut")
 
 _TRUE = Function("true")
 _ZERO = _number(0)
@@ -45,13 +45,14 @@ class Component:
     Attributes:
         first_frame: the ``first_frame`` fact.
         tracks: per track ``(active, tentative, uncertain, expired, outside, at_border,
-            overlapped, class, visibility index, speed in px/s or -1)``.
+            overlapped, cut, class, visibility index, speed in px/s or -1)``.
         dets: per detection ``(confidence 0..1000, class, at border, overlapped)``.
         cand: ``(track, detection, likelihood 0..1000, preferred)``.
         covers: ``(detection, track, rank or -1)``.
         keeps_covering: ``(detection, track)``.
         emerges: ``(detection, track)``.
         hidden_by: ``(track, occluder)``.
+        fits: ``(track, detection)``, a subset of the ``covers`` pairs.
     """
 
     first_frame: bool
@@ -62,6 +63,7 @@ class Component:
     keeps_covering: tuple[tuple[int, int], ...]
     emerges: tuple[tuple[int, int], ...]
     hidden_by: tuple[tuple[int, int], ...]
+    fits: tuple[tuple[int, int], ...] = ()
 
     @property
     def n_refs(self) -> int:
@@ -110,6 +112,8 @@ class Component:
             add(Function("covers", [det(j), track(t)]))
             if rank >= 0:
                 add(Function("cover_rank", [det(j), track(t), _number(rank)]))
+        for t, j in self.fits:
+            add(Function("fits", [track(t), det(j)]))
         for j, t in self.keeps_covering:
             add(Function("keeps_covering", [det(j), track(t)]))
         for j, t in self.emerges:
@@ -141,7 +145,12 @@ class FrameProblem:
         cand: (K, 3) int rows ``track index, detection index, likelihood 0..1000``.
         uncertain: (T,) bool, seen only once: widened prediction, gated like a halted track.
         covers: (P, 2) int rows ``detection index, track index``: the detection is in front of
-            the track's predicted box and covers at least the hiding fraction of it.
+            the track's predicted box (:func:`sensemaking.geometry.in_front`: 3D depth where both
+            have one, else box bottom, never in front of a box cut by the image border) and
+            covers at least the hiding fraction of it.
+        fits: (F, 2) int rows ``track index, detection index``, a subset of the ``covers``
+            pairs: the detection fits the track's prediction at least at the resume likelihood
+            (and its class, when classes count): it could be the track's own observation.
         keeps_covering: (Q, 2) int rows, as ``covers`` with the lower "stay hidden" fraction.
         hidden_by: (H, 2) int rows ``track id, occluder track id`` true in the previous frame.
         emerges: (E, 2) int rows ``detection index, track index``: the detection touches the box
@@ -156,6 +165,8 @@ class FrameProblem:
             detections (``cover_rank/3``): a lowest-priority tie-break between occluders.
         speed: (T,) int predicted speed of each track's box centre, pixels per second, or None
             (the ``speed/2`` facts, for encodings that read them).
+        cut: (T,) bool, predicted box reaches the left, right or bottom image border
+            (:func:`sensemaking.geometry.cut_by_border`), or None (no track is).
     """
 
     track_id: np.ndarray
@@ -173,6 +184,7 @@ class FrameProblem:
     cand: np.ndarray
     uncertain: np.ndarray | None = None
     covers: np.ndarray = field(default_factory=_empty_rows)
+    fits: np.ndarray = field(default_factory=_empty_rows)
     keeps_covering: np.ndarray = field(default_factory=_empty_rows)
     hidden_by: np.ndarray = field(default_factory=_empty_rows)
     emerges: np.ndarray = field(default_factory=_empty_rows)
@@ -181,6 +193,7 @@ class FrameProblem:
     cand_exact: np.ndarray | None = None
     covers_exact: np.ndarray | None = None
     speed: np.ndarray | None = None
+    cut: np.ndarray | None = None
 
     @property
     def n_tracks(self) -> int:
@@ -248,6 +261,8 @@ class FrameProblem:
         for rel in (self.covers, self.keeps_covering, self.emerges):
             for d, t in rel.tolist():
                 parent[find(t)] = find(nt + d)
+        for t, d in self.fits.tolist():  # covered pairs already: for a part that stands alone
+            parent[find(t)] = find(nt + d)
         groups: dict[int, tuple[list[int], list[int]]] = {}
         for x in range(nt + nd):
             g = groups.setdefault(find(x), ([], []))
@@ -269,6 +284,7 @@ class FrameProblem:
             self.outside,
             self.at_border,
             self.overlapped,
+            self.cut if self.cut is not None else np.zeros(nt, dtype=bool),
         ]
         vis = self.visibility if self.visibility is not None else np.zeros(nt, dtype=np.int64)
         speed = self.speed if self.speed is not None else np.full(nt, -1, dtype=np.int64)
@@ -299,12 +315,15 @@ class FrameProblem:
             where_t.update(dict.fromkeys(ts, g))
             where_d.update(dict.fromkeys(ds, g))
         parts: list[dict[str, list]] = [
-            {"cand": [], "covers": [], "keeps": [], "emerges": [], "hidden": []} for _ in groups
+            {"cand": [], "covers": [], "fits": [], "keeps": [], "emerges": [], "hidden": []}
+            for _ in groups
         ]
         for t, d, lik in self.cand.tolist():
             parts[where_t[t]]["cand"].append((t, d, lik, (t, d) in preferred))
         for (d, t), r in zip(self.covers.tolist(), self.cover_ranks().tolist(), strict=True):
             parts[where_t[t]]["covers"].append((d, t, r))
+        for t, d in self.fits.tolist():
+            parts[where_t[t]]["fits"].append((t, d))
         for name, rel in (("keeps", self.keeps_covering), ("emerges", self.emerges)):
             for d, t in rel.tolist():
                 parts[where_t[t]][name].append((d, t))
@@ -335,6 +354,7 @@ class FrameProblem:
                 keeps_covering=tuple((ld[d], lt[t]) for d, t in found["keeps"]),
                 emerges=tuple((ld[d], lt[t]) for d, t in found["emerges"]),
                 hidden_by=tuple(hidden),
+                fits=tuple((lt[t], ld[d]) for t, d in found["fits"]),
             )
             out.append((component, local_ids, list(ds)))
         return out

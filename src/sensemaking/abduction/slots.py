@@ -98,6 +98,7 @@ def vocabulary(
             keeps_covering=tuple((d, t) for t, d in pairs),
             emerges=tuple((d, t) for t, d in pairs),
             hidden_by=tuple((t, o) for t in range(nt) for o in range(nt + no)),
+            fits=tuple(pairs),
         )
     )
     out: set[Symbol] = set()
@@ -121,7 +122,7 @@ def pieces(component: Component) -> list[tuple]:
     return out
 
 
-_RELATIONS = ("cand", "covers", "keeps_covering", "emerges", "hidden_by")
+_RELATIONS = ("cand", "covers", "keeps_covering", "emerges", "hidden_by", "fits")
 
 
 def piece_facts(piece: tuple, uses: Collection[str] = ()) -> frozenset[Symbol]:

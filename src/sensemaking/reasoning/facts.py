@@ -74,7 +74,8 @@ def scene_facts(
     Args:
         boxes: ``box/6`` per track and frame (pixels, rounded).
         states: ``state/3`` per track and frame.
-        relations: ``ra/5`` rectangle relations of near pairs per frame.
+        relations: ``ra/5`` rectangle relations of near pairs per frame, and ``front/3``,
+            their depth order (``relations.pair_front``, as the tracker's occlusion facts).
         motion: ``motion/3`` qualitative motion of visible boxes.
         corridor: ``in_corridor/2`` (needs ``image_size``; uses ``context.corridor``).
         context: :class:`~sensemaking.reasoning.context.SceneContext` (corridor, lanes);
@@ -86,6 +87,7 @@ def scene_facts(
         MotionThresholds,
         RelationConfig,
         motion_facts,
+        pair_front,
         pair_relations,
         relation_facts,
         track_motion,
@@ -145,7 +147,10 @@ def scene_facts(
             for chunk in np.split(order, np.flatnonzero(np.diff(frames[order])) + 1):
                 if chunk.size >= 2:
                     pairs, codes = pair_relations(xyxy[chunk], rc)
-                    out += relation_facts(int(frames[chunk[0]]), tracks[chunk], pairs, codes)
+                    front = pair_front(xyxy[chunk], pairs, image_size=scene.image_size, config=rc)
+                    out += relation_facts(
+                        int(frames[chunk[0]]), tracks[chunk], pairs, codes, front
+                    )
     if motion:
         mt = motion_thresholds or MotionThresholds()
         for t in scene.tracks.values():

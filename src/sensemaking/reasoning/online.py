@@ -66,6 +66,7 @@ from sensemaking.reasoning.relations import (
     MOTION_KINDS,
     classify_motion,
     motion_features,
+    pair_front,
     pair_relations,
 )
 from sensemaking.reasoning.situations import (
@@ -184,6 +185,7 @@ class _Frame:
         "area",
         "motion",
         "ra",
+        "front",
         "lanes",
         "on_lane",
         "surface",
@@ -199,6 +201,7 @@ class _Frame:
         self.area: dict[int, int] = {}  # in-corridor tracks: permille of the image
         self.motion: dict[int, tuple[str, ...]] = {}  # visible tracks: MOTION_KINDS that hold
         self.ra: list[tuple[int, int, str, str]] = []  # (a, b, x relation, y relation), a < b
+        self.front: list[tuple[int, int]] = []  # (a, b): a in front of b (relations.pair_front)
         self.lanes: list[int | str] = []  # lane terms in force
         self.on_lane: dict[int, list[int | str]] = {}
         self.surface: dict[int, str] = {}
@@ -455,10 +458,15 @@ class SituationMonitor:
         veh = [_ROLE[cls[i]] for i in rel]
         if len(rel) >= 2 and True in veh:
             pairs, codes = pair_relations(xyxy[rel], self.config.relations)
-            for (i, j), (cx, cy) in zip(pairs.tolist(), codes.tolist(), strict=True):
+            front = pair_front(
+                xyxy[rel], pairs, tr.depth[rel], self.image_size, config=self.config.relations
+            ).tolist()
+            for (i, j), (cx, cy), fa in zip(pairs.tolist(), codes.tolist(), front, strict=True):
                 if veh[i] or veh[j]:
                     a, b, rx, ry = ids[rel[i]], ids[rel[j]], IA_RELATIONS[cx], IA_RELATIONS[cy]
                     fr.ra.append((a, b, rx, ry) if a < b else (b, a, INVERSE[rx], INVERSE[ry]))
+                    if fa:
+                        fr.front.append((a, b) if fa > 0 else (b, a))
 
         lanes = self.context.lanes.lanes_at(f) if self.context.lanes else ()
         if lanes:
@@ -576,6 +584,7 @@ class SituationMonitor:
             out += [("in_corridor", local[t], g) for t in fr.in_corr]
             out += [("motion", local[t], g, k) for t, kinds in fr.motion.items() for k in kinds]
             out += [("ra", local[a], local[b], g, rx, ry) for a, b, rx, ry in fr.ra]
+            out += [("front", local[a], local[b], g) for a, b in fr.front]
             out += [
                 # constants in the events of a user's encoding stay as they are
                 (

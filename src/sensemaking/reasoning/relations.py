@@ -11,6 +11,11 @@
   keeping distance (neither growing nor shrinking);
   thresholds in pixels per second, so the same thresholds work at any frame rate.
 
+* Depth order of a pair (:func:`pair_front`): which box is in front, by
+  :func:`sensemaking.geometry.in_front` -- the one definition the tracker's occlusion facts
+  use too (3D depth where both boxes have one, else box bottom, never in front of a box cut by
+  the image border).
+
 All of it is computed in numpy and handed to clingo as facts, and only for pairs that matter
 (:func:`near_pairs`: boxes that overlap or lie within a gap proportional to their size).
 """
@@ -22,6 +27,8 @@ from functools import lru_cache
 from typing import Any
 
 import numpy as np
+
+from sensemaking.geometry import cut_by_border, in_front
 
 __all__ = [
     "IA_RELATIONS",
@@ -43,6 +50,8 @@ __all__ = [
     "track_motion",
     "relation_facts",
     "motion_facts",
+    "pair_front",
+    "BORDER_MARGIN_PX",
 ]
 
 #: the 13 Allen relations; the index is the relation's integer code
@@ -468,17 +477,71 @@ def order_pairs(
 
 
 def relation_facts(
-    frame: int, ids: np.ndarray, pairs: np.ndarray, codes: np.ndarray
+    frame: int,
+    ids: np.ndarray,
+    pairs: np.ndarray,
+    codes: np.ndarray,
+    front: np.ndarray | None = None,
 ) -> list[tuple[Any, ...]]:
     """``ra(A,B,F,Rx,Ry)`` facts (tuples, see :mod:`~sensemaking.reasoning.facts`), one per pair,
     with ``A < B``. The encoding ``relations.lp`` derives the converse ``ra(B,A,F,...)``; give
-    each unordered pair once.
+    each unordered pair once. With ``front`` (P,) (:func:`pair_front` of the same pairs), also
+    ``front(A,B,F)``: A is in front of B (``relations.lp`` reads it as ``closer/3``).
     """
-    a, b, codes = order_pairs(ids, np.asarray(pairs, dtype=np.int64).reshape(-1, 2), codes)
-    return [
+    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    ids = np.asarray(ids, dtype=np.int64)
+    a, b, ordered = order_pairs(ids, pairs, codes)
+    out: list[tuple[Any, ...]] = [
         ("ra", x, y, int(frame), IA_RELATIONS[rx], IA_RELATIONS[ry])
-        for x, y, (rx, ry) in zip(a.tolist(), b.tolist(), codes.tolist(), strict=True)
+        for x, y, (rx, ry) in zip(a.tolist(), b.tolist(), ordered.tolist(), strict=True)
     ]
+    if front is not None and len(pairs):
+        f = np.asarray(front, dtype=np.int64)
+        near = np.where(f > 0, pairs[:, 0], pairs[:, 1])[f != 0]
+        far = np.where(f > 0, pairs[:, 1], pairs[:, 0])[f != 0]
+        out += [
+            ("front", x, y, int(frame))
+            for x, y in zip(ids[near].tolist(), ids[far].tolist(), strict=True)
+        ]
+    return out
+
+
+#: distance to the image border, pixels, within which a box counts as cut by it (the tracker's
+#: default ``border_margin``)
+BORDER_MARGIN_PX = 10.0
+
+
+def pair_front(
+    xyxy: np.ndarray,
+    pairs: np.ndarray,
+    depth: np.ndarray | None = None,
+    image_size: tuple[int, int] | None = None,
+    margin: float = BORDER_MARGIN_PX,
+    config: RelationConfig | None = None,
+) -> np.ndarray:
+    """(P,) int8: +1 where box ``pairs[k, 0]`` is in front of box ``pairs[k, 1]``, -1 where it
+    is behind, 0 where neither is known to be in front (:func:`sensemaking.geometry.in_front`).
+
+    Args:
+        xyxy: (N, 4) boxes in pixels. pairs: (P, 2) indices into them.
+        depth: (N,) metres along the optical axis, NaN where unknown (``Detections.depth``).
+        image_size: ``(width, height)``: boxes within ``margin`` pixels of its left, right or
+            bottom border are cut (:func:`sensemaking.geometry.cut_by_border`); None: none is.
+        config: its tolerances (``tol_px``, ``tol_rel``) are the margin beyond jitter: box
+            bottoms closer than that are ``equal`` to the interval relations, and neither box
+            is in front (as ``bottom_lower/1`` of the y relation says). The tracker's facts use
+            no margin; so whatever is in front here is in front there too, never the reverse.
+    """
+    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    if len(pairs) == 0:
+        return np.zeros(0, dtype=np.int8)
+    x = np.asarray(xyxy, dtype=np.float64).reshape(-1, 4)
+    c = config or RelationConfig()
+    front = in_front(
+        x, depth, cut_by_border(x, image_size, margin), tol_px=c.tol_px, tol_rel=c.tol_rel
+    )
+    a, b = pairs[:, 0], pairs[:, 1]
+    return (front[a, b].astype(np.int8) - front[b, a].astype(np.int8)).astype(np.int8)
 
 
 def motion_facts(frame: int, ids: np.ndarray, kinds: np.ndarray) -> list[tuple[Any, ...]]:
