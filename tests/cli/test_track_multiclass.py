@@ -94,14 +94,14 @@ def test_per_class_files_are_the_one_file_split_by_class(tmp_path: Path, car_and
 
 def pointrcnn_lines(dets) -> list[tuple[int, str]]:
     """(frame, PointRCNN line) of each detection: type 1 pedestrian, 2 car, 3 cyclist; the score
-    a logit."""
+    a logit; the depth (z, metres) falls as the box bottom goes down the image, as on a road."""
     code = {PEDESTRIAN: 1, CAR: 2, CYCLIST: 3}
     out = []
     for i, (x1, y1, x2, y2) in enumerate(dets.xyxy):
         p = min(float(dets.confidence[i]), 0.999)
         logit = np.log(p / (1 - p))
         out.append((int(dets.frame[i]), f"{dets.frame[i]},{code[int(dets.class_id[i])]},{x1:.2f},"
-                    f"{y1:.2f},{x2:.2f},{y2:.2f},{logit:.4f},1.5,0.6,1.7,2.0,1.6,20.0,0.1,0.2\n"))
+                    f"{y1:.2f},{x2:.2f},{y2:.2f},{logit:.4f},1.5,0.6,1.7,2.0,1.6,{4000 / y2:.2f},0.1,0.2\n"))
     return out
 
 

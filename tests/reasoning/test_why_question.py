@@ -19,7 +19,8 @@ from sensemaking.tracker import AbductionCosts, Tracker, TrackerConfig
 C = encoding_constants()
 SIZE = (1242, 375)
 # the far object (track 1) lies within the near one's box, behind it (lower bottom edge)
-NEAR_EDGE, FAR_EDGE = (0, 100, 100, 300), (5, 150, 65, 280)  # at the left border
+# at the top border (a box cut at the left, right or bottom border cannot start hiding)
+NEAR_EDGE, FAR_EDGE = (130, 0, 230, 200), (150, 0, 210, 130)
 NEAR_MID, FAR_MID = (500, 100, 600, 300), (520, 150, 580, 280)  # away from it
 
 
