@@ -28,8 +28,17 @@ import numpy as np
 
 from sensemaking.classes import PEOPLE, VEHICLES, class_name
 from sensemaking.errors import InputError
+from sensemaking.io.egomotion import EgoMotion
 from sensemaking.reasoning.anticipation import Anticipation, anticipate
 from sensemaking.reasoning.context import SceneContext, asp_name
+from sensemaking.reasoning.egomotion import (
+    CameraModel,
+    EgoMotionConfig,
+    EgoState,
+    TrackMotion,
+    WorldMotion,
+    world_facts,
+)
 from sensemaking.reasoning.facts import AspString, Fact, value
 from sensemaking.reasoning.relations import (
     IA_RELATIONS,
@@ -75,6 +84,8 @@ class _Frame:
         "lanes",
         "on_lane",
         "surface",
+        "ego",
+        "world",
     )
 
     def __init__(self, frame: int, events: list[Event]) -> None:
@@ -90,6 +101,8 @@ class _Frame:
         self.lanes: list[int | str] = []  # lane terms in force
         self.on_lane: dict[int, list[int | str]] = {}
         self.surface: dict[int, str] = {}
+        self.ego: EgoState | None = None  # the ego's motion (with a camera model)
+        self.world: dict[int, TrackMotion] = {}  # visible tracks in metres and m/s
 
 
 class SituationMonitor:
@@ -107,6 +120,13 @@ class SituationMonitor:
             ``base``): a new situation is a rule ``warn(name,(T,...))``, warned as ``NAME``;
             its details are ``info(name,(T,...),key,value)``. The input predicates are those
             documented in situations.lp. Raises InputError for a file clingo cannot read.
+        camera: the :class:`~sensemaking.reasoning.egomotion.CameraModel` of the images (e.g.
+            ``CameraModel.kitti()``): with it, motion is judged in the world (metres, m/s, the
+            ego's own speed estimated from the scene); None: in the image (a fixed camera).
+        ego_motion: the ego vehicle's speed per frame
+            (:func:`sensemaking.io.egomotion.read_ego_motion`), used where it has the frame
+            (needs ``camera``).
+        ego_config: :class:`~sensemaking.reasoning.egomotion.EgoMotionConfig`.
 
     ``update(result)`` once per frame in order, ``reset()`` before another sequence.
     ``stats`` counts frames, clingo calls, answers from the cache of clingo's answers and the
@@ -120,6 +140,9 @@ class SituationMonitor:
         fps: float = 10.0,
         image_size: tuple[int, int] | None = (1242, 375),
         extra_encodings: Sequence[str | PathLike[str]] = (),
+        camera: CameraModel | None = None,
+        ego_motion: EgoMotion | None = None,
+        ego_config: EgoMotionConfig | None = None,
     ):
         if fps <= 0:
             raise ValueError(f"fps must be positive, got {fps}")
@@ -154,6 +177,13 @@ class SituationMonitor:
         # visible boxes kept per track: anticipation fits the last velocity_points of them, and
         # motion needs the box 2 lag frames before
         self._hist_len = max(2 * self._lag, self.config.anticipation.velocity_points) + 1
+        if ego_motion is not None and camera is None:
+            raise ValueError("ego_motion needs a camera model (camera=CameraModel(...))")
+        self._world = (
+            None
+            if camera is None
+            else WorldMotion(camera, self.fps, self.image_size, ego_motion, ego_config)
+        )
         self.reset()
 
     # -- state ----------------------------------------------------------------------------------
@@ -172,6 +202,8 @@ class SituationMonitor:
         self._found: list[SituationMatch] = []  # what holds at the current frame
         self._active: list[Warning] | None = []  # its warnings, made when read (None: not yet)
         self.stats: dict[str, float] = {"frames": 0, "solver_calls": 0, "cache_hits": 0, "ms": 0.0}
+        if self._world is not None:
+            self._world.reset()
         self._calls0, self._hits0 = self._solver.calls, self._solver.hits
 
     @property
@@ -276,6 +308,15 @@ class SituationMonitor:
                 fr.hidden_by[t] = occl[i]
         if moving:
             self._motion(fr, moving)
+        if self._world is not None:
+            vis = [i for i, s in enumerate(states) if s == _VISIBLE]
+            loc = data.get("location")
+            fr.ego, fr.world = self._world.update(
+                f,
+                [ids[i] for i in vis],
+                xyxy[vis],
+                None if loc is None else np.asarray(loc, dtype=np.float64)[vis],
+            )
 
         if self.image_size is not None:
             k = self._permille
@@ -432,6 +473,8 @@ class SituationMonitor:
                 ("on_lane", local[t], term, g) for t, terms in fr.on_lane.items() for term in terms
             ]
             out += [("surface", local[t], g, s) for t, s in fr.surface.items()]
+            if self._world is not None:
+                out += world_facts(fr.ego, fr.world, local, g)
         now = frames[-1]
         out += [("area", local[t], 0, a) for t, a in now.area.items()]
         out += [("lane", term) for term in now.lanes]
@@ -493,6 +536,8 @@ class SituationMonitor:
         for t in [t for t, last in self._last_live.items() if f - last > self._window]:
             for d in (self._hist, self._class, self._last_live):
                 d.pop(t, None)
+        if self._world is not None:
+            self._world.forget(set(self._last_live))
         for key in [k for k, last in self._last_held.items() if f - last > self._rearm]:
             del self._last_held[key]
 
