@@ -144,6 +144,23 @@ def register(sub: argparse._SubParsersAction) -> None:
         "`warn(stopped_ahead,(T,)) :- ...` (repeatable)",
     )
     p.add_argument(
+        "--ego-motion",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="the camera vehicle's speed per frame for --warnings, CSV "
+        "frame,speed_mps[,yaw_rate_rad_s] (docs/EGOMOTION.md); default: estimated from the "
+        "scene (needs a camera model: --format kitti or --camera)",
+    )
+    p.add_argument(
+        "--camera",
+        default=None,
+        metavar="F,H,HORIZON,CX",
+        help="camera model for --warnings: focal length px, height above the road m, horizon "
+        "row px, principal column px (default with --format kitti: KITTI's camera; else none: "
+        "motion judged in the image, as for a fixed camera)",
+    )
+    p.add_argument(
         "--params",
         dest="params_file",
         type=Path,
@@ -331,6 +348,20 @@ def _video_frames(args: argparse.Namespace):
     return frames(), (int(first.shape[1]), int(first.shape[0]))
 
 
+def _world_motion(args: argparse.Namespace) -> dict[str, Any]:
+    """``camera`` and ``ego_motion`` of the SituationMonitor from --camera / --ego-motion."""
+    from sensemaking.io.egomotion import read_ego_motion
+    from sensemaking.reasoning.egomotion import CameraModel
+
+    camera = CameraModel.parse(args.camera) if args.camera else None
+    if camera is None and args.format == "kitti":
+        camera = CameraModel.kitti()
+    if args.ego_motion is not None and camera is None:
+        raise InputError("--ego-motion needs a camera model: --format kitti or --camera")
+    ego = None if args.ego_motion is None else read_ego_motion(args.ego_motion)
+    return {"camera": camera, "ego_motion": ego}
+
+
 def run(args: argparse.Namespace) -> int:
     from sensemaking.io.sinks import (
         EventsSink,
@@ -359,6 +390,7 @@ def run(args: argparse.Namespace) -> int:
         "--encoding": args.encoding,
         **{f"--rules {r}": r for r in args.rules},
         **{f"--situations {r}": r for r in args.situations},
+        "--ego-motion": args.ego_motion,
     }
     check_output_paths(outputs, inputs)
     fps = size = length = None
@@ -378,11 +410,16 @@ def run(args: argparse.Namespace) -> int:
     recorder = monitor = None
     if args.situations and not args.warnings:
         raise InputError("--situations needs --warnings PATH (where the warnings go)")
+    if (args.ego_motion or args.camera) and not args.warnings:
+        raise InputError("--ego-motion and --camera need --warnings PATH (they serve situations)")
     if args.warnings:
         from sensemaking.reasoning.online import SituationMonitor
 
         monitor = SituationMonitor(
-            fps=config.fps, image_size=config.image_size, extra_encodings=args.situations
+            fps=config.fps,
+            image_size=config.image_size,
+            extra_encodings=args.situations,
+            **_world_motion(args),
         )
     source = args.detections or args.source
     total = 0 if last is None or first is None else last - first + 1

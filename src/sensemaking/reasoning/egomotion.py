@@ -156,6 +156,9 @@ class EgoMotionConfig:
         hold_s: seconds the last estimate is kept while no static object is in view.
         max_speed_mps: fastest ego speed considered, m/s.
         static_range_m: objects up to this distance vote on the ego speed, metres.
+        max_vote_sd_mps: objects whose velocity is known worse than this (standard error),
+            m/s, do not vote: they cannot tell a parked car from a walking person (three
+            kernel widths).
         ego_lane_half_m: objects within this lateral offset (half a 3.5 m lane), metres, do
             not vote: the vehicle ahead in the ego's lane is the one the ego follows, and the
             one whose motion is to be judged.
@@ -172,6 +175,7 @@ class EgoMotionConfig:
     max_speed_mps: float = 45.0
     static_range_m: float = 40.0
     ego_lane_half_m: float = 1.75
+    max_vote_sd_mps: float = 2.1
 
     def __post_init__(self) -> None:
         for name in (
@@ -184,6 +188,7 @@ class EgoMotionConfig:
             "max_speed_mps",
             "static_range_m",
             "ego_lane_half_m",
+            "max_vote_sd_mps",
         ):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
@@ -326,7 +331,12 @@ class EgoEstimator:
         one, their positions (N,) m and velocity standard errors (N,) m/s."""
         c = self.config
         with np.errstate(invalid="ignore"):
-            near = np.isfinite(vz) & (z <= c.static_range_m) & (np.abs(x) > c.ego_lane_half_m)
+            near = (
+                np.isfinite(vz)
+                & (z <= c.static_range_m)
+                & (np.abs(x) > c.ego_lane_half_m)
+                & (sd <= c.max_vote_sd_mps)
+            )
         cand, sds = -vz[near], sd[near]
         known = self.file.at(frame) if self.file is not None else None
         if known is not None:
@@ -521,9 +531,10 @@ def world_facts(
     g: int,
 ) -> list[tuple[object, ...]]:
     """The facts of one frame ``g`` (relative) for situations.lp, tracks by ``local`` index:
-    ``ego_speed(G,V)``, ``position(T,G,Z,X)``, ``closing(T,G,C)``, ``world_speed(T,G,S,E)``,
-    ``world_long(T,G,V)`` (centimetres, cm/s, integers; see situations.lp)."""
-    out: list[tuple[object, ...]] = []
+    ``camera`` (once, with the current frame ``g = 0``), ``ego_speed(G,V)``,
+    ``position(T,G,Z,X)``, ``closing(T,G,C)``, ``world_speed(T,G,S,E)``, ``world_long(T,G,V)``
+    (centimetres, cm/s, integers; see situations.lp)."""
+    out: list[tuple[object, ...]] = [("camera",)] if g == 0 else []
     if ego is not None:
         out.append(("ego_speed", g, _cm(ego.speed)))
     for t, m in motion.items():

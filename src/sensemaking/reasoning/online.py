@@ -68,6 +68,12 @@ _ROLE: dict[int, bool] = {**dict.fromkeys(PEOPLE, False), **dict.fromkeys(VEHICL
 _ORDER: dict[str, int] = {s.name: i for i, s in enumerate(Situation)}
 
 
+def _kmh(info: dict[str, list[Any]], key: str) -> str:
+    """`` (N km/h)`` from a speed detail in cm/s, or nothing."""
+    v = info.get(key)
+    return f" ({v[0] * 0.036:.0f} km/h)" if v and isinstance(v[0], int) else ""
+
+
 class _Frame:
     """One frame of the window: the numbers its facts are made of (track ids, absolute frames)."""
 
@@ -554,7 +560,8 @@ class SituationMonitor:
             details[k] = v[0] if len(v) == 1 else v
         if s == "OVERTAKING":
             a, b = objs
-            msg = f"{desc(a)} is overtaking {desc(b)}"
+            kmh = [_kmh(info, k) for k in ("speed_cms", "overtaken_speed_cms")]
+            msg = f"{desc(a)}{kmh[0]} is overtaking {desc(b)}{kmh[1]}"
         elif s == "HIDDEN_ENTITY" and objs[0] in self._anticip:
             t, o = objs
             ant = self._anticip[t]
@@ -576,6 +583,16 @@ class SituationMonitor:
                 parts.append("it hides " + ", ".join(desc(h) for h in hides))
             msg = f"{desc(o)} in front of the ego vehicle reduces visibility" + (
                 f" ({'; '.join(parts)})" if parts else ""
+            )
+        elif s == "SUDDEN_STOP" and "distance_cm" in info:  # judged over the road
+            (veh,) = objs
+            z, c = info["distance_cm"][0] / 100.0, info.get("closing_cms", [0])[0] / 100.0
+            details["ttc_s"] = round(z / c, 2) if c > 0 else None
+            how = "stops" if "stopping" in info.get("cause", []) else "brakes hard"
+            msg = (
+                f"{desc(veh)} {z:.0f} m ahead in the ego lane {how}{_kmh(info, 'speed_cms')}: "
+                f"the gap closes at {c * 3.6:.0f} km/h"
+                + (f", time to contact {z / c:.1f} s" if c > 0 else "")
             )
         elif s == "SUDDEN_STOP":
             (veh,) = objs
