@@ -274,3 +274,28 @@ def test_with_a_camera_and_no_ego_speed_image_motion_claims_nothing():
         "warn(sudden_stop,(1,))",
     ]
     assert sit(stopping, "sudden_stop", head="camera. ") == []
+
+
+def test_stories_say_motion_over_the_road_in_km_h_and_metres(tmp_path):
+    from sensemaking.reasoning.questions import explain
+    from sensemaking.scene import Scene, SceneRecorder
+
+    frames = range(25)
+    objs = [Obj(1, CAR, {f: car_box(12.0, 2.5) for f in frames})] + parked_row(frames, 9.0)
+    objs.append(Obj(2, CAR, world_boxes(frames, 28.0, 3.0, -9.0)))
+    rec = SceneRecorder(FPS, SIZE, metadata={"camera": CAM.to_json()})
+    for r in build_results(objs):
+        rec.add(r)
+    path = tmp_path / "scene.json"
+    rec.scene().save(path)
+    scene = Scene.load(path)  # the camera travels with the scene file
+    moving = " ".join(explain(scene, 1))
+    assert "drives the ego vehicle's way at about 32 km/h" in moving  # 9 m/s
+    assert "12 m ahead" in moving and "px/s" not in moving
+    parked = " ".join(explain(scene, 2))
+    assert "stands still, from 28 m to" in parked and "comes closer" not in parked
+    # recorded without a camera model: the image story, as before
+    plain = SceneRecorder(FPS, SIZE)
+    for r in build_results(objs):
+        plain.add(r)
+    assert "stands still" not in " ".join(explain(plain.scene(), 2))

@@ -156,9 +156,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--camera",
         default=None,
         metavar="F,H,HORIZON,CX",
-        help="camera model for --warnings: focal length px, height above the road m, horizon "
-        "row px, principal column px (default with --format kitti: KITTI's camera; else none: "
-        "motion judged in the image, as for a fixed camera)",
+        help="camera model for --warnings and the --scene stories: focal length px, height "
+        "above the road m, horizon row px, principal column px (default with --format kitti: "
+        "KITTI's camera; else none: motion judged in the image, as for a fixed camera)",
     )
     p.add_argument(
         "--params",
@@ -410,8 +410,9 @@ def run(args: argparse.Namespace) -> int:
     recorder = monitor = None
     if args.situations and not args.warnings:
         raise InputError("--situations needs --warnings PATH (where the warnings go)")
-    if (args.ego_motion or args.camera) and not args.warnings:
-        raise InputError("--ego-motion and --camera need --warnings PATH (they serve situations)")
+    if (args.ego_motion or args.camera) and not (args.warnings or args.scene):
+        raise InputError("--ego-motion and --camera need --warnings or --scene (they serve those)")
+    world = _world_motion(args)
     if args.warnings:
         from sensemaking.reasoning.online import SituationMonitor
 
@@ -419,7 +420,7 @@ def run(args: argparse.Namespace) -> int:
             fps=config.fps,
             image_size=config.image_size,
             extra_encodings=args.situations,
-            **_world_motion(args),
+            **world,
         )
     source = args.detections or args.source
     total = 0 if last is None or first is None else last - first + 1
@@ -438,7 +439,15 @@ def run(args: argparse.Namespace) -> int:
                         args.scene,
                         fps=config.fps,
                         image_size=config.image_size,
-                        metadata={"name": Path(source).stem, "source": str(source)},
+                        metadata={
+                            "name": Path(source).stem,
+                            "source": str(source),
+                            **(
+                                {"camera": world["camera"].to_json()}
+                                if world["camera"] is not None
+                                else {}
+                            ),
+                        },
                     )
                 )
         except BaseException:

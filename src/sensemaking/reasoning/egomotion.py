@@ -41,14 +41,19 @@ are in situations.lp.
 from __future__ import annotations
 
 import math
+import weakref
 from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from sensemaking.errors import InputError
 from sensemaking.io.egomotion import EgoMotion
+
+if TYPE_CHECKING:  # pragma: no cover
+    from sensemaking.scene import Scene
 
 __all__ = [
     "CameraModel",
@@ -59,6 +64,8 @@ __all__ = [
     "WorldMotion",
     "estimate_ego_speed",
     "world_facts",
+    "scene_world_motion",
+    "world_story",
 ]
 
 
@@ -114,6 +121,25 @@ class CameraModel:
             return cls(focal_px=nums[0], height_m=nums[1], horizon_px=nums[2], cx_px=nums[3])
         except ValueError as exc:
             raise InputError(str(exc)) from None
+
+    def to_json(self) -> dict[str, float]:
+        return {
+            "focal_px": self.focal_px,
+            "cx_px": self.cx_px,
+            "horizon_px": self.horizon_px,
+            "height_m": self.height_m,
+            "max_range_m": self.max_range_m,
+        }
+
+    @classmethod
+    def from_json(cls, record: Any) -> CameraModel:
+        """From :meth:`to_json`'s object. Raises InputError for anything else."""
+        if not isinstance(record, dict):
+            raise InputError(f"a camera must be a JSON object, got {record!r}")
+        try:
+            return cls(**{k: float(v) for k, v in record.items()})
+        except (TypeError, ValueError) as exc:
+            raise InputError(f"bad camera {record!r}: {exc}") from None
 
     def ground_position(
         self, xyxy: np.ndarray, image_height: int | None = None
@@ -548,3 +574,69 @@ def world_facts(
             out.append(("world_speed", k, g, _cm(m.speed), _cm(m.speed_sd)))
             out.append(("world_long", k, g, _cm(m.v_long)))
     return out
+
+
+#: per scene: the world motion of its tracks, replayed once (scenes are not changed after
+#: recording)
+_REPLAYED: weakref.WeakKeyDictionary[Any, dict[int, list[TrackMotion]]] = (
+    weakref.WeakKeyDictionary()
+)
+
+
+def scene_world_motion(
+    scene: Scene, camera: CameraModel, config: EgoMotionConfig | None = None
+) -> dict[int, list[TrackMotion]]:
+    """Every track's :class:`TrackMotion` at each of its visible frames, by replaying the
+    scene's frames through :class:`WorldMotion` (the ego speed estimated from the scene)."""
+    from sensemaking.results import TrackState
+
+    world = WorldMotion(camera, scene.fps, scene.image_size, None, config)
+    out: dict[int, list[TrackMotion]] = {}
+    for r in scene.frame_results():
+        tr = r.tracks
+        vis = np.asarray(tr.data["state"]) == int(TrackState.VISIBLE)
+        ids = [] if tr.tracker_id is None else tr.tracker_id[vis].tolist()
+        _, motion = world.update(r.frame, ids, tr.xyxy[vis])
+        for t, m in motion.items():
+            out.setdefault(t, []).append(m)
+    return out
+
+
+def world_story(scene: Scene, track_id: int) -> str | None:
+    """One sentence on a track's motion over the road (km/h, metres), when the scene was
+    recorded with a camera model (``metadata["camera"]``); None otherwise or when too little is
+    known. "Stands still" uses the stop speed of situations.lp (``stop_cms``)."""
+    record = scene.metadata.get("camera")
+    if record is None:
+        return None
+    motion = _REPLAYED.get(scene)
+    if motion is None:
+        motion = _REPLAYED[scene] = scene_world_motion(scene, CameraModel.from_json(record))
+    ms = motion.get(int(track_id), [])
+    if not ms:
+        return None
+    from sensemaking.reasoning.situations import situation_constants
+
+    z0, z1, x = ms[0].z, ms[-1].z, float(np.median([m.x for m in ms]))
+    side = "ahead" if abs(x) < 1.0 else f"{abs(x):.0f} m to the {'right' if x > 0 else 'left'}"
+    where = (
+        f"from {z0:.0f} m to {z1:.0f} m ahead, {side}"
+        if side != "ahead"
+        else (f"from {z0:.0f} m to {z1:.0f} m ahead")
+    )
+    known = [m for m in ms if math.isfinite(m.speed)]
+    if len(known) < 2:
+        return f"It is {where} (its speed over the road is not known)."
+    speed = float(np.median([m.speed for m in known]))
+    v_long = float(np.median([m.v_long for m in known]))
+    v_lat = float(np.median([m.v_lat for m in known]))
+    if speed * 100.0 < situation_constants()["stop_cms"]:
+        return f"It stands still, {where}."
+    kmh = f"about {speed * 3.6:.0f} km/h"
+    if abs(v_lat) > abs(v_long):
+        how = f"crosses {'to the right' if v_lat > 0 else 'to the left'} at {kmh}"
+    elif v_long > 0:
+        how = f"drives the ego vehicle's way at {kmh}"
+    else:
+        how = f"comes towards the ego vehicle at {kmh}"
+    return f"It {how}, {where}."

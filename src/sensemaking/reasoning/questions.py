@@ -916,6 +916,11 @@ def ask(
 
 # -- stories --------------------------------------------------------------------------------------
 def _motion_summary(scene: Scene, t: Track) -> str | None:
+    from sensemaking.reasoning.egomotion import world_story
+
+    world = world_story(scene, t.id)  # over the road, when recorded with a camera model
+    if world is not None:
+        return world
     vis = t.visible_mask()
     if vis.sum() < 2:
         return None
