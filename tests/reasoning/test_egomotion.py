@@ -239,6 +239,12 @@ def test_sudden_stop_in_the_world():
     assert sit(braking_car([900, 800, 650, 500, 350, 200], 1200, 500, x=350), "sudden_stop") == []
     # gentle braking (1 m/s^2)
     assert sit(braking_car([900, 890, 880, 870, 860, 850], 1200, 500), "sudden_stop") == []
+    # rolling to a standstill (2 m/s to 0.4 m/s in 1 s: 1.6 m/s^2) is no sudden stop
+    rolling = [200 - 16 * k for k in range(11)]
+    assert sit(braking_car(rolling, 1200, 500), "sudden_stop") == []
+    assert "info(sudden_stop,(1,),cause,stopping)" in sit(
+        braking_car([900, 900, 700, 400, 100, 10], 1200, 500), "sudden_stop"
+    )
     # a parked car the ego drives towards: stopped all along, never moved
     assert sit(braking_car([10, 20, 10, 0, 10, 20], 1200, 1000), "sudden_stop") == []
 
@@ -252,6 +258,7 @@ def test_overtaking_in_the_world_needs_a_moving_overtaken_vehicle():
         ):
             rows.append(
                 f"position(1,{g},{za},-300). position(2,{g},{zb},200). "
+                f"position_sd(1,{g},30). position_sd(2,{g},30). "
                 f"world_speed(1,{g},{b_speed + 400},20). world_long(1,{g},{b_speed + 400}). "
                 f"world_speed(2,{g},{b_speed},20). world_long(2,{g},{b_speed})."
             )
@@ -259,6 +266,14 @@ def test_overtaking_in_the_world_needs_a_moving_overtaken_vehicle():
 
     assert "warn(overtaking,(1,2))" in sit(pair(900), "overtaking")
     assert sit(pair(0), "overtaking") == []  # passing a parked car is not overtaking
+    # a flip within the distances' errors (2 m each) is no evidence of passing
+    noisy = (
+        pair(900)
+        .replace("position_sd(1,", "position_sd(9,")
+        .replace("position_sd(2,", "position_sd(8,")
+    )
+    noisy += " " + " ".join(f"position_sd({t},{g},200)." for t in (1, 2) for g in range(-5, 1))
+    assert sit(noisy, "overtaking") == []
     assert sit(pair(-900), "overtaking") == []  # nor passing oncoming traffic
 
 

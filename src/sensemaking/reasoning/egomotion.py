@@ -245,13 +245,15 @@ class EgoState:
 class TrackMotion:
     """One visible track's place and motion at a frame (metres, m/s; NaN where unknown).
 
-    ``z``/``x``: distance ahead and lateral offset (+ right); ``vz``/``vx``: relative velocity
+    ``z``/``x``: distance ahead and lateral offset (+ right); ``z_sd``: the standard error of
+    ``z``; ``vz``/``vx``: relative velocity
     (vz < 0: coming closer); ``v_long``/``v_lat``: velocity over the road (v_long > 0: driving
     the ego's way); ``speed``/``speed_sd``: world speed and its standard error.
     """
 
     z: float
     x: float
+    z_sd: float = math.nan
     vz: float = math.nan
     vx: float = math.nan
     v_sd: float = math.nan
@@ -520,12 +522,13 @@ class WorldMotion:
         for i, t in enumerate(ids):
             if not math.isfinite(z[i]):
                 continue
+            zs = float(zsd[i])
             if not math.isfinite(vz[i]):
-                out[t] = TrackMotion(float(z[i]), float(x[i]))
+                out[t] = TrackMotion(float(z[i]), float(x[i]), zs)
                 continue
             if ego is None:
                 out[t] = TrackMotion(
-                    float(z[i]), float(x[i]), float(vz[i]), float(vx[i]), float(vsd[i])
+                    float(z[i]), float(x[i]), zs, float(vz[i]), float(vx[i]), float(vsd[i])
                 )
                 continue
             w = ego.yaw_rate
@@ -535,6 +538,7 @@ class WorldMotion:
             out[t] = TrackMotion(
                 float(z[i]),
                 float(x[i]),
+                zs,
                 float(vz[i]),
                 float(vx[i]),
                 float(vsd[i]),
@@ -568,6 +572,7 @@ def world_facts(
         if k is None:
             continue
         out.append(("position", k, g, _cm(m.z), _cm(m.x)))
+        out.append(("position_sd", k, g, _cm(m.z_sd)))
         if math.isfinite(m.vz):
             out.append(("closing", k, g, _cm(-m.vz)))
         if math.isfinite(m.speed):
