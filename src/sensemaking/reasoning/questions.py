@@ -799,7 +799,15 @@ def _q_warnings(scene: Scene, args: list[int], context: SceneContext | None) -> 
         return Answer(
             "warnings", ("this scene has no image size, so situations cannot be checked",)
         )
-    mon = SituationMonitor(context=context, fps=scene.fps, image_size=scene.image_size)
+    from sensemaking.reasoning.egomotion import CameraModel
+
+    camera = scene.metadata.get("camera")  # recorded with a camera model: motion on the road
+    mon = SituationMonitor(
+        context=context,
+        fps=scene.fps,
+        image_size=scene.image_size,
+        camera=None if camera is None else CameraModel.from_json(camera),
+    )
     warnings = mon.run(scene.frame_results())
     lines = [str(w) for w in warnings]
     return Answer("warnings", tuple(lines or ["no safety-critical situation was detected"]))
