@@ -222,7 +222,7 @@ def braking_car(speeds: list[int], z: int, closing: int, x: int = 0) -> str:
     n = len(speeds)
     out = [
         f"world_speed(1,{g},{s},30). world_long(1,{g},{s}). position(1,{g},{z},{x}). "
-        f"closing(1,{g},{closing})."
+        f"closing(1,{g},{closing},40)."
         for g, s in zip(range(-n + 1, 1), speeds, strict=True)
     ]
     return " ".join(out)
@@ -237,6 +237,11 @@ def test_sudden_stop_in_the_world():
     )
     # in the next lane
     assert sit(braking_car([900, 800, 650, 500, 350, 200], 1200, 500, x=350), "sudden_stop") == []
+    # closing at 5 m/s +- 2 m/s, 12 m ahead: contact in 2.4 s, or in 12 s: not shown to be soon
+    unsure = braking_car([900, 800, 650, 500, 350, 200], 1200, 500).replace(
+        ",500,40)", ",500,200)"
+    )
+    assert sit(unsure, "sudden_stop") == []
     # gentle braking (1 m/s^2)
     assert sit(braking_car([900, 890, 880, 870, 860, 850], 1200, 500), "sudden_stop") == []
     # rolling to a standstill (2 m/s to 0.4 m/s in 1 s: 1.6 m/s^2) is no sudden stop

@@ -562,8 +562,9 @@ def world_facts(
 ) -> list[tuple[object, ...]]:
     """The facts of one frame ``g`` (relative) for situations.lp, tracks by ``local`` index:
     ``camera`` (once, with the current frame ``g = 0``), ``ego_speed(G,V)``,
-    ``position(T,G,Z,X)``, ``closing(T,G,C)``, ``world_speed(T,G,S,E)``, ``world_long(T,G,V)``
-    (centimetres, cm/s, integers; see situations.lp)."""
+    ``position(T,G,Z,X)``, ``position_sd(T,G,E)``, ``closing(T,G,C,E)``,
+    ``world_speed(T,G,S,E)``, ``world_long(T,G,V)`` (centimetres, cm/s, integers; see
+    situations.lp)."""
     out: list[tuple[object, ...]] = [("camera",)] if g == 0 else []
     if ego is not None:
         out.append(("ego_speed", g, _cm(ego.speed)))
@@ -574,7 +575,7 @@ def world_facts(
         out.append(("position", k, g, _cm(m.z), _cm(m.x)))
         out.append(("position_sd", k, g, _cm(m.z_sd)))
         if math.isfinite(m.vz):
-            out.append(("closing", k, g, _cm(-m.vz)))
+            out.append(("closing", k, g, _cm(-m.vz), _cm(m.v_sd)))
         if math.isfinite(m.speed):
             out.append(("world_speed", k, g, _cm(m.speed), _cm(m.speed_sd)))
             out.append(("world_long", k, g, _cm(m.v_long)))
