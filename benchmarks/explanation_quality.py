@@ -8,7 +8,12 @@ SUDDEN_STOP / OVERTAKING warning against the ground truth
 explanation-quality table per benchmark (markdown).
 
     nice -n 10 .venv/bin/python benchmarks/explanation_quality.py [--only kitti-rrc-car] \\
-        [--data ../shared/data] [--json out.json]
+        [--data ../shared/data] [--json out.json] [--motion world|image]
+
+``--motion world`` (default) gives the KITTI benchmarks the KITTI camera model, so the
+situations judge motion over the road with the ego speed estimated from the scene
+(``sensemaking.reasoning.egomotion``); ``--motion image`` judges it in image pixels (the
+behaviour before), for comparison. MOT benchmarks have no camera model either way.
 """
 
 from __future__ import annotations
@@ -30,21 +35,27 @@ from sensemaking.evaluation.explanations import (
     load_ground_truth,
 )
 from sensemaking.io.atomic import atomic_write
+from sensemaking.reasoning.egomotion import CameraModel
 from sensemaking.reasoning.online import SituationMonitor
 from sensemaking.settings import preset_profile
 from sensemaking.tracker import Tracker
 
 
-def track_sequence(bench: Benchmark, seq: Sequence) -> tuple[Detections, list, list[dict]]:
+def track_sequence(
+    bench: Benchmark, seq: Sequence, world: bool = True
+) -> tuple[Detections, list, list[dict]]:
     """(visible track boxes, events, warning records) of our tracker on one sequence, as
-    ``sensemaking track --events --warnings`` makes them."""
+    ``sensemaking track --events --warnings`` makes them (``world``: with the KITTI camera
+    model on KITTI, as ``track --format kitti`` does)."""
     size = (int(seq.info.width), int(seq.info.height))
     config = ours_config(bench.spec.family, fps=float(seq.info.fps), image_size=size)
     tracker = Tracker(config)
+    camera = CameraModel.kitti() if world and bench.spec.family == "kitti" else None
     monitor = SituationMonitor(
         fps=config.fps,
         image_size=config.image_size,
         profile=preset_profile(bench.spec.family),  # as `track` runs: the family's profile
+        camera=camera,
     )
     frames = dict(seq.detections.frames())
     outputs, events, warnings = [], [], []
@@ -58,11 +69,11 @@ def track_sequence(bench: Benchmark, seq: Sequence) -> tuple[Detections, list, l
     return tracks, events, warnings
 
 
-def judge_benchmark(bench: Benchmark, say=print) -> list[ExplanationResult]:
+def judge_benchmark(bench: Benchmark, say=print, world: bool = True) -> list[ExplanationResult]:
     out = []
     for seq in bench.sequences:
         t0 = time.perf_counter()
-        tracks, events, warnings = track_sequence(bench, seq)
+        tracks, events, warnings = track_sequence(bench, seq, world)
         fmt = "kitti" if bench.spec.family == "kitti" else "mot"
         gt = load_ground_truth(
             seq.gt_path,
@@ -93,6 +104,12 @@ def main(argv: list[str] | None = None) -> int:
         help="benchmark name or glob (repeatable), e.g. kitti-rrc-car, mot17-*",
     )
     p.add_argument("--json", type=Path, default=None, help="write every verdict and summary here")
+    p.add_argument(
+        "--motion",
+        choices=("world", "image"),
+        default="world",
+        help="judge motion over the road (camera model, KITTI) or in image pixels",
+    )
     args = p.parse_args(argv)
     root = args.data or default_data_root()
     if not Path(root).is_dir():
@@ -102,7 +119,9 @@ def main(argv: list[str] | None = None) -> int:
     try:
         for bench in iter_benchmarks(root, args.only):
             results[bench.name] = judge_benchmark(
-                bench, say=lambda m: print(m, file=sys.stderr, flush=True)
+                bench,
+                say=lambda m: print(m, file=sys.stderr, flush=True),
+                world=args.motion == "world",
             )
     except SensemakingError as exc:
         print(f"explanation_quality: error: {exc}", file=sys.stderr)

@@ -281,6 +281,34 @@ def test_sudden_stop_against_3d_time_to_contact():
     assert "ttc_s" not in c.to_json()  # not closing: no number in the JSON
 
 
+def test_sudden_stop_time_to_contact_is_to_the_near_face_not_the_centre():
+    """A 4 m long car seen from behind (rotation_y -pi/2), its centre 20 m ahead at frame 5,
+    closing at 5 m/s: contact comes when its rear, 18 m ahead, is reached: 3.6 s, not 4.0 s."""
+    rows = [(f, 1, [500.0, 150, 700, 250], 0.5, 22.5 - 0.5 * f) for f in range(6)]
+    labels = _kitti_labels(rows)
+    n = len(rows)
+    labels = labels.with_(
+        data={
+            **labels.data,
+            "dimensions": np.tile([1.5, 1.8, 4.0], (n, 1)),
+            "rotation_y": np.full(n, -math.pi / 2),
+        }
+    )
+    gt = GroundTruth.from_kitti(labels, image_size=(1242, 375), fps=10.0, classes=("car",))
+    warn = [{"frame": 5, "situation": "SUDDEN_STOP", "objects": [11], "details": {}}]
+    (v,) = evaluate_explanations(
+        gt, labels.with_(tracker_id=labels.tracker_id + 10), [], warn
+    ).warnings
+    assert v.ttc_s == pytest.approx(3.6)  # (20 m centre - 2 m half length) / 5 m/s
+    # side on (rotation_y 0): the near face is half the width away
+    labels2 = labels.with_(data={**labels.data, "rotation_y": np.zeros(n)})
+    gt2 = GroundTruth.from_kitti(labels2, image_size=(1242, 375), fps=10.0, classes=("car",))
+    (v2,) = evaluate_explanations(
+        gt2, labels2.with_(tracker_id=labels2.tracker_id + 10), [], warn
+    ).warnings
+    assert v2.ttc_s == pytest.approx((20.0 - 0.9) / 5.0, abs=0.01)
+
+
 def test_kitti_depth_decides_the_occluder_not_the_box_bottom():
     """The 'occluder' has the lower box bottom, but its 3D position is 6 m behind the hidden car
     (a near car cut by the border): implausible. With the depths swapped: plausible."""

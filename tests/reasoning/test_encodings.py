@@ -10,7 +10,9 @@ from sensemaking.reasoning.relations import IA_RELATIONS, INVERSE, interval_rela
 from sensemaking.reasoning.situations import SituationSolver, encoding_text, situation_constants
 
 
-def atoms(program: str, *files: str, parts: tuple[str, ...] = ("base",), show: str | None = None) -> list[str]:
+def atoms(
+    program: str, *files: str, parts: tuple[str, ...] = ("base",), show: str | None = None
+) -> list[str]:
     """Sorted shown atoms of the unique answer set of ``files`` + ``program``."""
     ctl = clingo.Control(["--warn=none"])
     for f in files:
@@ -27,7 +29,9 @@ def atoms(program: str, *files: str, parts: tuple[str, ...] = ("base",), show: s
 def test_inverse_table_matches_python():
     got = atoms("", "relations.lp", show="#show inverse/2.")
     assert got == sorted(f"inverse({a},{b})" for a, b in INVERSE.items())
-    assert atoms("", "relations.lp", show="#show ia/1.") == sorted(f"ia({r})" for r in IA_RELATIONS)
+    assert atoms("", "relations.lp", show="#show ia/1.") == sorted(
+        f"ia({r})" for r in IA_RELATIONS
+    )
 
 
 def test_converse_closer_side_by_side_touching():
@@ -39,12 +43,22 @@ def test_converse_closer_side_by_side_touching():
     assert atoms(prog, "relations.lp", show="#show closer/3.") == []
     assert atoms(prog + "front(2,1,0).", "relations.lp", show="#show closer/3.") == ["closer(2,1,0)"]
     assert atoms(prog, "relations.lp", show="#show side_by_side/3.") == [
-        "side_by_side(1,2,0)", "side_by_side(2,1,0)", "side_by_side(3,4,0)", "side_by_side(4,3,0)"]
-    assert atoms(prog, "relations.lp", show="#show touching/3.") == ["touching(3,4,0)", "touching(4,3,0)"]
+        "side_by_side(1,2,0)",
+        "side_by_side(2,1,0)",
+        "side_by_side(3,4,0)",
+        "side_by_side(4,3,0)",
+    ]
+    assert atoms(prog, "relations.lp", show="#show touching/3.") == [
+        "touching(3,4,0)",
+        "touching(4,3,0)",
+    ]
 
 
 def test_bottom_lower_is_exactly_the_lower_bottom_relations():
-    lp = {a[len("bottom_lower("):-1] for a in atoms("", "relations.lp", show="#show bottom_lower/1.")}
+    lp = {
+        a[len("bottom_lower(") : -1]
+        for a in atoms("", "relations.lp", show="#show bottom_lower/1.")
+    }
     # every y relation of proper intervals whose end lies beyond the other's end is listed
     rng = np.random.default_rng(1)
     lo = rng.integers(0, 20, (4000, 2)).astype(float)
@@ -71,11 +85,21 @@ occurs_at(hides_behind(1,2),1). occurs_at(unhides_from_behind(1,2),3). occurs_at
 def test_scene_functional_event_calculus_view():
     got = atoms(SCENE, "relations.lp", "scene.lp", show="#show holds_at/3.")
     assert [a for a in got if "in_fov(2)" in a] == [
-        "holds_at(in_fov(2),false,0)", "holds_at(in_fov(2),false,4)", "holds_at(in_fov(2),true,1)",
-        "holds_at(in_fov(2),true,2)", "holds_at(in_fov(2),true,3)"]
-    assert [a for a in got if "hidden_by" in a] == ["holds_at(hidden_by(1,2),true,1)", "holds_at(hidden_by(1,2),true,2)"]
+        "holds_at(in_fov(2),false,0)",
+        "holds_at(in_fov(2),false,4)",
+        "holds_at(in_fov(2),true,1)",
+        "holds_at(in_fov(2),true,2)",
+        "holds_at(in_fov(2),true,3)",
+    ]
+    assert [a for a in got if "hidden_by" in a] == [
+        "holds_at(hidden_by(1,2),true,1)",
+        "holds_at(hidden_by(1,2),true,2)",
+    ]
     assert atoms(SCENE, "relations.lp", "scene.lp", show="#show live/2.")[:3] == [
-        "live(1,0)", "live(1,1)", "live(1,2)"]
+        "live(1,0)",
+        "live(1,1)",
+        "live(1,2)",
+    ]
 
 
 def test_questions():
@@ -84,12 +108,24 @@ def test_questions():
     assert atoms(SCENE, *files, show="#show reappeared/4.") == ["reappeared(1,3,1,hidden_by(2))"]
     assert atoms(SCENE, *files, show="#show in_front/3.") == ["in_front(2,2,90)"]
     assert atoms(SCENE, *files, show="#show ended/3. #show final_state/2.") == [
-        "ended(1,3,unknown)", "ended(2,3,lost)", "final_state(1,visible)", "final_state(2,missing)"]
-    longer = (SCENE.replace("scene_frames(0,4).", "scene_frames(0,5).").replace("last_frame(1,3).", "last_frame(1,5).")
-              + "state(1,4,missing). state(1,5,visible).")
+        "ended(1,3,unknown)",
+        "ended(2,3,lost)",
+        "final_state(1,visible)",
+        "final_state(2,missing)",
+    ]
+    longer = (
+        SCENE.replace("scene_frames(0,4).", "scene_frames(0,5).").replace(
+            "last_frame(1,3).", "last_frame(1,5)."
+        )
+        + "state(1,4,missing). state(1,5,visible)."
+    )
     got = atoms(longer, *files, show="#show reappeared/4. #show ended/3.")
-    assert got == ["ended(1,5,scene_end)", "ended(2,3,lost)", "reappeared(1,3,1,hidden_by(2))",
-                   "reappeared(1,5,4,missing)"]
+    assert got == [
+        "ended(1,5,scene_end)",
+        "ended(2,3,lost)",
+        "reappeared(1,3,1,hidden_by(2))",
+        "reappeared(1,5,4,missing)",
+    ]
 
 
 # -- situations.lp ---------------------------------------------------------------------------------
@@ -114,7 +150,20 @@ def sit(program: str, part: str, **consts: int) -> list[str]:
 
 def test_constants_and_defaults():
     c = situation_constants()
-    assert set(c) == {"ov_ms", "he_lead_ms", "rv_area", "ss_area", "ss_ms", "bl_ms", "ev_ms"}
+    assert set(c) == {
+        "ov_ms",
+        "he_lead_ms",
+        "rv_area",
+        "ss_area",
+        "ss_ms",
+        "bl_ms",
+        "ev_ms",
+        "stop_cms",
+        "lane_half_cm",
+        "ov_gap_cm",
+        "ss_ttc",
+        "ss_decel",
+    }
     assert situation_constants({"rv_area": 99})["rv_area"] == 99
     with pytest.raises(ValueError, match="unknown situation parameter"):
         situation_constants({"nope": 1})
@@ -136,30 +185,40 @@ def test_overtaking_rule():
 
 def test_hidden_entity_rule():
     prog = "person(1). vehicle(2). hidden_by(1,2,10). anticipated(1,2,18,600,250). anticipated_in_corridor(1,2,18)."
-    assert sit(prog, "hidden_entity") == ["info(hidden_entity,(1,2),reappear_frame,frame(18))",
-                                          "warn(hidden_entity,(1,2))"]
+    assert sit(prog, "hidden_entity") == [
+        "info(hidden_entity,(1,2),reappear_frame,frame(18))",
+        "warn(hidden_entity,(1,2))",
+    ]
     assert sit(prog, "hidden_entity", he_lead_ms=500) == []
     assert sit(prog.replace("anticipated_in_corridor(1,2,18).", ""), "hidden_entity") == []
 
 
 def test_reduced_visibility_rule():
     big = "vehicle(3). in_corridor(3,10). state(3,10,visible). area(3,10,200)."
-    assert sit(big, "reduced_visibility") == ["info(reduced_visibility,(3,),area_permille,200)",
-                                              "warn(reduced_visibility,(3,))"]
+    assert sit(big, "reduced_visibility") == [
+        "info(reduced_visibility,(3,),area_permille,200)",
+        "warn(reduced_visibility,(3,))",
+    ]
     assert sit(big, "reduced_visibility", rv_area=300) == []
     hides = "in_corridor(3,10). state(3,10,visible). area(3,10,20). hidden_by(5,3,10)."
-    assert sit(hides, "reduced_visibility") == ["info(reduced_visibility,(3,),area_permille,20)",
-                                                "info(reduced_visibility,(3,),hides,track(5))",
-                                                "warn(reduced_visibility,(3,))"]
+    assert sit(hides, "reduced_visibility") == [
+        "info(reduced_visibility,(3,),area_permille,20)",
+        "info(reduced_visibility,(3,),hides,track(5))",
+        "warn(reduced_visibility,(3,))",
+    ]
 
 
 def test_sudden_stop_rule():
     front = "vehicle(4). in_corridor(4,10). area(4,10,40). "
     assert sit(front + "motion(4,10,stopping).", "sudden_stop") == [
-        "info(sudden_stop,(4,),cause,stopping)", "warn(sudden_stop,(4,))"]
+        "info(sudden_stop,(4,),cause,stopping)",
+        "warn(sudden_stop,(4,))",
+    ]
     # looming right after keeping its distance: the vehicle ahead brakes
     assert sit(front + "motion(4,10,looming). motion(4,8,keeping_distance).", "sudden_stop") == [
-        "info(sudden_stop,(4,),cause,looming)", "warn(sudden_stop,(4,))"]
+        "info(sudden_stop,(4,),cause,looming)",
+        "warn(sudden_stop,(4,))",
+    ]
     # looming all along (a parked car the ego drives towards): no sudden stop
     assert sit(front + "motion(4,10,looming). motion(4,8,looming).", "sudden_stop") == []
     assert sit(front + "motion(4,10,stopping).", "sudden_stop", ss_area=50) == []
@@ -168,20 +227,37 @@ def test_sudden_stop_rule():
 def test_blocked_lane_rule():
     stopped = " ".join(f"motion(6,{f},stopped)." for f in range(6, 11))
     prog = f"lane(1). on_lane(6,1,10). {stopped}"
-    assert sit(prog, "blocked_lane") == ["info(blocked_lane,(6,),lane,1)", "warn(blocked_lane,(6,))"]
-    assert sit(prog.replace("motion(6,6,stopped).", "").replace("motion(6,7,stopped).", ""), "blocked_lane") == []
+    assert sit(prog, "blocked_lane") == [
+        "info(blocked_lane,(6,),lane,1)",
+        "warn(blocked_lane,(6,))",
+    ]
+    assert (
+        sit(
+            prog.replace("motion(6,6,stopped).", "").replace("motion(6,7,stopped).", ""),
+            "blocked_lane",
+        )
+        == []
+    )
     assert sit(prog + "surface(6,10,sidewalk).", "blocked_lane") == []
-    assert sit(prog + "surface(6,10,road).", "blocked_lane") == ["info(blocked_lane,(6,),lane,1)",
-                                                                "warn(blocked_lane,(6,))"]
+    assert sit(prog + "surface(6,10,road).", "blocked_lane") == [
+        "info(blocked_lane,(6,),lane,1)",
+        "warn(blocked_lane,(6,))",
+    ]
 
 
 def test_exiting_vehicle_rule():
-    prog = ("person(7). vehicle(8). occurs_at(starts(7),8). ra(7,8,9,overlaps,finishes). "
-            "motion(8,9,stopped).")
-    assert sit(prog, "exiting_vehicle") == ["info(exiting_vehicle,(7,8),appeared,frame(8))",
-                                            "warn(exiting_vehicle,(7,8))"]
+    prog = (
+        "person(7). vehicle(8). occurs_at(starts(7),8). ra(7,8,9,overlaps,finishes). "
+        "motion(8,9,stopped)."
+    )
+    assert sit(prog, "exiting_vehicle") == [
+        "info(exiting_vehicle,(7,8),appeared,frame(8))",
+        "warn(exiting_vehicle,(7,8))",
+    ]
     assert sit(prog.replace("starts(7),8", "starts(7),0"), "exiting_vehicle") == []  # first frame
-    assert sit(prog.replace("overlaps,finishes", "before,finishes"), "exiting_vehicle") == []  # apart
+    assert (
+        sit(prog.replace("overlaps,finishes", "before,finishes"), "exiting_vehicle") == []
+    )  # apart
     assert sit(prog.replace("motion(8,9,stopped).", ""), "exiting_vehicle") == []  # moving vehicle
 
 

@@ -193,6 +193,23 @@ def register(sub: argparse._SubParsersAction) -> None:
         "(KITTI driving, MOT fixed)",
     )
     p.add_argument(
+        "--ego-motion",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="the camera vehicle's speed per frame for --warnings, CSV "
+        "frame,speed_mps[,yaw_rate_rad_s] (docs/EGOMOTION.md); default: estimated from the "
+        "scene (needs a camera model: --format kitti or --camera)",
+    )
+    p.add_argument(
+        "--camera",
+        default=None,
+        metavar="F,H,HORIZON,CX",
+        help="camera model for --warnings and the --scene stories: focal length px, height "
+        "above the road m, horizon row px, principal column px (default with --format kitti: "
+        "KITTI's camera; else none: motion judged in the image, as for a fixed camera)",
+    )
+    p.add_argument(
         "--params",
         dest="params_file",
         type=Path,
@@ -534,6 +551,20 @@ def _situation_context(args: argparse.Namespace) -> tuple[Any, str]:
     return context, profile
 
 
+def _world_motion(args: argparse.Namespace) -> dict[str, Any]:
+    """``camera`` and ``ego_motion`` of the SituationMonitor from --camera / --ego-motion."""
+    from sensemaking.io.egomotion import read_ego_motion
+    from sensemaking.reasoning.egomotion import CameraModel
+
+    camera = CameraModel.parse(args.camera) if args.camera else None
+    if camera is None and args.format == "kitti":
+        camera = CameraModel.kitti()
+    if args.ego_motion is not None and camera is None:
+        raise InputError("--ego-motion needs a camera model: --format kitti or --camera")
+    ego = None if args.ego_motion is None else read_ego_motion(args.ego_motion)
+    return {"camera": camera, "ego_motion": ego}
+
+
 def run(args: argparse.Namespace) -> int:
     from sensemaking.io.sinks import (
         CLASS_FIELD,
@@ -579,6 +610,7 @@ def run(args: argparse.Namespace) -> int:
         "--lanes": args.lanes,
         "--segmentation": args.segmentation,
         "--labels": args.labels,
+        "--ego-motion": args.ego_motion,
     }
     check_output_paths(outputs, inputs)
     context, profile = _situation_context(args)
@@ -609,6 +641,9 @@ def run(args: argparse.Namespace) -> int:
             )
     tracker = Tracker(config, encoding=args.encoding, rules=args.rules)
     recorder = monitor = None
+    if (args.ego_motion or args.camera) and not (args.warnings or args.scene):
+        raise InputError("--ego-motion and --camera need --warnings or --scene (they serve those)")
+    world = _world_motion(args)
     if args.warnings:
         from sensemaking.reasoning.online import SituationMonitor
 
@@ -618,6 +653,7 @@ def run(args: argparse.Namespace) -> int:
             image_size=config.image_size,
             extra_encodings=args.situations,
             profile=profile,
+            **world,
         )
     source = args.detections or args.source
     total = 0 if last is None or first is None else last - first + 1
@@ -641,7 +677,14 @@ def run(args: argparse.Namespace) -> int:
                         args.scene,
                         fps=config.fps,
                         image_size=config.image_size,
-                        metadata=_scene_metadata(args, source),
+                        metadata={
+                            **_scene_metadata(args, source),
+                            **(
+                                {"camera": world["camera"].to_json()}
+                                if world["camera"] is not None
+                                else {}
+                            ),
+                        },
                     )
                 )
         except BaseException:

@@ -281,6 +281,14 @@ class _Truth:
         self.occl = np.asarray(b.data["occluded"], dtype=np.int64) if gt.kind == "kitti" else None
         self.vis = np.asarray(b.data["visibility"], dtype=np.float64) if gt.kind == "mot" else None
         self.loc = np.asarray(b.data["location"], dtype=np.float64) if gt.kind == "kitti" else None
+        # half the object's extent along the camera axis: contact is with its near face, not
+        # its centre (KITTI rotation_y 0 faces along x: a car ahead, ry = -pi/2, shows l / 2)
+        self.half_depth: np.ndarray | None = None
+        if self.loc is not None and "dimensions" in b.data and "rotation_y" in b.data:
+            hwl = np.asarray(b.data["dimensions"], dtype=np.float64).reshape(-1, 3)
+            ry = np.asarray(b.data["rotation_y"], dtype=np.float64)
+            half = (hwl[:, 2] * np.abs(np.sin(ry)) + hwl[:, 1] * np.abs(np.cos(ry))) / 2
+            self.half_depth = np.where(np.isfinite(half) & (hwl[:, 2] > 0), half, 0.0)
 
     def occluded(self, i: int) -> bool | None:
         """Row ``i`` is occluded per the ground truth (None: the ground truth cannot say)."""
@@ -814,8 +822,9 @@ class _Judge:
         if now is None or before is None or before >= now:
             return judged(verdict=UNDECIDABLE, reason="no_history", gt=g)
         i, j = tr.row[(g, now)], tr.row[(g, before)]
-        z, closing = tr.loc[i, 2], (tr.loc[j, 2] - tr.loc[i, 2]) * self.gt.fps / (now - before)
-        ttc = float(z / closing) if closing > 0 else math.inf
+        closing = (tr.loc[j, 2] - tr.loc[i, 2]) * self.gt.fps / (now - before)
+        gap = tr.loc[i, 2] - (0.0 if tr.half_depth is None else tr.half_depth[i])
+        ttc = float(max(gap, 0.0) / closing) if closing > 0 else math.inf
         lateral = float(abs(tr.loc[i, 0]))
         ttc_r = round(ttc, 2) if math.isfinite(ttc) else ttc
         judged_ttc = partial(judged, gt=g, ttc_s=ttc_r, lateral_m=round(lateral, 2))

@@ -57,8 +57,17 @@ import numpy as np
 
 from sensemaking.classes import PEOPLE, VEHICLES, class_name
 from sensemaking.errors import InputError
+from sensemaking.io.egomotion import EgoMotion
 from sensemaking.reasoning.anticipation import Anticipation, anticipate
 from sensemaking.reasoning.context import SceneContext, asp_name
+from sensemaking.reasoning.egomotion import (
+    CameraModel,
+    EgoMotionConfig,
+    EgoState,
+    TrackMotion,
+    WorldMotion,
+    world_facts,
+)
 from sensemaking.reasoning.facts import AspString, Fact, value
 from sensemaking.reasoning.relations import (
     IA_RELATIONS,
@@ -172,6 +181,12 @@ class _Episode:
         self.number, self.start, self.last = number, start, start
 
 
+def _kmh(info: dict[str, list[Any]], key: str) -> str:
+    """`` (N km/h)`` from a speed detail in cm/s, or nothing."""
+    v = info.get(key)
+    return f" ({v[0] * 0.036:.0f} km/h)" if v and isinstance(v[0], int) else ""
+
+
 class _Frame:
     """One frame of the window: the numbers its facts are made of (track ids, absolute frames)."""
 
@@ -189,6 +204,8 @@ class _Frame:
         "lanes",
         "on_lane",
         "surface",
+        "ego",
+        "world",
     )
 
     def __init__(self, frame: int, events: list[Event]) -> None:
@@ -205,6 +222,8 @@ class _Frame:
         self.lanes: list[int | str] = []  # lane terms in force
         self.on_lane: dict[int, list[int | str]] = {}
         self.surface: dict[int, str] = {}
+        self.ego: EgoState | None = None  # the ego's motion (with a camera model)
+        self.world: dict[int, TrackMotion] = {}  # visible tracks in metres and m/s
 
 
 class SituationMonitor:
@@ -224,6 +243,13 @@ class SituationMonitor:
             documented in situations.lp. Raises InputError for a file clingo cannot read.
         profile: the scene profile, ``driving`` (a camera on an ego vehicle) or ``fixed`` (no
             ego vehicle: situations.lp issues none of the ego-vehicle situations).
+        camera: the :class:`~sensemaking.reasoning.egomotion.CameraModel` of the images (e.g.
+            ``CameraModel.kitti()``): with it, motion is judged in the world (metres, m/s, the
+            ego's own speed estimated from the scene); None: in the image (a fixed camera).
+        ego_motion: the ego vehicle's speed per frame
+            (:func:`sensemaking.io.egomotion.read_ego_motion`), used where it has the frame
+            (needs ``camera``).
+        ego_config: :class:`~sensemaking.reasoning.egomotion.EgoMotionConfig`.
 
     ``update(result)`` once per frame in order, ``reset()`` before another sequence.
     ``stats`` counts frames, clingo calls, answers from the cache of clingo's answers and the
@@ -238,6 +264,9 @@ class SituationMonitor:
         image_size: tuple[int, int] | None = (1242, 375),
         extra_encodings: Sequence[str | PathLike[str]] = (),
         profile: str = "driving",
+        camera: CameraModel | None = None,
+        ego_motion: EgoMotion | None = None,
+        ego_config: EgoMotionConfig | None = None,
     ):
         if profile not in PROFILES:
             raise ValueError(f"unknown scene profile {profile!r} (one of {', '.join(PROFILES)})")
@@ -275,6 +304,13 @@ class SituationMonitor:
         # visible boxes kept per track: anticipation fits the last velocity_points of them, and
         # motion needs the box 2 lag frames before
         self._hist_len = max(2 * self._lag, self.config.anticipation.velocity_points) + 1
+        if ego_motion is not None and camera is None:
+            raise ValueError("ego_motion needs a camera model (camera=CameraModel(...))")
+        self._world = (
+            None
+            if camera is None
+            else WorldMotion(camera, self.fps, self.image_size, ego_motion, ego_config)
+        )
         self.reset()
 
     # -- state ----------------------------------------------------------------------------------
@@ -296,6 +332,8 @@ class SituationMonitor:
         self._found: list[SituationMatch] = []  # what holds at the current frame
         self._active: list[Warning] | None = []  # its warnings, made when read (None: not yet)
         self.stats: dict[str, float] = {"frames": 0, "solver_calls": 0, "cache_hits": 0, "ms": 0.0}
+        if self._world is not None:
+            self._world.reset()
         self._calls0, self._hits0 = self._solver.calls, self._solver.hits
 
     @property
@@ -436,6 +474,15 @@ class SituationMonitor:
                 fr.hidden_by[t] = occl[i]
         if moving:
             self._motion(fr, moving)
+        if self._world is not None:
+            vis = [i for i, s in enumerate(states) if s == _VISIBLE]
+            loc = data.get("location")
+            fr.ego, fr.world = self._world.update(
+                f,
+                [ids[i] for i in vis],
+                xyxy[vis],
+                None if loc is None else np.asarray(loc, dtype=np.float64)[vis],
+            )
 
         if self.image_size is not None:
             k = self._permille
@@ -598,6 +645,8 @@ class SituationMonitor:
                 ("on_lane", local[t], term, g) for t, terms in fr.on_lane.items() for term in terms
             ]
             out += [("surface", local[t], g, s) for t, s in fr.surface.items()]
+            if self._world is not None:
+                out += world_facts(fr.ego, fr.world, local, g)
         now = frames[-1]
         out += [("area", local[t], 0, a) for t, a in now.area.items()]
         out += [("lane", term) for term in now.lanes]
@@ -659,6 +708,8 @@ class SituationMonitor:
         for t in [t for t, last in self._last_live.items() if f - last > self._window]:
             for d in (self._hist, self._class, self._last_live):
                 d.pop(t, None)
+        if self._world is not None:
+            self._world.forget(set(self._last_live))
 
     # -- warnings -------------------------------------------------------------------------------
     def _describe(self, t: int) -> str:
@@ -713,7 +764,8 @@ class SituationMonitor:
         details["severity"] = severity
         if s == "OVERTAKING":
             a, b = objs
-            msg = f"{desc(a)} is overtaking {desc(b)}"
+            kmh = [_kmh(info, k) for k in ("speed_cms", "overtaken_speed_cms")]
+            msg = f"{desc(a)}{kmh[0]} is overtaking {desc(b)}{kmh[1]}"
         elif s == "HIDDEN_ENTITY" and objs[0] in self._anticip:
             t, o = objs
             ant = self._anticip[t]
@@ -735,6 +787,16 @@ class SituationMonitor:
                 parts.append("it hides " + ", ".join(desc(h) for h in hides))
             msg = f"{desc(o)} in front of the ego vehicle reduces visibility" + (
                 f" ({'; '.join(parts)})" if parts else ""
+            )
+        elif s == "SUDDEN_STOP" and "distance_cm" in info:  # judged over the road
+            (veh,) = objs
+            z, c = info["distance_cm"][0] / 100.0, info.get("closing_cms", [0])[0] / 100.0
+            details["ttc_s"] = round(z / c, 2) if c > 0 else None
+            how = "stops" if "stopping" in info.get("cause", []) else "brakes hard"
+            msg = (
+                f"{desc(veh)} {z:.0f} m ahead in the ego lane {how}{_kmh(info, 'speed_cms')}: "
+                f"the gap closes at {c * 3.6:.0f} km/h"
+                + (f", time to contact {z / c:.1f} s" if c > 0 else "")
             )
         elif s == "SUDDEN_STOP":
             (veh,) = objs

@@ -960,7 +960,15 @@ def _q_warnings(scene: Scene, args: list[int], context: SceneContext | None) -> 
         return Answer(
             "warnings", ("this scene has no image size, so situations cannot be checked",)
         )
-    mon = SituationMonitor(context=context, fps=scene.fps, image_size=scene.image_size)
+    from sensemaking.reasoning.egomotion import CameraModel
+
+    camera = scene.metadata.get("camera")  # recorded with a camera model: motion on the road
+    mon = SituationMonitor(
+        context=context,
+        fps=scene.fps,
+        image_size=scene.image_size,
+        camera=None if camera is None else CameraModel.from_json(camera),
+    )
     warnings = mon.run(scene.frame_results())
     lines = [str(w) for w in warnings]
     return Answer("warnings", tuple(lines or ["no safety-critical situation was detected"]))
@@ -1078,6 +1086,11 @@ def ask(
 
 # -- stories --------------------------------------------------------------------------------------
 def _motion_summary(scene: Scene, t: Track) -> str | None:
+    from sensemaking.reasoning.egomotion import world_story
+
+    world = world_story(scene, t.id)  # over the road, when recorded with a camera model
+    if world is not None:
+        return world
     vis = t.visible_mask()
     if vis.sum() < 2:
         return None
