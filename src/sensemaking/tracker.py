@@ -145,6 +145,27 @@ class TrackerConfig:
             track's first displacement less (no runaway predictions from detector jitter on
             small boxes), but lets fast objects lag for a few frames (id loss after a gap).
             None: use ``kalman.init_velocity_std`` (per frame) as given.
+        weak_confidence: detections scoring from this up to ``min_confidence`` (detector score
+            units) are weak evidence: they may continue a confirmed track that was visible in the
+            previous frame and seen twice or more, if their IoU with its prediction is at least
+            ``weak_iou``, but never resume, start or confirm one -- ByteTrack's second association
+            (low threshold 0.1). None: off, detections under ``min_confidence`` are not used.
+        weak_iou: minimum IoU of a weak detection with the prediction of the track it continues
+            (ByteTrack's second association: 0.5). Higher: fewer false continuations.
+        resume_reupdate: when a hidden or missing track is seen again after k unseen frames,
+            re-estimate its motion from the observations at both ends of the gap (OC-SORT's
+            observation-centric re-update): the filter returns to its state after the last
+            detection and is run over k + 1 virtual detections on the straight line from that
+            detection to the new one, instead of one correction from the drifted prediction.
+            False: one Kalman correction, as SORT does. Switch (no unit).
+        scene_shift: a hidden or missing track moves, each frame, with the image motion of the
+            scene that the predictions missed, estimated from the matched boxes: its box centre
+            and centre velocity receive the median Kalman correction (pixels, pixels/frame) of
+            the established tracks matched in that frame (at least ``SCENE_SHIFT_MIN_TRACKS``),
+            as if it had been seen where they were. A moving camera's turn or pitch moves every
+            object in the image; an unseen track otherwise keeps the image motion it had when
+            last seen. Translation only: the image scaling of forward motion depends on each
+            object's depth. Switch (no unit).
         costs: :class:`AbductionCosts`.
         kalman: :class:`~sensemaking.motion.KalmanConfig`.
     """
@@ -175,6 +196,10 @@ class TrackerConfig:
     max_conflicts: int | None = 100_000
     max_solve_ms: float | None = None
     velocity_prior: float | None = 3.0
+    weak_confidence: float | None = None
+    weak_iou: float = 0.5
+    resume_reupdate: bool = False
+    scene_shift: bool = False
     costs: AbductionCosts = field(default_factory=AbductionCosts)
     kalman: KalmanConfig = field(default_factory=KalmanConfig)
 
@@ -209,6 +234,10 @@ class TrackerConfig:
         docs/PARAMETERS.md."""
         return settings.preset_config(family, **changes)  # presets/<family>.json
 
+
+#: ``scene_shift`` needs at least this many matched established tracks: a median of three
+#: outvotes one object that manoeuvres on its own
+SCENE_SHIFT_MIN_TRACKS = 3
 
 _HIDDEN = int(TrackState.HIDDEN)  # as a plain int: numpy compares it faster than the enum
 
@@ -383,6 +412,13 @@ class Tracker:
                 lik[rows] = np.maximum(lik[rows], extra[start : start + len(boxes)])
                 start += len(boxes)
         ok = dets.confidence[None, :] >= c.min_confidence
+        if c.weak_confidence is not None:
+            # ByteTrack's second association: a weak detection continues a confirmed track seen
+            # last frame (velocity known) only if it fits its plain prediction closely
+            weak = (dets.confidence >= c.weak_confidence) & (dets.confidence < c.min_confidence)
+            if weak.any():
+                settled = ~unseen & self._tracks.confirmed
+                ok |= weak[None, :] & settled[:, None] & (lik >= c.weak_iou)
         if c.class_aware:
             ok = ok & (self._tracks.cls[:, None] == dets.class_id[None, :])
         resume, assign = self._thresholds(c.iou_resume, c.iou_assign)
@@ -606,12 +642,29 @@ class Tracker:
         index = self._tracks.row_of()
         # matched tracks
         matched = {**ans.assign, **ans.resume}
+        # scene_shift: (centre shift (2,) pixels, velocity change (2,) pixels/frame) or None
+        camera: tuple[np.ndarray, np.ndarray] | None = None
         if matched:
             rows = np.array([index[t] for t in matched], dtype=np.int64)
             cols = np.array(list(matched.values()), dtype=np.int64)
-            self._tracks.kf._update_trusted(
-                rows, dets.xyxy[cols]
-            )  # distinct rows in range, gated boxes
+            settled = rows[self._settled(rows)] if c.scene_shift else rows[:0]
+            if len(settled) >= SCENE_SHIFT_MIN_TRACKS:
+                before = self._tracks.kf.motion(settled)
+            gaps = self._tracks.unseen[rows]
+            back = gaps > 0
+            if c.resume_reupdate and back.any():
+                if not back.all():
+                    self._tracks.kf._update_trusted(rows[~back], dets.xyxy[cols[~back]])
+                self._tracks.kf.reupdate(rows[back], dets.xyxy[cols[back]], gaps[back])
+            else:
+                self._tracks.kf._update_trusted(
+                    rows, dets.xyxy[cols]
+                )  # distinct rows in range, gated boxes
+            if len(settled) >= SCENE_SHIFT_MIN_TRACKS:
+                # the median correction of the established tracks' centres and velocities: the
+                # image motion of the scene that their predictions missed this frame
+                change = np.median(self._tracks.kf.motion(settled) - before, axis=0)
+                camera = (change[0], change[1])
             self._tracks.unseen[rows] = 0
             self._tracks.state[rows] = TrackState.VISIBLE
             self._tracks.hits[rows] += 1
@@ -661,6 +714,9 @@ class Tracker:
             self._tracks.state[i] = (
                 TrackState.HIDDEN if self._tracks.occluder[i] >= 0 else TrackState.MISSING
             )
+        if camera is not None and (ans.halt or ans.ignore_trk):
+            unobserved = np.array([index[t] for t in ans.halt + ans.ignore_trk], dtype=np.int64)
+            self._tracks.kf.shift(unobserved, *camera)
         # confirmation (nothing to do when every track is confirmed already)
         events: list[Event] = []
         tentative = ~self._tracks.confirmed
@@ -698,6 +754,12 @@ class Tracker:
                 self._pending.pop(t, None)
         events.sort(key=Event.sort_key)
         return events, observed
+
+    def _settled(self, rows: np.ndarray) -> np.ndarray:
+        """(K,) bool of ``rows``: established tracks, visible last frame and seen ``min_hits`` + 2
+        times or more (their velocity is known)."""
+        t = self._tracks
+        return (t.unseen[rows] == 0) & (t.hits[rows] >= self.config.min_hits + 2)
 
     def _scene_velocity(self) -> np.ndarray:
         """(4,) prior velocity of new tracks (pixels per frame): the median ``cx, cy`` velocity of
