@@ -196,14 +196,16 @@ def test_switches_round_trip_through_params_and_set(key: str, tmp_path) -> None:
 
 # ---- weak_confidence: weak detections continue tracks, never start them -----------------------
 def _weak_run(weak: float | None, weak_box: tuple[float, ...]) -> list:
-    """A pedestrian detected at 0.9 for 5 frames, then once at 0.3 (``weak_box``), then not; a
-    lone 0.3 detection far away in that frame too."""
+    """A pedestrian detected at 0.9 for 5 frames, then once at 0.3 (``weak_box``); a lone 0.3
+    detection far away in that frame too; another pedestrian always detected at 0.9."""
     tracker = Tracker(TrackerConfig(min_confidence=0.5, weak_confidence=weak, min_hits=2))
     out = []
     for f in range(5):
-        out.append(tracker.update(frame(box(100 + 4 * f)), frame=f))
+        out.append(tracker.update(frame(box(100 + 4 * f), box(900.0)), frame=f))
     weak_dets = Detections(
-        np.array([weak_box, box(600.0)]), confidence=np.array([0.3, 0.3]), class_id=PED
+        np.array([weak_box, box(600.0), box(900.0)]),
+        confidence=np.array([0.3, 0.3, 0.9]),
+        class_id=PED,
     )
     out.append(tracker.update(weak_dets, frame=5))
     return out
@@ -213,11 +215,11 @@ def test_weak_detection_continues_a_track_it_fits_closely() -> None:
     fits = box(120.0)  # the prediction itself (IoU 1)
     off, on = _weak_run(None, fits)[-1], _weak_run(0.1, fits)[-1]
     state = {int(TrackState.VISIBLE): "visible", int(TrackState.MISSING): "missing"}
-    assert [state[int(s)] for s in off.tracks.data["state"]] == ["missing"]
-    assert [state[int(s)] for s in on.tracks.data["state"]] == ["visible"]
-    np.testing.assert_allclose(on.tracks.xyxy, [fits])  # the weak detection's box
+    assert [state[int(s)] for s in off.tracks.data["state"]] == ["missing", "visible"]
+    assert [state[int(s)] for s in on.tracks.data["state"]] == ["visible", "visible"]
+    np.testing.assert_allclose(on.tracks.xyxy[0], fits)  # the weak detection's box
     # the far weak detection started nothing, either way
-    assert off.tracks.tracker_id.tolist() == on.tracks.tracker_id.tolist() == [1]
+    assert off.tracks.tracker_id.tolist() == on.tracks.tracker_id.tolist() == [1, 2]
 
 
 def test_weak_detection_that_fits_loosely_changes_nothing() -> None:

@@ -418,7 +418,7 @@ class Tracker:
             weak = (dets.confidence >= c.weak_confidence) & (dets.confidence < c.min_confidence)
             if weak.any():
                 settled = ~unseen & self._tracks.confirmed
-                ok |= weak[None, :] & settled[:, None] & (lik >= c.weak_iou)
+                ok = ok | (weak[None, :] & settled[:, None] & (lik >= c.weak_iou))
         if c.class_aware:
             ok = ok & (self._tracks.cls[:, None] == dets.class_id[None, :])
         resume, assign = self._thresholds(c.iou_resume, c.iou_assign)
