@@ -228,3 +228,30 @@ def test_weak_detection_that_fits_loosely_changes_nothing() -> None:
     for a, b in zip(off, on, strict=True):
         np.testing.assert_array_equal(a.tracks.xyxy, b.tracks.xyxy)
         assert a.tracks.tracker_id.tolist() == b.tracks.tracker_id.tolist()
+
+
+def test_weak_detection_waits_for_strong_evidence() -> None:
+    """A track with a strong candidate is continued by it, never by a weak detection that fits it
+    better (ByteTrack's cascade: strong detections first)."""
+    tracker = Tracker(TrackerConfig(min_confidence=0.5, weak_confidence=0.1, min_hits=2))
+    for f in range(5):
+        tracker.update(frame(box(100 + 4 * f)), frame=f)
+    dets = Detections(
+        np.array([box(120.0), box(126.0)]), confidence=np.array([0.3, 0.9]), class_id=PED
+    )
+    lik = tracker._likelihood(tracker._tracks.kf.peek(1), dets)
+    assert lik[0, 0] == 0.0 and lik[0, 1] > 0.5
+    result = tracker.update(dets, frame=5)
+    np.testing.assert_allclose(result.tracks.xyxy, [box(126.0)])
+
+
+def test_class_blind_gate_with_several_tracks() -> None:
+    """class_aware=False with two tracks or more (the gate once failed to broadcast)."""
+    tracker = Tracker(TrackerConfig(class_aware=False))
+    for f in range(3):
+        cls = np.array([PED, CLASS_IDS["car"]]) if f < 2 else np.array([CLASS_IDS["car"], PED])
+        result = tracker.update(
+            Detections(np.array([box(100.0 + f), box(400.0 + f)]), confidence=0.9, class_id=cls),
+            frame=f,
+        )
+    assert result.tracks.tracker_id.tolist() == [1, 2]  # classes swapped, ids kept by position

@@ -147,9 +147,11 @@ class TrackerConfig:
             None: use ``kalman.init_velocity_std`` (per frame) as given.
         weak_confidence: detections scoring from this up to ``min_confidence`` (detector score
             units) are weak evidence: they may continue a confirmed track that was visible in the
-            previous frame and seen twice or more, if their IoU with its prediction is at least
-            ``weak_iou``, but never resume, start or confirm one -- ByteTrack's second association
-            (low threshold 0.1). None: off, detections under ``min_confidence`` are not used.
+            previous frame, seen twice or more and without a candidate detection scoring
+            ``min_confidence`` or more, if their IoU with its prediction is at least ``weak_iou``;
+            they never resume, start or confirm a track -- ByteTrack's second association (low
+            threshold 0.1), strong evidence first as in its cascade. None: off, detections
+            under ``min_confidence`` are not used.
         weak_iou: minimum IoU of a weak detection with the prediction of the track it continues
             (ByteTrack's second association: 0.5). Higher: fewer false continuations.
         resume_reupdate: when a hidden or missing track is seen again after k unseen frames,
@@ -411,22 +413,26 @@ class Tracker:
             for rows, boxes in parts:  # max is exact and order-free: as one max per part
                 lik[rows] = np.maximum(lik[rows], extra[start : start + len(boxes)])
                 start += len(boxes)
-        ok = dets.confidence[None, :] >= c.min_confidence
-        if c.weak_confidence is not None:
-            # ByteTrack's second association: a weak detection continues a confirmed track seen
-            # last frame (velocity known) only if it fits its plain prediction closely
-            weak = (dets.confidence >= c.weak_confidence) & (dets.confidence < c.min_confidence)
-            if weak.any():
-                settled = ~unseen & self._tracks.confirmed
-                ok = ok | (weak[None, :] & settled[:, None] & (lik >= c.weak_iou))
-        if c.class_aware:
-            ok = ok & (self._tracks.cls[:, None] == dets.class_id[None, :])
+        same = (
+            self._tracks.cls[:, None] == dets.class_id[None, :]
+            if c.class_aware
+            else np.ones((len(pred), len(dets)), dtype=bool)
+        )
         resume, assign = self._thresholds(c.iou_resume, c.iou_assign)
         # gate on the solver's likelihood grid against its (floored) thresholds, so that the gate
         # admits exactly the pairs the encoding's constraints allow (gating is only an
         # optimisation): comparing the raw IoU instead dropped pairs that round up to the threshold
         q = self._quantize(lik)
-        ok &= q >= np.where(unseen, resume, assign)[:, None]
+        fits = same & (q >= np.where(unseen, resume, assign)[:, None])
+        ok = fits & (dets.confidence >= c.min_confidence)[None, :]
+        if c.weak_confidence is not None:
+            # ByteTrack's second association: a weak detection continues a confirmed track seen
+            # last frame (velocity known) that it fits closely and that no detection strong
+            # enough to continue tracks could continue (strong evidence first, as its cascade)
+            weak = (dets.confidence >= c.weak_confidence) & (dets.confidence < c.min_confidence)
+            if weak.any():
+                settled = ~unseen & self._tracks.confirmed & ~ok.any(axis=1)
+                ok = ok | (fits & weak[None, :] & settled[:, None] & (lik >= c.weak_iou))
         return np.where(ok, lik, 0.0), q
 
     def _thresholds(self, *iou: float) -> tuple[int, ...]:
