@@ -7,7 +7,9 @@ sequence of every benchmark of ``../shared/data`` (the runner's loading:
 (visible tracks, result file written and read back, TrackEval's rules). Printed per family:
 
 * per benchmark, HOTA / IDF1 / MOTA off and on (sequences combined as TrackEval combines them)
-  and ms per frame inside ``Tracker.update`` off and on (same run);
+  and ms per frame inside ``Tracker.update`` off and on (the variants of a sequence run one after
+  the other, so under the same load; read from the cache, times are those of the run that made
+  it);
 * per fold -- a video, ``sensemaking.benchmark.crossval.fold_key``: a KITTI sequence number across
   its four benchmarks, a MOT17 sequence across its two, a MOT15 sequence -- the family-mean HOTA
   (mean over the benchmarks of that video's sequences) off, on and their difference, and how many
@@ -251,23 +253,22 @@ def main(argv: list[str] | None = None) -> int:
                 baseline.update(off_settings(t))
             variants = {"off": baseline}
             variants.update({t: {**baseline, **TECHNIQUES[t]} for t in techniques})
-            runs: dict[str, dict[str, dict[str, Scored]]] = {}
-            for name, settings in variants.items():
-                if name == "off" and args.skip_off:
-                    continue
-                runs[name] = {}
-                for b in fam:
-                    runs[name][b.spec.name] = {}
-                    for s in b.sequences:
+            if args.skip_off:
+                del variants["off"]
+            runs: dict[str, dict[str, dict[str, Scored]]] = {
+                name: {b.spec.name: {} for b in fam} for name in variants
+            }
+            # every variant of a sequence one after the other: their times are measured under
+            # the same load of the machine
+            for b in fam:
+                for s in b.sequences:
+                    for name, settings in variants.items():
                         t0 = time.perf_counter()
-                        runs[name][b.spec.name][s.name] = score_sequence(
-                            b, s, settings, Path(tmp), args.cache
-                        )
-                        note(
-                            f"[{family} {name}] {b.spec.name} {s.name}: HOTA "
-                            f"{100 * runs[name][b.spec.name][s.name].metrics['HOTA']:.2f} "
-                            f"({time.perf_counter() - t0:.1f} s)"
-                        )
+                        scored = score_sequence(b, s, settings, Path(tmp), args.cache)
+                        runs[name][b.spec.name][s.name] = scored
+                        hota, took = 100 * scored.metrics["HOTA"], time.perf_counter() - t0
+                        where = f"[{family} {name}] {b.spec.name} {s.name}"
+                        note(f"{where}: HOTA {hota:.2f} ({took:.1f} s)")
             if "off" not in runs:
                 note(f"[{family}] techniques on done; run again without --skip-off to print")
                 continue
