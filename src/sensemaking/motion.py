@@ -110,7 +110,9 @@ def _to_xyxy(c: np.ndarray) -> np.ndarray:
 
 class KalmanBank:
     """Kalman filters of T tracks. State per track: cx, cy, w, h and their velocities
-    (pixels, pixels/frame). Rows are addressed by position 0..T-1; :meth:`remove` compacts them.
+    (pixels, pixels/frame); beside it, the filter as it was after its last correction and that
+    measurement (for :meth:`reupdate`). Rows are addressed by position 0..T-1; :meth:`remove`
+    compacts them.
     """
 
     __slots__ = ("config", "_s", "_x", "_v", "_pp", "_pv", "_vv")
@@ -120,8 +122,8 @@ class KalmanBank:
         self._bind(np.zeros((0, _COLUMNS)))
 
     def _bind(self, state: np.ndarray) -> None:
-        """Hold the (T, 20) state array and its column views: one array, so that a row
-        gather, scatter, append or delete is one numpy call for all five quantities."""
+        """Hold the (T, 44) state array and its column views: one array, so that a row
+        gather, scatter, append or delete is one numpy call for all its quantities."""
         self._s = state
         self._x = state[:, _X]  # (T, 4) cx, cy, w, h
         self._pv = state[:, _PV]  # (T, 4) covariance coordinate-velocity
@@ -343,8 +345,14 @@ class KalmanBank:
             raise ValueError("shift: offsets must be finite")
         if idx.size == 0:
             return
-        for offset, cols in ((d, _X), (w, _V), (d, _FROZEN), (w, slice(28, 30)), (d, _OBS)):
-            start = cols.start
+        frozen = _FROZEN.start
+        for offset, start in (
+            (d, _X.start),
+            (w, _V.start),
+            (d, frozen + _X.start),
+            (w, frozen + _V.start),
+            (d, _OBS.start),
+        ):
             self._s[idx, start : start + 2] += offset
 
     def remove(self, index: np.ndarray) -> None:
