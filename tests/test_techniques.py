@@ -3,10 +3,13 @@ and nothing where it must not; the switches round-trip through parameter files a
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from sensemaking import settings
+from sensemaking.cli import main
 from sensemaking.classes import CLASS_IDS
 from sensemaking.detections import Detections
 from sensemaking.motion import KalmanBank, KalmanConfig
@@ -255,3 +258,48 @@ def test_class_blind_gate_with_several_tracks() -> None:
             frame=f,
         )
     assert result.tracks.tracker_id.tolist() == [1, 2]  # classes swapped, ids kept by position
+
+
+def _pan_det_file(tmp_path: Path) -> Path:
+    """The panning scene of the scene_shift test as a MOT detection file."""
+    lines = []
+    for f in range(SHOW + 4):
+        offset = -PAN * max(0, f - PAN_START)
+        n = 5 if not HIDE <= f < SHOW else 4
+        for i in range(n):
+            x = 300.0 + 250 * i + offset
+            lines.append(f"{f + 1},-1,{x:.2f},100.00,40.00,100.00,0.900,-1,-1,-1")
+    path = tmp_path / "det.txt"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_switches_reach_the_tracker_from_the_cli(tmp_path: Path, capsys) -> None:
+    det = _pan_det_file(tmp_path)
+    args = ["-q", "track", "--detections", str(det), "--format", "mot", "--fps", "10"]
+    args += ["--set", "min_hits=1", "--set", "max_missing_s=2"]
+    ids = {}
+    for name, extra in {
+        "off": [],
+        "set": ["--set", "scene_shift=true", "--set", "resume_reupdate=on"],
+        "file": [
+            "--params",
+            str(
+                settings.write_params(
+                    tmp_path / "p.json",
+                    {"scene_shift": True, "resume_reupdate": True},
+                    source="test",
+                )
+            ),
+        ],
+    }.items():
+        out = tmp_path / f"{name}.txt"
+        assert main([*args, *extra, "--output", str(out)]) == 0
+        ids[name] = len(np.unique(np.loadtxt(out, delimiter=",")[:, 1]))
+    # the camera's pan makes the unseen pedestrian a new id unless scene_shift follows it
+    assert ids == {"off": 6, "set": 5, "file": 5}
+    bad = tmp_path / "bad.txt"
+    assert main([*args, "--set", "weak_iou=1.5", "--output", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert "--set weak_iou must be in [0, 1]" in err and err.count("\n") == 1
+    assert not bad.exists()
