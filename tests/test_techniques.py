@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from sensemaking import settings
-from sensemaking.cli import main
 from sensemaking.classes import CLASS_IDS
+from sensemaking.cli import main
 from sensemaking.detections import Detections
 from sensemaking.motion import KalmanBank, KalmanConfig
 from sensemaking.results import TrackState
