@@ -80,10 +80,12 @@ class KalmanConfig:
                 raise ValueError(f"KalmanConfig.{name} must be finite and > 0, got {value!r}")
 
 
-# columns of the (T, 20) state array (one array: a row gather, scatter, append or delete is one
-# numpy call for all five quantities)
+# columns of the (T, 44) state array (one array: a row gather, scatter, append or delete is one
+# numpy call for all quantities): the filter (20), its copy after the last correction (20) and
+# the last measurement (4), which :meth:`KalmanBank.reupdate` starts from
 _X, _PV, _V, _VV, _PP = slice(0, 4), slice(4, 8), slice(8, 12), slice(12, 16), slice(16, 20)
-_COLUMNS = 20
+_FILTER, _FROZEN, _OBS = slice(0, 20), slice(20, 40), slice(40, 44)
+_COLUMNS = 44
 # the noise scale of cx, cy, w, h is w, h, w, h (:meth:`KalmanBank._scale`)
 _WHWH = np.array([2, 3, 2, 3], dtype=np.intp)
 
@@ -108,7 +110,9 @@ def _to_xyxy(c: np.ndarray) -> np.ndarray:
 
 class KalmanBank:
     """Kalman filters of T tracks. State per track: cx, cy, w, h and their velocities
-    (pixels, pixels/frame). Rows are addressed by position 0..T-1; :meth:`remove` compacts them.
+    (pixels, pixels/frame); beside it, the filter as it was after its last correction and that
+    measurement (for :meth:`reupdate`). Rows are addressed by position 0..T-1; :meth:`remove`
+    compacts them.
     """
 
     __slots__ = ("config", "_s", "_x", "_v", "_pp", "_pv", "_vv")
@@ -118,8 +122,8 @@ class KalmanBank:
         self._bind(np.zeros((0, _COLUMNS)))
 
     def _bind(self, state: np.ndarray) -> None:
-        """Hold the (T, 20) state array and its column views: one array, so that a row
-        gather, scatter, append or delete is one numpy call for all five quantities."""
+        """Hold the (T, 44) state array and its column views: one array, so that a row
+        gather, scatter, append or delete is one numpy call for all its quantities."""
         self._s = state
         self._x = state[:, _X]  # (T, 4) cx, cy, w, h
         self._pv = state[:, _PV]  # (T, 4) covariance coordinate-velocity
@@ -204,6 +208,8 @@ class KalmanBank:
         new[:, _V] = v0
         new[:, _PP] = (cfg.init_position_std * s) ** 2
         new[:, _VV] = (cfg.init_velocity_std * s) ** 2
+        new[:, _FROZEN] = new[:, _FILTER]
+        new[:, _OBS] = z
         self._bind(np.concatenate([self._s, new]))
         return np.arange(start, start + z.shape[0], dtype=np.intp)
 
@@ -284,7 +290,70 @@ class KalmanBank:
         vv[...] = vv - pv * pv * inv
         pp[...] = pp * r * inv
         pv[...] = pv * r * inv
+        rows[:, _FROZEN] = rows[:, _FILTER]
+        rows[:, _OBS] = z
         self._s[idx] = rows
+
+    def reupdate(self, index: np.ndarray, xyxy: np.ndarray, gaps: np.ndarray) -> None:
+        """Correct rows ``index`` (K,), distinct, seen again after ``gaps`` (K,) frames without a
+        measurement, by the observation-centric re-update of OC-SORT (Cao et al. 2023): the
+        filter goes back to its state after the last measurement and runs ``gap + 1`` steps of
+        predict and correct along the straight line from that measurement to the new box
+        ``xyxy`` (K, 4) pixels, so the velocity is re-estimated from the observations at both
+        ends of the gap instead of being corrected once from the drifted prediction. A row with
+        gap 0 is corrected as by :meth:`update`."""
+        idx = self._rows(index)
+        z = _to_cxcywh(xyxy)
+        n = np.asarray(gaps).reshape(-1)
+        if z.shape[0] != idx.size or n.size != idx.size:
+            raise ValueError(f"reupdate: {idx.size} rows, {z.shape[0]} boxes, {n.size} gaps")
+        if idx.size == 0:
+            return
+        if len(set(idx.tolist())) != idx.size:
+            raise ValueError("reupdate: row indices must be distinct")
+        if not np.all(np.isfinite(z)):
+            raise ValueError("reupdate: boxes must be finite")
+        if n.dtype.kind not in "iu" or np.any(n < 0):
+            raise ValueError("reupdate: gaps must be non-negative integers (frames)")
+        steps = n.astype(np.int64) + 1
+        work = KalmanBank(self.config)
+        state = self._s[idx]  # (K, 44) copy
+        last = state[:, _OBS].copy()
+        gapped = steps > 1
+        state[gapped, _FILTER] = state[gapped, _FROZEN]
+        work._bind(state)
+        # rows without a gap keep their prediction (steps 0 in the first pass) and take one
+        # correction like the others
+        first = np.where(gapped, 1, 0)
+        for k in range(1, int(steps.max()) + 1):
+            live = steps >= k
+            work.predict(np.where(live, 1, 0) if k > 1 else first)
+            rows = np.flatnonzero(live)
+            virtual = last[rows] + (k / steps[rows])[:, None] * (z[rows] - last[rows])
+            work._correct(rows, virtual)
+        self._s[idx] = work._s
+
+    def shift(self, index: np.ndarray, dxy: np.ndarray, dv: np.ndarray | None = None) -> None:
+        """Move rows ``index`` (K,) by ``dxy`` (2,) pixels and change their ``cx, cy`` velocity by
+        ``dv`` (2,) pixels/frame (default 0): the image motion of the camera. The copy after the
+        last correction moves alike and the last measurement by ``dxy``; covariances are
+        unchanged."""
+        idx = self._rows(index)
+        d = np.asarray(dxy, dtype=np.float64).reshape(2)
+        w = np.zeros(2) if dv is None else np.asarray(dv, dtype=np.float64).reshape(2)
+        if not (np.all(np.isfinite(d)) and np.all(np.isfinite(w))):
+            raise ValueError("shift: offsets must be finite")
+        if idx.size == 0:
+            return
+        frozen = _FROZEN.start
+        for offset, start in (
+            (d, _X.start),
+            (w, _V.start),
+            (d, frozen + _X.start),
+            (w, frozen + _V.start),
+            (d, _OBS.start),
+        ):
+            self._s[idx, start : start + 2] += offset
 
     def remove(self, index: np.ndarray) -> None:
         """Drop rows ``index`` (int array or (T,) bool mask); the others keep their order."""
@@ -304,6 +373,11 @@ class KalmanBank:
     def velocity(self) -> np.ndarray:
         """(T, 4) current ``d(cx, cy, w, h)/frame`` (pixels/frame)."""
         return self._v.copy()
+
+    def motion(self, index: np.ndarray) -> np.ndarray:
+        """(K, 2, 2) of rows ``index``: ``[[cx, cy], [vcx, vcy]]`` (pixels, pixels/frame)."""
+        idx = self._rows(index)
+        return np.stack([self._x[idx, :2], self._v[idx, :2]], axis=1)
 
     def covariance(self) -> np.ndarray:
         """(T, 8, 8) state covariance, order ``cx, cy, w, h, vcx, vcy, vw, vh`` (for gating)."""

@@ -167,6 +167,10 @@ def _table() -> dict[str, Param]:
         Param(
             "velocity_prior", "float", "box sizes / s", 0.0, 1000.0, low_open=True, optional=True
         ),
+        Param("weak_confidence", "float", _SCORE, optional=True),
+        Param("weak_iou", "float", "IoU", 0.0, 1.0),
+        Param("resume_reupdate", "bool", "-"),
+        Param("scene_shift", "bool", "-"),
     ]
     for name in (
         "enters",

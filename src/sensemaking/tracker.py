@@ -153,6 +153,29 @@ class TrackerConfig:
             track's first displacement less (no runaway predictions from detector jitter on
             small boxes), but lets fast objects lag for a few frames (id loss after a gap).
             None: use ``kalman.init_velocity_std`` (per frame) as given.
+        weak_confidence: detections scoring from this up to ``min_confidence`` (detector score
+            units) are weak evidence: they may continue a confirmed track that was visible in the
+            previous frame, seen twice or more and without a candidate detection scoring
+            ``min_confidence`` or more, if their IoU with its prediction is at least ``weak_iou``;
+            they never resume, start or confirm a track -- ByteTrack's second association (low
+            threshold 0.1), strong evidence first as in its cascade. None: off, detections
+            under ``min_confidence`` are not used.
+        weak_iou: minimum IoU of a weak detection with the prediction of the track it continues
+            (ByteTrack's second association: 0.5). Higher: fewer false continuations.
+        resume_reupdate: when a hidden or missing track is seen again after k unseen frames,
+            re-estimate its motion from the observations at both ends of the gap (OC-SORT's
+            observation-centric re-update): the filter returns to its state after the last
+            detection and is run over k + 1 virtual detections on the straight line from that
+            detection to the new one, instead of one correction from the drifted prediction.
+            False: one Kalman correction, as SORT does. Switch (no unit).
+        scene_shift: a hidden or missing track moves, each frame, with the image motion of the
+            scene that the predictions missed, estimated from the matched boxes: its box centre
+            and centre velocity receive the median Kalman correction (pixels, pixels/frame) of
+            the established tracks matched in that frame (at least ``SCENE_SHIFT_MIN_TRACKS``),
+            as if it had been seen where they were. A moving camera's turn or pitch moves every
+            object in the image; an unseen track otherwise keeps the image motion it had when
+            last seen. Translation only: the image scaling of forward motion depends on each
+            object's depth. Switch (no unit).
         costs: :class:`AbductionCosts`.
         kalman: :class:`~sensemaking.motion.KalmanConfig`.
     """
@@ -183,6 +206,10 @@ class TrackerConfig:
     max_conflicts: int | None = 100_000
     max_solve_ms: float | None = None
     velocity_prior: float | None = 3.0
+    weak_confidence: float | None = None
+    weak_iou: float = 0.5
+    resume_reupdate: bool = False
+    scene_shift: bool = False
     costs: AbductionCosts = field(default_factory=AbductionCosts)
     kalman: KalmanConfig = field(default_factory=KalmanConfig)
 
@@ -217,6 +244,10 @@ class TrackerConfig:
         docs/PARAMETERS.md."""
         return settings.preset_config(family, **changes)  # presets/<family>.json
 
+
+#: ``scene_shift`` needs at least this many matched established tracks: a median of three
+#: outvotes one object that manoeuvres on its own
+SCENE_SHIFT_MIN_TRACKS = 3
 
 _HIDDEN = int(TrackState.HIDDEN)  # as a plain int: numpy compares it faster than the enum
 
@@ -397,15 +428,26 @@ class Tracker:
             for rows, boxes in parts:  # max is exact and order-free: as one max per part
                 lik[rows] = np.maximum(lik[rows], extra[start : start + len(boxes)])
                 start += len(boxes)
-        ok = dets.confidence[None, :] >= c.min_confidence
-        if c.class_aware:
-            ok = ok & (self._tracks.cls[:, None] == dets.class_id[None, :])
+        same = (
+            self._tracks.cls[:, None] == dets.class_id[None, :]
+            if c.class_aware
+            else np.ones((len(pred), len(dets)), dtype=bool)
+        )
         resume, assign = self._thresholds(c.iou_resume, c.iou_assign)
         # gate on the solver's likelihood grid against its (floored) thresholds, so that the gate
         # admits exactly the pairs the encoding's constraints allow (gating is only an
         # optimisation): comparing the raw IoU instead dropped pairs that round up to the threshold
         q = self._quantize(lik)
-        ok &= q >= np.where(unseen, resume, assign)[:, None]
+        fits = same & (q >= np.where(unseen, resume, assign)[:, None])
+        ok = fits & (dets.confidence >= c.min_confidence)[None, :]
+        if c.weak_confidence is not None:
+            # ByteTrack's second association: a weak detection continues a confirmed track seen
+            # last frame (velocity known) that it fits closely and that no detection strong
+            # enough to continue tracks could continue (strong evidence first, as its cascade)
+            weak = (dets.confidence >= c.weak_confidence) & (dets.confidence < c.min_confidence)
+            if weak.any():
+                settled = ~unseen & self._tracks.confirmed & ~ok.any(axis=1)
+                ok = ok | (fits & weak[None, :] & settled[:, None] & (lik >= c.weak_iou))
         return np.where(ok, lik, 0.0), q
 
     def _thresholds(self, *iou: float) -> tuple[int, ...]:
@@ -633,12 +675,29 @@ class Tracker:
         index = self._tracks.row_of()
         # matched tracks
         matched = {**ans.assign, **ans.resume}
+        # scene_shift: (centre shift (2,) pixels, velocity change (2,) pixels/frame) or None
+        camera: tuple[np.ndarray, np.ndarray] | None = None
         if matched:
             rows = np.array([index[t] for t in matched], dtype=np.int64)
             cols = np.array(list(matched.values()), dtype=np.int64)
-            self._tracks.kf._update_trusted(
-                rows, dets.xyxy[cols]
-            )  # distinct rows in range, gated boxes
+            settled = rows[self._settled(rows)] if c.scene_shift else rows[:0]
+            if len(settled) >= SCENE_SHIFT_MIN_TRACKS:
+                before = self._tracks.kf.motion(settled)
+            gaps = self._tracks.unseen[rows]
+            back = gaps > 0
+            if c.resume_reupdate and back.any():
+                if not back.all():
+                    self._tracks.kf._update_trusted(rows[~back], dets.xyxy[cols[~back]])
+                self._tracks.kf.reupdate(rows[back], dets.xyxy[cols[back]], gaps[back])
+            else:
+                self._tracks.kf._update_trusted(
+                    rows, dets.xyxy[cols]
+                )  # distinct rows in range, gated boxes
+            if len(settled) >= SCENE_SHIFT_MIN_TRACKS:
+                # the median correction of the established tracks' centres and velocities: the
+                # image motion of the scene that their predictions missed this frame
+                change = np.median(self._tracks.kf.motion(settled) - before, axis=0)
+                camera = (change[0], change[1])
             self._tracks.unseen[rows] = 0
             self._tracks.state[rows] = TrackState.VISIBLE
             self._tracks.hits[rows] += 1
@@ -690,6 +749,9 @@ class Tracker:
             self._tracks.state[i] = (
                 TrackState.HIDDEN if self._tracks.occluder[i] >= 0 else TrackState.MISSING
             )
+        if camera is not None and (ans.halt or ans.ignore_trk):
+            unobserved = np.array([index[t] for t in ans.halt + ans.ignore_trk], dtype=np.int64)
+            self._tracks.kf.shift(unobserved, *camera)
         # confirmation (nothing to do when every track is confirmed already)
         events: list[Event] = []
         tentative = ~self._tracks.confirmed
@@ -728,6 +790,12 @@ class Tracker:
                 self._pending.pop(t, None)
         events.sort(key=Event.sort_key)
         return events, observed
+
+    def _settled(self, rows: np.ndarray) -> np.ndarray:
+        """(K,) bool of ``rows``: established tracks, visible last frame and seen ``min_hits`` + 2
+        times or more (their velocity is known)."""
+        t = self._tracks
+        return (t.unseen[rows] == 0) & (t.hits[rows] >= self.config.min_hits + 2)
 
     def _scene_velocity(self, classes: np.ndarray | None = None) -> np.ndarray:
         """(K, 4) prior velocity of K new tracks of ``classes`` (pixels per frame): the median
