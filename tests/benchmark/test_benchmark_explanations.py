@@ -86,8 +86,8 @@ def test_runner_and_evaluate_explanations_agree_on_a_synthetic_benchmark(
         got = runner.run_benchmark(bench, ["ours"], tmp_path / "out")
         ex = got.explanations
         assert ex is not None and ex.error is None and ex.monitor_seconds > 0
-        # the situation monitor runs on KITTI (3D labels) only
-        assert ex.warnings == (spec.family == "kitti")
+        # the situation monitor runs on KITTI cars (3D labels) only
+        assert ex.warnings == (spec.name == "kitti-rrc-car")
         warned = ex.log_dir / EXPLANATIONS_DIR / f"{bench.sequences[0].name}.warnings.jsonl"
         assert warned.is_file() == ex.warnings
         assert ex.log_dir == tmp_path / "out" / spec.name

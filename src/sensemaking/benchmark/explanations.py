@@ -3,11 +3,11 @@
 The runner's tracking pass of ``ours`` (with abduction) hands every frame's full result to a
 :class:`SequenceCapture` (outside the timed ``update`` call): the event log is written as
 ``track --events`` writes it, to ``<output>/<benchmark>/ours-explanations/<seq>.events.jsonl``.
-Where warnings are judged (:func:`monitors_warnings`: KITTI, whose labels have the 3D positions
-the warning targets need, or every benchmark on request) the situation monitor runs on it as
-``sensemaking track --warnings`` runs it, its warnings going to ``<seq>.warnings.jsonl``. The
-monitor costs more than the tracker on a busy scene (clingo per frame over every near pair),
-hence not everywhere by default. After the pass, :func:`judge_sequence` reads the visible
+Where warnings are judged (:func:`monitors_warnings`: KITTI cars, whose labels have the 3D
+positions the warning targets need, or every benchmark on request) the situation monitor runs
+on it as ``sensemaking track --warnings`` runs it, its warnings going to ``<seq>.warnings.jsonl``.
+The monitor costs more than the tracker on a busy scene (clingo per frame over every near
+pair), hence not everywhere by default. After the pass, :func:`judge_sequence` reads the visible
 tracks file, the logs and the ground truth back from disk, as ``sensemaking evaluate
 --explanations`` does, and judges every event and warning
 (:mod:`sensemaking.evaluation.explanations`, method in docs/EXPLANATIONS.md).
@@ -65,10 +65,10 @@ def log_paths(bench_dir: Path, sequence: str) -> tuple[Path, Path]:
 
 
 def monitors_warnings(spec: BenchmarkSpec, everywhere: bool = False) -> bool:
-    """Whether the benchmark run judges warnings on ``spec``: on KITTI (3D labels: SUDDEN_STOP
-    and OVERTAKING are decidable, and issue 15's warning targets are stated there), or on every
-    benchmark when ``everywhere``."""
-    return everywhere or spec.family == "kitti"
+    """Whether the benchmark run judges warnings on ``spec``: on KITTI cars (3D labels, so
+    SUDDEN_STOP and OVERTAKING are decidable; issue 15's warning targets are stated on these
+    runs), or on every benchmark when ``everywhere``."""
+    return everywhere or (spec.family == "kitti" and (spec.class_name or "").lower() == "car")
 
 
 def situation_monitor(spec: BenchmarkSpec, seq: Sequence) -> SituationMonitor:

@@ -566,8 +566,8 @@ def _explanations_section(summary: RunSummary) -> list[str]:
             + (", ".join(name for name, ex in judged if ex.warnings) or "no benchmark")
             + "; the situation monitor did not run on "
             + ", ".join(quiet)
-            + " (it runs where the labels have 3D positions; `--all-warnings` runs it "
-            "everywhere).",
+            + " (it runs on KITTI cars, whose labels have 3D positions; `--all-warnings` "
+            "runs it everywhere).",
             "",
         ]
     monitor = sum(ex.monitor_seconds for _, ex in judged)

@@ -15,9 +15,10 @@ and writes two results from that pass: the tracks matched to a detection in each
 (``predicted``). For every tracker the report shows the better variant by HOTA and says which one
 it is; every variant is in the JSON. boxmot's peers run once, at their defaults only.
 
-Our tracker's pass also feeds the situation monitor and writes the event and warning logs
-(outside the timed ``update`` call); after the passes they are judged against the ground truth
-(:mod:`~sensemaking.benchmark.explanations`): the report's explanation-quality table.
+Our tracker's pass also writes its event log and, on KITTI cars, feeds the situation monitor and
+writes its warnings (outside the timed ``update`` call); after the passes they are judged
+against the ground truth (:mod:`~sensemaking.benchmark.explanations`): the report's
+explanation-quality table.
 
 After the tracking passes, our parameters are cross-validated within each family
 (:mod:`~sensemaking.benchmark.crossval`): the report's headline.
@@ -558,7 +559,7 @@ def run_benchmark(
     Each tracker runs each sequence ``repeat`` times; the per-frame times of the fastest run
     count (a shared machine's slow spells inflate single runs), the results are those of the
     first (every run gives the same). With ``explanations`` and ``ours`` among the trackers,
-    the first run of ours also writes its event log and (on KITTI, or everywhere with
+    the first run of ours also writes its event log and (on KITTI cars, or everywhere with
     ``all_warnings``: :func:`~sensemaking.benchmark.explanations.monitors_warnings`) runs the
     situation monitor, judged after the passes (``result.explanations``)."""
     say = progress or (lambda msg: None)
@@ -615,12 +616,17 @@ def run_benchmark(
                 for _ in range(1 if name in BOXMOT_PEERS else repeat):
                     tracker = _make_tracker(name, pass_name, spec, seq, min_score)
                     capture = None
-                    if explained is not None and name == "ours" and tracks is None:
+                    first_of_ours = name == "ours" and tracks is None
+                    if (
+                        explained is not None
+                        and first_of_ours
+                        and isinstance(tracker, OursAdapter)
+                    ):
                         events_log, warnings_log = log_paths(output_dir / spec.name, seq.name)
                         capture = SequenceCapture(
                             spec, seq, events_log, warnings_log if explained.warnings else None
                         )
-                        tracker.observer = capture  # type: ignore[attr-defined]
+                        tracker.observer = capture
                     try:
                         got, took = run_sequence(tracker, seq, frames_per_seq[seq.name])
                     except BaseException:
@@ -842,7 +848,7 @@ def run(
         explanations: also judge the events and warnings of ours with abduction against the
             ground truth (:mod:`~sensemaking.benchmark.explanations`).
         all_warnings: run the situation monitor (and judge its warnings) on every benchmark,
-            not only on KITTI.
+            not only on the KITTI car benchmarks.
     """
     start = time.perf_counter()
     say = progress or (lambda msg: None)

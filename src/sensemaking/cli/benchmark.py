@@ -88,16 +88,16 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--no-explanations",
         action="store_true",
-        help="skip the explanation quality of ours (its event log and, on KITTI, the situation "
-        "monitor's warnings, written under <output>/<benchmark>/ours-explanations/ during its "
-        "tracking pass and judged against the ground truth: docs/EXPLANATIONS.md)",
+        help="skip the explanation quality of ours (its event log and, on KITTI cars, the "
+        "situation monitor's warnings, written under <output>/<benchmark>/ours-explanations/ "
+        "during its tracking pass and judged against the ground truth: docs/EXPLANATIONS.md)",
     )
     p.add_argument(
         "--all-warnings",
         action="store_true",
         help="run the situation monitor and judge its warnings on every benchmark (default: "
-        "KITTI only, whose 3D labels the warning targets need; the monitor costs more than the "
-        "tracker on crowded MOT scenes)",
+        "the KITTI car benchmarks, whose 3D labels the warning targets need; the monitor "
+        "costs more than the tracker on a crowded scene)",
     )
     p.add_argument(
         "--params-doc",
