@@ -41,8 +41,9 @@ def _cli_judgement(
 ) -> tuple[str, dict]:
     """``sensemaking evaluate --explanations`` on the files the runner wrote for ``seq``."""
     assert bench.explanations is not None and bench.explanations.log_dir is not None
-    ours = bench.chosen("ours")
-    assert ours is not None and ours.result_dir is not None
+    # the visible tracks (the report may choose the variant with the hidden ones: not these)
+    ours = next(r for r in bench.runs["ours"] if r.variant == "visible")
+    assert ours.result_dir is not None
     events, warnings = log_paths(bench.explanations.log_dir, seq.name)
     out = tmp / f"{seq.name}.json"
     args = ["evaluate", "--explanations", "--gt", str(seq.gt_path)]
