@@ -725,18 +725,18 @@ def _judge_explanations(
     s = explained.summary()
     hides = s["events"]["hides_behind"]
     precision = hides["precision"]
+    n_events = sum(len(r.events) for r in explained.results)
+    n_warnings = sum(len(r.warnings) for r in explained.results)
+    judged = (
+        f"{n_events} events, {n_warnings} warnings judged"
+        if explained.warnings
+        else f"{n_events} events judged (no situation monitor here)"
+    )
     say(
-        f"[{bench.spec.name}] explanations: {sum(len(r.events) for r in explained.results)} "
-        f"events, "
-        + (
-            f"{sum(len(r.warnings) for r in explained.results)} warnings"
-            if explained.warnings
-            else "no warnings (monitor not run)"
-        )
-        + " judged; "
-        f"hides_behind {hides['total']}, precision "
+        f"[{bench.spec.name}] explanations: {judged}; hides_behind {hides['total']}, precision "
         f"{'-' if precision is None else f'{100 * precision:.1f} %'} "
-        f"(monitor {explained.monitor_seconds:.1f} s, judging {explained.judge_seconds:.1f} s)"
+        f"({'monitor and ' if explained.warnings else ''}logs "
+        f"{explained.monitor_seconds:.1f} s, judging {explained.judge_seconds:.1f} s)"
     )
     return explained
 
