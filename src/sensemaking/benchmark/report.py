@@ -466,18 +466,11 @@ def check_explanation_targets(b: BenchmarkRun) -> list[TargetCheck]:
     hides = s["events"]["hides_behind"]
     name, out = b.spec.name, []
 
-    def share(target: str, hit: int, of: int, bound: float, what: str) -> None:
+    def share(target: str, hit: int, of: int, bound: float, what: str, aside: str = "") -> None:
         if of:
             x = hit / of
-            out.append(
-                TargetCheck(
-                    name,
-                    target,
-                    x >= bound,
-                    100 * (x - bound),
-                    f"{hit} of {of} {what} ({100 * x:.1f} %)",
-                )
-            )
+            detail = f"{hit} of {of} {what}: {100 * x:.1f} %" + (f" ({aside})" if aside else "")
+            out.append(TargetCheck(name, target, x >= bound, 100 * (x - bound), detail))
 
     def none_of(target: str, n: int, of: int) -> None:
         if of:
@@ -490,7 +483,8 @@ def check_explanation_targets(b: BenchmarkRun) -> list[TargetCheck]:
             hides["plausible"],
             hides["total"],
             HIDES_PLAUSIBLE_KITTI,
-            f"plausible ({hides['undecidable']} undecidable)",
+            "plausible",
+            f"{hides['undecidable']} undecidable",
         )
         none_of(
             "hides_behind: none implausible at the image border",
@@ -513,7 +507,8 @@ def check_explanation_targets(b: BenchmarkRun) -> list[TargetCheck]:
                 row["plausible"],
                 row["plausible"] + row["implausible"],
                 SITUATION_PLAUSIBLE,
-                f"decidable plausible ({row['undecidable']} undecidable)",
+                "decidable plausible",
+                f"{row['undecidable']} undecidable",
             )
     elif b.spec.rules == "mot17":
         share(
@@ -521,7 +516,8 @@ def check_explanation_targets(b: BenchmarkRun) -> list[TargetCheck]:
             hides["plausible"],
             decidable,
             HIDES_PRECISION_MOT17,
-            f"decidable plausible ({hides['undecidable']} undecidable)",
+            "decidable plausible",
+            f"{hides['undecidable']} undecidable",
         )
         none_of("hides_behind: no object hidden behind itself", hides["self"], hides["total"])
     return out
