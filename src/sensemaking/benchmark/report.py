@@ -459,9 +459,12 @@ def check_explanation_targets(b: BenchmarkRun) -> list[TargetCheck]:
     that reappear, OVERTAKING and SUDDEN_STOP at least 80 % plausible against the 3D ground
     truth (of the decidable); MOT17 at least 85 % of ``hides_behind`` plausible of the decidable
     and no object hidden behind itself. A target with nothing to count is left out."""
+    from sensemaking.evaluation.explanations import ExplanationConfig
+
     ex = b.explanations
     if ex is None or ex.error is not None or not ex.results:
         return []
+    judged_by = ExplanationConfig()  # the thresholds the runner judges with
     s = ex.summary()
     hides = s["events"]["hides_behind"]
     name, out = b.spec.name, []
@@ -494,7 +497,8 @@ def check_explanation_targets(b: BenchmarkRun) -> list[TargetCheck]:
         he = s["warnings"]["HIDDEN_ENTITY"]
         share(
             f"HIDDEN_ENTITY: at least {HIDDEN_ENTITY_ON_TARGET:.0%} reappear within "
-            "3 frames and 50 px, of those that reappear",
+            f"{judged_by.reappear_frames} frames and {judged_by.reappear_px:g} px, of those "
+            "that reappear",
             he["on_target"],
             he["reappeared"],
             HIDDEN_ENTITY_ON_TARGET,
