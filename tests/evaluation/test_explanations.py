@@ -548,3 +548,50 @@ def test_overtaking_needs_a_flip_of_the_3d_depth_order():
     assert (a.verdict, a.reason, a.lateral_m) == ("plausible", "passed_in_depth", 3.0)
     assert (b.verdict, b.reason) == ("implausible", "no_depth_flip")
     assert (c.verdict, c.reason) == ("implausible", "self")
+
+
+def test_occlusion_recall_says_what_the_tracker_said_instead(crossing):
+    """The one recall occasion of the crossing (track 1 lost at frame 13 while object 1 is
+    occluded inside the image) counted by what the tracker said there."""
+    truth, tracks = _truth(crossing), _perfect_tracks(crossing)
+    res = evaluate_explanations(truth, tracks, [HIDE, UNHIDE])
+    assert res.occlusions_said == {"hides_behind": 1}
+    missing = Event(13, "missing_detections", (1,))
+    res = evaluate_explanations(truth, tracks, [missing, Event(13, "hides_behind", (2, 1))])
+    assert res.recall["hides_behind"] == (0, 1)
+    assert res.occlusions_said == {"missing_detections": 1}
+    combined = ExplanationResult.combine([res, evaluate_explanations(truth, tracks, [])])
+    said = combined.summary()["events"]["hides_behind"]["occlusions_said"]
+    assert said == {
+        "hides_behind": 0,
+        "leaves_fov": 0,
+        "missing_detections": 1,
+        "ends": 0,
+        "nothing": 1,
+    }
+    table = explanation_table({"b": combined})
+    assert "occluded when lost, said instead: missing_detections 1, nothing 1" in table
+    # without visibility in the ground truth there is no occasion, and nothing is counted
+    assert evaluate_explanations(_truth(crossing, kind="boxes"), tracks, [missing]).occlusions_said == {}
+
+
+def test_read_events_and_warnings_name_the_bad_line(tmp_path):
+    from sensemaking.errors import InputError
+    from sensemaking.evaluation.explanations import judged_warnings, read_events, read_warnings
+
+    ev = tmp_path / "e.jsonl"
+    ev.write_text('{"frame": 3, "event": "hides_behind", "args": [1, 2]}\n\n[1]\n')
+    with pytest.raises(InputError, match=r"e\.jsonl:3"):
+        read_events(ev)
+    ev.write_text('{"frame": 3, "event": "hides_behind", "args": [1, 2]}\n')
+    assert read_events(ev) == [Event(3, "hides_behind", (1, 2))]
+    w = tmp_path / "w.jsonl"
+    w.write_text(
+        '{"frame": 1, "situation": "BLOCKED_LANE", "objects": [], "details": {}}\n'
+        '{"frame": 2, "situation": "HIDDEN_ENTITY", "objects": [4], "details": {}}\n'
+    )
+    records = read_warnings(w)
+    assert [r["frame"] for r in judged_warnings(records)] == [2]
+    w.write_text('{"frame": "2", "situation": "HIDDEN_ENTITY", "objects": [4]}\n')
+    with pytest.raises(InputError, match=r"w\.jsonl:1"):
+        read_warnings(w)

@@ -14,7 +14,7 @@ the score threshold our tracker uses before the peer sees them.
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol
 
@@ -296,11 +296,14 @@ class OursAdapter:
         config: the tracker configuration (``abduction`` on or off).
         states: which track states to report each frame (0 visible, 1 hidden, 2 missing);
             hidden and missing tracks carry the tracker's predicted box.
+        observer: called with every frame's full result after the timed update (the benchmark's
+            explanation pass reads the events there), or None.
     """
 
     name: str
     config: TrackerConfig
     states: Sequence[int] = (0,)
+    observer: Callable[[Any], None] | None = None
 
     def __post_init__(self) -> None:
         from sensemaking.tracker import Tracker
@@ -315,6 +318,8 @@ class OursAdapter:
         start = time.perf_counter()
         result = self._tracker.update(detections, frame=frame)
         elapsed = time.perf_counter() - start
+        if self.observer is not None:
+            self.observer(result)
         tracks = result.tracks
         if len(tracks) == 0:
             return Detections.empty(), elapsed

@@ -15,6 +15,11 @@ and writes two results from that pass: the tracks matched to a detection in each
 (``predicted``). For every tracker the report shows the better variant by HOTA and says which one
 it is; every variant is in the JSON. boxmot's peers run once, at their defaults only.
 
+Our tracker's pass also writes its event log and, on KITTI cars, feeds the situation monitor and
+writes its warnings (outside the timed ``update`` call); after the passes they are judged
+against the ground truth (:mod:`~sensemaking.benchmark.explanations`): the report's
+explanation-quality table.
+
 After the tracking passes, our parameters are cross-validated within each family
 (:mod:`~sensemaking.benchmark.crossval`): the report's headline.
 """
@@ -39,6 +44,13 @@ from sensemaking.benchmark.datasets import (
     Sequence,
     discover,
     load_benchmark,
+)
+from sensemaking.benchmark.explanations import (
+    BenchmarkExplanations,
+    SequenceCapture,
+    judge_all,
+    log_paths,
+    monitors_warnings,
 )
 from sensemaking.benchmark.peers import (
     BOXMOT_PEERS,
@@ -200,6 +212,8 @@ class BenchmarkRun:
     skipped: list[str]
     runs: dict[str, list[TrackerRun]] = field(default_factory=dict)
     ours_config: dict[str, Any] | None = None
+    #: explanation quality of ours with abduction (None: not measured)
+    explanations: BenchmarkExplanations | None = None
 
     def chosen(self, tracker: str) -> TrackerRun | None:
         """The run reported for ``tracker``: the better variant by :data:`SELECT_BY`."""
@@ -242,6 +256,7 @@ class BenchmarkRun:
             "skipped": self.skipped,
             "ours_config": self.ours_config,
             "trackers": {},
+            "explanations": None if self.explanations is None else self.explanations.to_json(),
         }
         for name, runs in self.runs.items():
             chosen = self.chosen(name)
@@ -537,11 +552,16 @@ def run_benchmark(
     output_dir: Path,
     progress: Progress | None = None,
     repeat: int = 1,
+    explanations: bool = True,
+    all_warnings: bool = False,
 ) -> BenchmarkRun:
     """Every tracker (and variant) on every sequence of ``bench``; results written and evaluated.
     Each tracker runs each sequence ``repeat`` times; the per-frame times of the fastest run
     count (a shared machine's slow spells inflate single runs), the results are those of the
-    first (every run gives the same)."""
+    first (every run gives the same). With ``explanations`` and ``ours`` among the trackers,
+    the first run of ours also writes its event log and (on KITTI cars, or everywhere with
+    ``all_warnings``: :func:`~sensemaking.benchmark.explanations.monitors_warnings`) runs the
+    situation monitor, judged after the passes (``result.explanations``)."""
     say = progress or (lambda msg: None)
     spec = bench.spec
     result = BenchmarkRun(
@@ -573,6 +593,13 @@ def run_benchmark(
     runs: dict[tuple[str, str], dict[str, TrackerRun]] = {(n, p): {} for n, p, _ in passes}
     times: dict[tuple[str, str], list[np.ndarray]] = {(n, p): [] for n, p, _ in passes}
     failed: dict[tuple[str, str], TrackerRun] = {}
+    explained = (
+        BenchmarkExplanations(
+            log_dir=output_dir / spec.name, warnings=monitors_warnings(spec, all_warnings)
+        )
+        if explanations
+        else None
+    )
     for i, seq in enumerate(bench.sequences, 1):
         say(
             f"[{spec.name}] sequence {seq.name} ({i}/{len(bench.sequences)}): "
@@ -587,11 +614,28 @@ def run_benchmark(
                 # the first run's results, the fastest run's times; boxmot peers run once (seven
                 # more trackers at ~1 ms per frame would triple the run)
                 for _ in range(1 if name in BOXMOT_PEERS else repeat):
-                    got, took = run_sequence(
-                        _make_tracker(name, pass_name, spec, seq, min_score),
-                        seq,
-                        frames_per_seq[seq.name],
-                    )
+                    tracker = _make_tracker(name, pass_name, spec, seq, min_score)
+                    capture = None
+                    first_of_ours = name == "ours" and tracks is None
+                    if (
+                        explained is not None
+                        and first_of_ours
+                        and isinstance(tracker, OursAdapter)
+                    ):
+                        events_log, warnings_log = log_paths(output_dir / spec.name, seq.name)
+                        capture = SequenceCapture(
+                            spec, seq, events_log, warnings_log if explained.warnings else None
+                        )
+                        tracker.observer = capture
+                    try:
+                        got, took = run_sequence(tracker, seq, frames_per_seq[seq.name])
+                    except BaseException:
+                        if capture is not None:
+                            capture.abort()
+                        raise
+                    if capture is not None and explained is not None:
+                        capture.finish()
+                        explained.monitor_seconds += capture.seconds
                     tracks = got if tracks is None else tracks
                     if seconds is None or took.sum() < seconds.sum():
                         seconds = took
@@ -652,7 +696,49 @@ def run_benchmark(
                 f"IDF1 {100 * m.get('IDF1', np.nan):5.1f}  "
                 f"IDSW {m.get('IDSW', np.nan):.0f}"
             )
+    ours_run = runs.get(("ours", "config"), {}).get("visible")
+    if explained is not None and ours_run is not None and ("ours", "config") not in failed:
+        result.explanations = _judge_explanations(bench, ours_run, explained, say)
     return result
+
+
+def _judge_explanations(
+    bench: Benchmark, ours: TrackerRun, explained: BenchmarkExplanations, say: Progress
+) -> BenchmarkExplanations:
+    """Judge our logs of every sequence against the ground truth (a failure is reported, the
+    tracking results stand)."""
+    start = time.perf_counter()
+    assert ours.result_dir is not None and explained.log_dir is not None  # set above
+    try:
+        explained.results = judge_all(
+            bench.spec, bench.sequences, ours.result_dir, explained.log_dir, explained.warnings
+        )
+    except MissingExtraError:
+        raise
+    except Exception as exc:
+        log.exception("%s: judging the explanations failed", bench.spec.name)
+        explained.error = f"{type(exc).__name__}: {exc}"
+    explained.judge_seconds = time.perf_counter() - start
+    if explained.error is not None:
+        say(f"[{bench.spec.name}] explanations: FAILED {explained.error}")
+        return explained
+    s = explained.summary()
+    hides = s["events"]["hides_behind"]
+    precision = hides["precision"]
+    n_events = sum(len(r.events) for r in explained.results)
+    n_warnings = sum(len(r.warnings) for r in explained.results)
+    judged = (
+        f"{n_events} events, {n_warnings} warnings judged"
+        if explained.warnings
+        else f"{n_events} events judged (no situation monitor here)"
+    )
+    say(
+        f"[{bench.spec.name}] explanations: {judged}; hides_behind {hides['total']}, precision "
+        f"{'-' if precision is None else f'{100 * precision:.1f} %'} "
+        f"({'monitor and ' if explained.warnings else ''}logs "
+        f"{explained.monitor_seconds:.1f} s, judging {explained.judge_seconds:.1f} s)"
+    )
+    return explained
 
 
 def _failed_run(
@@ -696,12 +782,16 @@ def _run_one(
     trackers: list[str],
     out_dir: Path,
     repeat: int = 1,
+    explanations: bool = True,
+    all_warnings: bool = False,
 ) -> tuple[BenchmarkRun, list[str]]:
     """One benchmark in a worker process: its result and its progress lines."""
     lines: list[str] = []
     bench = load_benchmark(spec, sources, skipped)
     lines.append(f"[{spec.name}] {len(bench.sequences)} sequences, {bench.n_frames} frames")
-    result = run_benchmark(bench, trackers, out_dir, lines.append, repeat)
+    result = run_benchmark(
+        bench, trackers, out_dir, lines.append, repeat, explanations, all_warnings
+    )
     return result, lines
 
 
@@ -736,6 +826,8 @@ def run(
     jobs: int = 1,
     repeat: int = 1,
     crossval: bool = True,
+    explanations: bool = True,
+    all_warnings: bool = False,
 ) -> RunSummary:
     """Discover, track, write, evaluate: the whole benchmark in one call.
 
@@ -753,6 +845,10 @@ def run(
             results are the same in every run). Trackers alternate sequence by sequence.
         crossval: also cross-validate our parameters (leave one video out within each family,
             :mod:`~sensemaking.benchmark.crossval`) when ``ours`` is among the trackers.
+        explanations: also judge the events and warnings of ours with abduction against the
+            ground truth (:mod:`~sensemaking.benchmark.explanations`).
+        all_warnings: run the situation monitor (and judge its warnings) on every benchmark,
+            not only on the KITTI car benchmarks.
     """
     start = time.perf_counter()
     say = progress or (lambda msg: None)
@@ -782,6 +878,8 @@ def run(
     )
     summary.machine["jobs"] = jobs
     summary.machine["repeat"] = repeat
+    summary.machine["explanations"] = explanations
+    summary.machine["all_warnings"] = all_warnings
     summary.peer_defaults = {name: peer_defaults(name) for name in chosen if name in PEERS}
     for msg in summary.skipped:
         say(f"skipped: {msg}")
@@ -791,7 +889,9 @@ def run(
         for spec, sources in found.found:
             bench = load_benchmark(spec, sources, found.skipped.get(spec.name))
             say(f"[{spec.name}] {len(bench.sequences)} sequences, {bench.n_frames} frames")
-            summary.benchmarks.append(run_benchmark(bench, chosen, out_dir, progress, repeat))
+            summary.benchmarks.append(
+                run_benchmark(bench, chosen, out_dir, progress, repeat, explanations, all_warnings)
+            )
     else:
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -805,7 +905,15 @@ def run(
             )
             futures = {
                 pool.submit(
-                    _run_one, spec, sources, found.skipped.get(spec.name), chosen, out_dir, repeat
+                    _run_one,
+                    spec,
+                    sources,
+                    found.skipped.get(spec.name),
+                    chosen,
+                    out_dir,
+                    repeat,
+                    explanations,
+                    all_warnings,
                 ): spec
                 for spec, sources in order
             }

@@ -86,6 +86,20 @@ def register(subparsers: Any) -> None:
         "about 5 minutes; the headline table of the report)",
     )
     p.add_argument(
+        "--no-explanations",
+        action="store_true",
+        help="skip the explanation quality of ours (its event log and, on KITTI cars, the "
+        "situation monitor's warnings, written under <output>/<benchmark>/ours-explanations/ "
+        "during its tracking pass and judged against the ground truth: docs/EXPLANATIONS.md)",
+    )
+    p.add_argument(
+        "--all-warnings",
+        action="store_true",
+        help="run the situation monitor and judge its warnings on every benchmark (default: "
+        "the KITTI car benchmarks, whose 3D labels the warning targets need; the monitor "
+        "costs more than the tracker on a crowded scene)",
+    )
+    p.add_argument(
         "--params-doc",
         metavar="FILE",
         default=DEFAULT_PARAMS_DOC,
@@ -119,6 +133,10 @@ def _command_line(args: argparse.Namespace) -> str:
         parts += ["--repeat", str(args.repeat)]
     if args.no_crossval:
         parts += ["--no-crossval"]
+    if args.no_explanations:
+        parts += ["--no-explanations"]
+    if args.all_warnings:
+        parts += ["--all-warnings"]
     return shlex.join(parts)
 
 
@@ -161,6 +179,8 @@ def run(args: argparse.Namespace) -> int:
         jobs=args.jobs,
         repeat=args.repeat,
         crossval=not args.no_crossval,
+        explanations=not args.no_explanations,
+        all_warnings=args.all_warnings,
     )
     if not quiet:  # the cross-validated headline first
         print(report.console_summary(summary), end="")

@@ -215,30 +215,6 @@ def _kitti_types(classes: list[str] | None) -> bool:
 
 
 # -- --explanations ----------------------------------------------------------------------------
-def _json_lines(path: Path) -> list[dict]:
-    """Records of a JSON-lines file; a bad line is an InputError naming it."""
-    import json
-
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError("no such file", path) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read: {exc}", path) from None
-    out = []
-    for lineno, line in enumerate(text.splitlines(), start=1):
-        if not line.strip():
-            continue
-        try:
-            record = json.loads(line)
-        except json.JSONDecodeError as exc:
-            raise InputError(f"not JSON: {exc.msg}", path, lineno) from None
-        if not isinstance(record, dict):
-            raise InputError("expected a JSON object per line", path, lineno)
-        out.append({**record, "_line": lineno})
-    return out
-
-
 def _per_sequence(path: Path | None, names: list[str], suffix: str) -> dict[str, Path | None]:
     """The file of each sequence: ``path`` itself (one sequence) or ``<path>/<seq>.jsonl`` /
     ``<path>/<seq>.<suffix>.jsonl``."""
@@ -261,50 +237,6 @@ def _per_sequence(path: Path | None, names: list[str], suffix: str) -> dict[str,
         if not found:
             raise InputError(f"no {name}.jsonl or {name}.{suffix}.jsonl", path)
         out[name] = found[0]
-    return out
-
-
-def _events(path: Path) -> list:
-    from sensemaking.results import EVENT_NAMES, Event
-
-    out = []
-    for r in _json_lines(path):
-        try:
-            ev = Event.from_json(r)
-        except (KeyError, TypeError, ValueError):
-            raise InputError(
-                'expected {"frame": int, "event": name, "args": [track ids]}', path, r["_line"]
-            ) from None
-        if ev.name in EVENT_NAMES and len(ev.args) != EVENT_NAMES[ev.name]:
-            raise InputError(
-                f"{ev.name} takes {EVENT_NAMES[ev.name]} argument(s), got {len(ev.args)}",
-                path,
-                r["_line"],
-            )
-        out.append(ev)
-    return out
-
-
-def _warnings(path: Path) -> list[dict]:
-    out = []
-    for r in _json_lines(path):
-        if r.get("record") == "end":  # the end of a warning episode: judged at its start
-            continue
-        objs = r.get("objects")
-        ok = (
-            isinstance(r.get("frame"), int)
-            and isinstance(objs, list)
-            and all(isinstance(o, int) for o in objs)
-            and isinstance(r.get("details", {}), dict)
-        )
-        if not ok:
-            raise InputError(
-                'expected {"frame": int, "situation": name, "objects": [track ids], '
-                '"details": {...}}',
-                path,
-                r["_line"],
-            )
-        out.append(r)
     return out
 
 
@@ -342,6 +274,8 @@ def _explanations(
         GroundTruth,
         evaluate_explanations,
         explanation_table,
+        read_events,
+        read_warnings,
     )
     from sensemaking.io.atomic import atomic_write
 
@@ -378,8 +312,8 @@ def _explanations(
             gt = GroundTruth.from_mot(s.gt, image_size=size, fps=fps, n_frames=s.n_frames)
         events_path, warnings_path = events[name], warnings[name]
         assert events_path is not None  # --events is required above
-        evs = _events(events_path)
-        ws = _warnings(warnings_path) if warnings_path is not None else []
+        evs = read_events(events_path)
+        ws = read_warnings(warnings_path) if warnings_path is not None else []
         results.append(evaluate_explanations(gt, s.tracks, evs, ws, name=name))
     label = benchmark + (f"/{','.join(classes)}" if classes else "")
     print(explanation_table({label: results}), end="")

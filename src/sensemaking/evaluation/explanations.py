@@ -20,18 +20,21 @@ tracker output as visible (the ``track`` results file without ``--write-hidden``
 from __future__ import annotations
 
 import bisect
+import json
 import logging
 import math
 from collections import Counter, defaultdict
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from functools import partial
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from sensemaking.classes import CLASS_IDS
 from sensemaking.detections import Detections
+from sensemaking.errors import InputError
 from sensemaking.evaluation._prepare import (
     EPS,
     conflict_frames,
@@ -39,7 +42,7 @@ from sensemaking.evaluation._prepare import (
     offsets,
     overlap_pairs,
 )
-from sensemaking.results import Event
+from sensemaking.results import EVENT_NAMES, Event
 
 __all__ = [
     "ExplanationConfig",
@@ -52,6 +55,9 @@ __all__ = [
     "load_ground_truth",
     "explanation_table",
     "late_start_events",
+    "judged_warnings",
+    "read_events",
+    "read_warnings",
     "EVENT_KINDS",
     "PLAUSIBLE",
     "IMPLAUSIBLE",
@@ -437,6 +443,9 @@ class ExplanationResult:
         ``enters_fov`` events dated before the first frame their track is output, and all of them.
         recall: per event kind, ``(explained, occasions)`` in the ground truth (see
         docs/EXPLANATIONS.md).
+        occlusions_said: the ``hides_behind`` recall occasions by what the tracker said at
+        them: ``hides_behind`` (the explained ones), ``leaves_fov``, ``missing_detections``,
+        ``ends`` or ``nothing``.
     """
 
     name: str
@@ -445,6 +454,7 @@ class ExplanationResult:
     late_starts: int = 0
     starts_total: int = 0
     recall: dict[str, tuple[int, int]] = field(default_factory=dict)
+    occlusions_said: dict[str, int] = field(default_factory=dict)
 
     @classmethod
     def combine(
@@ -459,6 +469,8 @@ class ExplanationResult:
             for k, (a, b) in r.recall.items():
                 x, y = out.recall.get(k, (0, 0))
                 out.recall[k] = (x + a, y + b)
+            for k, n in r.occlusions_said.items():
+                out.occlusions_said[k] = out.occlusions_said.get(k, 0) + n
         return out
 
     def summary(self) -> dict[str, Any]:
@@ -477,6 +489,10 @@ class ExplanationResult:
                 row["implausible_at_border"] = sum(
                     v.verdict == IMPLAUSIBLE and v.border for v in vs
                 )
+                if kind in self.recall:
+                    row["occlusions_said"] = {
+                        k: self.occlusions_said.get(k, 0) for k in _SAID_KINDS
+                    }
                 ident = Counter(v.identity for v in vs)
                 row["identity"] = {
                     k: ident.get(k, 0) for k in ("kept", "switched", "unknown", "not_resumed")
@@ -546,6 +562,8 @@ class _Judge:
             self.box[(tid, f)] = tracks.xyxy[i]
         for fs in self.visible.values():
             fs.sort()
+        #: hides_behind recall occasions by what the tracker said at them (see :meth:`recall`)
+        self.hide_said: Counter[str] = Counter()
 
     # track helpers
     def last_visible(self, t: int | None, f: int, inclusive: bool = False) -> int | None:
@@ -842,7 +860,9 @@ class _Judge:
         """Occasions in the ground truth where an event of a kind was due, and how many got one.
 
         hides_behind: a matched track's object is occluded (per the ground truth, labelled, not
-        at the border) at the first frame the track is not output. enters_fov / leaves_fov: a
+        at the border) at the first frame the track is not output; what the tracker said there
+        instead (``leaves_fov``, ``missing_detections``, ``ends`` or ``nothing``) is counted in
+        ``self.hide_said``. enters_fov / leaves_fov: a
         labelled track that begins / ends at the border (not at the sequence's first / last
         frame) and is matched by a track within the window of that frame."""
         names: dict[str, set[tuple[int | str, int]]] = defaultdict(set)
@@ -853,6 +873,7 @@ class _Judge:
                 by_track[e.args[0]].add(e.name)
         tr = self.t
         hide_hit = hide_all = 0
+        self.hide_said.clear()
         for t, fs in self.visible.items():
             for a, b in zip(fs, fs[1:] + [None], strict=True):
                 f = a + 1
@@ -863,7 +884,9 @@ class _Judge:
                 if i is None or tr.at_border[i] or not tr.occluded(i):
                     continue
                 hide_all += 1
-                hide_hit += (t, f) in names["hides_behind"]
+                said = next((n for n in _SAID_INSTEAD if (t, f) in names[n]), "nothing")
+                self.hide_said[said] += 1
+                hide_hit += said == "hides_behind"
         last = self.gt.first_frame + self.gt.n_frames - 1
         tracks_of: dict[int, list[tuple[int, int]]] = defaultdict(list)
         for (t, f), g in self.match.items():
@@ -888,6 +911,11 @@ class _Judge:
         if tr.occl is not None or tr.vis is not None:
             out["hides_behind"] = (hide_hit, hide_all)
         return out
+
+
+#: what a track's first unseen frame may be explained as, in the order the recall reads them
+_SAID_INSTEAD = ("hides_behind", "leaves_fov", "missing_detections", "ends")
+_SAID_KINDS = (*_SAID_INSTEAD, "nothing")
 
 
 def _prediction(frame: Any, position: Any) -> tuple[int, float, float] | None:
@@ -928,6 +956,84 @@ def late_start_events(tracks: Detections, events: Iterable[Event]) -> tuple[int,
             t = _track(e)
             late += t is None or e.frame < first.get(t, e.frame + 1)
     return late, total
+
+
+def judged_warnings(records: Iterable[Mapping[str, Any]]) -> list[Mapping[str, Any]]:
+    """The warning records the evaluator judges, in the order given: one per warning issued
+    (``Warning.to_json()``, a line of ``track --warnings``); a record without objects (a notice
+    that a situation was not checked) is no warning, nor is the end record of an episode. The one
+    place that reads the records' layout besides the judge's ``details`` lookups."""
+    # an end record closes an episode: the warning is judged at its start record
+    return [w for w in records if w.get("objects") and w.get("record") != "end"]
+
+
+def _json_lines(path: Path) -> list[dict[str, Any]]:
+    """Records of a JSON-lines file, each with its line number as ``_line``; a bad line is an
+    :class:`~sensemaking.errors.InputError` naming it."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InputError("no such file", path) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read: {exc}", path) from None
+    out = []
+    for lineno, line in enumerate(text.splitlines(), start=1):
+        if not line.strip():
+            continue
+        try:
+            record = json.loads(line)
+        except json.JSONDecodeError as exc:
+            raise InputError(f"not JSON: {exc.msg}", path, lineno) from None
+        if not isinstance(record, dict):
+            raise InputError("expected a JSON object per line", path, lineno)
+        out.append({**record, "_line": lineno})
+    return out
+
+
+def read_events(path: str | Path) -> list[Event]:
+    """The event log of ``track --events`` (JSON lines ``{"frame", "event", "args"}``).
+    Raises :class:`~sensemaking.errors.InputError` naming the file and line."""
+    path = Path(path)
+    out = []
+    for r in _json_lines(path):
+        try:
+            ev = Event.from_json(r)
+        except (KeyError, TypeError, ValueError):
+            raise InputError(
+                'expected {"frame": int, "event": name, "args": [track ids]}', path, r["_line"]
+            ) from None
+        if ev.name in EVENT_NAMES and len(ev.args) != EVENT_NAMES[ev.name]:
+            raise InputError(
+                f"{ev.name} takes {EVENT_NAMES[ev.name]} argument(s), got {len(ev.args)}",
+                path,
+                r["_line"],
+            )
+        out.append(ev)
+    return out
+
+
+def read_warnings(path: str | Path) -> list[dict[str, Any]]:
+    """The warning records of ``track --warnings`` (JSON lines ``{"frame", "situation",
+    "objects", "details"}``). Raises :class:`~sensemaking.errors.InputError`."""
+    path = Path(path)
+    out = []
+    for r in _json_lines(path):
+        objs = r.get("objects")
+        ok = (
+            isinstance(r.get("frame"), int)
+            and isinstance(objs, list)
+            and all(isinstance(o, int) for o in objs)
+            and isinstance(r.get("details", {}), dict)
+        )
+        if not ok:
+            raise InputError(
+                'expected {"frame": int, "situation": name, "objects": [track ids], '
+                '"details": {...}}',
+                path,
+                r["_line"],
+            )
+        out.append(r)
+    return out
 
 
 def load_ground_truth(
@@ -1000,9 +1106,7 @@ def evaluate_explanations(
             out.events.append(judge.ends(e))
         elif e.name == "missing_detections":
             out.events.append(judge.missing(e))
-    for w in warnings:
-        if not w.get("objects"):
-            continue  # a note (situation not checked), not a warning
+    for w in judged_warnings(warnings):
         if w.get("situation") == "HIDDEN_ENTITY":
             out.warnings.append(judge.hidden_entity(w))
         elif w.get("situation") == "SUDDEN_STOP":
@@ -1017,6 +1121,8 @@ def evaluate_explanations(
         len(out.warnings),
     )
     out.recall = judge.recall(events)
+    if "hides_behind" in out.recall:
+        out.occlusions_said = dict(judge.hide_said)
     return out
 
 
@@ -1026,11 +1132,12 @@ def _pct(x: float | None) -> str:
 
 
 def explanation_table(
-    results: Mapping[str, Sequence[ExplanationResult] | ExplanationResult],
+    results: Mapping[str, Sequence[ExplanationResult] | ExplanationResult | Mapping[str, Any]],
 ) -> str:
     """The explanation-quality table (markdown), one block of rows per benchmark.
 
-    ``results``: benchmark name -> its sequences' results (or one combined result). Columns per
+    ``results``: benchmark name -> its sequences' results, one combined result, or the
+    :meth:`ExplanationResult.summary` of one (what the benchmark report keeps). Columns per
     event kind: counts plausible / implausible / undecidable, precision (plausible of the
     decidable, %), plausible of all (%), recall (%) where defined, and the notes of
     docs/EXPLANATIONS.md (border, self, identity kept; HIDDEN_ENTITY on target)."""
@@ -1040,8 +1147,7 @@ def explanation_table(
         "|---|---|---:|---:|---:|---:|---:|---:|---:|---|",
     ]
     for bench, res in results.items():
-        r = res if isinstance(res, ExplanationResult) else ExplanationResult.combine(res)
-        s = r.summary()
+        s = _summary_of(res)
         for kind in EVENT_KINDS:
             row = s["events"][kind]
             if not row["total"]:
@@ -1059,6 +1165,10 @@ def explanation_table(
             recall = "-"
             if "recall_occasions" in row:
                 recall = f"{_pct(row['recall'])} of {row['recall_occasions']}"
+            said = row.get("occlusions_said")
+            if said and row["recall_occasions"]:
+                other = [f"{k} {n}" for k, n in said.items() if n and k != "hides_behind"]
+                notes.append("occluded when lost, said instead: " + (", ".join(other) or "-"))
             lines.append(_row(bench, kind, row, recall, "; ".join(notes)))
         for kind in WARNING_KINDS:
             row = s["warnings"][kind]
@@ -1084,7 +1194,17 @@ def explanation_table(
     return "\n".join(lines) + "\n"
 
 
-def _row(bench: str, kind: str, row: dict[str, Any], recall: str, notes: str) -> str:
+def _summary_of(
+    res: Sequence[ExplanationResult] | ExplanationResult | Mapping[str, Any],
+) -> Mapping[str, Any]:
+    if isinstance(res, ExplanationResult):
+        return res.summary()
+    if isinstance(res, Mapping):
+        return res
+    return ExplanationResult.combine(res).summary()
+
+
+def _row(bench: str, kind: str, row: Mapping[str, Any], recall: str, notes: str) -> str:
     cells = [
         bench,
         kind,
@@ -1100,7 +1220,7 @@ def _row(bench: str, kind: str, row: dict[str, Any], recall: str, notes: str) ->
     return "| " + " | ".join(str(c) for c in cells) + " |"
 
 
-def _implausible_reasons(row: dict[str, Any]) -> list[str]:
+def _implausible_reasons(row: Mapping[str, Any]) -> list[str]:
     """``"reason count"`` of the implausible verdicts of a summary row, most frequent first."""
     found = [
         (n, k.split(":", 1)[1]) for k, n in row["reasons"].items() if k.startswith(IMPLAUSIBLE)
