@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 from pathlib import Path
 
 import numpy as np
@@ -170,6 +171,9 @@ def test_reports_show_the_crossval_headline(tmp_path: Path) -> None:
     assert console.index("cross-validated") < console.index("## Overview")
     data = report.summary_json(summary)
     assert data["crossval"][0]["choice"] == {"KITTI-0000": 1, "KITTI-0001": 3}
+    assert data["crossval"][0]["calibrate_verdict"]["as_good"] is False
+    again = crossval.FamilyCV.from_json(json.loads(json.dumps(data["crossval"][0])))
+    assert again.to_json() == cv.to_json()
 
 
 def _verdict_cv(grid_folds: list[float], cal_folds: list[float], means: tuple[float, float]):

@@ -35,6 +35,7 @@ on every video. :func:`calibrate_verdict` says whether calibrate is as good as t
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import re
@@ -275,6 +276,12 @@ class FamilyCV:
     def choice_counts(self) -> list[tuple[int, int]]:
         """(grid point, folds that chose it), most frequent first."""
         return Counter(self.choice.values()).most_common()
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> FamilyCV:
+        """The inverse of :meth:`to_json` (derived entries such as the verdict dropped)."""
+        names = {f.name for f in dataclasses.fields(cls)}
+        return cls(**{k: v for k, v in data.items() if k in names})
 
     def to_json(self) -> dict[str, Any]:
         return {
