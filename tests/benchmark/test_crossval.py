@@ -65,12 +65,19 @@ def test_a_fold_never_sees_its_own_video(tmp_path: Path) -> None:
         for s in bench.sequences
     ]
     cv2 = crossval.cross_validate(
-        [dataclasses.replace(bench, sequences=wrecked)], tmp_path / "b", grid=grid, groups=False
+        [dataclasses.replace(bench, sequences=wrecked)],
+        tmp_path / "b",
+        grid=grid,
+        groups=False,
+        per_detector=False,
     )
     # rule calibrate: a fold's estimates never see its video, the other folds' do
     assert cv2.calibrated["KITTI-0002"] == cv.calibrated["KITTI-0002"]
     assert cv2.calibrated_all != cv.calibrated_all
     assert set(cv.calibrated) == set(cv.folds) and not cv2.calibrate_groups
+    # one benchmark: per detector is the family's estimate, fold by fold
+    assert cv.calibrated_own[bench.name] == cv.calibrated and not cv2.calibrated_own
+    assert cv.calibrate_own_heldout[bench.name]["HOTA"] == cv.calibrate_heldout[bench.name]["HOTA"]
     assert set(cv.calibrate_groups) == set(crossval.CALIBRATE_GROUPS)
     assert cv2.per_sequence[bench.name]["0002"]["calibrate_cv"] == 0.0
     for fold in cv.folds:  # the held-out video's HOTA, as the per-sequence numbers give it

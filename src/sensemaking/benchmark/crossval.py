@@ -233,6 +233,9 @@ class FamilyCV:
             (mean over its sequences).
         calibrate_groups: group of :data:`CALIBRATE_GROUPS` -> benchmark -> combined metrics,
             cross-validated, with only that group's estimates (the rest at the preset).
+        calibrated_own, calibrate_own_heldout: calibrate *per detector*: benchmark -> fold ->
+            the values estimated on the same benchmark's other videos (a benchmark of one
+            video takes the family's), and benchmark -> combined metrics, cross-validated.
         seconds: wall time of the whole cross-validation.
     """
 
@@ -262,6 +265,8 @@ class FamilyCV:
     calibrate_insample: dict[str, dict[str, float]] = field(default_factory=dict)
     fold_hota: dict[str, dict[str, float]] = field(default_factory=dict)
     calibrate_groups: dict[str, dict[str, dict[str, float]]] = field(default_factory=dict)
+    calibrated_own: dict[str, dict[str, dict[str, Any]]] = field(default_factory=dict)
+    calibrate_own_heldout: dict[str, dict[str, float]] = field(default_factory=dict)
     seconds: float = 0.0
 
     def gap(self, bench: str) -> float:
@@ -311,6 +316,8 @@ class FamilyCV:
             "calibrate_insample": self.calibrate_insample,
             "fold_hota": self.fold_hota,
             "calibrate_groups": self.calibrate_groups,
+            "calibrated_own": self.calibrated_own,
+            "calibrate_own_heldout": self.calibrate_own_heldout,
             "calibrate_verdict": calibrate_verdict(self) if self.calibrate_heldout else None,
             "seconds": self.seconds,
         }
@@ -393,13 +400,15 @@ def cross_validate(
     grid: Mapping[str, SequenceABC[Any]] | None = None,
     progress: Progress | None = None,
     groups: bool = True,
+    per_detector: bool = True,
 ) -> FamilyCV:
     """Leave-one-video-out cross-validation over ``grid`` on the benchmarks of one family.
 
     Result files go to ``output_dir/crossval/<benchmark>/p<point>/<sequence>.txt`` and, scored
     with their fold's choice, ``output_dir/crossval/<benchmark>/heldout/<sequence>.txt``; rule
-    ``calibrate``'s to ``calibrate/`` (cross-validated), ``calibrate-all/`` (in-sample) and, with
-    ``groups``, ``calibrate-<group>/`` (one group of estimates at a time, cross-validated).
+    ``calibrate``'s to ``calibrate/`` (cross-validated), ``calibrate-all/`` (in-sample), with
+    ``per_detector`` to ``calibrate-own/`` (each benchmark calibrated on its own other videos)
+    and with ``groups`` to ``calibrate-<group>/`` (one group of estimates at a time).
     """
     from sensemaking.benchmark.peers import OursAdapter
     from sensemaking.benchmark.runner import (
@@ -520,6 +529,7 @@ def cross_validate(
     cv.recommended = max(counts, key=lambda i: (counts[i], cv.objective_all[i]))
     # rule calibrate: estimated on the other videos, every benchmark of the family pooled
     from sensemaking.calibrate import calibrate
+    from sensemaking.errors import InputError
 
     annotated = {
         (b.spec.name, s.name): calibration_sequence(b.spec, s, gts[b.spec.name][s.name])
@@ -548,6 +558,30 @@ def cross_validate(
             )
             for s in b.sequences
         }
+    # calibrate per detector: the same benchmark's other videos only, as a user calibrates their
+    # own detector (a benchmark of one video, or without the class elsewhere: the family's)
+    for b in benches if per_detector else ():
+        name = b.spec.name
+        cv.calibrated_own[name] = {}
+        results = []
+        for s in b.sequences:
+            fold = fold_of[(name, s.name)]
+            own = [
+                annotated[(name, o.name)] for o in b.sequences if fold_of[(name, o.name)] != fold
+            ]
+            try:
+                params = calibrate(own).params if own else cv.calibrated[fold]
+            except InputError:
+                params = cv.calibrated[fold]
+            cv.calibrated_own[name][fold] = params
+            results.append(
+                track_and_score(b, s, params, root / name / "calibrate-own" / f"{s.name}.txt")
+            )
+        cv.calibrate_own_heldout[name] = _combine(results)
+        say(
+            f"[crossval {family}] {name}, calibrate per detector: cross-validated HOTA "
+            f"{100 * cv.calibrate_own_heldout[name]['HOTA']:.2f}"
+        )
     for group, keys in CALIBRATE_GROUPS.items() if groups else ():
         folder = "calibrate-" + group.replace(" ", "-")
         cv.calibrate_groups[group] = {}
