@@ -905,12 +905,12 @@ def _parameters_origins() -> list[str]:
     for key in settings.PARAMETERS:
         values = " | ".join(_value(presets[f].get(key, defaults.get(key))) for f in presets)
         origin = crossval.parameter_origin(key)
-        if key in grid_keys and key in crossval.calibrate_keys():
-            origin = "cross-validated (grid); also estimated by calibrate. " + origin
-        elif key in grid_keys:
-            origin = "cross-validated (grid). " + origin
-        elif key in crossval.calibrate_keys():
-            origin = "estimated by calibrate (not used by the presets). " + origin
+        if key in grid_keys:
+            origin = "cross-validated (the grid below)" + (
+                "; calibrate estimates it too (rule *calibrate* below)."
+                if key in crossval.calibrate_keys()
+                else "."
+            )
         out.append(f"| `{key}` | {values} | {origin.strip()} |")
     out.append("")
     return out
