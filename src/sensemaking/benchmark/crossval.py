@@ -30,7 +30,9 @@ on every *other* video of the family, all its benchmarks *pooled* (every detecto
 shares the preset: one list of annotated sequences, so a detection counts once wherever it comes
 from and the family's thresholds are where the pooled P(true | score) crosses), and the held-out
 video is tracked with the preset changed by the estimated values. Its in-sample twin calibrates
-on every video. :func:`calibrate_verdict` says whether calibrate is as good as the grid.
+on every video. :func:`calibrate_verdict` says whether calibrate is as good as the grid. Beside
+it, for diagnosis: calibrate *per detector* (each benchmark on its own other videos, as a user
+calibrates their own detector) and each group of estimates alone (:data:`CALIBRATE_GROUPS`).
 """
 
 from __future__ import annotations
