@@ -52,7 +52,7 @@ def _bench(names: list[str]) -> datasets.Benchmark:
 def test_a_fold_never_sees_its_own_video(tmp_path: Path) -> None:
     grid = {"start_confidence": (0.5, 0.8), "min_hits": (1, 3)}
     bench = _bench(["0000", "0002", "0004"])
-    cv = crossval.cross_validate([bench], tmp_path / "a", grid=grid)
+    cv = crossval.cross_validate([bench], tmp_path / "a", grid=grid, groups=True)
     assert cv.folds == ["KITTI-0000", "KITTI-0002", "KITTI-0004"] and len(cv.points) == 4
     for fold in cv.folds:
         assert cv.mean_choice[fold] == int(np.argmax(cv.fold_objective[fold]))

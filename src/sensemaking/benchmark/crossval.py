@@ -401,7 +401,7 @@ def cross_validate(
     output_dir: Path,
     grid: Mapping[str, SequenceABC[Any]] | None = None,
     progress: Progress | None = None,
-    groups: bool = True,
+    groups: bool = False,
     per_detector: bool = True,
 ) -> FamilyCV:
     """Leave-one-video-out cross-validation over ``grid`` on the benchmarks of one family.
@@ -410,7 +410,8 @@ def cross_validate(
     with their fold's choice, ``output_dir/crossval/<benchmark>/heldout/<sequence>.txt``; rule
     ``calibrate``'s to ``calibrate/`` (cross-validated), ``calibrate-all/`` (in-sample), with
     ``per_detector`` to ``calibrate-own/`` (each benchmark calibrated on its own other videos)
-    and with ``groups`` to ``calibrate-<group>/`` (one group of estimates at a time).
+    and with ``groups`` to ``calibrate-<group>/`` (one group of estimates at a time: four more
+    passes, off by default to keep the benchmark run short; docs/DESIGN-NOTES.md has a run).
     """
     from sensemaking.benchmark.peers import OursAdapter
     from sensemaking.benchmark.runner import (
