@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -111,7 +112,9 @@ def test_bad_input_is_an_error() -> None:
         calibrate([CalibrationSequence("x", seq.gt, shifted, 0, 30, 10.0, SIZE)])
 
 
-needs_data = pytest.mark.skipif(not (SHARED_DATA / "kitti").is_dir(), reason="needs ../shared/data")
+needs_data = pytest.mark.skipif(
+    not (SHARED_DATA / "kitti").is_dir(), reason="needs ../shared/data"
+)
 
 
 @pytest.mark.integration
@@ -259,8 +262,112 @@ def test_cli_errors_are_one_line(tmp_path: Path, capsys, make_args, message: str
 
 def test_a_video_without_the_class_still_counts_its_false_detections() -> None:
     seq = _scene()
-    empty = CalibrationSequence("no-objects", seq.gt[:0], seq.detections[seq.detections.confidence < 0.5],
-                                0, 30, 10.0, SIZE)
+    empty = CalibrationSequence(
+        "no-objects",
+        seq.gt[:0],
+        seq.detections[seq.detections.confidence < 0.5],
+        0,
+        30,
+        10.0,
+        SIZE,
+    )
     both = calibrate([seq, empty])
     assert both.stats["false"] == 2 * calibrate([seq]).stats["false"]
     assert both.stats["true"] == calibrate([seq]).stats["true"]
+
+
+def _shared_sequences() -> list[tuple[str, list[str]]]:
+    """(id, calibrate arguments) of every sequence of ../shared/data with ground truth, per
+    benchmark: the files as the benchmark runner finds them."""
+    if not SHARED_DATA.is_dir():
+        return []
+    from sensemaking.benchmark import datasets
+
+    out = []
+    for spec, sources in datasets.discover(SHARED_DATA).found:
+        for src in sources:
+            args = ["--gt", str(src.gt_path), "--detections", str(src.det_path)]
+            if spec.output_format == "kitti":
+                args += ["--format", "kitti", "--class", str(spec.class_name)]
+                args += ["--seqinfo", str(src.seqinfo_path)]
+            else:
+                args += ["--format", "mot"]
+            out.append((f"{spec.name}/{src.name}", args))
+    return out
+
+
+SHARED_SEQUENCES = _shared_sequences()
+
+
+@pytest.mark.integration
+@pytest.mark.slow
+@pytest.mark.skipif(not SHARED_SEQUENCES, reason="needs ../shared/data")
+def test_calibrate_works_on_every_shared_sequence(tmp_path: Path, capsys) -> None:
+    """Every sequence with ground truth of the class gives a valid parameter file; one without
+    (a KITTI video with no pedestrian) gives the one-line error, and no file."""
+    from sensemaking.io.kitti import read_kitti_labels
+
+    benchmarks = {name.split("/")[0] for name, _ in SHARED_SEQUENCES}
+    assert len(benchmarks) == 7, benchmarks  # KITTI RRC / PointRCNN x car / pedestrian, MOT
+    written = 0
+    for k, (name, args) in enumerate(SHARED_SEQUENCES):
+        out = tmp_path / f"{k}.json"
+        code = main(["-q", "calibrate", *args, "--output", str(out)])
+        gt = Path(args[1])
+        has_class = True
+        if "--class" in args:
+            labels = read_kitti_labels(gt)
+            cls = args[args.index("--class") + 1]
+            from sensemaking.classes import class_id
+
+            has_class = bool(np.any((labels.class_id == class_id(cls)) & (labels.tracker_id >= 0)))
+        err = capsys.readouterr().err
+        if has_class:
+            assert code == 0, (name, err)
+            values = settings.load_params(out)
+            assert {"start_confidence", "min_confidence", "min_hits"} <= set(values), name
+            assert values["min_confidence"] <= values["start_confidence"], name
+            written += 1
+        else:
+            assert code == 2 and "no ground truth of class" in err and err.count("\n") == 1
+            assert not out.exists()
+    assert written >= len(SHARED_SEQUENCES) - 10
+
+
+@pytest.mark.integration
+@pytest.mark.slow
+@pytest.mark.skipif(not SHARED_SEQUENCES, reason="needs ../shared/data")
+def test_each_benchmark_round_trips_through_track_params(tmp_path: Path, capsys) -> None:
+    """One sequence of each benchmark: calibrate, then `track --params` with the file; the
+    tracker's configuration holds the estimated values; the file with a value in the wrong
+    unit is refused in one line."""
+    seen: set[str] = set()
+    for name, args in SHARED_SEQUENCES:
+        bench = name.split("/")[0]
+        if bench in seen:
+            continue
+        params = tmp_path / f"{bench}.json"
+        if main(["-q", "calibrate", *args, "--output", str(params)]) != 0:
+            continue  # a KITTI video without the class: the next one (the test above)
+        seen.add(bench)
+        values = settings.load_params(params)
+        config = settings.load_config(params)
+        for key, value in values.items():
+            assert settings.params_of(config)[key] == value, (name, key)
+        det_args = args[args.index("--detections") : args.index("--detections") + 2]
+        fmt = args[args.index("--format") : args.index("--format") + 2]
+        cls = args[args.index("--class") : args.index("--class") + 2] if "--class" in args else []
+        out = tmp_path / f"{bench}.txt"
+        track = ["-q", "track", *det_args, *fmt, *cls, "--params", str(params)]
+        assert main([*track, "--output", str(out)]) == 0, name
+        assert out.stat().st_size > 0
+        # the same file with a count that is not a whole number: one line, exit 2
+        doc = json.loads(params.read_text())
+        doc["params"]["min_hits"] = 2.5
+        bad = tmp_path / f"{bench}-bad.json"
+        bad.write_text(json.dumps(doc))
+        capsys.readouterr()
+        assert main([*track, "--params", str(bad), "--output", str(tmp_path / "x.txt")]) == 2
+        err = capsys.readouterr().err
+        assert "min_hits must be an integer" in err and err.count("\n") == 1, err
+    assert len(seen) == 7

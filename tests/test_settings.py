@@ -21,7 +21,7 @@ REPO = Path(__file__).resolve().parents[1]
 
 def test_presets_are_data_and_match_the_family_names() -> None:
     kitti = TrackerConfig.for_dataset("kitti")
-    assert (kitti.min_hits, kitti.start_confidence, kitti.costs.resumes) == (3, 0.8, 200)
+    assert (kitti.min_hits, kitti.start_confidence, kitti.costs.resumes) == (3, 0.7, 200)
     assert kitti.kalman.velocity_std == 0.1 and kitti.image_size == (1242, 375)
     mot = TrackerConfig.for_dataset("motchallenge")
     assert mot == TrackerConfig.for_dataset("mot") == TrackerConfig.for_dataset("MOT17")
@@ -125,7 +125,7 @@ def test_layers_preset_file_facts_then_set(tmp_path: Path) -> None:
     config = settings.load_config(
         path, "kitti", {"fps": 25.0}, ["costs.resumes=150", "min_hits=4"]
     )
-    assert config.start_confidence == 0.8  # from the kitti preset
+    assert config.start_confidence == 0.7  # from the kitti preset
     assert config.costs.appears == 300 and config.kalman.velocity_std == 0.05  # from the file
     assert config.fps == 25.0  # a fact of the input
     assert config.costs.resumes == 150 and config.min_hits == 4  # --set last
@@ -140,7 +140,7 @@ def test_toml_files_are_read(tmp_path: Path) -> None:
     path = tmp_path / "p.toml"
     path.write_text('base = "kitti"\n[params]\nmin_hits = 2\n[params.costs]\nresumes = 120\n')
     config = settings.load_config(path)
-    assert (config.min_hits, config.costs.resumes, config.start_confidence) == (2, 120, 0.8)
+    assert (config.min_hits, config.costs.resumes, config.start_confidence) == (2, 120, 0.7)
 
 
 @pytest.mark.parametrize(

@@ -39,7 +39,14 @@ from sensemaking.detections import Detections
 from sensemaking.errors import InputError
 from sensemaking.geometry import box_area, intersection, iou
 
-__all__ = ["CalibrationSequence", "Calibration", "calibrate", "UNITS_PER_NAT"]
+__all__ = [
+    "CalibrationSequence",
+    "Calibration",
+    "ESTIMATED",
+    "annotated_sequence",
+    "calibrate",
+    "UNITS_PER_NAT",
+]
 
 log = logging.getLogger(__name__)
 
@@ -48,6 +55,19 @@ UNITS_PER_NAT = 100.0
 _MATCH_IOU = 0.5
 _BINS = 20
 _COST_RANGE = (0, 2000)
+#: every parameter :func:`calibrate` can estimate (a key is left out of its result when the data
+#: hold no evidence for it: no gap, no object beginning or ending inside the sequence)
+ESTIMATED: tuple[str, ...] = (
+    "start_confidence",
+    "min_confidence",
+    "confirm_confidence",
+    "min_hits",
+    "max_missing_s",
+    "costs.enters",
+    "costs.appears",
+    "costs.leaves",
+    "costs.lost",
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -66,6 +86,35 @@ class CalibrationSequence:
     fps: float
     image_size: tuple[int, int] | None = None
     ignore: Detections | None = None
+
+
+def annotated_sequence(
+    name: str,
+    gt: Detections,
+    detections: Detections,
+    class_id: int,
+    first_frame: int,
+    n_frames: int,
+    fps: float,
+    image_size: tuple[int, int] | None = None,
+) -> CalibrationSequence:
+    """A :class:`CalibrationSequence` from a whole ground-truth file as read (every class; MOT's
+    ``consider`` flag in ``gt.data``): rows of ``class_id`` with an object id (and considered)
+    are the ground truth, every other annotated box is ``ignore``."""
+    assert gt.class_id is not None and gt.tracker_id is not None  # set by __post_init__
+    target = (gt.class_id == class_id) & (gt.tracker_id >= 0)
+    if "consider" in gt.data and len(gt):
+        target &= np.asarray(gt.data["consider"]) != 0
+    return CalibrationSequence(
+        name=name,
+        gt=gt[target],
+        detections=detections,
+        first_frame=first_frame,
+        n_frames=n_frames,
+        fps=float(fps),
+        image_size=image_size,
+        ignore=gt[~target],
+    )
 
 
 @dataclass

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 from pathlib import Path
 
 import numpy as np
@@ -12,7 +13,6 @@ from sensemaking.benchmark import crossval, datasets
 from sensemaking.detections import Detections
 
 from conftest import SHARED_DATA
-
 
 
 def test_folds_are_videos() -> None:
@@ -52,7 +52,7 @@ def _bench(names: list[str]) -> datasets.Benchmark:
 def test_a_fold_never_sees_its_own_video(tmp_path: Path) -> None:
     grid = {"start_confidence": (0.5, 0.8), "min_hits": (1, 3)}
     bench = _bench(["0000", "0002", "0004"])
-    cv = crossval.cross_validate([bench], tmp_path / "a", grid=grid)
+    cv = crossval.cross_validate([bench], tmp_path / "a", grid=grid, groups=True)
     assert cv.folds == ["KITTI-0000", "KITTI-0002", "KITTI-0004"] and len(cv.points) == 4
     for fold in cv.folds:
         assert cv.mean_choice[fold] == int(np.argmax(cv.fold_objective[fold]))
@@ -65,8 +65,27 @@ def test_a_fold_never_sees_its_own_video(tmp_path: Path) -> None:
         for s in bench.sequences
     ]
     cv2 = crossval.cross_validate(
-        [dataclasses.replace(bench, sequences=wrecked)], tmp_path / "b", grid=grid
+        [dataclasses.replace(bench, sequences=wrecked)],
+        tmp_path / "b",
+        grid=grid,
+        groups=False,
+        per_detector=False,
     )
+    # rule calibrate: a fold's estimates never see its video, the other folds' do
+    assert cv2.calibrated["KITTI-0002"] == cv.calibrated["KITTI-0002"]
+    assert cv2.calibrated_all != cv.calibrated_all
+    assert set(cv.calibrated) == set(cv.folds) and not cv2.calibrate_groups
+    # one benchmark: per detector is the family's estimate, fold by fold
+    assert cv.calibrated_own[bench.name] == cv.calibrated and not cv2.calibrated_own
+    assert cv.calibrate_own_heldout[bench.name]["HOTA"] == cv.calibrate_heldout[bench.name]["HOTA"]
+    assert set(cv.calibrate_groups) == set(crossval.CALIBRATE_GROUPS)
+    assert cv2.per_sequence[bench.name]["0002"]["calibrate_cv"] == 0.0
+    for fold in cv.folds:  # the held-out video's HOTA, as the per-sequence numbers give it
+        (seq,) = [k for k, v in cv.per_sequence[bench.name].items() if v["fold"] == fold]
+        assert cv.fold_hota["calibrate"][fold] == cv.per_sequence[bench.name][seq]["calibrate_cv"]
+        assert cv.fold_hota["minimax"][fold] == cv.per_sequence[bench.name][seq]["cv"]
+    assert 0.2 < cv.calibrate_heldout[bench.name]["HOTA"] < 1.0
+    assert (tmp_path / "a" / "crossval" / bench.name / "calibrate" / "0004.txt").is_file()
     assert cv2.fold_objective["KITTI-0002"] == cv.fold_objective["KITTI-0002"]
     assert cv2.fold_regret["KITTI-0002"] == cv.fold_regret["KITTI-0002"]
     assert cv2.choice["KITTI-0002"] == cv.choice["KITTI-0002"]
@@ -114,6 +133,14 @@ def test_reports_show_the_crossval_headline(tmp_path: Path) -> None:
     cv.mean_heldout["kitti-rrc-car"] = {**m, "HOTA": 0.67}
     cv.insample["kitti-rrc-car"] = m
     cv.preset_metrics["kitti-rrc-car"] = {**m, "HOTA": 0.69}
+    cv.calibrate_heldout["kitti-rrc-car"] = {**m, "HOTA": 0.655}
+    cv.calibrate_insample["kitti-rrc-car"] = {**m, "HOTA": 0.665}
+    cv.calibrate_groups = {g: {"kitti-rrc-car": {**m, "HOTA": 0.6}} for g in ("thresholds",)}
+    cv.calibrated_all = {"start_confidence": 0.75, "min_hits": 4}
+    cv.fold_hota = {
+        "minimax": {"KITTI-0000": 0.7, "KITTI-0001": 0.6},
+        "calibrate": {"KITTI-0000": 0.69, "KITTI-0001": 0.62},
+    }
     cv.per_sequence["kitti-rrc-car"] = {
         "0000": {"fold": "KITTI-0000", "choice": 1, "cv": 0.7, "in_sample": 0.7},
         "0001": {"fold": "KITTI-0001", "choice": 3, "cv": 0.6, "in_sample": 0.65},
@@ -136,7 +163,65 @@ def test_reports_show_the_crossval_headline(tmp_path: Path) -> None:
     params = report.render_parameters(summary)
     assert "## Cross-validation" in params and "| KITTI-0001 | 0.8 | 3 | 0.0 |" in params
     assert "`costs.resumes`" in params and "## Presets" in params
+    # calibrate beside the grid: its verdict by the stated rule (65.5 vs 68.0: worse)
+    assert "| kitti-rrc-car | 68.0 / 80.0 / 75.0 / 4 | 65.5 / 80.0 / 75.0 / 4 |" in md
+    assert "not worse on 1 of 2 folds: **worse**" in params
+    assert "`start_confidence=0.75`, `min_hits=4`" in params
+    assert "KITTI-0001 60.0 → 62.0" in params and "only thresholds" in params
+    # where every value comes from: one row per parameter
+    origins = params[params.index("## Where each value comes from") :]
+    from sensemaking import settings
+
+    for key in settings.PARAMETERS:
+        assert f"| `{key}` |" in origins, key
     console = report.console_summary(summary)
     assert console.index("cross-validated") < console.index("## Overview")
     data = report.summary_json(summary)
     assert data["crossval"][0]["choice"] == {"KITTI-0000": 1, "KITTI-0001": 3}
+    assert data["crossval"][0]["calibrate_verdict"]["as_good"] is False
+    again = crossval.FamilyCV.from_json(json.loads(json.dumps(data["crossval"][0])))
+    assert again.to_json() == cv.to_json()
+
+
+def _verdict_cv(grid_folds: list[float], cal_folds: list[float], means: tuple[float, float]):
+    folds = [f"V{k}" for k in range(len(grid_folds))]
+    cv = crossval.FamilyCV(
+        family="kitti", grid={}, points=[], benchmarks=["a", "b"], sequences={}, folds=folds
+    )
+    cv.heldout = {"a": {"HOTA": means[0]}, "b": {"HOTA": means[0]}}
+    cv.calibrate_heldout = {"a": {"HOTA": means[1] - 0.01}, "b": {"HOTA": means[1] + 0.01}}
+    cv.fold_hota = {
+        "minimax": dict(zip(folds, grid_folds, strict=True)),
+        "calibrate": dict(zip(folds, cal_folds, strict=True)),
+    }
+    return crossval.calibrate_verdict(cv)
+
+
+def test_calibrate_verdict_is_the_stated_rule() -> None:
+    # mean within 0.3 HOTA and not worse (by more than 0.1) on 2 of 3 folds: as good
+    v = _verdict_cv([0.5, 0.6, 0.7], [0.5005, 0.6, 0.69], (0.6, 0.598))
+    assert v["as_good"] and v["folds_not_worse"] == 2 and v["folds"] == 3
+    assert v["mean_calibrate"] == pytest.approx(0.598)
+    # the same folds, the mean 0.4 below: not as good
+    assert not _verdict_cv([0.5, 0.6, 0.7], [0.5, 0.6, 0.69], (0.6, 0.596))["as_good"]
+    # a better mean but worse on 2 of 3 folds: not as good (half is not most)
+    v = _verdict_cv([0.5, 0.6, 0.7], [0.49, 0.6, 0.69], (0.6, 0.7))
+    assert not v["as_good"] and v["folds_not_worse"] == 1
+    assert not _verdict_cv([0.5, 0.6], [0.5, 0.5], (0.6, 0.6))["as_good"]
+
+
+def test_every_parameter_has_an_origin() -> None:
+    """Each parameter that is neither on the grid nor estimated by calibrate says where its value
+    comes from (switches added later may fall back to the generic line)."""
+    from sensemaking import settings
+
+    assert set(crossval.ORIGINS) <= set(settings.PARAMETERS)
+    grid_keys = {k for g in crossval.GRID.values() for k in g}
+    for key, p in settings.PARAMETERS.items():
+        if key in grid_keys or p.kind == "bool":
+            continue
+        assert crossval.ORIGINS.get(key), key
+    assert set(crossval.calibrate_keys()) <= set(settings.PARAMETERS)
+    assert {k for g in crossval.CALIBRATE_GROUPS.values() for k in g} == set(
+        crossval.calibrate_keys()
+    )

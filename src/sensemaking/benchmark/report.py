@@ -872,13 +872,14 @@ def _crossval_section(summary: RunSummary) -> list[str]:
         "preset (`presets/<family>.json`). *Spread*: over the held-out sequences, the least and "
         "most of (cross-validated − in-sample) HOTA. The grid, the choice of every fold and the "
         "rule are in [`PARAMETERS.md`](PARAMETERS.md). ✓: the cross-validated HOTA is within "
-        f"{100 * CV_GAP:g} of the in-sample one (the issue's target). Peers: the best by HOTA "
+        f"{100 * CV_GAP:g} of the in-sample one (the issue's target). *Calibrated*: the preset "
+        "changed by `sensemaking calibrate`'s estimates from the other videos of the family "
+        "(every benchmark of it pooled), cross-validated the same way. Peers: the best by HOTA "
         "from the tables below (they have no tuned values).",
         "",
-        "| Benchmark | cross-validated | in-sample | preset | CV − in-sample HOTA | spread over "
-        "folds "
-        "| best peer |",
-        "|---|---:|---:|---:|---:|---:|---|",
+        "| Benchmark | cross-validated | calibrated, cross-validated | in-sample | preset "
+        "| CV − in-sample HOTA | spread over folds | best peer |",
+        "|---|---:|---:|---:|---:|---:|---:|---|",
     ]
     for cv in summary.crossval:
         for bench in cv.benchmarks:
@@ -886,7 +887,8 @@ def _crossval_section(summary: RunSummary) -> list[str]:
             gap = cv.gap(bench)
             verdict = "" if math.isnan(gap) else (" ✓" if gap >= -CV_GAP else " **✗**")
             out.append(
-                f"| {bench} | {_hmi(cv.heldout.get(bench))} | {_hmi(cv.insample.get(bench))} | "
+                f"| {bench} | {_hmi(cv.heldout.get(bench))} | "
+                f"{_hmi(cv.calibrate_heldout.get(bench))} | {_hmi(cv.insample.get(bench))} | "
                 f"{_hmi(cv.preset_metrics.get(bench))} | {_signed(gap)}{verdict} | "
                 f"{_signed(lo)} … {_signed(hi)} | {_best_peer(summary, bench)} |"
             )
@@ -997,8 +999,8 @@ def render_parameters(summary: RunSummary | None = None) -> str:
         "and `costs.enters` / `appears` / `leaves` / `lost` as −100 ln p of where objects begin "
         "and "
         "end (at the image border or not; add-one smoothed). Then `sensemaking track ... --params "
-        "mine.json`. The "
-        "presets below were not produced by it; its estimates are not cross-validated yet."
+        "mine.json`. "
+        "Its estimates are cross-validated beside the grid's choice (rule *calibrate* below)."
     )
     add("")
     add("## Presets")
@@ -1010,6 +1012,7 @@ def render_parameters(summary: RunSummary | None = None) -> str:
         add(f"- **`{family}`**: {values}.")
         add(f"  Source: {settings.preset_source(family)}")
     add("")
+    out.extend(_parameters_origins())
     if summary is not None and summary.crossval:
         out.extend(_parameters_crossval(summary))
     return "\n".join(out).rstrip() + "\n"
@@ -1023,6 +1026,41 @@ def _value(v: Any) -> str:
     if v is None:
         return "null"
     return str(v).lower() if isinstance(v, bool) else str(v)
+
+
+def _parameters_origins() -> list[str]:
+    """Where every parameter's value comes from: the input, cross-validation, calibrate, or a
+    fixed choice (:data:`~sensemaking.benchmark.crossval.ORIGINS`)."""
+    from sensemaking import settings
+    from sensemaking.benchmark import crossval
+
+    presets = {f: settings.preset_params(f) for f in settings.FAMILIES}
+    defaults = settings.params_of(settings._default_config())
+    out = [
+        "## Where each value comes from",
+        "",
+        "The presets' values and their origin. *Cross-validated*: on the grid below (leave one "
+        "video out). *Estimated*: what `sensemaking calibrate` estimates from annotated "
+        "sequences (a user's own file has these from their data). *Input*: a fact of the "
+        "sequence. Everything else is a fixed choice with the reason given; a value not in a "
+        "preset is the default.",
+        "",
+        "| parameter | " + " | ".join(f"`{f}`" for f in settings.FAMILIES) + " | origin |",
+        "|---|" + "---:|" * len(settings.FAMILIES) + "---|",
+    ]
+    grid_keys = {k for g in crossval.GRID.values() for k in g}
+    for key in settings.PARAMETERS:
+        values = " | ".join(_value(presets[f].get(key, defaults.get(key))) for f in presets)
+        origin = crossval.parameter_origin(key)
+        if key in grid_keys:
+            origin = "cross-validated (the grid below)" + (
+                "; calibrate estimates it too (rule *calibrate* below)."
+                if key in crossval.calibrate_keys()
+                else "."
+            )
+        out.append(f"| `{key}` | {values} | {origin.strip()} |")
+    out.append("")
+    return out
 
 
 def _parameters_crossval(summary: RunSummary) -> list[str]:
@@ -1085,6 +1123,7 @@ def _parameters_crossval(summary: RunSummary) -> list[str]:
                 + f" | {100 * regret:.1f} | {_point_text(cv.points[cv.mean_choice[fold]])} |"
             )
         out.append("")
+        out.extend(_calibrate_lines(cv))
         rec = cv.points[cv.recommended]
         counts = dict(cv.choice_counts())
         out.append(
@@ -1098,6 +1137,64 @@ def _parameters_crossval(summary: RunSummary) -> list[str]:
             + "."
         )
         out.append("")
+    return out
+
+
+def _calibrate_lines(cv: Any) -> list[str]:
+    """Rule ``calibrate`` of one family: numbers beside the grid's, its verdict, the estimates
+    one group at a time, and the values estimated on every video."""
+    from sensemaking.benchmark.crossval import (
+        CALIBRATE_FOLD_TOLERANCE,
+        CALIBRATE_MEAN_TOLERANCE,
+        calibrate_verdict,
+    )
+
+    if not cv.calibrate_heldout:
+        return []
+    verdict = calibrate_verdict(cv)
+    groups = list(cv.calibrate_groups)
+    out = [
+        f"Rule *calibrate*: for each fold `sensemaking calibrate` estimates its values on the "
+        f"other videos, every benchmark of the family pooled, and the held-out video is tracked "
+        f"with the preset changed by them. It counts as good as the grid when (stated before "
+        f"it was measured) its mean cross-validated HOTA over the family's benchmarks is at most "
+        f"{100 * CALIBRATE_MEAN_TOLERANCE:g} below the grid's and on more than half of the folds "
+        f"its held-out HOTA is at most {100 * CALIBRATE_FOLD_TOLERANCE:g} below the grid's. "
+        f"Here: {100 * verdict['mean_calibrate']:.2f} against {100 * verdict['mean_grid']:.2f}, "
+        f"not worse on {verdict['folds_not_worse']} of {verdict['folds']} folds: "
+        + ("**as good**." if verdict["as_good"] else "**worse**, the grid's choice stays.")
+        + " *Per detector*: estimated on the same benchmark's other videos only (as a user "
+        "calibrates their own detector; a benchmark of one video takes the family's), "
+        "cross-validated. *Only X*: cross-validated with only that group of estimates, the rest "
+        "at the preset.",
+        "",
+        "| benchmark | grid, cross-validated | calibrate, cross-validated "
+        "| calibrate, in-sample | calibrate per detector, cross-validated | "
+        + " | ".join(f"only {g}" for g in groups)
+        + " |",
+        "|---|" + "---:|" * (4 + len(groups)),
+    ]
+    for bench in cv.benchmarks:
+        out.append(
+            f"| {bench} | {_hmi(cv.heldout.get(bench))} | {_hmi(cv.calibrate_heldout.get(bench))} "
+            f"| {_hmi(cv.calibrate_insample.get(bench))} | "
+            f"{_hmi(cv.calibrate_own_heldout.get(bench))} | "
+            + " | ".join(_hmi(cv.calibrate_groups[g].get(bench)) for g in groups)
+            + " |"
+        )
+    out.append("")
+    out.append(
+        "Estimated on every video: "
+        + ", ".join(f"`{k}={_value(v)}`" for k, v in cv.calibrated_all.items())
+        + ". Per fold (HOTA of the held-out video, grid → calibrate): "
+        + "; ".join(
+            f"{fold} {100 * cv.fold_hota['minimax'][fold]:.1f} → "
+            f"{100 * cv.fold_hota['calibrate'][fold]:.1f}"
+            for fold in cv.folds
+        )
+        + "."
+    )
+    out.append("")
     return out
 
 

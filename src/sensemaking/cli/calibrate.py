@@ -57,10 +57,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _sequence(args: argparse.Namespace, gt_path: Path, det_path: Path):
-    import numpy as np
-
     from sensemaking import settings
-    from sensemaking.calibrate import CalibrationSequence
+    from sensemaking.calibrate import annotated_sequence
     from sensemaking.classes import class_id
     from sensemaking.cli.track import _sequence_info
     from sensemaking.errors import InputError
@@ -86,11 +84,6 @@ def _sequence(args: argparse.Namespace, gt_path: Path, det_path: Path):
         cid = class_id(args.class_name or "pedestrian")
         gt = read_mot(gt_path, kind="gt", default_class=cid)
         first = 1
-    assert gt.class_id is not None and gt.tracker_id is not None  # set by __post_init__
-    target = (gt.class_id == cid) & (gt.tracker_id >= 0)
-    if fmt == "mot" and "consider" in gt.data:
-        target &= np.asarray(gt.data["consider"]) != 0
-    ignore, gt = gt[~target], gt[target]
     dets = read_detections(det_path, fmt, class_name=args.class_name)
     if fmt == "kitti" and len(dets):  # PointRCNN files hold every class
         dets = dets[dets.class_id == cid]
@@ -101,7 +94,7 @@ def _sequence(args: argparse.Namespace, gt_path: Path, det_path: Path):
         fps = settings.preset_config(fmt).fps
     settings.check_value("fps", fps)
     annotated: list[int] = []
-    for x in (gt, ignore, dets):
+    for x in (gt, dets):
         if len(x):
             assert x.frame is not None  # set by __post_init__
             annotated.append(int(x.frame.max()))
@@ -112,15 +105,15 @@ def _sequence(args: argparse.Namespace, gt_path: Path, det_path: Path):
             f"ground truth reaches frame {last_gt}, beyond the sequence's {n_frames} frames",
             gt_path,
         )
-    return CalibrationSequence(
-        name=det_path.stem if fmt == "kitti" else det_path.parent.parent.name,
-        gt=gt,
-        detections=dets,
-        first_frame=first,
-        n_frames=n_frames,
-        fps=float(fps),
-        image_size=size,
-        ignore=ignore,
+    return annotated_sequence(
+        det_path.stem if fmt == "kitti" else det_path.parent.parent.name,
+        gt,
+        dets,
+        cid,
+        first,
+        n_frames,
+        float(fps),
+        size,
     )
 
 
