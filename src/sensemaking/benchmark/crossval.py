@@ -114,6 +114,13 @@ ORIGINS: dict[str, str] = {
     "same), not tuned.",
     "class_aware": "switch: on (a track keeps its class).",
     "inherit_motion": "switch: on, a technique (docs/DESIGN-NOTES.md).",
+    "resume_reupdate": "switch: off; a technique measured across folds, not kept "
+    "(docs/DESIGN-NOTES.md).",
+    "scene_shift": "switch: off; a technique measured across folds, not kept "
+    "(docs/DESIGN-NOTES.md).",
+    "weak_confidence": "off (None); ByteTrack's 0.1 when on, a technique measured across "
+    "folds, not kept (docs/DESIGN-NOTES.md).",
+    "weak_iou": "ByteTrack's second-round 0.5, used only with weak_confidence; not tuned.",
     "confidence_sigmoid": "input: the detection format (PointRCNN's logits are mapped when read).",
     "likelihood_levels": "solver resolution (speed of the worst frame), not a model parameter.",
     "decompose": "solver: exact decomposition, on for the packaged encoding.",
