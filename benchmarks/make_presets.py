@@ -75,8 +75,7 @@ def preset_from_run(family: str, cv: dict[str, Any], run: dict[str, Any], doc: d
     verdict = cv.get("calibrate_verdict") or {}
     params = json.loads(json.dumps(doc["params"]))  # a deep copy, key order kept
     how = (
-        f"in the run of {run.get('started', '?')} (`{run.get('command', '')}`, "
-        "docs/PARAMETERS.md)"
+        f"in the run of {run.get('started', '?')} (`{run.get('command', '')}`, docs/PARAMETERS.md)"
     )
     folds = len(cv["folds"])
     if verdict.get("as_good"):
