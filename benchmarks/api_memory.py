@@ -67,7 +67,8 @@ def main(argv: list[str] | None = None) -> int:
         if f in marks:
             s = tracker._solver.stats
             print(
-                f"{f:8d} {rss_mb():8.1f} {(time.perf_counter() - t0) / f * 1e3:9.2f} {s['components']:11d} "
+                f"{f:8d} {rss_mb():8.1f} {(time.perf_counter() - t0) / f * 1e3:9.2f} "
+                f"{s['components']:11d} "
                 f"{s['cache_hits']:11d} {s['solver_calls']:12d}",
                 flush=True,
             )

@@ -65,7 +65,7 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         for bench in args.only:
             this, other, worst_this, worst_other, same = [], [], [], [], True
-            for r in range(args.repeat):
+            for _r in range(args.repeat):
                 o = _run(args.other, bench, Path(tmp) / "other", None)
                 t = _run(None, bench, Path(tmp) / "this", Path(tmp) / "other")
                 other.append(o[0])

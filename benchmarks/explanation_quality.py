@@ -47,7 +47,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument(
         "--all-warnings",
         action="store_true",
-        help="run the situation monitor on every benchmark (default: KITTI cars only, as the runner)",
+        help=(
+            "run the situation monitor on every benchmark "
+            "(default: KITTI cars only, as the runner)"
+        ),
     )
     p.add_argument("--json", type=Path, default=None, help="write every verdict and summary here")
     args = p.parse_args(argv)

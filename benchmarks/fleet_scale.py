@@ -1,5 +1,6 @@
-"""Fleet scale on this machine: ``sensemaking batch`` with 1 and 2 workers on the shared benchmarks,
-and a batch of N synthetic sequences with the driver's memory and the named queries' times.
+"""Fleet scale on this machine: ``sensemaking batch`` with 1 and 2 workers on the shared
+benchmarks, and a batch of N synthetic sequences with the driver's memory and the named
+queries' times.
 
     python benchmarks/fleet_scale.py workers [--data ../shared/data] [--repeat 2]
     python benchmarks/fleet_scale.py scale [--n 1000] [--frames 40] [--workers 2] [--keep]

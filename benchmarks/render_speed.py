@@ -99,7 +99,8 @@ def main(argv: list[str] | None = None) -> int:
         return f"{1000 * s / n:7.3f}"
 
     print(
-        f"{n} frames of {len(runs)} KITTI sequences (RRC car), plain canvas {size[0]}x{size[1]} px, "
+        f"{n} frames of {len(runs)} KITTI sequences (RRC car), "
+        f"plain canvas {size[0]}x{size[1]} px, "
         f"{sum(len(r.warnings) for r in runs)} warnings"
     )
     print(f"{'':24} ms/frame   render/track")

@@ -1,4 +1,6 @@
-"""Run the whole benchmark and write docs/BENCHMARKS.md: ``python benchmarks/run_all.py [options]``.
+"""Run the whole benchmark and write docs/BENCHMARKS.md.
+
+Usage: ``python benchmarks/run_all.py [options]``.
 
 A thin wrapper around ``sensemaking benchmark`` (same options; see ``--help``).
 """

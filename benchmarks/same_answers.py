@@ -78,7 +78,9 @@ def main(argv: list[str] | None = None) -> int:
                     .splitlines()
                     if line
                 ]
-                first = next((i for i, (a, b) in enumerate(zip(lines, other)) if a != b), None)
+                first = next(
+                    (i for i, (a, b) in enumerate(zip(lines, other, strict=False)) if a != b), None
+                )
                 if first is None and len(lines) != len(other):
                     first = min(len(lines), len(other))
                 if first is not None:

@@ -57,7 +57,8 @@ def main(argv: list[str] | None = None) -> int:
     sizes = [int(n) for n in args.tracks.split(",")]
     rows = []
     header = (
-        f"{'tracks':>6} {'overlap':>7} | {'paper ms':>9} | {'ours ms (median)':>16} {'p95':>7} {'cpu':>6} "
+        f"{'tracks':>6} {'overlap':>7} | {'paper ms':>9} | "
+        f"{'ours ms (median)':>16} {'p95':>7} {'cpu':>6} "
         f"{'over budget':>11} | {'no-abd ms':>9} | {'ours/no-abd':>11} | {'paper/ours':>10}"
     )
     print(header)
@@ -85,7 +86,8 @@ def main(argv: list[str] | None = None) -> int:
         paper = f"{row['paper']:9.1f}" if row["paper"] else f"{'-':>9}"
         speedup = f"{row['paper'] / med_a:9.0f}x" if row["paper"] else f"{'-':>10}"
         print(
-            f"{n:6d} {overlap:7.0%} | {paper} | {med_a:16.2f} {p95:7.2f} {row['cpu']:6.2f} {row['timed_out']:11d} | "
+            f"{n:6d} {overlap:7.0%} | {paper} | {med_a:16.2f} {p95:7.2f} {row['cpu']:6.2f} "
+            f"{row['timed_out']:11d} | "
             f"{med_b:9.2f} | {med_a / med_b:10.1f}x | {speedup}"
         )
     print()
@@ -93,21 +95,26 @@ def main(argv: list[str] | None = None) -> int:
         got = next((r["ours"] for r in rows if r["tracks"] == n), None)
         if got is not None:
             print(
-                f"target {n} tracks <= {target:.0f} ms/frame: {'met' if got <= target else 'MISSED'} ({got:.2f} ms)"
+                f"target {n} tracks <= {target:.0f} ms/frame: "
+                f"{'met' if got <= target else 'MISSED'} ({got:.2f} ms)"
             )
     print(
-        f"machine: {platform.machine()}, {platform.python_implementation()} {platform.python_version()}, "
-        f"{__import__('os').cpu_count()} cores; times are wall-clock medians over {args.frames} frames"
+        f"machine: {platform.machine()}, "
+        f"{platform.python_implementation()} {platform.python_version()}, "
+        f"{__import__('os').cpu_count()} cores; "
+        f"times are wall-clock medians over {args.frames} frames"
     )
     if args.markdown:
         lines = [
-            "| tracks | overlap | paper ms/frame | ours ms/frame (median) | p95 | no-abduction ms/frame | ours / no-abduction |",
+            "| tracks | overlap | paper ms/frame | ours ms/frame (median) | p95 "
+            "| no-abduction ms/frame | ours / no-abduction |",
             "|---:|---:|---:|---:|---:|---:|---:|",
         ]
         for r in rows:
             paper = f"{r['paper']:.1f}" if r["paper"] else "-"
             lines.append(
-                f"| {r['tracks']} | {r['overlap']:.0%} | {paper} | {r['ours']:.2f} | {r['p95']:.2f} | "
+                f"| {r['tracks']} | {r['overlap']:.0%} | {paper} | {r['ours']:.2f} | "
+                f"{r['p95']:.2f} | "
                 f"{r['noabd']:.2f} | {r['ours'] / r['noabd']:.1f}x |"
             )
         args.markdown.parent.mkdir(parents=True, exist_ok=True)

@@ -86,7 +86,8 @@ def main() -> None:
         size_mb = det.stat().st_size / 2**20
         before = peak_mb()
         print(
-            f"input: {args.frames} frames, {lines} detections, {size_mb:.0f} MB; peak before the run "
+            f"input: {args.frames} frames, {lines} detections, {size_mb:.0f} MB; "
+            f"peak before the run "
             f"{before:.0f} MB"
         )
         t0[0] = time.perf_counter()
@@ -112,7 +113,8 @@ def main() -> None:
         print(f"exit {code}; scene {(root / 'scene.json').stat().st_size / 2**20:.0f} MB")
     for done, mb, at in seen:
         print(
-            f"after {done:>7d} frames: peak {mb:6.0f} MB  ({at:7.1f} s, {1000 * at / done:.2f} ms/frame)"
+            f"after {done:>7d} frames: peak {mb:6.0f} MB  "
+            f"({at:7.1f} s, {1000 * at / done:.2f} ms/frame)"
         )
     print(
         f"total {total:.1f} s, {1000 * total / args.frames:.2f} ms/frame; peak {peak_mb():.0f} MB"
