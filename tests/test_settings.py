@@ -40,6 +40,9 @@ def test_every_parameter_has_a_row_and_every_row_a_parameter() -> None:
     for key, p in settings.PARAMETERS.items():
         assert f"| `{key}` | {p.unit} |" in table
     assert "perfect IoU match" in table and "frames / s" in table
+    # every parameter has a meaning (a field comment on a wrapped line was once lost)
+    for row in table.splitlines()[2:]:
+        assert row.split("|")[-2].strip(), row
 
 
 @pytest.mark.parametrize(

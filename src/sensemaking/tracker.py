@@ -50,19 +50,16 @@ class AbductionCosts:
     """
 
     enters: int = 100  #: enters_fov at the border. Higher: fewer new tracks at the border.
-    appears: int = (
-        400  #: a track starting away from the border. Higher: fewer false tracks, later starts.
-    )
+    #: a track starting away from the border. Higher: fewer false tracks, later starts.
+    appears: int = 400
     leaves: int = 100  #: leaves_fov at the border. Higher: tracks linger at the border as missing.
-    lost: int = (
-        600  #: a track ending without explanation. Higher: tracks are kept as missing longer.
-    )
+    #: a track ending without explanation. Higher: tracks are kept as missing longer.
+    lost: int = 600
     #: a tentative (unconfirmed) track ending: a hypothesis dropped. Higher: young tracks fight
     #: for detections.
     dropped: int = 0
-    hides: int = (
-        50  #: hides_behind. Higher: fewer occlusion explanations, more missing detections.
-    )
+    #: hides_behind. Higher: fewer occlusion explanations, more missing detections.
+    hides: int = 50
     missing: int = 250  #: missing_detections. Higher: tracks end instead of waiting.
     unseen: int = 20  #: per frame a track stays missing. Higher: missing tracks end sooner.
     #: ignoring a detection, times its confidence. Higher: more tracks from weak detections.
