@@ -238,6 +238,8 @@ def test_a_long_gap_is_skipped_not_looped_over(tmp_path: Path) -> None:
                 str(tmp_path / "o.txt"),
                 "--scene",
                 str(tmp_path / "s.json"),
+                "--set",
+                "min_hits=2",  # so that the lone box after the gap stays tentative
             ]
         )
         == 0
