@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from functools import cache, lru_cache
 from importlib import resources
@@ -177,14 +177,7 @@ class Answer:
     def mapped(self, track_ids: list[int], det_rows: list[int]) -> Answer:
         """This answer of a component, in the frame's terms: local track ``i`` becomes
         ``track_ids[i]``, local detection ``j`` becomes ``det_rows[j]``."""
-
-        def ref(x: Ref) -> Ref:
-            if isinstance(x, Det):
-                return Det(det_rows[x.row])
-            if isinstance(x, int) and 0 <= x < len(track_ids):
-                return track_ids[x]
-            return x
-
+        ref = _mapper(track_ids, det_rows)
         tid, row = track_ids.__getitem__, det_rows.__getitem__
         return Answer(
             assign={tid(t): row(d) for t, d in self.assign.items()},
@@ -491,7 +484,10 @@ def _delta(cost: int | None, base: int | None) -> int | None:
     return None if cost is None or base is None else cost - base
 
 
-def _mapper(track_ids: list[int], det_rows: list[int]):
+def _mapper(track_ids: list[int], det_rows: list[int]) -> Callable[[Ref], Ref]:
+    """Local track ``i`` -> ``track_ids[i]``, ``Det(j)`` -> ``Det(det_rows[j])``; others as
+    they are."""
+
     def ref(x: Ref) -> Ref:
         if isinstance(x, Det):
             return Det(det_rows[x.row])
