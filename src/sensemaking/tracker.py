@@ -788,9 +788,9 @@ class Tracker:
         events.sort(key=Event.sort_key)
         return events, observed
 
-    def _settled(self, rows: np.ndarray) -> np.ndarray:
-        """(K,) bool of ``rows``: established tracks, visible last frame and seen ``min_hits`` + 2
-        times or more (their velocity is known)."""
+    def _settled(self, rows: np.ndarray | slice = slice(None)) -> np.ndarray:
+        """(K,) bool of ``rows`` (default every track): established tracks, visible last frame
+        and seen ``min_hits`` + 2 times or more (their velocity is known)."""
         t = self._tracks
         return (t.unseen[rows] == 0) & (t.hits[rows] >= self.config.min_hits + 2)
 
@@ -806,7 +806,7 @@ class Tracker:
         kinds = np.zeros(1, dtype=np.int64) if classes is None else np.asarray(classes)
         prior = np.zeros((len(kinds), 4))
         if self.config.inherit_motion and len(self._tracks):
-            settled = (self._tracks.unseen == 0) & (self._tracks.hits >= self.config.min_hits + 2)
+            settled = self._settled()
             velocity = self._tracks.kf.velocity()[:, :2]
             for cls in np.unique(kinds).tolist():
                 same = settled if pooled else settled & (self._tracks.cls == cls)

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from sensemaking.cli._progress import Progress
+from sensemaking.cli.track import add_matching_options
 
 log = logging.getLogger(__name__)
 
@@ -73,15 +74,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="only datasets or dataset/sequence matching this glob, e.g. 'kitti-rrc-*' "
         "or 'mot15/*' (repeatable)",
     )
-    p.add_argument(
-        "--no-abduction", action="store_true", help="plain Hungarian IoU matching (the ablation)"
-    )
-    p.add_argument(
-        "--max-solve-ms",
-        type=float,
-        default=None,
-        help="per-frame solver budget in ms (default none: results independent of speed)",
-    )
+    add_matching_options(p)
     p.add_argument(
         "--set",
         dest="params",

@@ -19,6 +19,22 @@ MIN_FPS, MAX_FPS = 0.01, 1000.0  # frames per second: a frame a 100 s .. a frame
 MAX_IMAGE_SIDE = 100_000
 
 
+def add_matching_options(p: argparse.ArgumentParser) -> None:
+    """``--no-abduction`` and ``--max-solve-ms``, as ``track`` and ``batch`` take them."""
+    p.add_argument(
+        "--no-abduction", action="store_true", help="plain Hungarian IoU matching (the ablation)"
+    )
+    p.add_argument(
+        "--max-solve-ms",
+        type=float,
+        default=None,
+        metavar="MS",
+        help="per-frame wall-clock budget for the solver, milliseconds (> 0); past it the best "
+        "answer so far is used. Results then depend on the machine's load (a busy machine "
+        "stops earlier): leave it out for reproducible runs",
+    )
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "track",
@@ -81,18 +97,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="safety-critical warnings as JSON lines, written online into PATH.part (follow it "
         "with tail -f), renamed to PATH at the end and kept when the run is interrupted",
     )
-    p.add_argument(
-        "--no-abduction", action="store_true", help="plain Hungarian IoU matching (the ablation)"
-    )
-    p.add_argument(
-        "--max-solve-ms",
-        type=float,
-        default=None,
-        metavar="MS",
-        help="per-frame wall-clock budget for the solver, milliseconds (> 0); past it the best "
-        "answer so far is used. Results then depend on the machine's load (a busy machine "
-        "stops earlier): leave it out for reproducible runs",
-    )
+    add_matching_options(p)
     p.add_argument(
         "--class",
         dest="class_name",
