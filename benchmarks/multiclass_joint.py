@@ -27,7 +27,7 @@ from sensemaking.detections import Detections
 from sensemaking.evaluation import evaluate, load_kitti_benchmark, rules_for_benchmark
 from sensemaking.evaluation.explanations import GroundTruth, evaluate_explanations
 from sensemaking.io.kitti import read_kitti_labels, read_kitti_seqinfo
-from sensemaking.results import Event
+from sensemaking.records import event_from_record
 
 CLASSES = ("car", "pedestrian", "cyclist")
 SCORED = ("car", "pedestrian")
@@ -77,7 +77,7 @@ def cross_class_hides(data: Path, out: Path, seqs: list[str]) -> Counter:
             parts.append(r)
             cls.update(dict.fromkeys(r.tracker_id.tolist(), c))
         events = [
-            Event.from_json(json.loads(line))
+            event_from_record(json.loads(line))
             for line in (out / "joint" / "events" / f"{seq}.jsonl").read_text().splitlines()
         ]
         s = info[seq]

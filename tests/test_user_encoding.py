@@ -8,6 +8,7 @@ import pytest
 from sensemaking.abduction.solver import load_encoding
 from sensemaking.detections import Detections
 from sensemaking.errors import InputError
+from sensemaking.records import event_record
 from sensemaking.tracker import Tracker, TrackerConfig
 
 #: a new event: a track whose predicted motion is near zero stops (speed/2: pixels per second)
@@ -82,7 +83,7 @@ def test_events_with_constants_and_without_arguments_are_reported():
     for f, dets in _frames(20):
         result = tracker.update(dets, frame=f)
         seen += [e for e in result.events if e.name in ("lane_change", "busy")]
-        assert [e.to_json()["args"] for e in result.events if e.name == "busy"] in ([], [[]])
+        assert [event_record(e)["args"] for e in result.events if e.name == "busy"] in ([], [[]])
     assert {e.name for e in seen} == {"lane_change", "busy"}
     assert all(e.args[1:] == ("left",) for e in seen if e.name == "lane_change")
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from enum import IntEnum
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -53,19 +53,11 @@ EVENT_NAMES: dict[str, int] = {
 @dataclass(frozen=True, order=True)
 class Event:
     """One abduced event: ``name(args...)`` occurring at ``frame``; args are track ids (or
-    constants, in events of a user's encoding)."""
+    constants, in events of a user's encoding). Its JSON record: :mod:`sensemaking.records`."""
 
     frame: int
     name: str
     args: tuple[int | str, ...]
-
-    def to_json(self) -> dict[str, Any]:
-        """The JSON-lines record ``{"frame": ..., "event": ..., "args": [...]}``."""
-        return {
-            "frame": int(self.frame),
-            "event": self.name,
-            "args": [a if isinstance(a, str) else int(a) for a in self.args],
-        }
 
     def sort_key(self) -> tuple[int, str, tuple[tuple[int, int, str], ...]]:
         """Order of events: by frame, name, then arguments, track ids before constants (the
@@ -74,14 +66,6 @@ class Event:
             self.frame,
             self.name,
             tuple((1, 0, a) if isinstance(a, str) else (0, int(a), "") for a in self.args),
-        )
-
-    @classmethod
-    def from_json(cls, record: dict[str, Any]) -> Event:
-        return cls(
-            int(record["frame"]),
-            str(record["event"]),
-            tuple(a if isinstance(a, str) else int(a) for a in record["args"]),
         )
 
     def __str__(self) -> str:

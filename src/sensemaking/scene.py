@@ -47,6 +47,7 @@ from sensemaking.classes import class_name
 from sensemaking.detections import Detections
 from sensemaking.errors import InputError
 from sensemaking.io.atomic import atomic_write
+from sensemaking.records import event_from_record, event_record
 from sensemaking.results import Event, FrameResult, TrackState, Visibility
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -376,7 +377,7 @@ class Scene:
             record["frame_numbers"] = fr.tolist()
         record["metadata"] = self.metadata
         record["tracks"] = [track_json(t) for t in self.tracks.values()]
-        record["events"] = [e.to_json() for e in self.events]
+        record["events"] = [event_record(e) for e in self.events]
         if self.abduction is not None:
             record["abduction"] = self.abduction.to_json()
         return record
@@ -497,7 +498,7 @@ class Scene:
         for i, e in enumerate(raw_events):
             if not isinstance(e, Mapping):
                 raise bad(f"events[{i}] must be an object")
-            ev = Event.from_json(dict(e))
+            ev = event_from_record(e)
             if not re.fullmatch(r"[a-z][a-z0-9_]*", ev.name):
                 raise bad(f"events[{i}]: event name {ev.name!r} must be a lower-case identifier")
             if frames.size and not frames[0] <= ev.frame <= frames[-1]:

@@ -268,7 +268,7 @@ def test_a_scene_asking_for_a_billion_frames_is_refused(
 def test_warnings_are_written_while_the_run_goes_on_and_kept_on_interruption(
     tmp_path: Path, monkeypatch, capsys
 ) -> None:
-    from sensemaking.reasoning.situations import Warning as SituationWarning
+    from sensemaking.reasoning.situations import SituationWarning
     from sensemaking.reasoning import online
 
     det = write_det(tmp_path / "d" / "det.txt", n_frames=40)

@@ -266,7 +266,7 @@ CYCLIST_BEHIND_CAR_SEQUENCE = "0002"
 @pytest.mark.skipif(not POINTRCNN.is_dir(), reason="../shared/data not present")
 def test_kitti_cyclist_hides_behind_a_car_in_a_joint_run(tmp_path: Path) -> None:
     from sensemaking.evaluation.explanations import GroundTruth, evaluate_explanations
-    from sensemaking.results import Event
+    from sensemaking.records import event_from_record
 
     seq = CYCLIST_BEHIND_CAR_SEQUENCE
     files = [POINTRCNN / c / f"{seq}.txt" for c in ("car", "pedestrian", "cyclist")]
@@ -278,7 +278,7 @@ def test_kitti_cyclist_hides_behind_a_car_in_a_joint_run(tmp_path: Path) -> None
         res = read_kitti_labels(tmp_path / c / f"{seq}.txt")
         assert set(res.class_id.tolist()) <= {CLASS_IDS[c]}
         classes.update(dict.fromkeys(res.tracker_id.tolist(), CLASS_IDS[c]))
-    events = [Event.from_json(r) for r in events_of(ev)]
+    events = [event_from_record(r) for r in events_of(ev)]
     across = [e for e in events if e.name == "hides_behind"
               and classes.get(e.args[0]) == CYCLIST and classes.get(e.args[1]) == CAR]
     assert across, [e for e in events if e.name == "hides_behind"]

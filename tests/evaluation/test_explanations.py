@@ -20,6 +20,7 @@ from sensemaking.evaluation.explanations import (
     late_start_events,
     match_tracks,
 )
+from sensemaking.records import event_record
 from sensemaking.results import Event
 from sensemaking.synthetic import crossing_scene, occlusion_suite
 from sensemaking.tracker import Tracker, TrackerConfig
@@ -423,7 +424,7 @@ def mot_run(tmp_path, crossing):
     events = tmp_path / "CROSS.events.jsonl"
     events.write_text(
         "".join(
-            json.dumps(Event(e.frame + 1, e.name, e.args).to_json()) + "\n" for e in (HIDE, UNHIDE)
+            json.dumps(event_record(Event(e.frame + 1, e.name, e.args))) + "\n" for e in (HIDE, UNHIDE)
         )
     )
     return tmp_path, res, events

@@ -13,21 +13,26 @@ from test_scene_helpers import CAR, CYC, PED, TRUCK, Obj, build_results, cyclist
 from sensemaking.errors import InputError
 from sensemaking.reasoning.context import Lane, LaneMap, SceneContext
 from sensemaking.reasoning.online import SituationMonitor
-from sensemaking.reasoning.situations import ALL_SITUATIONS, Situation, SituationConfig, Warning
+from sensemaking.reasoning.situations import (
+    ALL_SITUATIONS,
+    Situation,
+    SituationConfig,
+    SituationWarning,
+)
 
 SIZE = (1242, 375)
 
 
-def run(objs, n=None, *, context=None, config=None, **kw) -> list[Warning]:
+def run(objs, n=None, *, context=None, config=None, **kw) -> list[SituationWarning]:
     mon = SituationMonitor(config, context=context, fps=10.0, image_size=SIZE)
     return mon.run(build_results(objs, n, **kw))
 
 
-def kinds(warnings: list[Warning]) -> list[tuple[int, str, tuple[int, ...]]]:
+def kinds(warnings: list[SituationWarning]) -> list[tuple[int, str, tuple[int, ...]]]:
     return [(w.frame, w.situation, w.objects) for w in warnings if w.objects]
 
 
-def only(warnings: list[Warning], situation: str) -> list[tuple[int, str, tuple[int, ...]]]:
+def only(warnings: list[SituationWarning], situation: str) -> list[tuple[int, str, tuple[int, ...]]]:
     return [k for k in kinds(warnings) if k[1] == situation]
 
 
@@ -250,7 +255,7 @@ def test_warning_json_round_trip():
     record = w.to_json()
     assert set(record) == {"frame", "situation", "objects", "message", "details"}
     text = json.dumps(record)
-    back = Warning.from_json(json.loads(text))
+    back = SituationWarning.from_json(json.loads(text))
     assert back == w and back.details == w.details
     assert str(w).startswith("[21] HIDDEN_ENTITY: track 1 (cyclist) is hidden behind track 2 (car)")
 

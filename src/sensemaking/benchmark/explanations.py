@@ -31,9 +31,8 @@ from sensemaking.evaluation.explanations import (
     GroundTruth,
     evaluate_explanations,
     load_ground_truth,
-    read_events,
-    read_warnings,
 )
+from sensemaking.records import read_events, read_warnings
 
 if TYPE_CHECKING:  # pragma: no cover
     from sensemaking.benchmark.datasets import BenchmarkSpec, Sequence

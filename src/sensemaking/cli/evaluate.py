@@ -274,10 +274,9 @@ def _explanations(
         GroundTruth,
         evaluate_explanations,
         explanation_table,
-        read_events,
-        read_warnings,
     )
     from sensemaking.io.atomic import atomic_write
+    from sensemaking.records import read_events, read_warnings
 
     if args.events is None:
         args._parser.error("--explanations needs --events (the event log of `track --events`)")

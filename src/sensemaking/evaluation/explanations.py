@@ -20,21 +20,18 @@ tracker output as visible (the ``track`` results file without ``--write-hidden``
 from __future__ import annotations
 
 import bisect
-import json
 import logging
 import math
 from collections import Counter, defaultdict
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from functools import partial
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from sensemaking.classes import CLASS_IDS
 from sensemaking.detections import Detections
-from sensemaking.errors import InputError
 from sensemaking.evaluation._prepare import (
     EPS,
     conflict_frames,
@@ -42,7 +39,8 @@ from sensemaking.evaluation._prepare import (
     offsets,
     overlap_pairs,
 )
-from sensemaking.results import EVENT_NAMES, Event
+from sensemaking.records import event_record, judged_warnings, read_events, read_warnings
+from sensemaking.results import Event
 
 __all__ = [
     "ExplanationConfig",
@@ -379,7 +377,7 @@ class Verdict:
 
     def to_json(self) -> dict[str, Any]:
         out = {
-            **self.event.to_json(),
+            **event_record(self.event),
             "verdict": self.verdict,
             "reason": self.reason,
             "gt": list(self.gt),
@@ -958,84 +956,6 @@ def late_start_events(tracks: Detections, events: Iterable[Event]) -> tuple[int,
     return late, total
 
 
-def judged_warnings(records: Iterable[Mapping[str, Any]]) -> list[Mapping[str, Any]]:
-    """The warning records the evaluator judges, in the order given: one per warning issued
-    (``Warning.to_json()``, a line of ``track --warnings``); a record without objects (a notice
-    that a situation was not checked) is no warning, nor is the end record of an episode. The one
-    place that reads the records' layout besides the judge's ``details`` lookups."""
-    # an end record closes an episode: the warning is judged at its start record
-    return [w for w in records if w.get("objects") and w.get("record") != "end"]
-
-
-def _json_lines(path: Path) -> list[dict[str, Any]]:
-    """Records of a JSON-lines file, each with its line number as ``_line``; a bad line is an
-    :class:`~sensemaking.errors.InputError` naming it."""
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError("no such file", path) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read: {exc}", path) from None
-    out = []
-    for lineno, line in enumerate(text.splitlines(), start=1):
-        if not line.strip():
-            continue
-        try:
-            record = json.loads(line)
-        except json.JSONDecodeError as exc:
-            raise InputError(f"not JSON: {exc.msg}", path, lineno) from None
-        if not isinstance(record, dict):
-            raise InputError("expected a JSON object per line", path, lineno)
-        out.append({**record, "_line": lineno})
-    return out
-
-
-def read_events(path: str | Path) -> list[Event]:
-    """The event log of ``track --events`` (JSON lines ``{"frame", "event", "args"}``).
-    Raises :class:`~sensemaking.errors.InputError` naming the file and line."""
-    path = Path(path)
-    out = []
-    for r in _json_lines(path):
-        try:
-            ev = Event.from_json(r)
-        except (KeyError, TypeError, ValueError):
-            raise InputError(
-                'expected {"frame": int, "event": name, "args": [track ids]}', path, r["_line"]
-            ) from None
-        if ev.name in EVENT_NAMES and len(ev.args) != EVENT_NAMES[ev.name]:
-            raise InputError(
-                f"{ev.name} takes {EVENT_NAMES[ev.name]} argument(s), got {len(ev.args)}",
-                path,
-                r["_line"],
-            )
-        out.append(ev)
-    return out
-
-
-def read_warnings(path: str | Path) -> list[dict[str, Any]]:
-    """The warning records of ``track --warnings`` (JSON lines ``{"frame", "situation",
-    "objects", "details"}``). Raises :class:`~sensemaking.errors.InputError`."""
-    path = Path(path)
-    out = []
-    for r in _json_lines(path):
-        objs = r.get("objects")
-        ok = (
-            isinstance(r.get("frame"), int)
-            and isinstance(objs, list)
-            and all(isinstance(o, int) for o in objs)
-            and isinstance(r.get("details", {}), dict)
-        )
-        if not ok:
-            raise InputError(
-                'expected {"frame": int, "situation": name, "objects": [track ids], '
-                '"details": {...}}',
-                path,
-                r["_line"],
-            )
-        out.append(r)
-    return out
-
-
 def load_ground_truth(
     path: str | Any,
     fmt: str,
@@ -1079,7 +999,8 @@ def evaluate_explanations(
         gt: the sequence's ground truth (:class:`GroundTruth`).
         tracks: the boxes the tracker output as visible (``tracker_id``, ``frame``, ``xyxy``).
         events: the event log (``Event`` or its JSON records are read by the CLI).
-        warnings: warning records (``Warning.to_json()``); other situations and notes are skipped.
+        warnings: warning records (:mod:`sensemaking.records`); other situations, notes and
+            end records are skipped.
         name: the sequence name. config: thresholds (default :class:`ExplanationConfig`).
     """
     config = config or ExplanationConfig()

@@ -17,7 +17,7 @@ from sensemaking.errors import InputError
 from sensemaking.fleet.specs import SequenceSpec
 
 if TYPE_CHECKING:  # pragma: no cover
-    from sensemaking.reasoning.situations import Warning
+    from sensemaking.reasoning.situations import SituationWarning
     from sensemaking.results import Event
     from sensemaking.scene import Scene
     from sensemaking.tracker import TrackerConfig
@@ -102,7 +102,7 @@ class SequenceResult:
     spec: SequenceSpec
     config: dict[str, Any]
     scene: Scene
-    warnings: list[Warning]
+    warnings: list[SituationWarning]
     metrics: dict[str, float] | None
     stats: dict[str, float] = field(default_factory=dict)
     skipped_situations: dict[str, str] = field(default_factory=dict)
@@ -177,9 +177,9 @@ class _Warnings:
     """A pipeline sink that keeps the warnings (notes that a situation was not checked aside)."""
 
     def __init__(self) -> None:
-        self.warnings: list[Warning] = []
+        self.warnings: list[SituationWarning] = []
 
-    def frame(self, result: Any, warnings: list[Warning]) -> None:
+    def frame(self, result: Any, warnings: list[SituationWarning]) -> None:
         self.warnings.extend(w for w in warnings if w.objects)
 
     def skip(self, first: int, last: int) -> None:

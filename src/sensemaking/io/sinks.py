@@ -29,6 +29,13 @@ from sensemaking.errors import InputError
 from sensemaking.io.atomic import PartFile
 from sensemaking.io.kitti import format_kitti
 from sensemaking.io.mot import format_mot
+from sensemaking.records import (
+    end_record,
+    event_from_record,
+    event_record,
+    json_line,
+    start_record,
+)
 from sensemaking.results import Event, FrameResult
 from sensemaking.scene import SCENE_FORMAT, SCENE_VERSION, Track, track_json
 
@@ -232,7 +239,7 @@ class EventsSink:
 
     def frame(self, result: FrameResult, warnings: list[Any]) -> None:
         for ev in result.events:
-            self._file.handle.write(json.dumps(ev.to_json()) + "\n")
+            self._file.handle.write(json_line(event_record(ev)))
         self.count += len(result.events)
 
     def skip(self, first: int, last: int) -> None:
@@ -250,12 +257,9 @@ class WarningsSink:
     ``<path>.part`` (``tail -f`` it; its name is in ``part``); kept in place when the run is
     interrupted, as the record of what was said.
 
-    Each warning episode is two records (:mod:`sensemaking.reasoning.online`): a start record
-    ``{"record": "start", "episode": N, "severity": 1..3, "lane_position": "ego"|"left"|"right"|
-    "unknown", "frame", "situation", "objects", "message", "details"}`` when the situation starts
-    to hold, and an end record ``{"record": "end", "episode": N, "frame", "situation",
-    "objects", "start_frame", "last_frame", "frames", "reason"}`` once it has stopped holding
-    (or the input ended). A situation holding over consecutive frames is one episode.
+    Each warning episode is two records (:mod:`sensemaking.records`): a start record when the
+    situation starts to hold and an end record once it has stopped holding (or the input
+    ended). A situation holding over consecutive frames is one episode.
     """
 
     def __init__(self, path: PathLike):
@@ -268,12 +272,10 @@ class WarningsSink:
     def frame(self, result: FrameResult, warnings: list[Any]) -> None:
         # a situation that cannot be checked (no objects) is a notice the monitor logs, not a
         # warning record
-        from sensemaking.reasoning.online import start_record
-
         warnings = [w for w in warnings if w.objects]
         if warnings:
             for w in warnings:
-                self._file.handle.write(json.dumps(start_record(w)) + "\n")
+                self._file.handle.write(json_line(start_record(w)))
             self._file.handle.flush()
             self.count += len(warnings)
 
@@ -281,7 +283,7 @@ class WarningsSink:
         """End records of warning episodes (:class:`~sensemaking.reasoning.online.WarningEnd`)."""
         if ends:
             for e in ends:
-                self._file.handle.write(json.dumps(e.to_json()) + "\n")
+                self._file.handle.write(json_line(end_record(e)))
             self._file.handle.flush()
             self.ended += len(ends)
 
@@ -438,7 +440,7 @@ class SceneSink:
             if self._last_event is not None and key[0] < self._last_event[0]:
                 self._sorted = False
             self._last_event = key
-            lines.append(json.dumps(key[1].to_json(), separators=(",", ":")) + "\n")
+            lines.append(json.dumps(event_record(key[1]), separators=(",", ":")) + "\n")
         if lines:
             self._events.write("".join(lines).encode())
 
@@ -523,7 +525,7 @@ class SceneSink:
         if not self._sorted:  # rare: an event later than EVENT_LAG frames; sort them all
             lines = sorted(
                 self._events,
-                key=lambda b: Event.from_json(json.loads(b)).sort_key(),
+                key=lambda b: event_from_record(json.loads(b)).sort_key(),
             )
         for k, line in enumerate(lines):
             out.write(("," if k else "") + line.decode().rstrip("\n"))

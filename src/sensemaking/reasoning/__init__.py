@@ -7,6 +7,6 @@ Submodules (imported on demand, nothing happens at import time):
 * :mod:`~sensemaking.reasoning.context` -- ego corridor, lanes, semantic segmentation.
 * :mod:`~sensemaking.reasoning.questions` -- ``ask(scene, query)`` and ``explain(scene)``.
 * :mod:`~sensemaking.reasoning.anticipation` -- where and when a hidden object reappears.
-* :mod:`~sensemaking.reasoning.situations` -- the situation encoding and the ``Warning`` type.
+* :mod:`~sensemaking.reasoning.situations` -- the situation encoding, ``SituationWarning``.
 * :mod:`~sensemaking.reasoning.online` -- ``SituationMonitor.update(result) -> warnings``.
 """

@@ -83,8 +83,9 @@ from sensemaking.reasoning.situations import (
     SituationConfig,
     SituationMatch,
     SituationSolver,
-    Warning,
+    SituationWarning,
 )
+from sensemaking.records import end_record
 from sensemaking.results import Event, FrameResult, TrackState
 from sensemaking.settings import SCENE_PROFILES
 
@@ -94,7 +95,6 @@ __all__ = [
     "PROFILES",
     "SEVERITY_NAMES",
     "LANE_POSITIONS",
-    "start_record",
 ]
 
 log = logging.getLogger(__name__)
@@ -146,32 +146,8 @@ class WarningEnd:
     reason: str = "cleared"
 
     def to_json(self) -> dict[str, Any]:
-        """The JSON-lines end record of the warnings stream."""
-        return {
-            "record": "end",
-            "episode": self.episode,
-            "frame": self.frame,
-            "situation": self.situation,
-            "objects": list(self.objects),
-            "start_frame": self.start_frame,
-            "last_frame": self.last_frame,
-            "frames": self.last_frame - self.start_frame + 1,
-            "reason": self.reason,
-        }
-
-
-def start_record(w: Warning) -> dict[str, Any]:
-    """The JSON-lines start record of a warning episode: the warning's record
-    (:meth:`~sensemaking.reasoning.situations.Warning.to_json`) with ``record``, ``episode``,
-    ``severity`` and ``lane_position`` at its top."""
-    d = w.details
-    return {
-        "record": "start",
-        "episode": d.get("episode"),
-        "severity": d.get("severity"),
-        "lane_position": d.get("lane_position", "unknown"),
-        **w.to_json(),
-    }
+        """The end record of the warnings stream (:func:`sensemaking.records.end_record`)."""
+        return end_record(self)
 
 
 class _Episode:
@@ -330,7 +306,8 @@ class SituationMonitor:
         self._last_frame: int | None = None
         self._anticip: dict[int, Anticipation] = {}
         self._found: list[SituationMatch] = []  # what holds at the current frame
-        self._active: list[Warning] | None = []  # its warnings, made when read (None: not yet)
+        # its warnings, made when read (None: not yet)
+        self._active: list[SituationWarning] | None = []
         self.stats: dict[str, float] = {"frames": 0, "solver_calls": 0, "cache_hits": 0, "ms": 0.0}
         if self._world is not None:
             self._world.reset()
@@ -347,23 +324,22 @@ class SituationMonitor:
         return list(self._anticip.values())
 
     # -- the loop -------------------------------------------------------------------------------
-    def update(self, result: FrameResult) -> list[Warning]:
+    def update(self, result: FrameResult) -> list[SituationWarning]:
         """Process one frame; return the warnings whose situation starts to hold at this frame
         (and, on the first frame, a note for each situation that cannot be checked)."""
         t0 = time.perf_counter()
         f = int(result.frame)
         if self._last_frame is not None and f <= self._last_frame:
             raise ValueError(f"frames must increase: got frame {f} after {self._last_frame}")
-        new: list[Warning] = []
+        new: list[SituationWarning] = []
         if self._seq_start is None:
             self._seq_start = f
             if self.profile != "driving":
                 log.info("scene profile %s: no ego vehicle, no ego-vehicle warnings", self.profile)
             for s, why in self._skipped.items():
                 log.info("%s not checked: it %s", s.name, why)
-                new.append(
-                    Warning(f, s.name, (), f"{s.name} not checked: it {why}", {"skipped": why})
-                )
+                note = f"{s.name} not checked: it {why}"
+                new.append(SituationWarning(f, s.name, (), note, {"skipped": why}))
         self._last_frame = f
         self._observe(result)
         facts, tracks = self._facts()
@@ -410,7 +386,7 @@ class SituationMonitor:
         ]
 
     @property
-    def active(self) -> list[Warning]:
+    def active(self) -> list[SituationWarning]:
         """Every situation holding at the current frame, as warnings of this frame."""
         if self._active is None:
             f = self._last_frame
@@ -421,10 +397,10 @@ class SituationMonitor:
             ]
         return list(self._active)
 
-    def run(self, results: Iterable[FrameResult]) -> list[Warning]:
+    def run(self, results: Iterable[FrameResult]) -> list[SituationWarning]:
         """Every warning over a sequence of frame results (after :meth:`reset`)."""
         self.reset()
-        out: list[Warning] = []
+        out: list[SituationWarning] = []
         for r in results:
             out.extend(self.update(r))
         return out
@@ -739,7 +715,7 @@ class SituationMonitor:
             return "unknown"
         return "left" if x < xl else "right" if x > xr else "ego"
 
-    def _warning(self, f: int, d: SituationMatch, episode: int | None = None) -> Warning:
+    def _warning(self, f: int, d: SituationMatch, episode: int | None = None) -> SituationWarning:
         s, objs, info = d.situation, d.objects, d.info
         desc = self._describe
         details: dict[str, Any] = {"classes": [class_name(self._class.get(t, 0)) for t in objs]}
@@ -826,4 +802,4 @@ class SituationMonitor:
             )
         else:  # a situation of a user's encoding
             msg = f"{s.lower().replace('_', ' ')}: " + ", ".join(desc(t) for t in objs)
-        return Warning(f, s, tuple(int(o) for o in objs), msg, details)
+        return SituationWarning(f, s, tuple(int(o) for o in objs), msg, details)

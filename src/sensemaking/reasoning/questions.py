@@ -62,7 +62,7 @@ __all__ = [
     "explain",
     "stories",
     "check_query",
-    "Answer",
+    "QueryAnswer",
     "QueryError",
     "NAMED_QUESTIONS",
     "DEFAULT_TIMEOUT_S",
@@ -170,7 +170,7 @@ class QueryError(SensemakingError):
 
 
 @dataclass(frozen=True)
-class Answer:
+class QueryAnswer:
     """The answer to one question.
 
     Attributes:
@@ -586,7 +586,7 @@ def _border(scene: Scene, box: Any, margin: float = 15.0) -> str:
 
 
 # -- named questions ------------------------------------------------------------------------------
-def _q_tracks(scene: Scene, args: list[int], context: SceneContext | None) -> Answer:
+def _q_tracks(scene: Scene, args: list[int], context: SceneContext | None) -> QueryAnswer:
     lines = []
     for t in scene.tracks.values():
         counts = {s: int((t.state == s).sum()) for s in TrackState}
@@ -595,26 +595,26 @@ def _q_tracks(scene: Scene, args: list[int], context: SceneContext | None) -> An
             f"visible {counts[TrackState.VISIBLE]}, "
             f"hidden {counts[TrackState.HIDDEN]}, missing {counts[TrackState.MISSING]}"
         )
-    return Answer("tracks", tuple(lines or ["this scene has no tracks"]))
+    return QueryAnswer("tracks", tuple(lines or ["this scene has no tracks"]))
 
 
-def _q_events(scene: Scene, args: list[int], context: SceneContext | None) -> Answer:
+def _q_events(scene: Scene, args: list[int], context: SceneContext | None) -> QueryAnswer:
     if args and args[0] not in scene:
-        return Answer(f"events {args[0]}", (_missing_track(scene, args[0]),))
+        return QueryAnswer(f"events {args[0]}", (_missing_track(scene, args[0]),))
     evs = scene.events_of(args[0]) if args else scene.events
     lines = [f"frame {e.frame}: {e.name}({', '.join(map(str, e.args))})" for e in evs]
     q = "events" + (f" {args[0]}" if args else "")
-    return Answer(
+    return QueryAnswer(
         q,
         tuple(lines or ["no events" + (f" for {scene.describe(args[0])}" if args else "")]),
         atoms=tuple(f"occurs_at({e.name}({','.join(map(str, e.args))}),{e.frame})" for e in evs),
     )
 
 
-def _q_hidden(scene: Scene, args: list[int], context: SceneContext | None) -> Answer:
+def _q_hidden(scene: Scene, args: list[int], context: SceneContext | None) -> QueryAnswer:
     q = "hidden" + (f" {args[0]}" if args else "")
     if args and args[0] not in scene:
-        return Answer(q, (_missing_track(scene, args[0]),))
+        return QueryAnswer(q, (_missing_track(scene, args[0]),))
     facts = _facts(
         scene, context, boxes=False, states=False, relations=False, motion=False, corridor=False
     )
@@ -651,16 +651,16 @@ def _q_hidden(scene: Scene, args: list[int], context: SceneContext | None) -> An
             if args
             else "no object was hidden in this scene"
         ]
-    return Answer(
+    return QueryAnswer(
         q, tuple(lines), atoms=tuple(str(s) for s in atoms), models=(tuple(str(s) for s in atoms),)
     )
 
 
-def _q_reappeared(scene: Scene, args: list[int], context: SceneContext | None) -> Answer:
+def _q_reappeared(scene: Scene, args: list[int], context: SceneContext | None) -> QueryAnswer:
     (tid,) = args
     q = f"reappeared {tid}"
     if tid not in scene:
-        return Answer(q, (_missing_track(scene, tid),))
+        return QueryAnswer(q, (_missing_track(scene, tid),))
     facts = _facts(scene, context, boxes=False, relations=False, motion=False, corridor=False)
     models, _, _, _ = _solve(facts + _encodings("questions.lp") + "\n#show reappeared/4.")
     atoms = [s for s in (models[0] if models else []) if s.arguments[0].number == tid]
@@ -692,19 +692,19 @@ def _q_reappeared(scene: Scene, args: list[int], context: SceneContext | None) -
                 f"{scene.describe(tid)} never disappeared: visible whenever tracked "
                 f"(frames {t.first}-{t.last})"
             ]
-    return Answer(
+    return QueryAnswer(
         q, tuple(lines), atoms=tuple(str(s) for s in atoms), models=(tuple(str(s) for s in atoms),)
     )
 
 
-def _q_in_front(scene: Scene, args: list[int], context: SceneContext | None) -> Answer:
+def _q_in_front(scene: Scene, args: list[int], context: SceneContext | None) -> QueryAnswer:
     (f,) = args
     q = f"in-front {f}"
     if not len(scene) or f not in set(scene.frame_numbers.tolist()):
         span = f"frames {scene.first_frame}-{scene.last_frame}" if len(scene) else "no frames"
-        return Answer(q, (f"frame {f} is not in this scene ({span})",))
+        return QueryAnswer(q, (f"frame {f} is not in this scene ({span})",))
     if scene.image_size is None:
-        return Answer(q, ("this scene has no image size, so the ego corridor is unknown",))
+        return QueryAnswer(q, ("this scene has no image size, so the ego corridor is unknown",))
     facts = _facts(
         scene, context, boxes=True, states=False, relations=False, motion=False, corridor=True
     )
@@ -727,8 +727,8 @@ def _q_in_front(scene: Scene, args: list[int], context: SceneContext | None) -> 
         lines.append(f"{scene.describe(t)}: {extra}bottom at y={y} px")
     head = f"at frame {f} ({scene.seconds(f - (scene.first_frame or 0)):.1f} s into the scene)"
     if not lines:
-        return Answer(q, (f"{head} nothing was in front of the ego vehicle",))
-    return Answer(
+        return QueryAnswer(q, (f"{head} nothing was in front of the ego vehicle",))
+    return QueryAnswer(
         q,
         (f"{head}, in front of the ego vehicle:",) + tuple(lines),
         atoms=tuple(str(s) for s in atoms),
@@ -736,11 +736,11 @@ def _q_in_front(scene: Scene, args: list[int], context: SceneContext | None) -> 
     )
 
 
-def _q_why_ended(scene: Scene, args: list[int], context: SceneContext | None) -> Answer:
+def _q_why_ended(scene: Scene, args: list[int], context: SceneContext | None) -> QueryAnswer:
     (tid,) = args
     q = f"why-ended {tid}"
     if tid not in scene:
-        return Answer(q, (_missing_track(scene, tid),))
+        return QueryAnswer(q, (_missing_track(scene, tid),))
     facts = _facts(scene, context, boxes=False, relations=False, motion=False, corridor=False)
     models, _, _, _ = _solve(
         facts
@@ -790,7 +790,7 @@ def _q_why_ended(scene: Scene, args: list[int], context: SceneContext | None) ->
         line = (
             f"{d} was last tracked at frame {last} ({st.name.lower()}); no event explains its end"
         )
-    return Answer(
+    return QueryAnswer(
         q, (line,), atoms=tuple(str(s) for s in atoms), models=(tuple(str(s) for s in atoms),)
     )
 
@@ -880,7 +880,7 @@ def _atom_text(name: str, args: tuple[Any, ...]) -> str:
     return f"{name}({','.join(map(fmt, args))})"
 
 
-def _q_why(scene: Scene, args: list[int], context: SceneContext | None) -> Answer:
+def _q_why(scene: Scene, args: list[int], context: SceneContext | None) -> QueryAnswer:
     """The chosen explanation of each event of a track (at a frame) and the next-best ones,
     from the abduction problem the scene recorded (solved again, with the event forbidden)."""
     tid = args[0]
@@ -907,7 +907,7 @@ def _q_why(scene: Scene, args: list[int], context: SceneContext | None) -> Answe
         at = f" at frame {args[1]}" if len(args) == 2 else ""
         frames = sorted({e.frame for e in scene.events_of(tid) if e.args[0] == tid})
         listing = ", ".join(map(str, frames)) if frames else "none"
-        return Answer(q, (f"{d} has no event{at} (frames with its events: {listing})",))
+        return QueryAnswer(q, (f"{d} has no event{at} (frames with its events: {listing})",))
     lines: list[str] = []
     atoms: list[str] = []
     for ev in own:
@@ -945,19 +945,19 @@ def _q_why(scene: Scene, args: list[int], context: SceneContext | None) -> Answe
                     f"alternative({tid},{ev.frame},{rank},{_atom_text(name, ids)},"
                     f"{a.cost},{a.delta})"
                 )
-    return Answer(q, tuple(lines), atoms=tuple(atoms), models=(tuple(atoms),))
+    return QueryAnswer(q, tuple(lines), atoms=tuple(atoms), models=(tuple(atoms),))
 
 
-def _q_story(scene: Scene, args: list[int], context: SceneContext | None) -> Answer:
+def _q_story(scene: Scene, args: list[int], context: SceneContext | None) -> QueryAnswer:
     q = "story" + (f" {args[0]}" if args else "")
-    return Answer(q, tuple(explain(scene, args[0] if args else None, context=context)))
+    return QueryAnswer(q, tuple(explain(scene, args[0] if args else None, context=context)))
 
 
-def _q_warnings(scene: Scene, args: list[int], context: SceneContext | None) -> Answer:
+def _q_warnings(scene: Scene, args: list[int], context: SceneContext | None) -> QueryAnswer:
     from sensemaking.reasoning.online import SituationMonitor
 
     if scene.image_size is None:
-        return Answer(
+        return QueryAnswer(
             "warnings", ("this scene has no image size, so situations cannot be checked",)
         )
     from sensemaking.reasoning.egomotion import CameraModel
@@ -971,10 +971,10 @@ def _q_warnings(scene: Scene, args: list[int], context: SceneContext | None) -> 
     )
     warnings = mon.run(scene.frame_results())
     lines = [str(w) for w in warnings]
-    return Answer("warnings", tuple(lines or ["no safety-critical situation was detected"]))
+    return QueryAnswer("warnings", tuple(lines or ["no safety-critical situation was detected"]))
 
 
-_HANDLERS: dict[str, Callable[[Scene, list[int], SceneContext | None], Answer]] = {
+_HANDLERS: dict[str, Callable[[Scene, list[int], SceneContext | None], QueryAnswer]] = {
     "tracks": _q_tracks,
     "events": _q_events,
     "hidden": _q_hidden,
@@ -1015,8 +1015,8 @@ def ask(
     max_atoms: int | None = DEFAULT_MAX_ATOMS,
     max_memory_mb: int | None = DEFAULT_MAX_MEMORY_MB,
     on_model: Callable[[tuple[str, ...]], None] | None = None,
-) -> Answer:
-    """Answer a named question or an ASP query about ``scene``.
+) -> QueryAnswer:
+    """QueryAnswer a named question or an ASP query about ``scene``.
 
     Args:
         scene: the :class:`~sensemaking.scene.Scene`.
@@ -1074,7 +1074,7 @@ def ask(
         lines = shown[0] or (empty,)
     else:
         lines = tuple(f"answer {i + 1}: {' '.join(m)}" for i, m in enumerate(shown))
-    return Answer(
+    return QueryAnswer(
         query,
         lines,
         atoms=shown[0] if shown else (),

@@ -38,10 +38,10 @@ from sensemaking.errors import InputError
 from sensemaking.reasoning.anticipation import AnticipationConfig
 from sensemaking.reasoning.facts import Fact, symbol
 from sensemaking.reasoning.relations import MotionThresholds, RelationConfig
+from sensemaking.records import warning_fields, warning_record
 
 __all__ = [
     "Situation",
-    "Warning",
     "SituationWarning",
     "SituationConfig",
     "SituationMatch",
@@ -80,7 +80,7 @@ ALL_SITUATIONS: frozenset[str] = frozenset(s.name for s in Situation)
 
 
 @dataclass(frozen=True)
-class Warning:  # noqa: A001 - the name the API promises; SituationWarning is an alias
+class SituationWarning:
     """A safety-critical situation detected at ``frame``.
 
     Attributes:
@@ -101,30 +101,15 @@ class Warning:  # noqa: A001 - the name the API promises; SituationWarning is an
     details: dict[str, Any] = field(default_factory=dict, hash=False, compare=False)
 
     def to_json(self) -> dict[str, Any]:
-        """The JSON-lines record ``{"frame", "situation", "objects", "message", "details"}``."""
-        return {
-            "frame": int(self.frame),
-            "situation": self.situation,
-            "objects": [int(o) for o in self.objects],
-            "message": self.message,
-            "details": self.details,
-        }
+        """The warning's record (:func:`sensemaking.records.warning_record`)."""
+        return warning_record(self)
 
     @classmethod
-    def from_json(cls, record: Mapping[str, Any]) -> Warning:
-        return cls(
-            int(record["frame"]),
-            str(record["situation"]),
-            tuple(int(o) for o in record["objects"]),
-            str(record["message"]),
-            dict(record.get("details") or {}),
-        )
+    def from_json(cls, record: Mapping[str, Any]) -> SituationWarning:
+        return cls(*warning_fields(record))
 
     def __str__(self) -> str:
         return f"[{self.frame}] {self.situation}: {self.message}"
-
-
-SituationWarning = Warning
 
 
 @cache

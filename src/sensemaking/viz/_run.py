@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from sensemaking import records
 from sensemaking.results import Event, FrameResult, TrackState
 from sensemaking.viz._style import _get
 
@@ -276,32 +277,7 @@ def _from_scene(scene: Any) -> Run:
 
 
 def read_warnings(path: str | os.PathLike[str]) -> list[dict[str, Any]]:
-    """Warnings from a JSON-lines file (``sensemaking track --warnings``), one object per line;
-    the end records of warning episodes (``"record": "end"``) are left out: a warning is drawn
-    where it starts."""
-    import json
-
-    from sensemaking.errors import InputError
-
-    p = Path(path)
-    try:
-        lines = p.read_text(encoding="utf-8").splitlines()
-    except (FileNotFoundError, IsADirectoryError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read warnings: {exc}", p) from None
-    out = []
-    for i, line in enumerate(lines, 1):
-        if not line.strip():
-            continue
-        try:
-            record = json.loads(line)
-        except json.JSONDecodeError as exc:
-            raise InputError(f"not valid JSON: {exc.msg}", p, i) from None
-        if not isinstance(record, dict) or "frame" not in record:
-            raise InputError('each line must be a JSON object with a "frame"', p, i)
-        try:
-            record["frame"] = int(record["frame"])
-        except (TypeError, ValueError):
-            raise InputError(f"frame must be an integer, got {record['frame']!r}", p, i) from None
-        if record.get("record") != "end":
-            out.append(record)
-    return out
+    """Warnings from a JSON-lines file (``sensemaking track --warnings``), read by
+    :func:`sensemaking.records.read_warnings`; the end records of warning episodes are left
+    out: a warning is drawn where it starts."""
+    return [dict(r) for r in records.warning_starts(records.read_warnings(path))]
