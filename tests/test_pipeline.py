@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from sensemaking.detections import Detections
-from sensemaking.io.sinks import EventsSink, SceneSink, TracksSink, WarningsSink
+from sensemaking.sinks import EventsSink, SceneSink, TracksSink, WarningsSink
 from sensemaking.pipeline import Pipeline
 from sensemaking.reasoning.online import SituationMonitor
 from sensemaking.scene import SceneRecorder

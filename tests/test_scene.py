@@ -10,8 +10,9 @@ import pytest
 from test_scene_helpers import CAR, CYC, Obj, build_results, build_scene, cyclist_behind_turning_car, linear
 
 from sensemaking.errors import InputError
+from sensemaking.reasoning.facts import scene_facts_text
 from sensemaking.results import FrameResult, TrackState
-from sensemaking.scene import FluentInterval, Scene, SceneRecorder
+from sensemaking.scene import FluentInterval, Scene, SceneRecorder, frame_runs
 
 
 @pytest.fixture(scope="module")
@@ -78,6 +79,19 @@ def test_non_contiguous_frames_round_trip(tmp_path):
     assert [(f.start, f.end) for f in scene.fluent_intervals("in_fov")] == [(0, 4)]
 
 
+def test_the_streamed_file_is_json_dump_of_the_dict(scene, tmp_path):
+    # save streams the scene (write_scene); its bytes are json.dump of to_json, gaps and all
+    rec = SceneRecorder(fps=5.0, metadata={"name": "é"})
+    for r in build_results([Obj(3, CAR, linear(range(9), (10, 10, 50, 40)))])[::2]:
+        rec.add(r)
+    for s in (scene, rec.scene()):
+        s.save(tmp_path / "s.json")
+        plain = json.dumps(s.to_json(), separators=(",", ":")) + "\n"
+        assert (tmp_path / "s.json").read_text(encoding="utf-8") == plain
+    assert "frame_numbers" in rec.scene().to_json() and "frame_numbers" not in scene.to_json()
+    assert frame_runs([0, 2, 3, 4, 9]) == [(0, 0), (2, 4), (9, 9)] and frame_runs([]) == []
+
+
 def test_frame_results_replay(scene):
     again = list(scene.frame_results())
     orig = build_results(cyclist_behind_turning_car())
@@ -130,11 +144,11 @@ def test_empty_frames_are_recorded():
         rec.add(FrameResult(f, empty))
     scene = rec.scene()
     assert len(scene) == 3 and not scene.tracks and scene.fluents == []
-    assert "scene_frames(0,2)." in scene.to_facts()
+    assert "scene_frames(0,2)." in scene_facts_text(scene)
 
 
-def test_to_facts_is_valid_asp_with_the_documented_predicates(scene):
-    text = scene.to_facts()
+def test_scene_facts_are_valid_asp_with_the_documented_predicates(scene):
+    text = scene_facts_text(scene)
     ctl = clingo.Control(["--warn=none"])
     ctl.add("base", [], text)
     ctl.ground([("base", [])])
@@ -148,7 +162,7 @@ def test_to_facts_is_valid_asp_with_the_documented_predicates(scene):
     assert "motion(1,10,moving_right)." in text and "motion(2,10,moving_left)." in text
     # the cyclist's box lies inside the car's when hidden: during/during (x/y, y within tolerance)
     assert "ra(1,2,25,during,during)." in text
-    small = scene.to_facts(boxes=False, states=False, relations=False, motion=False, corridor=False)
+    small = scene_facts_text(scene, boxes=False, states=False, relations=False, motion=False, corridor=False)
     assert "box(" not in small and "ra(" not in small and "motion(" not in small and "in_corridor(" not in small
     assert "state(" not in small and "last_frame(1,44)." in small
 

@@ -11,9 +11,9 @@ from pathlib import Path
 from sensemaking.classes import class_name
 from sensemaking.errors import MissingExtraError
 from sensemaking.io.kitti import write_kitti
-from sensemaking.io.sinks import EventsSink, Sink, TracksSink, WarningsSink
 from sensemaking.pipeline import Pipeline
 from sensemaking.results import Event, FrameResult
+from sensemaking.sinks import EventsSink, Sink, TracksSink, WarningsSink
 from sensemaking.synthetic import figure1_scene
 from sensemaking.tracker import Tracker, TrackerConfig
 

@@ -20,7 +20,7 @@ tracker's and monitor's memory, not by the frame numbers. Leaving the ``with`` b
 finishes every sink (final files appear), on an exception aborts them (nothing half-written;
 on KeyboardInterrupt, which the CLI also raises for SIGTERM, the warnings file is kept).
 Memory is flat in the length of the input when the sinks are (they are: see
-:mod:`sensemaking.io.sinks`); a :class:`~sensemaking.scene.SceneRecorder` passed as
+:mod:`sensemaking.sinks`); a :class:`~sensemaking.scene.SceneRecorder` passed as
 ``recorder`` keeps the whole scene in memory (and every skipped frame number).
 """
 
@@ -33,8 +33,8 @@ from typing import Any
 
 from sensemaking.detections import Detections, check_frame_number, validate_detections
 from sensemaking.errors import InputError
-from sensemaking.io.sinks import Sink, close_all
 from sensemaking.results import FrameResult
+from sensemaking.sinks import Sink, close_all
 
 __all__ = ["Pipeline", "PipelineSummary", "FrameStep"]
 
@@ -69,7 +69,7 @@ class PipelineSummary:
 class Pipeline:
     """Runs ``tracker`` (``update(dets, frame=f) -> FrameResult``) and, per frame result, the
     ``recorder`` (``add(result)``), the ``monitor`` (``update(result) -> warnings``) and each of
-    ``sinks`` (:class:`~sensemaking.io.sinks.Sink`).
+    ``sinks`` (:class:`~sensemaking.sinks.Sink`).
 
     Args:
         validate: check every frame's detections

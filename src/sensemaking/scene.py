@@ -3,8 +3,10 @@
 ``SceneRecorder.add(result)`` once per frame (cheap: it only keeps the frame's arrays);
 ``recorder.scene()`` gives a :class:`Scene`: every track's boxes and states per frame, the event
 log, and the fluents ``in_fov``, ``hidden_by`` and ``visibility`` as intervals. A scene is
-saved as JSON (``Scene.save`` / ``Scene.load``) and turned into ASP facts for question answering
-(``Scene.to_facts``; the predicates are documented in ``reasoning/encodings/scene.lp``).
+saved as JSON (``Scene.save`` / ``Scene.load``, written by :func:`write_scene`, which the
+pipeline's scene sink shares) and turned into ASP facts for question answering by the reasoning
+layer (:func:`sensemaking.reasoning.facts.scene_facts`; the predicates are documented in
+``reasoning/encodings/scene.lp``).
 
 Scene JSON (``"format": "sensemaking.scene"``, ``"version": 1``)::
 
@@ -34,12 +36,13 @@ from __future__ import annotations
 import json
 import math
 import re
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from functools import cached_property
+from itertools import chain
 from os import PathLike
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import IO, TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -53,8 +56,6 @@ from sensemaking.results import Event, FrameResult, TrackState, Visibility
 if TYPE_CHECKING:  # pragma: no cover
     from sensemaking.abduction.record import AbductionRecord, ProblemRecord
     from sensemaking.abduction.solver import AbductionSolver
-    from sensemaking.reasoning.context import SceneContext
-    from sensemaking.reasoning.relations import MotionThresholds, RelationConfig
 
 __all__ = ["Track", "FluentInterval", "Scene", "SceneRecorder", "SCENE_FORMAT", "SCENE_VERSION"]
 
@@ -320,67 +321,22 @@ class Scene:
             "hidden_frames": np.concatenate([t.hidden_frames for t in ts]),
         }
 
-    # -- ASP facts ------------------------------------------------------------------------------
-    def to_facts(
-        self,
-        *,
-        boxes: bool = True,
-        states: bool = True,
-        relations: bool = True,
-        motion: bool = True,
-        corridor: bool = True,
-        context: SceneContext | None = None,
-        relation_config: RelationConfig | None = None,
-        motion_thresholds: MotionThresholds | None = None,
-    ) -> str:
-        """The scene as ASP facts, one a line (predicates documented in
-        ``reasoning/encodings/scene.lp``): the text of
-        :func:`sensemaking.reasoning.facts.scene_facts`, which builds them as clingo symbols.
-
-        Args:
-            boxes: ``box/6`` per track and frame.
-            states: ``state/3`` per track and frame.
-            relations: ``ra/5`` rectangle relations of near pairs per frame.
-            motion: ``motion/3`` qualitative motion of visible boxes.
-            corridor: ``in_corridor/2`` (needs ``image_size``; uses ``context.corridor``).
-            context: :class:`~sensemaking.reasoning.context.SceneContext` (corridor, lanes);
-                default: the default corridor, no lanes.
-            relation_config, motion_thresholds: see :mod:`sensemaking.reasoning.relations`.
-        """
-        from sensemaking.reasoning.facts import facts_text, scene_facts
-
-        facts = scene_facts(
-            self,
-            boxes=boxes,
-            states=states,
-            relations=relations,
-            motion=motion,
-            corridor=corridor,
-            context=context,
-            relation_config=relation_config,
-            motion_thresholds=motion_thresholds,
-        )
-        return facts_text(facts)
-
     # -- JSON -----------------------------------------------------------------------------------
+    def _parts(self) -> Iterator[tuple[str, Any]]:
+        return scene_parts(
+            fps=self.fps,
+            image_size=self.image_size,
+            runs=frame_runs(self.frame_numbers),
+            metadata=self.metadata,
+            tracks=JsonArray(track_json(t) for t in self.tracks.values()),
+            events=JsonArray(event_record(e) for e in self.events),
+            abduction=None if self.abduction is None else self.abduction.to_json(),
+        )
+
     def to_json(self) -> dict[str, Any]:
-        """The scene as a JSON-able dict (format in the module docstring)."""
-        fr = self.frame_numbers
-        record: dict[str, Any] = {
-            "format": SCENE_FORMAT,
-            "version": SCENE_VERSION,
-            "fps": self.fps,
-            "image_size": None if self.image_size is None else list(self.image_size),
-            "frames": [int(fr[0]), int(fr[-1])] if fr.size else [],
-        }
-        if fr.size and fr.size != int(fr[-1] - fr[0]) + 1:
-            record["frame_numbers"] = fr.tolist()
-        record["metadata"] = self.metadata
-        record["tracks"] = [track_json(t) for t in self.tracks.values()]
-        record["events"] = [event_record(e) for e in self.events]
-        if self.abduction is not None:
-            record["abduction"] = self.abduction.to_json()
-        return record
+        """The scene as a JSON-able dict (format in the module docstring): what :meth:`save`
+        writes."""
+        return {k: _materialize(v) for k, v in self._parts()}
 
     @classmethod
     def from_json(cls, record: Any, path: str | PathLike[str] | None = None) -> Scene:
@@ -531,8 +487,7 @@ class Scene:
     def save(self, path: str | PathLike[str]) -> None:
         """Write the scene JSON atomically (a failed write leaves no partial file)."""
         with atomic_write(path) as fh:
-            json.dump(self.to_json(), fh, separators=(",", ":"))
-            fh.write("\n")
+            write_scene(fh, self._parts())
 
     @classmethod
     def load(cls, path: str | PathLike[str]) -> Scene:
@@ -566,6 +521,122 @@ def track_json(t: Track) -> dict[str, Any]:
         "visibility": [_VISIBILITY[v] for v in t.visibility.tolist()],
         "hidden_frames": t.hidden_frames.tolist(),
     }
+
+
+class RawJson(str):
+    """JSON text, written into a scene file as it is (e.g. a record kept in a temporary file)."""
+
+    __slots__ = ()
+
+
+class JsonArray:
+    """A JSON array whose elements are made (and written) one at a time."""
+
+    __slots__ = ("items",)
+
+    def __init__(self, items: Iterable[Any]):
+        self.items = items
+
+
+def frame_runs(frames: np.ndarray | Sequence[int]) -> list[tuple[int, int]]:
+    """``(first, last)`` of each run of consecutive frame numbers, in order."""
+    fr = np.asarray(frames, dtype=np.int64)
+    if fr.size == 0:
+        return []
+    cut = np.flatnonzero(np.diff(fr) != 1) + 1
+    first = np.concatenate([fr[:1], fr[cut]])
+    last = np.concatenate([fr[cut - 1], fr[-1:]])
+    return list(zip(first.tolist(), last.tolist(), strict=True))
+
+
+def scene_parts(
+    *,
+    fps: float,
+    image_size: tuple[int, int] | None,
+    runs: Sequence[tuple[int, int]],
+    metadata: Mapping[str, Any],
+    tracks: JsonArray,
+    events: JsonArray,
+    abduction: Mapping[str, Any] | None,
+) -> Iterator[tuple[str, Any]]:
+    """The entries of a scene file, in order (format in the module docstring): the one
+    definition :meth:`Scene.save`, :meth:`Scene.to_json` and the pipeline's scene sink share.
+
+    Args:
+        runs: the recorded frames as ``(first, last)`` runs (:func:`frame_runs`).
+        tracks: :func:`track_json` entries. events: event records
+            (:func:`sensemaking.records.event_record`, or :class:`RawJson` of them).
+        abduction: :meth:`~sensemaking.abduction.record.AbductionRecord.to_json`, its
+            ``"problems"`` last (a :class:`JsonArray` to stream them), or None.
+    """
+    yield "format", SCENE_FORMAT
+    yield "version", SCENE_VERSION
+    yield "fps", fps
+    yield "image_size", None if image_size is None else list(image_size)
+    yield "frames", [runs[0][0], runs[-1][1]] if runs else []
+    if len(runs) > 1:
+        yield "frame_numbers", JsonArray(chain.from_iterable(range(a, b + 1) for a, b in runs))
+    yield "metadata", metadata
+    yield "tracks", tracks
+    yield "events", events
+    if abduction is not None:
+        yield "abduction", abduction
+
+
+def _dumps(value: Any) -> str:
+    if isinstance(value, RawJson):
+        return value
+    return json.dumps(value, separators=(",", ":"))
+
+
+def _streamed(value: Any) -> bool:
+    return isinstance(value, JsonArray) or (
+        isinstance(value, Mapping) and any(isinstance(v, JsonArray) for v in value.values())
+    )
+
+
+def _write_value(out: IO[str], value: Any) -> None:
+    if isinstance(value, JsonArray):
+        out.write("[")
+        chunk: list[str] = []
+        sep = ""
+        for item in value.items:
+            chunk.append(_dumps(item))
+            if len(chunk) >= 4096:  # in blocks: a long array is not one huge string
+                out.write(sep + ",".join(chunk))
+                chunk, sep = [], ","
+        if chunk:
+            out.write(sep + ",".join(chunk))
+        out.write("]")
+    elif _streamed(value):
+        _write_entries(out, value.items())
+    else:
+        out.write(_dumps(value))
+
+
+def _write_entries(out: IO[str], entries: Iterable[tuple[str, Any]]) -> None:
+    out.write("{")
+    for k, (key, v) in enumerate(entries):
+        out.write(("," if k else "") + json.dumps(key) + ":")
+        _write_value(out, v)
+    out.write("}")
+
+
+def write_scene(out: IO[str], parts: Iterable[tuple[str, Any]]) -> None:
+    """Write a scene file's entries (:func:`scene_parts`) as compact JSON and a newline,
+    streaming every :class:`JsonArray`; the bytes are those of ``json.dump`` of the dict."""
+    _write_entries(out, parts)
+    out.write("\n")
+
+
+def _materialize(value: Any) -> Any:
+    if isinstance(value, JsonArray):
+        return [_materialize(v) for v in value.items]
+    if isinstance(value, RawJson):
+        return json.loads(value)
+    if isinstance(value, Mapping) and _streamed(value):
+        return {k: _materialize(v) for k, v in value.items()}
+    return value
 
 
 def _is_int(v: Any) -> bool:

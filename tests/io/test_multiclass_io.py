@@ -10,7 +10,7 @@ import pytest
 from sensemaking.classes import CLASS_IDS
 from sensemaking.detections import Detections
 from sensemaking.io.kitti import read_kitti_labels
-from sensemaking.io.sinks import ClassTracksSink, TracksSink, class_paths
+from sensemaking.sinks import ClassTracksSink, TracksSink, class_paths
 from sensemaking.io.stream import iter_detection_frames, merge_frames, scan_detections, sequence_name
 from sensemaking.results import FrameResult
 

@@ -11,7 +11,7 @@ import pytest
 from test_scene_helpers import CAR, PED, TRUCK, Obj, build_results, cyclist_behind_turning_car, linear, piecewise
 
 from sensemaking.detections import Detections
-from sensemaking.io.sinks import WarningsSink
+from sensemaking.sinks import WarningsSink
 from sensemaking.pipeline import Pipeline
 from sensemaking.reasoning.context import Lane, LaneMap, SceneContext
 from sensemaking.reasoning.online import LANE_POSITIONS, SEVERITY_NAMES, SituationMonitor

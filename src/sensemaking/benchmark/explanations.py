@@ -99,7 +99,7 @@ class SequenceCapture:
         events_path: Path,
         warnings_path: Path | None = None,
     ):
-        from sensemaking.io.sinks import EventsSink, Sink, WarningsSink
+        from sensemaking.sinks import EventsSink, Sink, WarningsSink
 
         events_path.parent.mkdir(parents=True, exist_ok=True)
         self.monitor = None if warnings_path is None else situation_monitor(spec, seq)

@@ -143,7 +143,7 @@ def _command_line(args: argparse.Namespace) -> str:
 def run(args: argparse.Namespace) -> int:
     from sensemaking.benchmark import datasets, report, runner
     from sensemaking.errors import InputError
-    from sensemaking.io.sinks import check_output_paths
+    from sensemaking.sinks import check_output_paths
 
     if not 1 <= args.jobs <= 256:
         raise InputError(f"--jobs must be a number of processes in 1..256, got {args.jobs}")

@@ -160,7 +160,7 @@ def run(args: argparse.Namespace) -> int:
         rules_for_benchmark,
     )
     from sensemaking.io.atomic import atomic_write
-    from sensemaking.io.sinks import check_output_paths
+    from sensemaking.sinks import check_output_paths
 
     parser: argparse.ArgumentParser = args._parser
     check_output_paths(

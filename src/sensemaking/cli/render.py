@@ -99,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
         )
     if args.scale is not None and not 0 < args.scale <= 4:
         raise InputError(f"--scale must be in (0, 4], got {args.scale}")
-    from sensemaking.io.sinks import check_output_paths
+    from sensemaking.sinks import check_output_paths
     from sensemaking.viz._media import output_kind
 
     inputs = {

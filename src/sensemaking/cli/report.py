@@ -66,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--format describes --gt: give --gt too")
     if args.thumbnails < 0:
         raise InputError(f"--thumbnails must be >= 0, got {args.thumbnails}")
-    from sensemaking.io.sinks import check_output_paths
+    from sensemaking.sinks import check_output_paths
 
     inputs = {
         "SCENE": args.scene,

@@ -466,7 +466,7 @@ def _file_class(path: Path, name: str | None, fmt: str) -> int | None:
 def _output_paths(args: argparse.Namespace, classes: list[int]) -> dict[int, Path] | None:
     """Class id -> results file when ``--output`` has the {class} field, else None (one file);
     refuses several classes in one MOTChallenge file (it has no class column)."""
-    from sensemaking.io.sinks import CLASS_FIELD, class_paths
+    from sensemaking.sinks import CLASS_FIELD, class_paths
 
     if CLASS_FIELD in str(args.output):
         if not classes:
@@ -571,7 +571,8 @@ def _world_motion(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from sensemaking.io.sinks import (
+    from sensemaking.pipeline import Pipeline
+    from sensemaking.sinks import (
         CLASS_FIELD,
         ClassTracksSink,
         EventsSink,
@@ -580,7 +581,6 @@ def run(args: argparse.Namespace) -> int:
         WarningsSink,
         check_output_paths,
     )
-    from sensemaking.pipeline import Pipeline
     from sensemaking.tracker import Tracker
 
     # several files (one per class) are one input; args.detections is the first (seqinfo, name)
@@ -693,7 +693,7 @@ def run(args: argparse.Namespace) -> int:
                     )
                 )
         except BaseException:
-            from sensemaking.io.sinks import close_all
+            from sensemaking.sinks import close_all
 
             close_all(sinks, ok=False)
             raise

@@ -14,12 +14,22 @@ from typing import TYPE_CHECKING, Any
 import clingo
 import numpy as np
 
+from sensemaking.reasoning.context import SceneContext, asp_name
+from sensemaking.reasoning.relations import (
+    MotionThresholds,
+    RelationConfig,
+    motion_facts,
+    pair_front,
+    pair_relations,
+    relation_facts,
+    track_motion,
+)
+from sensemaking.results import TrackState
+
 if TYPE_CHECKING:  # pragma: no cover
-    from sensemaking.reasoning.context import SceneContext
-    from sensemaking.reasoning.relations import MotionThresholds, RelationConfig
     from sensemaking.scene import Scene
 
-__all__ = ["AspString", "Fact", "symbol", "value", "scene_facts", "facts_text"]
+__all__ = ["AspString", "Fact", "symbol", "value", "scene_facts", "scene_facts_text", "facts_text"]
 
 #: one fact or term: ``(name, arg, ...)``
 Fact = tuple[Any, ...]
@@ -82,18 +92,6 @@ def scene_facts(
             default: the default corridor, no lanes.
         relation_config, motion_thresholds: see :mod:`sensemaking.reasoning.relations`.
     """
-    from sensemaking.reasoning.context import SceneContext, asp_name
-    from sensemaking.reasoning.relations import (
-        MotionThresholds,
-        RelationConfig,
-        motion_facts,
-        pair_front,
-        pair_relations,
-        relation_facts,
-        track_motion,
-    )
-    from sensemaking.results import TrackState
-
     states_names = tuple(s.name.lower() for s in TrackState)
     ctx = context or SceneContext()
     out: list[Fact] = []
@@ -159,6 +157,11 @@ def scene_facts(
             for f, k in zip(got.tolist(), kinds, strict=True):
                 out += motion_facts(f, np.array([t.id]), k[None, :])
     return out
+
+
+def scene_facts_text(scene: Scene, **kw: Any) -> str:
+    """The scene's facts (:func:`scene_facts`, same options) as program text, one a line."""
+    return facts_text(scene_facts(scene, **kw))
 
 
 def facts_text(facts: Iterable[Fact]) -> str:

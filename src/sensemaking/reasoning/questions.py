@@ -51,6 +51,7 @@ import numpy as np
 from clingo import ast as clingo_ast
 
 from sensemaking.errors import SensemakingError
+from sensemaking.reasoning.facts import scene_facts_text
 from sensemaking.results import TrackState, Visibility
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -505,7 +506,7 @@ def _solve_limited(
 
 
 def _facts(scene: Scene, context: SceneContext | None, **kw: Any) -> str:
-    return scene.to_facts(context=context, **kw)
+    return scene_facts_text(scene, context=context, **kw)
 
 
 #: derived predicates -> the input predicates they are built from (scene.lp, relations.lp)

@@ -1,4 +1,6 @@
-"""Output sinks of a :class:`~sensemaking.pipeline.Pipeline`: tracks, events, warnings and the
+"""Output sinks of a :class:`~sensemaking.pipeline.Pipeline` (beside it: they write what the
+pipeline's layers produce, in the formats of :mod:`sensemaking.records` and
+:mod:`sensemaking.scene`): tracks, events, warnings and the
 scene written frame by frame into temporary files beside their targets, renamed into place when
 the run ends (so a final file appears whole or not at all), and memory bounded by the live
 tracks, not by the length of the run.
@@ -18,7 +20,7 @@ import json
 import math
 import os
 import tempfile
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import IO, Any, Protocol
 
@@ -37,7 +39,14 @@ from sensemaking.records import (
     start_record,
 )
 from sensemaking.results import Event, FrameResult
-from sensemaking.scene import SCENE_FORMAT, SCENE_VERSION, Track, track_json
+from sensemaking.scene import (
+    JsonArray,
+    RawJson,
+    Track,
+    scene_parts,
+    track_json,
+    write_scene,
+)
 
 __all__ = [
     "Sink",
@@ -302,9 +311,10 @@ class WarningsSink:
 
 class SceneSink:
     """The scene JSON of :class:`~sensemaking.scene.SceneRecorder` + ``Scene.save`` (the same
-    bytes), written with memory bounded by the live tracks: a track absent from a frame's output
-    has ended and its rows go to an unnamed temporary file; events go to another; at the end the
-    file is assembled track by track in id order.
+    bytes: both write with :func:`~sensemaking.scene.write_scene`), written with memory bounded
+    by the live tracks: a track absent from a frame's output has ended and its rows go to an
+    unnamed temporary file; events go to another; at the end the file is assembled track by
+    track in id order.
 
     Args:
         path: the scene file. fps: frames per second. image_size: ``(width, height)`` or None.
@@ -487,38 +497,6 @@ class SceneSink:
         self._group()
         for t in list(self._live):
             self._spill(t)
-        out = self._file.handle
-        runs = self._runs
-
-        def put(key: str, value: Any, first: bool = False) -> None:
-            out.write(
-                ("" if first else ",")
-                + json.dumps(key)
-                + ":"
-                + json.dumps(value, separators=(",", ":"))
-            )
-
-        out.write("{")
-        put("format", SCENE_FORMAT, first=True)
-        put("version", SCENE_VERSION)
-        put("fps", self.fps)
-        put("image_size", None if self.image_size is None else list(self.image_size))
-        put("frames", [runs[0][0], runs[-1][1]] if runs else [])
-        if len(runs) > 1:
-            out.write(',"frame_numbers":[')
-            sep = ""
-            for a, b in runs:
-                for lo in range(a, b + 1, 65536):  # in blocks: a long run is not one huge string
-                    out.write(sep + ",".join(map(str, range(lo, min(lo + 65536, b + 1)))))
-                    sep = ","
-            out.write("]")
-        put("metadata", self.metadata)
-        out.write(',"tracks":[')
-        for k, t in enumerate(sorted(self._index)):
-            out.write(
-                ("," if k else "") + json.dumps(track_json(self._track(t)), separators=(",", ":"))
-            )
-        out.write('],"events":[')
         self._flush_events(math.inf)
         self._events.seek(0)
         lines: Iterable[bytes] = self._events
@@ -527,12 +505,16 @@ class SceneSink:
                 self._events,
                 key=lambda b: event_from_record(json.loads(b)).sort_key(),
             )
-        for k, line in enumerate(lines):
-            out.write(("," if k else "") + line.decode().rstrip("\n"))
-        out.write("]")
-        if self._solver is not None:
-            self._write_problems(out)
-        out.write("}\n")
+        parts = scene_parts(
+            fps=self.fps,
+            image_size=self.image_size,
+            runs=[(a, b) for a, b in self._runs],
+            metadata=self.metadata,
+            tracks=JsonArray(track_json(self._track(t)) for t in sorted(self._index)),
+            events=JsonArray(RawJson(line.decode().rstrip("\n")) for line in lines),
+            abduction=None if self._solver is None else self._abduction(),
+        )
+        write_scene(self._file.handle, parts)
         self._close_temporary()
         self._file.commit()
 
@@ -540,23 +522,23 @@ class SceneSink:
         self._close_temporary()
         self._file.discard()
 
-    def _write_problems(self, out: Any) -> None:
+    def _abduction(self) -> dict[str, Any]:
         """The scene's ``"abduction"`` entry: the problems an event or a kept track needs
-        (:func:`~sensemaking.abduction.record.keep_named`), in frame order."""
+        (:func:`~sensemaking.abduction.record.keep_named`), in frame order, streamed from the
+        temporary file."""
         from sensemaking.abduction.record import AbductionRecord, recorded_constants
 
         head = AbductionRecord(*recorded_constants(self._solver)).to_json()
-        del head["problems"]  # the last key: written below, one problem at a time
-        out.write(',"abduction":' + json.dumps(head, separators=(",", ":"))[:-1])
-        out.write(',"problems":[')
-        self._problems.seek(0)
-        k = 0
-        for raw in self._problems:
-            named, started, problem = json.loads(raw)
-            if named or any(t in self._index for t in started):
-                out.write(("," if k else "") + json.dumps(problem, separators=(",", ":")))
-                k += 1
-        out.write("]}")
+        del head["problems"]  # the last key: streamed, one problem at a time
+
+        def kept() -> Iterator[Any]:
+            self._problems.seek(0)
+            for raw in self._problems:
+                named, started, problem = json.loads(raw)
+                if named or any(t in self._index for t in started):
+                    yield problem
+
+        return {**head, "problems": JsonArray(kept())}
 
     def _close_temporary(self) -> None:
         self._tracks.close()
