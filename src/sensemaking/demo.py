@@ -16,21 +16,11 @@ from sensemaking.results import Event, FrameResult
 from sensemaking.sinks import EventsSink, Sink, TracksSink, WarningsSink
 from sensemaking.synthetic import figure1_scene
 from sensemaking.tracker import Tracker, TrackerConfig
+from sensemaking.vocabulary import event_sentence
 
 __all__ = ["DemoResult", "run_demo", "describe_event"]
 
 log = logging.getLogger(__name__)
-
-_PHRASES = {
-    "enters_fov": "{0} enters the field of view",
-    "leaves_fov": "{0} leaves the field of view",
-    "hides_behind": "{0} hides behind {1}",
-    "unhides_from_behind": "{0} reappears from behind {1}",
-    "missing_detections": "{0} is not detected (missing detections)",
-    "reappears": "{0} is detected again",
-    "starts": "{0} is in view",
-    "ends": "{0} is lost",
-}
 
 
 def describe_event(event: Event, classes: dict[int, int], fps: float) -> str:
@@ -38,7 +28,7 @@ def describe_event(event: Event, classes: dict[int, int], fps: float) -> str:
     names = [
         f"{class_name(classes.get(a, 0) if isinstance(a, int) else 0)} #{a}" for a in event.args
     ]
-    phrase = _PHRASES.get(event.name, event.name + "({})").format(*names)
+    phrase = event_sentence(event.name, names)
     return f"frame {event.frame} ({event.frame / fps:.1f} s): {phrase}"
 
 

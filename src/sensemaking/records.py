@@ -29,7 +29,8 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from sensemaking.errors import InputError
-from sensemaking.results import EVENT_NAMES, Event
+from sensemaking.results import Event
+from sensemaking.vocabulary import EVENT_NAMES
 
 __all__ = [
     "event_record",

@@ -9,12 +9,21 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from sensemaking.detections import Detections
+from sensemaking.vocabulary import EVENT_NAMES
 
 if TYPE_CHECKING:  # pragma: no cover
     from sensemaking.abduction.problem import FrameProblem
     from sensemaking.abduction.solver import AbductionSolver
 
-__all__ = ["TrackState", "Visibility", "Event", "FrameResult", "FrameAbduction", "EVENT_NAMES"]
+__all__ = [
+    "TrackState",
+    "Visibility",
+    "VISIBILITY_VALUES",
+    "Event",
+    "FrameResult",
+    "FrameAbduction",
+    "EVENT_NAMES",
+]
 
 
 class TrackState(IntEnum):
@@ -37,17 +46,8 @@ class Visibility(IntEnum):
         return self.name.lower()
 
 
-#: the abducible events, with their arity
-EVENT_NAMES: dict[str, int] = {
-    "enters_fov": 1,
-    "leaves_fov": 1,
-    "hides_behind": 2,
-    "unhides_from_behind": 2,
-    "missing_detections": 1,
-    "reappears": 1,  # detections resume after missing detections
-    "starts": 1,  # a track starts without entering the field of view (e.g. first frame)
-    "ends": 1,  # a track ends without leaving the field of view (lost)
-}
+#: the values of the ``visibility(T)`` fluent in ASP, indexed by :class:`Visibility`
+VISIBILITY_VALUES: tuple[str, ...] = tuple(v.asp for v in Visibility)
 
 
 @dataclass(frozen=True, order=True)

@@ -90,9 +90,9 @@ def test_fallback_story_tells_the_occlusion():
     assert story[0].startswith(
         "#2 cyclist was tracked from frame 0 to frame 39 (4.0 s), visible in 32 of 40"
     )
-    assert "Frame 15: #2 cyclist is hidden behind #1 car (for 8 frames, 0.8 s)." in story
+    assert "Frame 15: #2 cyclist hides behind #1 car (for 8 frames, 0.8 s)." in story
     assert "Frame 23: #2 cyclist reappears from behind #1 car." in story
-    assert any("#3 car: detections are missing (for 3 frames" in s for s in fallback_story(run, 3))
+    assert any("#3 car is not detected (missing detections) (for 3 frames" in s for s in fallback_story(run, 3))
     assert fallback_story(run, 99) == []
 
 

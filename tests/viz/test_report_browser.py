@@ -108,7 +108,7 @@ def test_browser_shows_timeline_stories_warnings_and_images(tmp_path: Path):
     text = " ".join(dom.text)
     story = _story(dom, 2)
     assert "cyclist" in story and ("hidden behind" in story or "hides behind" in story)
-    assert "#2 cyclist is hidden behind #1 car" in text  # a key frame's caption
+    assert "#2 cyclist hides behind #1 car" in text  # a key frame's caption
     assert dom.warnings == 1 and "may reappear in front" in text
     assert dom.images and all(src.startswith("data:image/") for src in dom.images)
     # set by the page's own script once every picture decoded
@@ -165,6 +165,6 @@ def test_browser_kitti_report(tmp_path: Path):
     assert "KITTI 0000" in text and "kitti car" in text
     n_hides = sum(e.name == "hides_behind" for e in scene.events)
     if n_hides:
-        assert "is hidden behind" in text
+        assert "hides behind" in text
     assert len(dom.images) >= 5
     assert dom.body.get("data-images-decoded") == f"{len(dom.images)}/{len(dom.images)}"

@@ -38,6 +38,7 @@ from sensemaking.abduction.solver import (
 )
 from sensemaking.errors import InputError
 from sensemaking.results import Event, FrameAbduction
+from sensemaking.vocabulary import START_EVENTS
 
 __all__ = [
     "ProblemRecord",
@@ -49,9 +50,6 @@ __all__ = [
     "START_EVENTS",
 ]
 
-#: events that start a track: a tentative track's is reported when it is confirmed, but was
-#: abduced at the frame its first detection started it
-START_EVENTS = ("starts", "enters_fov")
 PACKAGED = "tracking.lp"
 _NAME = re.compile(r"[a-z_][A-Za-z0-9_]*")
 

@@ -41,6 +41,7 @@ from sensemaking.evaluation._prepare import (
 )
 from sensemaking.records import event_record, judged_warnings, read_events, read_warnings
 from sensemaking.results import Event
+from sensemaking.vocabulary import START_EVENTS
 
 __all__ = [
     "ExplanationConfig",
@@ -949,7 +950,7 @@ def late_start_events(tracks: Detections, events: Iterable[Event]) -> tuple[int,
             first[t] = f
     late = total = 0
     for e in events:
-        if e.name in ("starts", "enters_fov"):
+        if e.name in START_EVENTS:
             total += 1
             t = _track(e)
             late += t is None or e.frame < first.get(t, e.frame + 1)

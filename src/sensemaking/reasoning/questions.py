@@ -53,6 +53,7 @@ from clingo import ast as clingo_ast
 from sensemaking.errors import SensemakingError
 from sensemaking.reasoning.facts import scene_facts_text
 from sensemaking.results import TrackState, Visibility
+from sensemaking.vocabulary import EVENTS, START_EVENTS
 
 if TYPE_CHECKING:  # pragma: no cover
     from sensemaking.reasoning.context import SceneContext
@@ -799,24 +800,18 @@ def _q_why_ended(scene: Scene, args: list[int], context: SceneContext | None) ->
 #: how many alternatives ``why`` names per event
 WHY_ALTERNATIVES = 3
 
-#: an event or action of the encoding, as a phrase about its subject (``{o}``: the other object)
-_PHRASES = {
-    "enters_fov": "enters the field of view",
-    "starts": "appears inside the view",
-    "leaves_fov": "leaves the field of view",
-    "ends": "ends, unexplained (lost)",
-    "hides_behind": "hides behind {o}",
-    "unhides_from_behind": "comes out from behind {o}",
-    "missing_detections": "is not detected (missing detections)",
-    "reappears": "is detected again (reappears)",
-    "assign": "is matched to {o}",
-    "resume": "is matched again to {o}",
+#: an action of the encoding, as a phrase about its subject (``{1}``: the other object)
+_ACTIONS = {
+    "assign": "is matched to {1}",
+    "resume": "is matched again to {1}",
     "start": "starts a new track",
     "ignore_det": "is ignored (a detection explained by no track)",
     "ignore_trk": "stays unseen",
     "halt": "stops being seen",
     "end": "ends",
 }
+#: an event (:mod:`sensemaking.vocabulary`) or action, as a phrase about its subject
+_PHRASES = {**{name: e.predicate for name, e in EVENTS.items()}, **_ACTIONS}
 #: actions that an event of the same subject says more precisely
 _IMPLIED = {"start", "end", "halt", "ignore_trk"}
 
@@ -850,14 +845,12 @@ class _Namer:
         text = _PHRASES.get(name)
         if text is None:
             return f"{name}({', '.join(self.name(a) for a in args)})"
-        return text.format(o=self.name(args[1]) if len(args) > 1 else "")
+        return text.format("", self.name(args[1]) if len(args) > 1 else "")
 
     def phrases(self, atoms: tuple[tuple[str, tuple], ...], subject: Any) -> str:
         """What an alternative holds about the subject (actions an event implies, such as
         ``end`` beside ``leaves_fov``, left out)."""
-        from sensemaking.results import EVENT_NAMES
-
-        events = [a for a in atoms if a[0] in EVENT_NAMES or a[0] not in _PHRASES]
+        events = [a for a in atoms if a[0] in EVENTS or a[0] not in _PHRASES]
         shown = [a for a in atoms if a in events or (a[0] not in _IMPLIED or not events)]
         return " and ".join(self.phrase(n, a, subject) for n, a in shown) or "nothing"
 
@@ -1121,7 +1114,7 @@ def _story(scene: Scene, t: Track, context: SceneContext | None) -> list[str]:
     own = [e for e in evs if e.args and e.args[0] == t.id]
     first = f"{d[0].upper()}{d[1:]}"
     where = _where(scene, t.xyxy[0], context)
-    start = next((e for e in own if e.name in ("enters_fov", "starts")), None)
+    start = next((e for e in own if e.name in START_EVENTS), None)
     if start is not None and start.name == "enters_fov":
         out = [
             f"{first} enters the field of view at frame {start.frame}"

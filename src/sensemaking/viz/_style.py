@@ -9,11 +9,12 @@ every run, the video and the report.
 from __future__ import annotations
 
 import colorsys
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from functools import lru_cache
 from typing import Any
 
 from sensemaking.classes import class_name
+from sensemaking.vocabulary import EVENTS
 
 RGB = tuple[int, int, int]
 
@@ -133,31 +134,18 @@ def track_caption(track_id: int, class_id: int | None, state: int, occluder: int
     return label
 
 
-_EVENT_PHRASES: dict[str, Callable[[list[str]], str]] = {
-    "enters_fov": lambda a: f"{a[0]} enters the field of view",
-    "leaves_fov": lambda a: f"{a[0]} leaves the field of view",
-    "hides_behind": lambda a: f"{a[0]} is hidden behind {a[1]}",
-    "unhides_from_behind": lambda a: f"{a[0]} reappears from behind {a[1]}",
-    "missing_detections": lambda a: f"{a[0]}: detections are missing",
-    "reappears": lambda a: f"{a[0]} is detected again",
-    "starts": lambda a: f"{a[0]}: track starts",
-    "ends": lambda a: f"{a[0]}: track ends",
-}
-
-
 def event_sentence(
     name: str, args: Sequence[int | str], classes: Mapping[int, int] | None = None
 ) -> str:
-    """An event in words, e.g. ``#5 cyclist is hidden behind #2 car``; unknown names verbatim.
+    """An event in words (:mod:`sensemaking.vocabulary`), e.g. ``#5 cyclist hides behind #2
+    car``; unknown names verbatim.
     ``args`` are track ids, or constants (a user's encoding), which are shown as they are."""
     classes = classes or {}
     labels = [a if isinstance(a, str) else track_label(a, classes.get(int(a))) for a in args]
-    phrase = _EVENT_PHRASES.get(name)
-    if phrase is None or len(labels) < (
-        2 if name in ("hides_behind", "unhides_from_behind") else 1
-    ):
+    kind = EVENTS.get(name)
+    if kind is None or len(labels) < kind.arity:
         return f"{name}({', '.join(map(str, args))})"
-    return phrase(labels)
+    return kind.sentence(labels)
 
 
 def warning_sentence(warning: Any) -> str:
