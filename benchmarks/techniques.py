@@ -48,13 +48,13 @@ from sensemaking.abduction import components
 from sensemaking.benchmark.crossval import family_of, fold_key
 from sensemaking.benchmark.datasets import Benchmark, Sequence, default_data_root, iter_benchmarks
 from sensemaking.benchmark.peers import OursAdapter
-from sensemaking.benchmark.runner import (
-    _read_gt,
-    _read_results,
-    _rules_name,
-    _write_results,
+from sensemaking.benchmark.sequences import (
     ours_config,
+    read_gt,
+    read_results,
+    rules_name,
     run_sequence,
+    write_results,
 )
 from sensemaking.errors import SensemakingError
 from sensemaking.evaluation import evaluate_sequence
@@ -115,11 +115,11 @@ def score_sequence(
     tracker = OursAdapter(name="ours", config=config, states=(0,))
     tracks, seconds = run_sequence(tracker, seq)
     path = out_dir / key / f"{seq.name}.txt"
-    _write_results(spec, path, tracks)
+    write_results(spec, path, tracks)
     metrics = evaluate_sequence(
-        _read_gt(spec, seq.gt_path),
-        _read_results(spec, path),
-        _rules_name(spec),
+        read_gt(spec, seq.gt_path),
+        read_results(spec, path),
+        rules_name(spec),
         n_frames=int(seq.info.length),
         name=seq.name,
         gt_path=seq.gt_path,

@@ -53,6 +53,15 @@ from typing import Any
 import numpy as np
 
 from sensemaking.benchmark.datasets import Benchmark, BenchmarkSpec
+from sensemaking.benchmark.peers import OursAdapter
+from sensemaking.benchmark.sequences import (
+    ours_config,
+    read_gt,
+    read_results,
+    rules_name,
+    run_sequence,
+    write_results,
+)
 
 __all__ = [
     "GRID",
@@ -420,15 +429,6 @@ def cross_validate(
     and with ``groups`` to ``calibrate-<group>/`` (one group of estimates at a time: four more
     passes, off by default to keep the benchmark run short; docs/DESIGN-NOTES.md has a run).
     """
-    from sensemaking.benchmark.peers import OursAdapter
-    from sensemaking.benchmark.runner import (
-        _read_gt,
-        _read_results,
-        _rules_name,
-        _write_results,
-        ours_config,
-        run_sequence,
-    )
     from sensemaking.evaluation import evaluate_sequence
     from sensemaking.settings import apply_settings
 
@@ -454,9 +454,7 @@ def cross_validate(
     if len(cv.folds) < 2:
         raise ValueError(f"cross-validation needs two videos or more, got {cv.folds}")
     cv.preset = _preset_index(family, points)
-    gts = {
-        b.spec.name: {s.name: _read_gt(b.spec, s.gt_path) for s in b.sequences} for b in benches
-    }
+    gts = {b.spec.name: {s.name: read_gt(b.spec, s.gt_path) for s in b.sequences} for b in benches}
     frames = {
         (b.spec.name, s.name): dict(s.detections.frames()) for b in benches for s in b.sequences
     }
@@ -469,11 +467,11 @@ def cross_validate(
         base = ours_config(spec.family, fps=s.info.fps, image_size=(s.info.width, s.info.height))
         tracker = OursAdapter(name="ours", config=apply_settings(base, params), states=(0,))
         tracks, _ = run_sequence(tracker, s, frames[(spec.name, s.name)])
-        _write_results(spec, path, tracks)
+        write_results(spec, path, tracks)
         return evaluate_sequence(
             gts[spec.name][s.name],
-            _read_results(spec, path),
-            _rules_name(spec),
+            read_results(spec, path),
+            rules_name(spec),
             n_frames=int(s.info.length),
             name=s.name,
             gt_path=s.gt_path,

@@ -38,6 +38,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from sensemaking.benchmark.crossval import cross_validate, family_of, fold_key
 from sensemaking.benchmark.datasets import (
     Benchmark,
     BenchmarkSpec,
@@ -63,11 +64,22 @@ from sensemaking.benchmark.peers import (
     make_peer,
     peer_defaults,
 )
+from sensemaking.benchmark.sequences import (
+    frames_of,
+    ours_config,
+    ours_score_threshold,
+    read_gt,
+    read_results,
+    rules_name,
+    run_sequence,
+    write_results,
+)
 from sensemaking.detections import Detections
 from sensemaking.errors import InputError, MissingExtraError
+from sensemaking.evaluation.report import PER_SEQUENCE_FIELDS
 
 if TYPE_CHECKING:  # pragma: no cover
-    from sensemaking.tracker import TrackerConfig
+    pass
 
 __all__ = [
     "TrackerRun",
@@ -87,54 +99,7 @@ log = logging.getLogger(__name__)
 
 #: the metric that picks a peer's better variant (higher is better)
 SELECT_BY = "HOTA"
-#: the fields kept per sequence (the combined metrics keep every field)
-PER_SEQUENCE_FIELDS = (
-    "HOTA",
-    "DetA",
-    "AssA",
-    "MOTA",
-    "MOTP",
-    "IDF1",
-    "IDSW",
-    "Frag",
-    "MT",
-    "PT",
-    "ML",
-    "CLR_TP",
-    "CLR_FP",
-    "CLR_FN",
-    "GT_IDs",
-    "IDs",
-)
 Progress = Callable[[str], None]
-
-
-# -- our tracker's parameters --------------------------------------------------------------------
-def ours_config(
-    family: str,
-    *,
-    abduction: bool = True,
-    fps: float | None = None,
-    image_size: tuple[int, int] | None = None,
-) -> TrackerConfig:
-    """Our tracker's one named parameter set for a dataset family (``kitti`` / ``motchallenge``).
-
-    The sequence's frame rate and image size are facts of the input, not tuned parameters: they
-    are set per sequence (the peers get the frame rate too).
-    """
-    from sensemaking.tracker import TrackerConfig
-
-    changes: dict[str, Any] = {"abduction": abduction}
-    if fps is not None:
-        changes["fps"] = float(fps)
-    if image_size is not None:
-        changes["image_size"] = (int(image_size[0]), int(image_size[1]))
-    return TrackerConfig.for_dataset(family, **changes)
-
-
-def ours_score_threshold(config: TrackerConfig) -> float:
-    """The detection score our tracker needs to start a track: the peers' pre-filter threshold."""
-    return float(config.start_confidence)
 
 
 # -- results --------------------------------------------------------------------------------------
@@ -382,50 +347,6 @@ def parse_trackers(names: Iterable[str] | str | None) -> list[str]:
     return [n for n in TRACKER_NAMES if n in wanted] or list(TRACKER_NAMES)
 
 
-def _frames_of(seq: Sequence) -> dict[int, Detections]:
-    return dict(seq.detections.frames())
-
-
-def run_sequence(
-    tracker: FrameTracker, seq: Sequence, frames: dict[int, Detections] | None = None
-) -> tuple[Detections, np.ndarray]:
-    """Track one sequence from its first to its last frame (empty frames included).
-
-    Returns:
-        (every reported track of every frame, seconds inside the update call of each frame)
-    """
-    frames = _frames_of(seq) if frames is None else frames
-    tracker.reset()
-    out: list[Detections] = []
-    numbers = seq.frame_numbers
-    seconds = np.zeros(len(numbers))
-    for i, f in enumerate(numbers):
-        dets = frames.get(f)
-        if dets is None:
-            dets = _empty_frame(seq.detections, f)
-        tracks, seconds[i] = tracker.update(dets, f)
-        if len(tracks):
-            out.append(tracks)
-    return (Detections.concatenate(out) if out else Detections.empty()), seconds
-
-
-def _empty_frame(like: Detections, frame: int) -> Detections:
-    """No detections, but with the data columns of ``like`` (so outputs concatenate)."""
-    data = {k: v[:0] for k, v in like.data.items()}
-    return Detections(xyxy=np.zeros((0, 4)), frame=np.zeros(0, dtype=np.int64), data=data)
-
-
-def _write_results(spec: BenchmarkSpec, path: Path, tracks: Detections) -> None:
-    if spec.output_format == "kitti":
-        from sensemaking.io.kitti import write_kitti
-
-        write_kitti(path, tracks)
-    else:
-        from sensemaking.io.mot import write_mot
-
-        write_mot(path, tracks)
-
-
 def _make_tracker(
     name: str, variant: str, spec: BenchmarkSpec, seq: Sequence, min_score: float | None
 ) -> FrameTracker:
@@ -478,30 +399,6 @@ def _label(name: str, variant: str) -> str:
 
 
 # -- evaluation -----------------------------------------------------------------------------------
-def _rules_name(spec: BenchmarkSpec) -> str:
-    return f"kitti-{spec.class_name}" if spec.rules == "kitti" else spec.rules
-
-
-def _read_gt(spec: BenchmarkSpec, path: Path) -> Detections:
-    if spec.output_format == "kitti":
-        from sensemaking.io.kitti import read_kitti_labels
-
-        return read_kitti_labels(path)
-    from sensemaking.io.mot import read_mot
-
-    return read_mot(path, kind="gt")
-
-
-def _read_results(spec: BenchmarkSpec, path: Path) -> Detections:
-    if spec.output_format == "kitti":
-        from sensemaking.io.kitti import read_kitti_labels
-
-        return read_kitti_labels(path)
-    from sensemaking.io.mot import read_mot
-
-    return read_mot(path, kind="results")
-
-
 def _evaluate(
     bench: Benchmark,
     result_dir: Path,
@@ -521,14 +418,14 @@ def _evaluate(
         path = result_dir / f"{s.name}.txt"
         inputs[s.name] = SequenceInput(
             gt=gt[s.name],
-            tracks=_read_results(spec, path),
+            tracks=read_results(spec, path),
             n_frames=int(s.info.length),
             gt_path=s.gt_path,
             tracks_path=path,
         )
     out = {}
     for mode in modes:
-        report = evaluate(inputs, _rules_name(spec), idsw_mode=mode)
+        report = evaluate(inputs, rules_name(spec), idsw_mode=mode)
         per_seq = {
             s.name: _metrics_dict(report[s.name], PER_SEQUENCE_FIELDS) for s in bench.sequences
         }
@@ -567,8 +464,8 @@ def run_benchmark(
     result = BenchmarkRun(
         spec, [s.name for s in bench.sequences], bench.n_frames, list(bench.skipped)
     )
-    frames_per_seq = {s.name: _frames_of(s) for s in bench.sequences}
-    gt = {s.name: _read_gt(spec, s.gt_path) for s in bench.sequences}
+    frames_per_seq = {s.name: frames_of(s) for s in bench.sequences}
+    gt = {s.name: read_gt(spec, s.gt_path) for s in bench.sequences}
     modes = ("trackeval", "kitti_legacy") if spec.rules == "kitti" else ("trackeval",)
     threshold: float | None = None
     if trackers:  # our family parameters: reported, and the peers' pre-filter threshold
@@ -661,7 +558,7 @@ def run_benchmark(
                             result_dir=output_dir / spec.name / _label(name, variant),
                         )
                     assert run_.result_dir is not None  # set when the run was made
-                    _write_results(spec, run_.result_dir / f"{seq.name}.txt", out)
+                    write_results(spec, run_.result_dir / f"{seq.name}.txt", out)
             except MissingExtraError:
                 raise
             except Exception as exc:
@@ -798,8 +695,6 @@ def _run_one(
 def _cross_validate(found: Any, out_dir: Path, say: Progress) -> list[Any]:
     """Cross-validation of every family found (benchmarks loaded again: workers do not return
     them)."""
-    from sensemaking.benchmark.crossval import cross_validate, family_of, fold_key
-
     families: dict[str, list[Benchmark]] = {}
     for spec, sources in found.found:
         families.setdefault(family_of(spec), []).append(

@@ -21,13 +21,19 @@ from __future__ import annotations
 from sensemaking.evaluation.core import SequenceInput, evaluate, evaluate_sequence
 from sensemaking.evaluation.loaders import load_kitti_benchmark, load_mot_benchmark, read_seqmap
 from sensemaking.evaluation.metrics import ALPHAS, IDSW_MODES
-from sensemaking.evaluation.report import COMBINED, Report, SequenceMetrics
+from sensemaking.evaluation.report import (
+    COMBINED,
+    PER_SEQUENCE_FIELDS,
+    Report,
+    SequenceMetrics,
+)
 from sensemaking.evaluation.rules import DatasetRules, get_rules, rules_for_benchmark
 
 __all__ = [
     "ALPHAS",
     "COMBINED",
     "IDSW_MODES",
+    "PER_SEQUENCE_FIELDS",
     "DatasetRules",
     "Report",
     "SequenceInput",

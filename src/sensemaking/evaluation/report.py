@@ -28,10 +28,31 @@ __all__ = [
     "SCALAR_FIELDS",
     "TABLE_FIELDS",
     "INTEGER_FIELDS",
+    "PER_SEQUENCE_FIELDS",
 ]
 
 #: key of the combined result among the sequences of a :class:`Report`
 COMBINED = "COMBINED"
+#: the fields a per-sequence summary keeps (benchmark runs, fleet archives); the combined
+#: metrics keep every field
+PER_SEQUENCE_FIELDS = (
+    "HOTA",
+    "DetA",
+    "AssA",
+    "MOTA",
+    "MOTP",
+    "IDF1",
+    "IDSW",
+    "Frag",
+    "MT",
+    "PT",
+    "ML",
+    "CLR_TP",
+    "CLR_FP",
+    "CLR_FN",
+    "GT_IDs",
+    "IDs",
+)
 _HOTA_SCALAR_ARRAYS = tuple(
     f for f in HOTA_ARRAY_FIELDS if f not in ("HOTA_TP", "HOTA_FN", "HOTA_FP")
 )

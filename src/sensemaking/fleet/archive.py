@@ -80,7 +80,7 @@ def schemas() -> dict[str, Any]:
         ("key", pa.string()),
     ]
     i64, f64, s = pa.int64(), pa.float64(), pa.string()
-    from sensemaking.benchmark.runner import PER_SEQUENCE_FIELDS as metric_fields
+    from sensemaking.evaluation import PER_SEQUENCE_FIELDS as metric_fields
 
     return {
         "tracks": pa.schema(
@@ -368,7 +368,7 @@ def _columns(result: SequenceResult, head: dict[str, Any]) -> dict[str, dict[str
         "solve_ms": [st["solve_ms"]],
         "monitor_ms": [st["monitor_ms"]],
     }
-    from sensemaking.benchmark.runner import PER_SEQUENCE_FIELDS
+    from sensemaking.evaluation import PER_SEQUENCE_FIELDS
 
     for name in PER_SEQUENCE_FIELDS:
         cols["metrics"][name] = [m.get(name)]

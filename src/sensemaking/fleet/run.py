@@ -137,9 +137,8 @@ def _ground_truth(spec: SequenceSpec) -> Any:
 
 
 def _score(spec: SequenceSpec, gt: Any, scene: Scene, n_frames: int) -> dict[str, float]:
-    from sensemaking.benchmark.runner import PER_SEQUENCE_FIELDS
     from sensemaking.detections import Detections
-    from sensemaking.evaluation import evaluate_sequence
+    from sensemaking.evaluation import PER_SEQUENCE_FIELDS, evaluate_sequence
     from sensemaking.results import TrackState
 
     parts = []
