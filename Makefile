@@ -29,9 +29,10 @@ test: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/scalability.py
 
-# every benchmark in ../shared/data, ours beside SORT/ByteTrack/OC-SORT; writes docs/BENCHMARKS.md
+# every benchmark in ../shared/data, ours beside SORT/ByteTrack/OC-SORT; writes docs/BENCHMARKS.md,
+# docs/benchmarks.json and docs/PARAMETERS.md (the project's pages: benchmarks/benchmark_report.py)
 benchmark: $(STAMP)
-	$(BIN)/sensemaking benchmark
+	$(BIN)/python benchmarks/benchmark_report.py
 
 clean:
 	rm -rf $(VENV) demo-output build *.egg-info src/*.egg-info

@@ -10,8 +10,9 @@ from pathlib import Path
 import pytest
 from test_runner import make_fake_data
 
+from conftest import load_benchmarks_script
 from conftest import SHARED_DATA
-from sensemaking.benchmark import datasets, report, runner
+from sensemaking.benchmark import datasets, runner
 from sensemaking.benchmark.explanations import (
     EXPLANATIONS_DIR,
     BenchmarkExplanations,
@@ -25,6 +26,8 @@ from sensemaking.evaluation.explanations import (
     explanation_table,
 )
 from sensemaking.results import Event
+
+report = load_benchmarks_script("benchmark_report")
 
 
 def _body(table: str) -> list[str]:
@@ -103,9 +106,9 @@ def test_runner_and_evaluate_explanations_agree_on_a_synthetic_benchmark(
 def test_no_explanations_runs_no_monitor_and_writes_no_logs(tmp_path: Path) -> None:
     data = make_fake_data(tmp_path / "data")
     docs = tmp_path / "d" / "B.md"
-    code = main(["-q", "benchmark", "--data", str(data), "--output", str(tmp_path / "o"),
-                 "--only", "mot15", "--trackers", "ours", "--no-crossval", "--no-explanations",
-                 "--docs", str(docs), "--params-doc", ""])
+    code = report.main(["--data", str(data), "--output", str(tmp_path / "o"),
+                        "--only", "mot15", "--trackers", "ours", "--no-crossval", "--no-explanations",
+                        "--docs", str(docs), "--params-doc", ""])
     assert code == 0
     doc = json.loads((docs.parent / "benchmarks.json").read_text())
     assert doc["benchmarks"][0]["explanations"] is None and "--no-explanations" in doc["command"]
@@ -113,9 +116,9 @@ def test_no_explanations_runs_no_monitor_and_writes_no_logs(tmp_path: Path) -> N
     assert "## Explanations" not in docs.read_text()
     for flags, warned in (([], False), (["--all-warnings"], True)):
         out = tmp_path / f"o{len(flags)}"
-        code = main(["-q", "benchmark", "--data", str(data), "--output", str(out),
-                     "--only", "mot15", "--trackers", "ours", "--no-crossval",
-                     "--docs", str(docs), "--params-doc", "", *flags])
+        code = report.main(["--data", str(data), "--output", str(out),
+                            "--only", "mot15", "--trackers", "ours", "--no-crossval",
+                            "--docs", str(docs), "--params-doc", "", *flags])
         assert code == 0 and "## Explanations" in docs.read_text()
         assert ("did not run on mot15" in docs.read_text()) == (not warned)
         logs = out / "mot15" / EXPLANATIONS_DIR

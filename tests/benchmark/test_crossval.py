@@ -110,7 +110,10 @@ def test_one_video_is_not_cross_validated(tmp_path: Path) -> None:
 
 
 def test_reports_show_the_crossval_headline(tmp_path: Path) -> None:
-    from sensemaking.benchmark import report, runner
+    from conftest import load_benchmarks_script
+    from sensemaking.benchmark import runner
+
+    report = load_benchmarks_script("benchmark_report")
 
     points = crossval.grid_points({"start_confidence": (0.5, 0.8), "min_hits": (1, 3)})
     cv = crossval.FamilyCV(

@@ -10,13 +10,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sensemaking.benchmark import datasets, report, runner
+from conftest import load_benchmarks_script
+from sensemaking.benchmark import datasets, runner
 from sensemaking.benchmark import peers
 from sensemaking.benchmark.peers import DISPLAY_NAMES, OursAdapter, PeerAdapter
 from sensemaking.classes import CLASS_IDS
 from sensemaking.cli import main
 from sensemaking.detections import Detections
 from sensemaking.errors import InputError, MissingExtraError
+
+report = load_benchmarks_script("benchmark_report")
 
 HAVE_TRACKERS = importlib.util.find_spec("trackers") is not None
 needs_trackers = pytest.mark.skipif(not HAVE_TRACKERS, reason="needs the 'benchmark' extra (trackers)")
@@ -239,11 +242,21 @@ def test_cli_list_and_run(fake_data: Path, tmp_path: Path, capsys: pytest.Captur
     out = capsys.readouterr().out
     assert "kitti-rrc-car" in out and "skipped: kitti-pointrcnn-car" in out
     names = _trackers_under_test()[:1]
+    code = main(["benchmark", "--data", str(fake_data), "--output", str(tmp_path / "o"),
+                 "--only", "mot15", "--trackers", ",".join(names), "--no-crossval"])
+    assert code == 0
+    # the package's verb: an overview and every number as JSON, no docs
+    assert "| [mot15](#mot15) |" in capsys.readouterr().out
+    doc = json.loads((tmp_path / "o" / "benchmarks.json").read_text())
+    assert "--only mot15" in doc["command"] and doc["units"]["HOTA"] == "fraction"
+    assert "paper_table2" not in doc
+    # the project's pages: benchmarks/benchmark_report.py, the same options
     docs = tmp_path / "d" / "B.md"
-    code = main(["-q", "benchmark", "--data", str(fake_data), "--output", str(tmp_path / "o"),
-                 "--only", "mot15", "--trackers", ",".join(names), "--docs", str(docs)])
+    code = report.main(["--data", str(fake_data), "--output", str(tmp_path / "o2"),
+                        "--only", "mot15", "--trackers", ",".join(names), "--docs", str(docs)])
     assert code == 0
     assert docs.is_file() and (docs.parent / "benchmarks.json").is_file()
+    assert "paper_table2" in json.loads((docs.parent / "benchmarks.json").read_text())
     text = docs.read_text()
     assert "## mot15" in text and "## kitti" not in text and "--only mot15" in text
     assert main(["benchmark", "--data", str(fake_data), "--only", "nope", "--list"]) == 2

@@ -1,5 +1,10 @@
-"""``sensemaking benchmark``: our tracker and its peers on KITTI / MOT17 / MOT15, one run, one
-report."""
+"""``sensemaking benchmark``: our tracker and its peers on KITTI / MOT17 / MOT15, one run: an
+overview table on the console and every number in a JSON file.
+
+The project's own pages (``docs/BENCHMARKS.md`` with its acceptance targets,
+``docs/PARAMETERS.md``) are rendered from the same run by ``benchmarks/benchmark_report.py``,
+which takes these options (:func:`add_options`, :func:`run_summary`) and ``--docs`` /
+``--params-doc``; they are the project's, not the package's."""
 
 from __future__ import annotations
 
@@ -9,8 +14,6 @@ import sys
 from pathlib import Path
 from typing import Any
 
-DEFAULT_DOCS = "docs/BENCHMARKS.md"
-DEFAULT_PARAMS_DOC = "docs/PARAMETERS.md"
 #: runs of every tracker on every sequence (the fastest counts)
 DEFAULT_REPEAT = 3
 
@@ -18,13 +21,24 @@ DEFAULT_REPEAT = 3
 def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "benchmark",
-        help="run ours and SORT / ByteTrack / OC-SORT on the benchmark data and write "
-        "docs/BENCHMARKS.md",
+        help="run ours and SORT / ByteTrack / OC-SORT on the benchmark data",
         description="Track every benchmark found in the data folder with our tracker (with and "
         "without abduction) and the peers from the 'trackers' package, evaluate with the "
-        "dataset's rules, and write a markdown report with a JSON twin. "
+        "dataset's rules, print an overview and write every number as JSON. "
         "Needs the 'benchmark' extra for the peers.",
     )
+    add_options(p)
+    p.add_argument(
+        "--json",
+        metavar="FILE",
+        default=None,
+        help="JSON of all numbers (default: <output>/benchmarks.json)",
+    )
+    p.set_defaults(func=run)
+
+
+def add_options(p: argparse.ArgumentParser) -> None:
+    """The options of a benchmark run (shared with ``benchmarks/benchmark_report.py``)."""
     p.add_argument(
         "--data",
         metavar="PATH",
@@ -49,18 +63,6 @@ def register(subparsers: Any) -> None:
         metavar="NAMES",
         default=None,
         help="comma-separated subset of ours,ours-noabd,sort,bytetrack,ocsort (default: all)",
-    )
-    p.add_argument(
-        "--docs",
-        metavar="FILE",
-        default=DEFAULT_DOCS,
-        help=f"markdown report to write (default: {DEFAULT_DOCS}); '' to write none",
-    )
-    p.add_argument(
-        "--json",
-        metavar="FILE",
-        default=None,
-        help="JSON of all numbers (default: benchmarks.json beside the markdown)",
     )
     p.add_argument(
         "--jobs",
@@ -100,21 +102,17 @@ def register(subparsers: Any) -> None:
         "costs more than the tracker on a crowded scene)",
     )
     p.add_argument(
-        "--params-doc",
-        metavar="FILE",
-        default=DEFAULT_PARAMS_DOC,
-        help=f"parameter reference to regenerate (default: {DEFAULT_PARAMS_DOC}); '' for none",
-    )
-    p.add_argument(
         "--list",
         action="store_true",
         help="list the benchmarks found and what is missing, then stop",
     )
-    p.set_defaults(func=run)
 
 
-def _command_line(args: argparse.Namespace) -> str:
-    parts = ["sensemaking", "benchmark"]
+def command_line(
+    args: argparse.Namespace, prog: tuple[str, ...] = ("sensemaking", "benchmark")
+) -> str:
+    """The command that repeats a run (for the report)."""
+    parts = list(prog)
     if args.data is not None:
         parts += ["--data", args.data]
     if args.output != "out/benchmark":
@@ -123,10 +121,6 @@ def _command_line(args: argparse.Namespace) -> str:
         parts += ["--only", args.only]
     if args.trackers:
         parts += ["--trackers", args.trackers]
-    if args.docs != DEFAULT_DOCS:
-        parts += ["--docs", args.docs]
-    if args.json:
-        parts += ["--json", args.json]
     if args.jobs != 1:
         parts += ["--jobs", str(args.jobs)]
     if args.repeat != DEFAULT_REPEAT:
@@ -140,8 +134,13 @@ def _command_line(args: argparse.Namespace) -> str:
     return shlex.join(parts)
 
 
-def run(args: argparse.Namespace) -> int:
-    from sensemaking.benchmark import datasets, report, runner
+def run_summary(
+    args: argparse.Namespace, outputs: dict[str, str | None], prog: tuple[str, ...]
+) -> Any:
+    """Check the options and the ``outputs`` (option name -> path), run every benchmark and
+    return the :class:`~sensemaking.benchmark.runner.RunSummary`; with ``--list``, print what
+    was found and return None."""
+    from sensemaking.benchmark import datasets, runner
     from sensemaking.errors import InputError
     from sensemaking.sinks import check_output_paths
 
@@ -150,7 +149,7 @@ def run(args: argparse.Namespace) -> int:
     if not 1 <= args.repeat <= 1000:
         raise InputError(f"--repeat must be a number of timed runs in 1..1000, got {args.repeat}")
     if not args.list:
-        check_output_paths({"--docs": args.docs or None, "--json": args.json})
+        check_output_paths(outputs)
         if Path(args.output).exists() and not Path(args.output).is_dir():
             raise InputError("--output must be a directory", args.output)
     only = args.only.split(",") if args.only else None
@@ -161,39 +160,48 @@ def run(args: argparse.Namespace) -> int:
             print(f"{spec.name:<28} {len(sources):>2} sequences  {spec.title}")
         for msg in found.all_skipped():
             print(f"skipped: {msg}")
-        return 0
-
-    quiet = bool(getattr(args, "quiet", False))
-
-    def progress(msg: str) -> None:
-        if not quiet:
-            print(msg, file=sys.stderr, flush=True)
-
-    summary = runner.run(
+        return None
+    return runner.run(
         data=args.data,
         output=args.output,
         only=only,
         trackers=args.trackers,
-        progress=progress,
-        command=_command_line(args),
+        progress=progress_printer(args),
+        command=command_line(args, prog),
         jobs=args.jobs,
         repeat=args.repeat,
         crossval=not args.no_crossval,
         explanations=not args.no_explanations,
         all_warnings=args.all_warnings,
     )
-    if not quiet:  # the cross-validated headline first
-        print(report.console_summary(summary), end="")
-    if args.docs:
-        md, js = report.write_report(summary, args.docs, args.json)
-        progress(f"wrote {md} and {js}")
-    if args.params_doc and summary.crossval:  # a run without cross-validation leaves it as it is
-        progress(f"wrote {report.write_parameters(summary, args.params_doc)}")
-    elif args.json:
-        report.write_json(summary, args.json)
-        progress(f"wrote {args.json}")
-    if summary.errors:
-        for err in summary.errors:
-            print(f"sensemaking benchmark: failed: {err}", file=sys.stderr)
-        return 1
-    return 0
+
+
+def progress_printer(args: argparse.Namespace) -> Any:
+    """Progress lines to stderr (none with ``--quiet``)."""
+    quiet = bool(getattr(args, "quiet", False))
+
+    def progress(msg: str) -> None:
+        if not quiet:
+            print(msg, file=sys.stderr, flush=True)
+
+    return progress
+
+
+def report_errors(summary: Any, prog: str) -> int:
+    """Print the run's failures; the exit status (1 if any)."""
+    for err in summary.errors:
+        print(f"{prog}: failed: {err}", file=sys.stderr)
+    return 1 if summary.errors else 0
+
+
+def run(args: argparse.Namespace) -> int:
+    from sensemaking.benchmark.summary import overview, write_json
+
+    json_path = args.json or str(Path(args.output) / "benchmarks.json")
+    summary = run_summary(args, {"--json": json_path}, ("sensemaking", "benchmark"))
+    if summary is None:
+        return 0
+    if not getattr(args, "quiet", False):
+        print("\n".join(["HOTA / MOTA / IDF1 / ID sw.", "", *overview(summary)]))
+    progress_printer(args)(f"wrote {write_json(summary, json_path)}")
+    return report_errors(summary, "sensemaking benchmark")

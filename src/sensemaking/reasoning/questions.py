@@ -1010,7 +1010,7 @@ def ask(
     max_memory_mb: int | None = DEFAULT_MAX_MEMORY_MB,
     on_model: Callable[[tuple[str, ...]], None] | None = None,
 ) -> QueryAnswer:
-    """QueryAnswer a named question or an ASP query about ``scene``.
+    """Answer a named question or an ASP query about ``scene``.
 
     Args:
         scene: the :class:`~sensemaking.scene.Scene`.
