@@ -543,7 +543,10 @@ def _counts(vs: Sequence[Verdict] | Sequence[WarningVerdict]) -> dict[str, Any]:
 
 
 # -- the judge ------------------------------------------------------------------------------------
-class _Judge:
+class _Evidence:
+    """What every judgement looks up: the ground truth, the tracks' visible frames and boxes, and
+    their frame-by-frame matching to the ground truth (done once per sequence)."""
+
     def __init__(self, gt: GroundTruth, tracks: Detections, config: ExplanationConfig):
         self.c = config
         self.t = _Truth(gt, config)
@@ -561,8 +564,6 @@ class _Judge:
             self.box[(tid, f)] = tracks.xyxy[i]
         for fs in self.visible.values():
             fs.sort()
-        #: hides_behind recall occasions by what the tracker said at them (see :meth:`recall`)
-        self.hide_said: Counter[str] = Counter()
 
     # track helpers
     def last_visible(self, t: int | None, f: int, inclusive: bool = False) -> int | None:
@@ -628,7 +629,10 @@ class _Judge:
             and f1 < last
         )
 
-    # events
+
+class _OcclusionJudge(_Evidence):
+    """``hides_behind``, ``unhides_from_behind`` / ``reappears`` and ``missing_detections``."""
+
     def hides(self, ev: Event, unhide: Event | None) -> Verdict:
         t, o = _track(ev, 0), _track(ev, 1)
         f = ev.frame
@@ -697,6 +701,21 @@ class _Judge:
             return Verdict(ev, IMPLAUSIBLE, "identity_switch", (g1, g2))
         return Verdict(ev, PLAUSIBLE, "same_object", (g1, g2))
 
+    def missing(self, ev: Event) -> Verdict:
+        g, _ = self.gt_before(_track(ev), ev.frame)
+        if g is None:
+            return Verdict(ev, UNDECIDABLE, "unmatched", (g,))
+        if (g, ev.frame) in self.t.row:
+            return Verdict(ev, PLAUSIBLE, "in_view", (g,))
+        f_last = self.t.last_before(g, ev.frame)
+        if f_last is not None and self.t.at_border[self.t.row[(g, f_last)]]:
+            return Verdict(ev, IMPLAUSIBLE, "left_view", (g,))
+        return Verdict(ev, PLAUSIBLE, "unlabelled_inside", (g,))
+
+
+class _BorderJudge(_Evidence):
+    """``enters_fov``, ``starts``, ``leaves_fov`` and ``ends``."""
+
     def enters(self, ev: Event) -> Verdict:
         g, _ = self.gt_from(_track(ev), ev.frame)
         if g is None:
@@ -731,18 +750,10 @@ class _Judge:
             return Verdict(ev, IMPLAUSIBLE, "left_view", (g,))
         return Verdict(ev, PLAUSIBLE, "lost_inside", (g,))
 
-    def missing(self, ev: Event) -> Verdict:
-        g, _ = self.gt_before(_track(ev), ev.frame)
-        if g is None:
-            return Verdict(ev, UNDECIDABLE, "unmatched", (g,))
-        if (g, ev.frame) in self.t.row:
-            return Verdict(ev, PLAUSIBLE, "in_view", (g,))
-        f_last = self.t.last_before(g, ev.frame)
-        if f_last is not None and self.t.at_border[self.t.row[(g, f_last)]]:
-            return Verdict(ev, IMPLAUSIBLE, "left_view", (g,))
-        return Verdict(ev, PLAUSIBLE, "unlabelled_inside", (g,))
 
-    # warnings
+class _WarningJudge(_Evidence):
+    """HIDDEN_ENTITY, OVERTAKING and SUDDEN_STOP warnings."""
+
     def hidden_entity(self, w: Mapping[str, Any]) -> WarningVerdict:
         f, objs = int(w["frame"]), tuple(int(o) for o in w["objects"])
         details = w.get("details") or {}
@@ -854,7 +865,13 @@ class _Judge:
             )
         return judged_ttc(verdict=PLAUSIBLE, reason="closing_in_lane")
 
-    # recall
+
+class _Recall(_Evidence):
+    """The occasions an event was due, and whether it was said."""
+
+    #: hides_behind recall occasions by what the tracker said at them (see :meth:`recall`)
+    hide_said: Counter[str]
+
     def recall(self, events: list[Event]) -> dict[str, tuple[int, int]]:
         """Occasions in the ground truth where an event of a kind was due, and how many got one.
 
@@ -872,7 +889,7 @@ class _Judge:
                 by_track[e.args[0]].add(e.name)
         tr = self.t
         hide_hit = hide_all = 0
-        self.hide_said.clear()
+        self.hide_said = Counter()
         for t, fs in self.visible.items():
             for a, b in zip(fs, fs[1:] + [None], strict=True):
                 f = a + 1
@@ -910,6 +927,10 @@ class _Judge:
         if tr.occl is not None or tr.vis is not None:
             out["hides_behind"] = (hide_hit, hide_all)
         return out
+
+
+class _Judge(_OcclusionJudge, _BorderJudge, _WarningJudge, _Recall):
+    """Every judgement of one sequence, on one :class:`_Evidence`."""
 
 
 #: what a track's first unseen frame may be explained as, in the order the recall reads them

@@ -1,0 +1,526 @@
+"""The sandboxed runner of ASP queries over a recorded scene (``ask(scene, "<rules>")``).
+
+ASP queries are untrusted text, so they are checked (:func:`check_query`) and run under limits:
+
+* Allowed: rules, constraints, choice rules, aggregates (``#count``, ``#sum``, ``#sum+``,
+  ``#min``, ``#max``), ``#show``, ``#minimize`` / ``#maximize``, comments, and the constants
+  ``#inf``, ``#sup``, ``#true``, ``#false``. Refused before clingo sees the text: every other
+  directive (``#include``, which would read files; ``#script``, which runs code; ``#external``,
+  ``#const``, ``#program``, ``#project``, ``#heuristic``, ``#edge``, ``#theory``, ``#defined``)
+  and ``@``-terms (calls into script functions).
+* Grounding and solving run in a child process (where ``fork`` exists) with a time limit
+  (``timeout`` seconds), a memory limit (``max_memory_mb``) and a limit on the number of ground
+  atoms (``max_atoms``, checked once grounding is done; the memory limit bounds it while
+  grounding); past one the child is killed and :class:`QueryError` says which limit. Ctrl-C
+  stops it at once. Answer sets are passed on as they are found (``on_model``).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import clingo
+from clingo import ast as clingo_ast
+
+from sensemaking.errors import SensemakingError
+from sensemaking.reasoning.facts import scene_facts_text
+
+if TYPE_CHECKING:  # pragma: no cover
+    from sensemaking.reasoning.context import SceneContext
+    from sensemaking.scene import Scene
+
+__all__ = [
+    "run_query",
+    "check_query",
+    "QueryAnswer",
+    "QueryError",
+    "DEFAULT_TIMEOUT_S",
+    "DEFAULT_MAX_ATOMS",
+    "DEFAULT_MAX_MEMORY_MB",
+]
+
+#: limits of an ASP query: wall-clock seconds for grounding + solving, ground atoms, memory (MB)
+DEFAULT_TIMEOUT_S = 60.0
+DEFAULT_MAX_ATOMS = 5_000_000
+DEFAULT_MAX_MEMORY_MB = 2048
+
+#: the directives a query may use (see the module docstring)
+ALLOWED_DIRECTIVES = frozenset(
+    {
+        "show",
+        "count",
+        "sum",
+        "sum+",
+        "min",
+        "max",
+        "minimize",
+        "maximize",
+        "minimise",
+        "maximise",
+        "inf",
+        "sup",
+        "true",
+        "false",
+    }
+)
+_DIRECTIVE = re.compile(r"#([A-Za-z_]+\+?)")
+_FORBIDDEN_NODES = frozenset(
+    {
+        "Script",
+        "External",
+        "Definition",
+        "ProjectAtom",
+        "ProjectSignature",
+        "Heuristic",
+        "Edge",
+        "TheoryDefinition",
+        "TheoryAtom",
+        "Defined",
+    }
+)
+
+
+class QueryError(SensemakingError):
+    """A query that clingo cannot parse or ground, or a named question used wrongly.
+
+    Attributes:
+        messages: clingo's messages, locations written ``query:LINE:COLUMN``.
+        line, column: 1-based position of the first error in the query, when known.
+    """
+
+    def __init__(
+        self,
+        message: str,
+        messages: list[str] | None = None,
+        line: int | None = None,
+        column: int | None = None,
+    ):
+        super().__init__(message)
+        self.messages = list(messages or [])
+        self.line = line
+        self.column = column
+
+
+@dataclass(frozen=True)
+class QueryAnswer:
+    """The answer to one question.
+
+    Attributes:
+        question: the query as asked.
+        lines: the answer in readable lines.
+        atoms: shown atoms of the first answer set, sorted (ASP queries and named questions).
+        models: shown atoms of each answer set found (up to ``max_models``).
+        satisfiable: False when the query's constraints rule out every answer set.
+        notes: clingo's informational messages about the query (e.g. an atom no rule defines).
+    """
+
+    question: str
+    lines: tuple[str, ...]
+    atoms: tuple[str, ...] = ()
+    models: tuple[tuple[str, ...], ...] = ()
+    satisfiable: bool = True
+    notes: tuple[str, ...] = field(default=())
+
+    def __str__(self) -> str:
+        return "\n".join(self.lines)
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "question": self.question,
+            "lines": list(self.lines),
+            "atoms": list(self.atoms),
+            "models": [list(m) for m in self.models],
+            "satisfiable": self.satisfiable,
+            "notes": list(self.notes),
+        }
+
+
+# -- running clingo -------------------------------------------------------------------------------
+_LOC = re.compile(r"query:(\d+):(\d+)")
+
+
+def encodings(*names: str) -> str:
+    from sensemaking.reasoning.situations import encoding_text
+
+    return "\n".join(encoding_text(n) for n in names)
+
+
+def _show_signatures(stmts: list[Any]) -> tuple[bool, set[tuple[str, int]]]:
+    """(the query has #show statements, the predicates its rule heads define)."""
+    has_show = False
+    heads: set[tuple[str, int]] = set()
+
+    def atom(node: Any) -> None:
+        t = node.ast_type
+        A = clingo_ast.ASTType
+        if t == A.Literal:
+            atom(node.atom)
+        elif t == A.SymbolicAtom:
+            atom(node.symbol)
+        elif t == A.Function:
+            heads.add((node.name, len(node.arguments)))
+        elif t == A.SymbolicTerm and node.symbol.type == clingo.SymbolType.Function:
+            heads.add((node.symbol.name, len(node.symbol.arguments)))
+        elif t == A.ConditionalLiteral:
+            atom(node.literal)
+        elif t in (A.Disjunction, A.Aggregate):
+            for e in node.elements:
+                atom(e)
+        elif t == A.HeadAggregate:
+            for e in node.elements:
+                atom(e.condition)
+
+    for s in stmts:
+        if s.ast_type in (clingo_ast.ASTType.ShowSignature, clingo_ast.ASTType.ShowTerm):
+            has_show = True
+        elif s.ast_type == clingo_ast.ASTType.Rule:
+            atom(s.head)
+    return has_show, {h for h in heads if h[0]}
+
+
+def _strip_comments_and_strings(text: str) -> str:
+    """``text`` with comments and string contents blanked (same length, lines kept), so that
+    directives are found only where clingo would read them."""
+    out = []
+    i, n = 0, len(text)
+    while i < n:
+        c = text[i]
+        if c == "%":
+            if text.startswith("%*", i):
+                j = text.find("*%", i + 2)
+                j = n if j < 0 else j + 2
+            else:
+                j = text.find("\n", i)
+                j = n if j < 0 else j
+            out.append("".join(ch if ch == "\n" else " " for ch in text[i:j]))
+            i = j
+        elif c == '"':
+            j = i + 1
+            while j < n and text[j] != '"':
+                j += 2 if text[j] == "\\" else 1
+            j = min(j + 1, n)
+            out.append('"' + " " * max(j - i - 2, 0) + ('"' if j - i >= 2 else ""))
+            i = j
+        else:
+            out.append(c)
+            i += 1
+    return "".join(out)
+
+
+def check_query(query: str) -> None:
+    """Refuse a query that reaches outside the scene (see the module docstring): raises
+    :class:`QueryError` naming the first forbidden directive or term and its line."""
+    plain = _strip_comments_and_strings(query)
+    for m in _DIRECTIVE.finditer(plain):
+        name = m.group(1).lower()
+        if name not in ALLOWED_DIRECTIVES:
+            line = plain.count("\n", 0, m.start()) + 1
+            raise QueryError(
+                f"query:{line}: #{m.group(1)} is not allowed in a query (allowed: rules, "
+                "constraints, aggregates, #show, #minimize/#maximize)",
+                line=line,
+            )
+    at = plain.find("@")
+    if at >= 0:
+        line = plain.count("\n", 0, at) + 1
+        raise QueryError(
+            f"query:{line}: @-terms (script functions) are not allowed in a query", line=line
+        )
+
+
+def _check_ast(stmts: list[Any]) -> None:
+    """The same allow-list on the parsed statements (a second line of defence)."""
+
+    def walk(node: Any) -> None:
+        name = str(node.ast_type).rsplit(".", 1)[-1]
+        if name in _FORBIDDEN_NODES or (name == "Function" and getattr(node, "external", False)):
+            raise QueryError(f"query: {name} is not allowed in a query")
+        if name == "Program" and node.name != "base":
+            raise QueryError("query: #program is not allowed in a query")
+        for key in node.child_keys:
+            child = getattr(node, key)
+            if child is None:
+                continue
+            if isinstance(child, clingo_ast.AST):
+                walk(child)
+            else:
+                for c in child:
+                    walk(c)
+
+    for s in stmts:
+        walk(s)
+
+
+def solve(
+    program: str,
+    query: str | None = None,
+    max_models: int = 1,
+    *,
+    max_atoms: int | None = None,
+    on_model: Callable[[list[clingo.Symbol]], None] | None = None,
+) -> tuple[list[list[clingo.Symbol]], bool, list[str], bool]:
+    """Ground ``program`` (trusted: encodings and facts) plus the user's ``query``; return the
+    shown atoms of up to ``max_models`` models, satisfiability, notes about the query and
+    whether the query shows anything (False: constraints only)."""
+    messages: list[tuple[clingo.MessageCode, str]] = []
+
+    def logger(code: clingo.MessageCode, msg: str) -> None:
+        messages.append((code, msg.replace("<string>", "query").rstrip()))
+
+    def fail(default: str) -> QueryError:
+        errs = (
+            [m for c, m in messages if "query:" in m and "error" in m]
+            or [m for _, m in messages]
+            or [default]
+        )
+        first = _LOC.search(errs[0])
+        line, col = (int(first.group(1)), int(first.group(2))) if first else (None, None)
+        return QueryError("invalid query: " + "\n".join(errs), errs, line, col)
+
+    ctl = clingo.Control([f"--models={max(0, int(max_models))}"], logger=logger, message_limit=20)
+    ctl.add("base", [], program)
+    shows = True
+    if query is not None:
+        stmts: list[Any] = []
+        try:
+            clingo_ast.parse_string(query, stmts.append, logger=logger, message_limit=20)
+        except RuntimeError:
+            raise fail("syntax error") from None
+        _check_ast(stmts)
+        has_show, heads = _show_signatures(stmts)
+        with clingo_ast.ProgramBuilder(ctl) as builder:
+            for s in stmts:
+                builder.add(s)
+            if not has_show:
+                for name, arity in sorted(heads):
+                    clingo_ast.parse_string(f"#show {name}/{arity}.", builder.add)
+                if not heads:
+                    clingo_ast.parse_string("#show.", builder.add)
+                    shows = False
+    try:
+        ctl.ground([("base", [])])
+    except RuntimeError:
+        raise fail("grounding failed") from None
+    if max_atoms is not None and len(ctl.symbolic_atoms) > max_atoms:
+        raise QueryError(
+            f"the query grounds to {len(ctl.symbolic_atoms)} atoms, more than the limit "
+            f"of {max_atoms} (--max-atoms)"
+        )
+    models: list[list[clingo.Symbol]] = []
+
+    def found(m: clingo.Model) -> None:
+        atoms = sorted(m.symbols(shown=True))
+        models.append(atoms)
+        if on_model is not None:
+            on_model(atoms)
+
+    res = ctl.solve(on_model=found)
+    notes = [m for c, m in messages if "query:" in m]
+    return models, bool(res.satisfiable), notes, shows
+
+
+def _limited_child(
+    conn: Any,
+    program: str,
+    query: str,
+    max_models: int,
+    max_atoms: int | None,
+    max_memory_mb: int | None,
+) -> None:  # pragma: no cover - runs in the child
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C and stops the child
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    try:
+        if max_memory_mb is not None:
+            import resource
+
+            with open("/proc/self/statm") as fh:
+                now = int(fh.read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
+            cap = now + int(max_memory_mb) * 2**20
+            resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
+        _, sat, notes, shows = solve(
+            program,
+            query,
+            max_models,
+            max_atoms=max_atoms,
+            on_model=lambda atoms: conn.send(("model", [str(a) for a in atoms])),
+        )
+        conn.send(("done", sat, notes, shows))
+    except QueryError as exc:
+        conn.send(("error", exc.args[0], exc.messages, exc.line, exc.column))
+    except MemoryError:
+        conn.send(("memory",))
+    except RuntimeError as exc:
+        conn.send(
+            ("memory",)
+            if "bad_alloc" in str(exc) or "memory" in str(exc).lower()
+            else ("error", f"clingo failed: {' '.join(str(exc).split())}", [], None, None)
+        )
+    finally:
+        conn.close()
+        os._exit(0)
+
+
+def _solve_limited(
+    program: str,
+    query: str,
+    max_models: int,
+    *,
+    timeout: float | None,
+    max_atoms: int | None,
+    max_memory_mb: int | None,
+    on_model: Callable[[tuple[str, ...]], None] | None = None,
+) -> tuple[list[tuple[str, ...]], bool, list[str], bool]:
+    """:func:`solve` of an untrusted query in a child process under the limits; models as
+    tuples of atom strings, passed to ``on_model`` as they arrive."""
+    import multiprocessing
+
+    models: list[tuple[str, ...]] = []
+
+    def got(atoms: Any) -> None:
+        t = tuple(str(a) for a in atoms)
+        models.append(t)
+        if on_model is not None:
+            on_model(t)
+
+    if "fork" not in multiprocessing.get_all_start_methods():  # pragma: no cover - not on Linux
+        if timeout is not None:
+            log_limits = "the time and memory limits need fork (not available here)"
+            import logging
+
+            logging.getLogger(__name__).warning(log_limits)
+        _, sat, notes, shows = solve(program, query, max_models, max_atoms=max_atoms, on_model=got)
+        return models, sat, notes, shows
+    ctx = multiprocessing.get_context("fork")
+    receive, send = ctx.Pipe(duplex=False)
+    proc = ctx.Process(
+        target=_limited_child,
+        args=(send, program, query, max_models, max_atoms, max_memory_mb),
+        daemon=True,
+    )
+    proc.start()
+    send.close()
+    deadline = None if timeout is None else time.monotonic() + timeout
+    memory = (
+        f"the query needs more memory than the limit of {max_memory_mb} MB (--max-memory); "
+        "narrow it (fewer variables joined, smaller ranges)"
+    )
+    try:
+        while True:
+            wait = 0.5 if deadline is None else min(0.5, deadline - time.monotonic())
+            if wait <= 0:
+                raise QueryError(
+                    f"the query took longer than the time limit of {timeout:g} s (--timeout)"
+                )
+            if not receive.poll(wait):
+                if not proc.is_alive() and not receive.poll(0):
+                    raise QueryError(memory)
+                continue
+            try:
+                msg = receive.recv()
+            except EOFError:
+                raise QueryError(memory) from None
+            if msg[0] == "model":
+                got(msg[1])
+            elif msg[0] == "done":
+                return models, bool(msg[1]), list(msg[2]), bool(msg[3])
+            elif msg[0] == "memory":
+                raise QueryError(memory)
+            else:
+                raise QueryError(msg[1], list(msg[2]), msg[3], msg[4])
+    finally:
+        receive.close()
+        if proc.is_alive():
+            proc.kill()
+        proc.join()
+
+
+def program_facts(scene: Scene, context: SceneContext | None, **kw: Any) -> str:
+    return scene_facts_text(scene, context=context, **kw)
+
+
+#: derived predicates -> the input predicates they are built from (scene.lp, relations.lp)
+_REACH = {
+    "closer": "ra",
+    "side_by_side": "ra",
+    "touching": "ra",
+    "ra": "ra",
+    "live": "state",
+    "holds_at": "holds_during",
+    "box": "box",
+    "motion": "motion",
+    "in_corridor": "in_corridor",
+}
+
+
+def _program_for(scene: Scene, query: str, context: SceneContext | None) -> str:
+    """Scene facts and views for an ASP query. Only what the query can reach is built: a query
+    can use a predicate only by naming it, so fact groups (boxes, relations, motion, corridor)
+    and the event-calculus view are left out when the query names none of their predicates."""
+    words = set(re.findall(r"[a-z_][A-Za-z0-9_']*", query))
+    need = {_REACH[w] for w in words if w in _REACH}
+    facts = program_facts(
+        scene,
+        context,
+        boxes="box" in need,
+        relations="ra" in need,
+        motion="motion" in need,
+        corridor="in_corridor" in need,
+    )
+    names = ["relations.lp"] if "ra" in need else []
+    if need & {"state", "holds_during"}:
+        names.append("scene.lp")
+    return facts + encodings(*names) if names else facts
+
+
+def run_query(
+    scene: Scene,
+    query: str,
+    *,
+    context: SceneContext | None = None,
+    max_models: int = 1,
+    timeout: float | None = DEFAULT_TIMEOUT_S,
+    max_atoms: int | None = DEFAULT_MAX_ATOMS,
+    max_memory_mb: int | None = DEFAULT_MAX_MEMORY_MB,
+    on_model: Callable[[tuple[str, ...]], None] | None = None,
+) -> QueryAnswer:
+    """Answer ASP rules over the scene under the limits (arguments as
+    :func:`~sensemaking.reasoning.questions.ask`). Raises :class:`QueryError`."""
+    check_query(query)
+    program = _program_for(scene, query, context)
+    models, sat, notes, shows = _solve_limited(
+        program,
+        query,
+        max_models,
+        timeout=timeout,
+        max_atoms=max_atoms,
+        max_memory_mb=max_memory_mb,
+        on_model=on_model,
+    )
+    shown = tuple(models)
+    if not sat:
+        lines: tuple[str, ...] = (
+            "no answer: the query's constraints rule out every answer set (UNSATISFIABLE)",
+        )
+    elif len(shown) == 1:
+        empty = (
+            "none: no shown atom holds"
+            if shows
+            else "yes: the scene satisfies the query's constraints"
+        )
+        lines = shown[0] or (empty,)
+    else:
+        lines = tuple(f"answer {i + 1}: {' '.join(m)}" for i, m in enumerate(shown))
+    return QueryAnswer(
+        query,
+        lines,
+        atoms=shown[0] if shown else (),
+        models=shown,
+        satisfiable=sat,
+        notes=tuple(notes),
+    )
