@@ -1,22 +1,30 @@
 # Two commands on a fresh machine:
-#   make demo   set up, then run the built-in example (Figure 1 of the paper)
-#   make test   set up, then run the whole test suite
+#   make demo   set up what the demo needs (core + viz), then run the built-in example (Figure 1)
+#   make test   set up everything (every extra: peers, boxmot, fleet, dev), then run the test suite
 PYTHON ?= python3
 VENV   ?= .venv
 BIN    := $(VENV)/bin
-STAMP  := $(VENV)/.installed
+# stamps: everything installed / the demo's part installed (the first implies the second)
+STAMP      := $(VENV)/.installed
+DEMO_STAMP := $(VENV)/.installed-demo
 
 .PHONY: setup demo test bench benchmark clean
 
-$(STAMP): pyproject.toml
+$(BIN)/pip:
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
+
+$(DEMO_STAMP): pyproject.toml | $(BIN)/pip
+	$(BIN)/pip install --quiet -e '.[viz]'
+	touch $(DEMO_STAMP)
+
+$(STAMP): pyproject.toml | $(BIN)/pip
 	$(BIN)/pip install --quiet -e '.[dev,viz,benchmark,boxmot,fleet]'
-	touch $(STAMP)
+	touch $(STAMP) $(DEMO_STAMP)
 
 setup: $(STAMP)
 
-demo: $(STAMP)
+demo: $(DEMO_STAMP)
 	$(BIN)/sensemaking demo --output-dir demo-output
 
 # the package and benchmarks/ are ruff-clean, the package mypy-clean (pyproject.toml), then every test
