@@ -19,6 +19,7 @@ __all__ = [
     "TrackState",
     "Visibility",
     "VISIBILITY_VALUES",
+    "STATE_NAMES",
     "Event",
     "FrameResult",
     "FrameAbduction",
@@ -48,6 +49,8 @@ class Visibility(IntEnum):
 
 #: the values of the ``visibility(T)`` fluent in ASP, indexed by :class:`Visibility`
 VISIBILITY_VALUES: tuple[str, ...] = tuple(v.asp for v in Visibility)
+#: the names of the track states (scene files, ``state/3`` facts), indexed by :class:`TrackState`
+STATE_NAMES: tuple[str, ...] = tuple(s.name.lower() for s in TrackState)
 
 
 @dataclass(frozen=True, order=True)

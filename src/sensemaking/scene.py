@@ -51,7 +51,7 @@ from sensemaking.detections import Detections
 from sensemaking.errors import InputError
 from sensemaking.io.atomic import atomic_write
 from sensemaking.records import event_from_record, event_record
-from sensemaking.results import VISIBILITY_VALUES, Event, FrameResult, TrackState
+from sensemaking.results import STATE_NAMES, VISIBILITY_VALUES, Event, FrameResult, TrackState
 
 if TYPE_CHECKING:  # pragma: no cover
     from sensemaking.abduction.record import AbductionRecord, ProblemRecord
@@ -61,7 +61,7 @@ __all__ = ["Track", "FluentInterval", "Scene", "SceneRecorder", "SCENE_FORMAT", 
 
 SCENE_FORMAT = "sensemaking.scene"
 SCENE_VERSION = 1
-_STATES = tuple(s.name.lower() for s in TrackState)  # index = TrackState value
+_STATES = STATE_NAMES  # index = TrackState value
 _VISIBILITY = VISIBILITY_VALUES
 
 

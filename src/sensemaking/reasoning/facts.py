@@ -24,7 +24,7 @@ from sensemaking.reasoning.relations import (
     relation_facts,
     track_motion,
 )
-from sensemaking.results import TrackState
+from sensemaking.results import STATE_NAMES
 
 if TYPE_CHECKING:  # pragma: no cover
     from sensemaking.scene import Scene
@@ -92,7 +92,7 @@ def scene_facts(
             default: the default corridor, no lanes.
         relation_config, motion_thresholds: see :mod:`sensemaking.reasoning.relations`.
     """
-    states_names = tuple(s.name.lower() for s in TrackState)
+    states_names = STATE_NAMES
     ctx = context or SceneContext()
     out: list[Fact] = []
     fr = scene.frame_numbers.tolist()
