@@ -45,8 +45,8 @@ def add_options(p: argparse.ArgumentParser) -> None:
     g.add_argument(
         "--passthrough",
         action="store_true",
-        help="with --output RUN.mcap: copy every topic of the input bag into it (one file holds "
-        "the drive and its explanation)",
+        help="copy every topic of the input bag into --output RUN.mcap (one file holds the "
+        "drive and its explanation) and into the --live view",
     )
     g.add_argument(
         "--live",
@@ -94,6 +94,7 @@ class RosInput:
             camera_topic=args.camera_info,
         )
         self.targets: list[Any] = []  # sinks with passthrough(connection, time, data, msgdef)
+        self.batch = self.reader.BATCH  # messages read ahead of the tracker
         cam = self.reader.camera
         if cam is not None and args.image_size is None and cam.width > 0 and cam.height > 0:
             if max(cam.width, cam.height) > MAX_IMAGE_SIDE:
@@ -132,7 +133,7 @@ class RosInput:
         def stream() -> Any:
             # the sinks that take the bag's messages are made after this: asked at the start
             raw = self._raw if self.targets else None
-            yield from self.reader.frames(config.image_size, raw)
+            yield from self.reader.frames(config.image_size, raw, batch=self.batch)
 
         return stream(), s.first, s.last, list(s.classes)
 
@@ -160,8 +161,10 @@ def open_input(args: argparse.Namespace) -> RosInput | None:
                     f"{name} reads a ROS 2 bag: give --detections DRIVE.mcap (or a .db3 file "
                     "or a bag folder)"
                 )
-    if args.passthrough and not mcap_out:
-        raise InputError("--passthrough copies the bag into an MCAP file: --output RUN.mcap")
+    if args.passthrough and not (mcap_out or args.live):
+        raise InputError(
+            "--passthrough copies the bag's topics into --output RUN.mcap or the --live view"
+        )
     if (args.live_port is not None or args.live_wait) and not args.live:
         raise InputError("--live-port and --live-wait go with --live")
     if args.live_port is not None and not 0 <= args.live_port <= 65535:
@@ -221,8 +224,11 @@ def extra_sinks(args: argparse.Namespace, config: Any, bag: RosInput | None) -> 
     server = LiveServer(DEFAULT_PORT if args.live_port is None else args.live_port)
     print(f"sensemaking track: serving live at {server.url}", file=sys.stderr, flush=True)
     sink = LiveSink(server, _time_of(config, bag))
-    if bag is not None:
+    if bag is not None and args.passthrough:
         bag.targets.append(sink)
+        bag.batch = 1  # the viewer sees the input's messages as their frames are tracked
+        for conn in bag.reader.all_connections:  # subscribable before the run starts
+            sink.advertise(conn, bag.reader.msgdef)
     if args.live_wait:
         if not server.wait_for_subscriber(args.live_wait):
             log.warning("no viewer subscribed within %g s: tracking anyway", args.live_wait)

@@ -210,8 +210,8 @@ class LiveSink:
             t = self.time_of(int(e.frame))
             self._put(encode_ends([e], t), t)
 
-    def passthrough(self, connection: Any, log_time: int, data: bytes, msgdef: Any) -> None:
-        """Serve one input message on its own topic (CDR with its ROS 2 definition)."""
+    def advertise(self, connection: Any, msgdef: Any) -> int:
+        """Advertise an input topic (CDR with its ROS 2 definition); its channel id."""
         cid = self._passthrough.get(connection.id)
         if cid is None:
             encoding, text = msgdef(connection)
@@ -219,7 +219,11 @@ class LiveSink:
                 connection.topic, connection.msgtype, text, "cdr", encoding
             )
             self._passthrough[connection.id] = cid
-        self.server.publish(cid, int(log_time), bytes(data))
+        return cid
+
+    def passthrough(self, connection: Any, log_time: int, data: bytes, msgdef: Any) -> None:
+        """Serve one input message on its own topic."""
+        self.server.publish(self.advertise(connection, msgdef), int(log_time), bytes(data))
 
     def skip(self, first: int, last: int) -> None:
         pass

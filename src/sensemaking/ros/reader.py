@@ -421,10 +421,11 @@ class BagReader:
     BATCH = 256
 
     def _frames(
-        self, image_size: tuple[int, int] | None, raw_out: Any = None
+        self, image_size: tuple[int, int] | None, raw_out: Any = None, batch_size: int = BATCH
     ) -> Iterator[tuple[int, int, Detections | None]]:
-        """(frame, stamp ns, Detections or None for none) of every message, checked; with
-        ``raw_out`` (connection, log time, raw) of every message of every topic go to it."""
+        """(frame, stamp ns, Detections or None for none) of every message, checked, read
+        ``batch_size`` messages ahead; with ``raw_out`` (connection, log time, raw) of every
+        message of every topic go to it."""
         conns = self._reader.connections if raw_out is not None else self.connections
         wanted = {c.id for c in self.connections}
         previous: int | None = None
@@ -482,7 +483,7 @@ class BagReader:
             if period is None and len(sample) <= RATE_SAMPLE:
                 sample.append(stamp)
             batch.append((number, stamp, items))
-            if len(batch) >= self.BATCH:
+            if len(batch) >= batch_size:
                 yield from flush()
         if batch:
             yield from flush()
@@ -612,8 +613,13 @@ class BagReader:
         )
         return self.summary
 
+    @property
+    def all_connections(self) -> list[Any]:
+        """Every connection (topic) of the bag."""
+        return list(self._reader.connections)
+
     def frames(
-        self, image_size: tuple[int, int] | None, raw_out: Any = None
+        self, image_size: tuple[int, int] | None, raw_out: Any = None, *, batch: int | None = None
     ) -> Iterator[tuple[int, Detections]]:
         """``(frame, Detections)`` of every message with detections (frames without any are
         left to the pipeline, as for a text file), frame numbers as :meth:`scan` gave them.
@@ -621,7 +627,7 @@ class BagReader:
         asks for the next frame (it has then written every frame before)."""
         self._t0 = None
         self.dropped = 0
-        for f, stamp, dets in self._frames(image_size, raw_out):
+        for f, stamp, dets in self._frames(image_size, raw_out, batch or self.BATCH):
             self._stamps[f] = stamp
             if dets is None:
                 continue
