@@ -309,3 +309,32 @@ def test_mot17_05_round_trip(tmp_path) -> None:
     _round_trip(MOT17_05, "mot", 418, 14.0, (640, 480), tmp_path, None)
 
 
+
+
+def test_direct_reading_equals_the_generic_decoder(crossing) -> None:
+    """The vision_msgs 4 layout read directly gives what rosbags' decoder gives, and a
+    definition that differs is left to the decoder."""
+    from mcap.reader import make_reader
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    from sensemaking.ros.reader import _generic, has_layout, parse_detection_array
+
+    _, bag, _ = crossing
+    with open(mcap_file(bag), "rb") as f:
+        reader = make_reader(f)
+        schema = next(s for s in reader.get_summary().schemas.values()
+                      if s.name == "vision_msgs/msg/Detection2DArray")
+        text = schema.data.decode()
+        store = get_typestore(Stores.EMPTY)
+        store.register(get_types_from_msg(text, schema.name))
+        n = boxes = 0
+        for _, _, m in reader.iter_messages(topics=["/detections"]):
+            fast = parse_detection_array(m.data)
+            assert fast == _generic(store.deserialize_cdr(m.data, schema.name))
+            n += 1
+            boxes += len(fast[1])
+    assert n > 10 and boxes > n
+    assert has_layout(text)
+    assert not has_layout(text.replace("float64 score", "float32 score"))
+    assert not has_layout(text.replace("vision_msgs/Pose2D center", "geometry_msgs/Pose2D center"))
+    assert parse_detection_array(m.data[:-9]) is None  # cut short: not this layout

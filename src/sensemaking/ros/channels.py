@@ -232,25 +232,26 @@ def encode_frame(
     rows, points, texts = [], [], []
     where = {}
     for i in range(n):
-        tid, (x1, y1, x2, y2), st = ids[i], boxes[i], int(state[i])
+        tid, st = ids[i], int(state[i])
+        x1, y1, x2, y2 = map(repr, boxes[i])  # each number formatted once, used thrice
         name = STATE_NAMES.get(st, str(st))
         c = repr(conf[i]) if math.isfinite(conf[i]) else "null"
         rows.append(
             f'{{"id":{tid},"class_id":{classes[i]},"class":{_class_json(classes[i])},'
-            f'"state":"{name}","x1":{x1!r},"y1":{y1!r},"x2":{x2!r},"y2":{y2!r},'
+            f'"state":"{name}","x1":{x1},"y1":{y1},"x2":{x2},"y2":{y2},'
             f'"confidence":{c},"occluder":{occluder[i]},"hidden_frames":{hidden[i]}}}'
         )
         seen = st == int(TrackState.VISIBLE)
-        where[tid] = (x1, y2)
+        where[tid] = (boxes[i][0], boxes[i][3])
         solid, faint = _colors(tid)
         points.append(
-            f'{{"timestamp":{ts},"type":{_LINE_LOOP},"points":[{{"x":{x1!r},"y":{y1!r}}},'
-            f'{{"x":{x2!r},"y":{y1!r}}},{{"x":{x2!r},"y":{y2!r}}},{{"x":{x1!r},"y":{y2!r}}}],'
+            f'{{"timestamp":{ts},"type":{_LINE_LOOP},"points":[{{"x":{x1},"y":{y1}}},'
+            f'{{"x":{x2},"y":{y1}}},{{"x":{x2},"y":{y2}}},{{"x":{x1},"y":{y2}}}],'
             f'"outline_color":{solid if seen else faint},"outline_colors":[],'
             f'"fill_color":{_NONE_JSON},"thickness":{"2.0" if seen else "1.0"}}}'
         )
         label = f"{tid} {class_name(classes[i])}" + ("" if seen else f" ({name})")
-        texts.append(_text_json(ts, x1, y1, label, solid))
+        texts.append(_text_json(ts, boxes[i][0], boxes[i][1], label, solid))
     body = ",".join(rows)
     out: list[tuple[Channel, bytes]] = [
         (TRACKS, f'{{"timestamp":{ts},"frame":{result.frame},"tracks":[{body}]}}'.encode())

@@ -245,6 +245,200 @@ def _same(a: tuple[int, list[tuple]], b: tuple[int, list[tuple]]) -> bool:
     ]
 
 
+#: the fields of the types a Detection2DArray is made of (vision_msgs 4), by type: a bag
+#: whose definitions say this is read directly (:func:`parse_detection_array`)
+_LAYOUT: dict[str, list[str]] = {
+    "vision_msgs/Detection2DArray": [
+        "std_msgs/Header header",
+        "vision_msgs/Detection2D[] detections",
+    ],
+    "std_msgs/Header": ["builtin_interfaces/Time stamp", "string frame_id"],
+    "builtin_interfaces/Time": ["int32 sec", "uint32 nanosec"],
+    "vision_msgs/Detection2D": [
+        "std_msgs/Header header",
+        "vision_msgs/ObjectHypothesisWithPose[] results",
+        "vision_msgs/BoundingBox2D bbox",
+        "string id",
+    ],
+    "vision_msgs/ObjectHypothesisWithPose": [
+        "vision_msgs/ObjectHypothesis hypothesis",
+        "geometry_msgs/PoseWithCovariance pose",
+    ],
+    "vision_msgs/ObjectHypothesis": ["string class_id", "float64 score"],
+    "geometry_msgs/PoseWithCovariance": ["geometry_msgs/Pose pose", "float64[36] covariance"],
+    "geometry_msgs/Pose": ["geometry_msgs/Point position", "geometry_msgs/Quaternion orientation"],
+    "geometry_msgs/Point": ["float64 x", "float64 y", "float64 z"],
+    "geometry_msgs/Quaternion": ["float64 x", "float64 y", "float64 z", "float64 w"],
+    "vision_msgs/BoundingBox2D": ["vision_msgs/Pose2D center", "float64 size_x", "float64 size_y"],
+    "vision_msgs/Pose2D": ["vision_msgs/Point2D position", "float64 theta"],
+    "vision_msgs/Point2D": ["float64 x", "float64 y"],
+}
+#: the first fields of sensor_msgs/msg/CameraInfo, read by :func:`parse_camera_info`
+_CAMERA_FIELDS = [
+    "std_msgs/Header header",
+    "uint32 height",
+    "uint32 width",
+    "string distortion_model",
+    "float64[] d",
+    "float64[9] k",
+]
+_PRIMITIVES = frozenset(
+    "bool byte char float32 float64 int8 uint8 int16 uint16 int32 uint32 int64 uint64 string "
+    "wstring".split()
+)
+
+
+def _type_name(name: str, package: str) -> str:
+    """``pkg/Type`` of a field's type as a definition writes it (``pkg/msg/Type``, ``pkg/Type``
+    or, within its own package, ``Type``); primitives and array suffixes kept."""
+    base, bracket, rest = name.partition("[")
+    if base.split("<=", 1)[0] in _PRIMITIVES:
+        return name
+    parts = base.split("/")
+    if len(parts) == 1:
+        return f"{package}/{base}{bracket}{rest}"
+    return f"{parts[0]}/{parts[-1]}{bracket}{rest}"
+
+
+def _sections(definition: str, top: str) -> dict[str, list[str]]:
+    """``pkg/Type`` -> its fields (``"type name"``; comments, constants and defaults aside) of
+    a ROS 2 ``.msg`` definition: the top type (``top``) then its ``MSG:`` sections."""
+    found: dict[str, list[str]] = {}
+    for k, section in enumerate(definition.split("\n" + "=" * 80 + "\n")):
+        lines = section.splitlines()
+        name = top
+        if k:
+            if not lines or not lines[0].startswith("MSG: "):
+                return {}
+            name = _type_name(lines[0][5:].strip(), "")
+            lines = lines[1:]
+        package = name.split("/", 1)[0]
+        fields = []
+        for line in lines:
+            words = line.split("#", 1)[0].split()
+            if len(words) < 2 or "=" in words[1] or (len(words) > 2 and words[2] == "="):
+                continue  # blank, comment or constant
+            fields.append(f"{_type_name(words[0], package)} {words[1]}")
+        found[name] = fields
+    return found
+
+
+def has_layout(definition: str) -> bool:
+    """True when a ROS 2 ``.msg`` definition of Detection2DArray (the top type, then ``MSG:``
+    sections of its parts) has exactly the vision_msgs 4 fields :func:`parse_detection_array`
+    reads (names and types; comments, constants and defaults aside)."""
+    found = _sections(definition, "vision_msgs/Detection2DArray")
+    return all(found.get(name) == fields for name, fields in _LAYOUT.items())
+
+
+def parse_camera_info(raw: bytes | memoryview) -> tuple[int, int, list[float]] | None:
+    """(width, height, k) of a little-endian CDR ``sensor_msgs/msg/CameraInfo``, or None."""
+    buf = memoryview(raw)
+    if len(buf) < 16 or buf[1] != 1:
+        return None
+    try:
+        o = 12
+        o += 4 + _U32.unpack_from(buf, o)[0]  # frame_id
+        o += -(o - 4) % 4
+        height, width = struct.unpack_from("<II", buf, o)
+        o += 8
+        o += 4 + _U32.unpack_from(buf, o)[0]  # distortion_model
+        o += -(o - 4) % 4
+        (n_d,) = _U32.unpack_from(buf, o)
+        o += 4
+        o += -(o - 4) % 8
+        o += 8 * n_d
+        k = list(struct.unpack_from("<9d", buf, o))
+    except struct.error:
+        return None
+    return int(width), int(height), k
+
+
+class _Format:
+    def __init__(self, name: str):
+        self.name = name
+
+
+class _Definition:
+    def __init__(self, encoding: str, data: str):
+        self.format = _Format({"ros2msg": "MSG", "ros2idl": "IDL"}.get(encoding, "NONE"))
+        self.data = data
+
+
+class _Connection:
+    """A channel of an MCAP file as rosbags describes a connection (what is used of it)."""
+
+    def __init__(self, cid: int, topic: str, msgtype: str, msgdef: _Definition):
+        self.id, self.topic, self.msgtype, self.msgdef = cid, topic, msgtype, msgdef
+
+
+class _McapFile:
+    """An MCAP file read with the mcap library, for what :class:`BagReader` asks of rosbags'
+    AnyReader (connections, raw messages in log-time order, decoding): opening it costs no
+    type parsing, which rosbags does for every type of the file (a tenth of a second)."""
+
+    def __init__(self, path: Path):
+        reader_mod = require_ros("mcap.reader")
+        self._handle = open(path, "rb")  # noqa: SIM115 - closed by close()
+        try:
+            self._reader = reader_mod.make_reader(self._handle)
+            summary = self._reader.get_summary()
+            if summary is None:
+                raise ValueError("no summary")
+        except BaseException:
+            self._handle.close()
+            raise
+        self.connections = []
+        self._by_id: dict[int, _Connection] = {}
+        for ch in summary.channels.values():
+            schema = summary.schemas.get(ch.schema_id)
+            if schema is None or ch.message_encoding != "cdr":
+                continue  # not a ROS 2 topic: not read, not copied
+            conn = _Connection(
+                ch.id, ch.topic, schema.name, _Definition(schema.encoding, schema.data.decode())
+            )
+            self.connections.append(conn)
+            self._by_id[ch.id] = conn
+        self._store: Any = None
+
+    def messages(self, connections: Sequence[Any]) -> Iterator[tuple[Any, int, bytes]]:
+        topics = sorted({c.topic for c in connections})
+        for _, channel, message in self._reader.iter_messages(topics=topics, log_time_order=True):
+            conn = self._by_id.get(channel.id)
+            if conn is not None:
+                yield conn, message.log_time, message.data
+
+    @property
+    def typestore(self) -> Any:
+        """The types of the file's definitions (parsed on first use)."""
+        if self._store is None:
+            stores = require_ros("rosbags.typesys")
+            types: dict[str, Any] = {}
+            for conn in self.connections:
+                if conn.msgdef.format.name == "MSG":
+                    types.update(stores.get_types_from_msg(conn.msgdef.data, conn.msgtype))
+            store = stores.get_typestore(stores.Stores.EMPTY)
+            store.register(types)
+            self._store = store
+        return self._store
+
+    def deserialize(self, raw: bytes, msgtype: str) -> Any:
+        return self.typestore.deserialize_cdr(raw, msgtype)
+
+    def close(self) -> None:
+        self._handle.close()
+
+
+def _single_mcap(path: Path) -> Path | None:
+    """The MCAP file of ``path`` when it is one (a file, or a bag folder of one .mcap file)."""
+    if path.is_file():
+        return path if path.suffix.lower() == ".mcap" else None
+    files = [p for p in path.iterdir() if p.suffix.lower() in (".mcap", ".db3")]
+    if len(files) == 1 and files[0].suffix.lower() == ".mcap":
+        return files[0]
+    return None
+
+
 class BagReader:
     """One detection topic of a bag (an ``.mcap`` or ``.db3`` file, or a ROS 2 bag folder).
 
@@ -272,7 +466,7 @@ class BagReader:
         highlevel = require_ros("rosbags.highlevel")
         self._reader: Any = None
         try:
-            self._reader = self._open(highlevel, None)
+            self._reader = self._direct() or self._open(highlevel, None)
         except FileNotFoundError:
             raise InputError("bag not found", self.path) from None
         except Exception as exc:  # noqa: BLE001 - a damaged file fails in the library's ways
@@ -294,6 +488,20 @@ class BagReader:
         self._fast: bool | None = None  # direct reading: None until the first message says
 
     # -- opening ---------------------------------------------------------------------------
+    def _direct(self) -> _McapFile | None:
+        """The bag as one MCAP file read with the mcap library, or None (a .db3 bag, a bag of
+        several files, a file without its summary: rosbags reads those, or says why not)."""
+        if not self.path.exists():
+            raise FileNotFoundError(self.path)
+        single = _single_mcap(self.path)
+        if single is None:
+            return None
+        try:
+            return _McapFile(single)
+        except Exception:  # noqa: BLE001 - damaged or truncated: rosbags tries, or says why
+            log.debug("reading %s with rosbags", single, exc_info=True)
+            return None
+
     def _open(self, highlevel: Any, store: Any) -> Any:
         """An open AnyReader; the types of a bag without definitions (.db3) from
         :func:`~sensemaking.ros.msgs.typestore` (made only then: it takes a quarter second)."""
@@ -354,9 +562,18 @@ class BagReader:
             topic = found[0]
         conns = [c for c in self._reader.connections if c.topic == topic]
         for conn, _, raw in self._messages(conns):
-            msg = self._deserialize(raw, conn.msgtype, 1)
-            k = [float(v) for v in msg.k] if len(msg.k) == 9 else [0.0] * 9
-            return CameraInfo(topic, int(msg.width), int(msg.height), k[0], k[4], k[2], k[5])
+            fast = None
+            top = "sensor_msgs/CameraInfo"
+            fields = _sections(self.msgdef(conn)[1], top).get(top, [])
+            if fields[:6] == _CAMERA_FIELDS:
+                fast = parse_camera_info(raw)
+            if fast is not None:
+                width, height, k = fast
+            else:
+                msg = self._deserialize(raw, conn.msgtype, 1)
+                width, height = int(msg.width), int(msg.height)
+                k = [float(v) for v in msg.k] if len(msg.k) == 9 else [0.0] * 9
+            return CameraInfo(topic, width, height, k[0], k[4], k[2], k[5])
         return None
 
     def _messages(self, connections: Sequence[Any]) -> Iterator[tuple[Any, int, bytes]]:
@@ -383,19 +600,15 @@ class BagReader:
             ) from None
 
     def _decode(self, raw: bytes, msgtype: str, number: int) -> tuple[int, list[tuple]]:
-        """(stamp ns, boxes) of a detection message: read directly when its bytes have the
-        vision_msgs 4 layout (checked against the generic decoder on the first message), else
-        by the generic decoder."""
-        if self._fast is not False:
+        """(stamp ns, boxes) of a detection message: read directly when the topic's definition
+        is vision_msgs 4's and the bytes end where that layout ends, else by the generic
+        decoder."""
+        if self._fast is None:
+            self._fast = has_layout(self.msgdef(self.connections[0])[1])
+            log.debug("%s: vision_msgs 4 layout, read directly: %s", self.topic, self._fast)
+        if self._fast:
             parsed = parse_detection_array(raw)
             if parsed is not None:
-                if self._fast is None:  # until a message with a class: both ways must agree
-                    generic = _generic(self._deserialize(raw, msgtype, number))
-                    if not _same(parsed, generic):
-                        self._fast = False
-                    elif any(box[4] for box in generic[1]):
-                        self._fast = True
-                    return generic
                 return parsed
         return _generic(self._deserialize(raw, msgtype, number))
 
