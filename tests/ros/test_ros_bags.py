@@ -338,3 +338,25 @@ def test_direct_reading_equals_the_generic_decoder(crossing) -> None:
     assert not has_layout(text.replace("float64 score", "float32 score"))
     assert not has_layout(text.replace("vision_msgs/Pose2D center", "geometry_msgs/Pose2D center"))
     assert parse_detection_array(m.data[:-9]) is None  # cut short: not this layout
+
+
+def test_a_long_bag_is_read_again_not_kept(crossing, monkeypatch) -> None:
+    """The checking pass keeps a short bag's boxes for the run; past KEEP_BOXES the run reads
+    the bag again: the same frames either way."""
+    from sensemaking.ros.reader import BagReader, ClassTable
+
+    _, bag, _ = crossing
+
+    def frames() -> list[tuple[int, list]]:
+        reader = BagReader(bag, "/detections", ClassTable())
+        reader.scan((1242, 375))
+        kept = reader._kept is not None
+        got = [(f, d.xyxy.tolist(), d.class_id.tolist()) for f, d in reader.frames((1242, 375))]
+        reader.close()
+        return kept, got
+
+    kept, short = frames()
+    monkeypatch.setattr(BagReader, "KEEP_BOXES", 5)
+    again, long = frames()
+    assert kept and not again
+    assert short == long and len(short) > 10

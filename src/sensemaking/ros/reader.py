@@ -485,7 +485,9 @@ class BagReader:
         self._period_ns: float | None = None
         self.dropped = 0
         self.fps_estimate: float | None = fps
-        self._fast: bool | None = None  # direct reading: None until the first message says
+        self._fast: bool | None = None  # read directly: None until the definition says
+        self._classes: set[int] = set()  # the class ids read (scan)
+        self._kept: list[tuple[int, int, Detections | None]] | None = None
 
     # -- opening ---------------------------------------------------------------------------
     def _direct(self) -> _McapFile | None:
@@ -629,6 +631,10 @@ class BagReader:
             reader.close()
 
     # -- frames ----------------------------------------------------------------------------
+    #: boxes kept from the checking pass for the run (about 80 bytes each): a bag with more is
+    #: read twice, so memory stays bounded
+    KEEP_BOXES = 250_000
+
     #: messages decoded before their boxes are converted and checked together (numpy's
     #: per-call cost is then paid per batch, not per message)
     BATCH = 256
@@ -747,6 +753,7 @@ class BagReader:
             source_row=rows[keep],
             data={},
         )
+        self._classes.update(np.unique(every.class_id).tolist())
         try:
             validate_detections(every, image_size)
         except InputError:
@@ -798,15 +805,21 @@ class BagReader:
         """Check every message of the topic before any work; the frame range and the rate."""
         n = n_dets = 0
         last: int | None = None
-        classes: set[int] = set()
         self.dropped = 0
         self.fps_estimate = self.fps_option
-        for f, _, dets in self._frames(image_size):
+        self._classes = set()
+        kept: list[tuple[int, int, Detections | None]] | None = []
+        for f, stamp, dets in self._frames(image_size):
             n += 1
             last = f
             if dets is not None:
                 n_dets += len(dets)
-                classes.update(np.unique(dets.class_id).tolist())
+            if kept is not None:
+                kept.append((f, stamp, dets))
+                if n_dets > self.KEEP_BOXES:
+                    kept = None  # a long bag: read again by frames()
+        self._kept = kept
+        classes = self._classes
         if n == 0:
             log.warning("%s: no messages on %s", self.path, self.topic)
         if self.dropped:
@@ -838,9 +851,14 @@ class BagReader:
         left to the pipeline, as for a text file), frame numbers as :meth:`scan` gave them.
         The stamps of the frames read ahead are kept for :meth:`time_of` until the consumer
         asks for the next frame (it has then written every frame before)."""
-        self._t0 = None
-        self.dropped = 0
-        for f, stamp, dets in self._frames(image_size, raw_out, batch or self.BATCH):
+        if raw_out is None and self._kept is not None:  # what scan() read, not read again
+            kept, self._kept = self._kept, None
+            source: Iterator[tuple[int, int, Detections | None]] = _drain(kept)
+        else:
+            self._t0 = None
+            self.dropped = 0
+            source = self._frames(image_size, raw_out, batch or self.BATCH)
+        for f, stamp, dets in source:
             self._stamps[f] = stamp
             if dets is None:
                 continue
@@ -868,3 +886,10 @@ class BagReader:
             return stamp
         assert self.summary is not None and self.summary.t0 is not None
         return self.summary.t0 + int(round((frame - self.first_frame) * 1e9 / self.summary.fps))
+
+
+def _drain(items: list[Any]) -> Iterator[Any]:
+    """The items of a list in order, each dropped from it once given (memory freed as read)."""
+    items.reverse()
+    while items:
+        yield items.pop()
