@@ -82,8 +82,14 @@ def test_bag_tracks_like_its_text_file_and_mcap_holds_the_run(crossing, tmp_path
         assert out.read_bytes() == (tmp_path / "text.txt").read_bytes()
     run = tmp_path / "run.mcap"
     assert main(["-q", "track", "--detections", str(bag), "--topic", "/detections",
-                 "--output", str(run)]) == 0
+                 "--output", str(run), "--warnings", str(tmp_path / "w.jsonl")]) == 0
     channels = read_channels(run)
+    # the warnings, start and end records, as the --warnings file of the same run has them
+    said = [json.loads(s) for s in (tmp_path / "w.jsonl").read_text().splitlines()]
+    got = [{k: v for k, v in m.items() if k != "timestamp"} for _, m in channels["/sensemaking/warnings"]]
+    assert got == said and {r["record"] for r in said} == {"start", "end"}
+    assert sum(m["level"] == 3 for _, m in channels["/sensemaking/log"]) == len(
+        [r for r in said if r["record"] == "start"])
     assert set(CHANNELS) <= set(channels)
     # every box (hidden tracks at their predicted boxes too) of the text run, exactly
     expected = result_rows(read_kitti_labels(tmp_path / "text.txt"))
