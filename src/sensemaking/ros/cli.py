@@ -71,13 +71,13 @@ def add_options(p: argparse.ArgumentParser) -> None:
 
 
 class RosInput:
-    """A bag given as ``--detections``: its reader, checked before any work, and the sinks
-    that take its messages (``--passthrough``)."""
+    """A bag given as ``--detections``: its reader, checked before any work (opened by
+    :meth:`info`, after the outputs are checked), and the sinks that take its messages
+    (``--passthrough``)."""
 
     def __init__(self, args: argparse.Namespace, path: Path):
         from sensemaking.classes import class_id
-        from sensemaking.cli.track import MAX_IMAGE_SIDE, parse_size
-        from sensemaking.ros.reader import BagReader, ClassTable
+        from sensemaking.ros.reader import ClassTable
 
         default = None
         if args.class_name is not None:
@@ -85,38 +85,49 @@ class RosInput:
                 default = class_id(args.class_name)
             except KeyError:
                 raise InputError(f"--class {args.class_name}: unknown class name") from None
+        self.args, self.path = args, path
+        self.classes = ClassTable.parse(args.classes, default)
+        self.targets: list[Any] = []  # sinks with passthrough(connection, time, data, msgdef)
+        self.batch = 0  # messages read ahead of the tracker (0: the reader's own batch)
+
+    def info(self) -> tuple[float | None, tuple[int, int] | None, int | None]:
+        """Open and check the bag; (fps, image size, number of frames) as ``_sequence_info``
+        gives them for files (the size is set as ``--image-size`` from the CameraInfo)."""
+        from sensemaking.cli.track import MAX_IMAGE_SIDE, parse_size
+        from sensemaking.ros.reader import BagReader
+
+        args, path = self.args, self.path
         self.reader = BagReader(
             path,
             args.topic,
-            ClassTable.parse(args.classes, default),
+            self.classes,
             first_frame=1 if args.format == "mot" else 0,
             fps=args.fps,
             camera_topic=args.camera_info,
         )
-        self.targets: list[Any] = []  # sinks with passthrough(connection, time, data, msgdef)
-        self.batch = self.reader.BATCH  # messages read ahead of the tracker
-        cam = self.reader.camera
-        if cam is not None and args.image_size is None and cam.width > 0 and cam.height > 0:
-            if max(cam.width, cam.height) > MAX_IMAGE_SIDE:
-                raise InputError(
-                    f"{cam.topic}: image size {cam.width}x{cam.height} is implausible", path
-                )
-            args.image_size = f"{cam.width}x{cam.height}"
-        if (
-            cam is not None
-            and cam.fx > 0
-            and args.camera is None
-            and (args.warnings or args.scene)
-        ):
-            # a level camera: the horizon at the principal point's row; the height is KITTI's
-            args.camera = f"{cam.fx},1.65,{cam.cy},{cam.cx}"
-            log.info("camera model from %s: --camera %s", cam.topic, args.camera)
-        size = parse_size(args.image_size) if args.image_size else None
-        log.info("checking %s before tracking", path)
-        self.summary = self.reader.scan(size)
-
-    def info(self) -> tuple[float | None, tuple[int, int] | None, int | None]:
-        """(fps, image size, number of frames) as ``_sequence_info`` gives them for files."""
+        try:
+            cam = self.reader.camera
+            if cam is not None and args.image_size is None and cam.width > 0 and cam.height > 0:
+                if max(cam.width, cam.height) > MAX_IMAGE_SIDE:
+                    raise InputError(
+                        f"{cam.topic}: image size {cam.width}x{cam.height} is implausible", path
+                    )
+                args.image_size = f"{cam.width}x{cam.height}"
+            if (
+                cam is not None
+                and cam.fx > 0
+                and args.camera is None
+                and (args.warnings or args.scene)
+            ):
+                # a level camera: the horizon at the principal point's row; KITTI's height
+                args.camera = f"{cam.fx},1.65,{cam.cy},{cam.cx}"
+                log.info("camera model from %s: --camera %s", cam.topic, args.camera)
+            size = parse_size(args.image_size) if args.image_size else None
+            log.info("checking %s before tracking", path)
+            self.summary = self.reader.scan(size)
+        except BaseException:
+            self.reader.close()
+            raise
         s = self.summary
         length = None if s.last is None else s.last - s.first + 1
         return s.fps, None, length
@@ -133,7 +144,10 @@ class RosInput:
         def stream() -> Any:
             # the sinks that take the bag's messages are made after this: asked at the start
             raw = self._raw if self.targets else None
-            yield from self.reader.frames(config.image_size, raw, batch=self.batch)
+            try:
+                yield from self.reader.frames(config.image_size, raw, batch=self.batch or None)
+            finally:  # the stamps the sinks still ask for are kept by the reader, not the file
+                self.reader.close()
 
         return stream(), s.first, s.last, list(s.classes)
 

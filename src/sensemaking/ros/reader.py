@@ -6,7 +6,9 @@ Time: each message's ``header.stamp`` is its time. Frames are numbered at the no
 0.001 frames per second): message k goes to frame ``max(f[k-1] + 1, first + round((t[k] -
 t[0]) * fps))``, so a dropped message leaves an empty frame (tracks age by time, not by
 message count) and jitter never puts two messages in one frame. Stamps must increase in the
-bag's order. Memory: one message at a time (and the first :data:`RATE_SAMPLE` stamps).
+bag's order. Memory: a batch of :attr:`BagReader.BATCH` messages (the first
+:data:`RATE_SAMPLE`, until the rate is known), and the boxes of the checking pass kept for the
+run when there are at most :attr:`BagReader.KEEP_BOXES`.
 
 Classes: a hypothesis's ``class_id`` string is mapped by a :class:`ClassTable` (``--classes``);
 the detection's class is that of its best-scored hypothesis, its score that hypothesis's.
@@ -236,13 +238,6 @@ def parse_detection_array(raw: bytes | memoryview) -> tuple[int, list[tuple]] | 
     if not 0 <= end - o < 8:  # at most the padding to an 8-byte boundary is left over
         return None
     return sec * 1_000_000_000 + nsec, out
-
-
-def _same(a: tuple[int, list[tuple]], b: tuple[int, list[tuple]]) -> bool:
-    """The two readings of a message agree (floats compared exactly)."""
-    return a[0] == b[0] and [(*x[:4], [(n, float(v)) for n, v in x[4]]) for x in a[1]] == [
-        (*x[:4], [(n, float(v)) for n, v in x[4]]) for x in b[1]
-    ]
 
 
 #: the fields of the types a Detection2DArray is made of (vision_msgs 4), by type: a bag
@@ -475,14 +470,17 @@ class BagReader:
         self.topics: dict[str, str] = {}
         for c in self._reader.connections:
             self.topics.setdefault(c.topic, c.msgtype)
-        self.topic = self._choose_topic(topic)
-        self.connections = [c for c in self._reader.connections if c.topic == self.topic]
-        self.camera = self._camera_info(camera_topic)
+        try:
+            self.topic = self._choose_topic(topic)
+            self.connections = [c for c in self._reader.connections if c.topic == self.topic]
+            self.camera = self._camera_info(camera_topic)
+        except BaseException:
+            self.close()
+            raise
         self.summary: BagSummary | None = None
         #: frame -> header stamp (ns) of the messages read ahead of the tracker (time_of)
         self._stamps: dict[int, int] = {}
         self._t0: int | None = None
-        self._period_ns: float | None = None
         self.dropped = 0
         self.fps_estimate: float | None = fps
         self._fast: bool | None = None  # read directly: None until the definition says
@@ -710,7 +708,6 @@ class BagReader:
             period = self._nominal_period(sample)
             for stamp, dets in held:
                 yield place(stamp), stamp, dets
-        self._period_ns = period
 
     def _checked(
         self, batch: list[tuple[int, int, list[tuple]]], image_size: tuple[int, int] | None
