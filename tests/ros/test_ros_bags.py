@@ -366,3 +366,19 @@ def test_a_long_bag_is_read_again_not_kept(crossing, monkeypatch) -> None:
     again, long = frames()
     assert kept and not again
     assert short == long and len(short) > 10
+
+
+def test_preview_draws_a_frame_of_the_annotations(crossing, tmp_path) -> None:
+    image_mod = pytest.importorskip("PIL.Image")
+    from sensemaking.ros.preview import render_annotations
+
+    _, bag, _ = crossing
+    run = tmp_path / "run.mcap"
+    assert main(["-q", "track", "--detections", str(bag), "--output", str(run)]) == 0
+    frame = render_annotations(run, tmp_path / "f.png")
+    with image_mod.open(tmp_path / "f.png") as im:
+        assert im.size == (1242, 375)
+        # the boxes are drawn: more than the canvas's one colour
+        assert len(im.convert("RGB").getcolors(1 << 16)) > 2
+    tracks = {m["frame"]: m for _, m in read_channels(run)["/sensemaking/tracks"]}
+    assert len(tracks[frame]["tracks"]) == max(len(m["tracks"]) for m in tracks.values())

@@ -256,15 +256,7 @@ def encode_frame(
     out: list[tuple[Channel, bytes]] = [
         (TRACKS, f'{{"timestamp":{ts},"frame":{result.frame},"tracks":[{body}]}}'.encode())
     ]
-    for ev in result.events:
-        record = ev.to_json()
-        out.append((EVENTS, _dump({"timestamp": stamp, **record})))
-        out.append((LOG, _log(stamp, LOG_INFO, str(ev), "sensemaking.events")))
-        first = next((a for a in ev.args if not isinstance(a, str)), None)
-        x, y = where.get(first, (4.0, 4.0)) if first is not None else (4.0, 4.0)
-        text = f"{ev.name}({','.join(map(str, ev.args))})"
-        texts.append(_text_json(ts, x, y + 14.0, text, _WHITE_JSON))
-    k = 0
+    line = 0  # the top-left lines: warnings, then events of tracks not in the frame
     for w in warnings:
         if not getattr(w, "objects", None):
             continue  # a situation that could not be checked: a notice, not a warning
@@ -272,8 +264,20 @@ def encode_frame(
         out.append((WARNINGS, _dump({"timestamp": stamp, **record})))
         text = f"{record.get('situation')}: {record.get('message', '')}"
         out.append((LOG, _log(stamp, LOG_WARNING, text, "sensemaking.warnings")))
-        texts.append(_text_json(ts, 8.0, 8.0 + 18.0 * k, "WARNING " + text, _WARN_JSON))
-        k += 1
+        texts.append(_text_json(ts, 8.0, 8.0 + 18.0 * line, "WARNING " + text, _WARN_JSON))
+        line += 1
+    for ev in result.events:
+        record = ev.to_json()
+        out.append((EVENTS, _dump({"timestamp": stamp, **record})))
+        out.append((LOG, _log(stamp, LOG_INFO, str(ev), "sensemaking.events")))
+        first = next((a for a in ev.args if not isinstance(a, str)), None)
+        text = f"{ev.name}({','.join(map(str, ev.args))})"
+        if first in where:  # under the track's box
+            x, y = where[first]
+            texts.append(_text_json(ts, x, y + 4.0, text, _WHITE_JSON))
+        else:
+            texts.append(_text_json(ts, 8.0, 8.0 + 18.0 * line, text, _WHITE_JSON))
+            line += 1
     drawn = f'{{"circles":[],"points":[{",".join(points)}],"texts":[{",".join(texts)}]}}'
     out.append((ANNOTATIONS, drawn.encode()))
     return out
