@@ -382,3 +382,38 @@ def test_preview_draws_a_frame_of_the_annotations(crossing, tmp_path) -> None:
         assert len(im.convert("RGB").getcolors(1 << 16)) > 2
     tracks = {m["frame"]: m for _, m in read_channels(run)["/sensemaking/tracks"]}
     assert len(tracks[frame]["tracks"]) == max(len(m["tracks"]) for m in tracks.values())
+
+
+@pytest.mark.slow
+def test_damaged_bags_never_give_a_traceback(tmp_path, capsys) -> None:
+    """Bytes flipped, cut or repeated anywhere in a bag's MCAP file: a run or one line, exit 2."""
+    import random
+
+    from sensemaking.ros.convert import write_detection_bag
+
+    frames = [(f, Detections(np.array([[10.0 + f, 20.0, 60.0 + f, 90.0],
+                                        [200.0, 30.0, 260.0, 140.0]]), 0.9, np.array([3, 1])))
+              for f in range(12)]
+    bag = write_detection_bag(tmp_path / "b", frames, fps=10.0, image_size=(640, 480))
+    data = bytearray(mcap_file(bag).read_bytes())
+    rng = random.Random(25)
+    for k in range(60):
+        bad = bytearray(data)
+        how = k % 3
+        at = rng.randrange(len(bad))
+        if how == 0:
+            for _ in range(rng.randint(1, 8)):
+                bad[rng.randrange(len(bad))] = rng.randrange(256)
+        elif how == 1:
+            bad = bad[:at]
+        else:
+            bad[at:at] = bad[at : at + rng.randint(1, 64)]
+        path = tmp_path / f"bad{k}.mcap"
+        path.write_bytes(bytes(bad))
+        code = main(["-q", "track", "--detections", str(path), "--output",
+                     str(tmp_path / f"o{k}.mcap"), "--passthrough"])
+        err = capsys.readouterr().err
+        assert code in (0, 2), (k, how, err)
+        assert "Traceback" not in err and "internal error" not in err, (k, how, err)
+        if code == 2:
+            assert len(err.strip().splitlines()) == 1, err

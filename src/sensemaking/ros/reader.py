@@ -571,8 +571,13 @@ class BagReader:
                 width, height, k = fast
             else:
                 msg = self._deserialize(raw, conn.msgtype, 1)
-                width, height = int(msg.width), int(msg.height)
-                k = [float(v) for v in msg.k] if len(msg.k) == 9 else [0.0] * 9
+                try:
+                    width, height = int(msg.width), int(msg.height)
+                    k = [float(v) for v in msg.k] if len(msg.k) == 9 else [0.0] * 9
+                except (AttributeError, TypeError, ValueError) as exc:
+                    raise InputError(
+                        f"{topic}: not a CameraInfo as sensor_msgs defines it ({exc})", self.path
+                    ) from None
             return CameraInfo(topic, width, height, k[0], k[4], k[2], k[5])
         return None
 
@@ -610,7 +615,15 @@ class BagReader:
             parsed = parse_detection_array(raw)
             if parsed is not None:
                 return parsed
-        return _generic(self._deserialize(raw, msgtype, number))
+        msg = self._deserialize(raw, msgtype, number)
+        try:
+            return _generic(msg)
+        except (AttributeError, TypeError, ValueError) as exc:  # a definition without the fields
+            raise InputError(
+                f"{self.topic} message {number}: not a Detection2DArray as vision_msgs defines "
+                f"it ({exc})",
+                self.path,
+            ) from None
 
     def msgdef(self, connection: Any) -> tuple[str, str]:
         """(MCAP schema encoding, definition text) of an input connection, for copying it."""
