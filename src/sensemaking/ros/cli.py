@@ -236,7 +236,8 @@ def extra_sinks(args: argparse.Namespace, config: Any, bag: RosInput | None) -> 
     from sensemaking.ros.live import DEFAULT_PORT, LiveServer, LiveSink
 
     server = LiveServer(DEFAULT_PORT if args.live_port is None else args.live_port)
-    print(f"sensemaking track: serving live at {server.url}", file=sys.stderr, flush=True)
+    if not getattr(args, "quiet", False):
+        print(f"sensemaking track: serving live at {server.url}", file=sys.stderr, flush=True)
     sink = LiveSink(server, _time_of(config, bag))
     if bag is not None and args.passthrough:
         bag.targets.append(sink)
@@ -244,6 +245,10 @@ def extra_sinks(args: argparse.Namespace, config: Any, bag: RosInput | None) -> 
         for conn in bag.reader.all_connections:  # subscribable before the run starts
             sink.advertise(conn, bag.reader.msgdef)
     if args.live_wait:
-        if not server.wait_for_subscriber(args.live_wait):
-            log.warning("no viewer subscribed within %g s: tracking anyway", args.live_wait)
+        try:
+            if not server.wait_for_subscriber(args.live_wait):
+                log.warning("no viewer subscribed within %g s: tracking anyway", args.live_wait)
+        except BaseException:  # Ctrl-C while waiting: the sink is not the caller's yet
+            server.close()
+            raise
     return [sink]
