@@ -341,6 +341,14 @@ def test_direct_reading_equals_the_generic_decoder(crossing) -> None:
             boxes += len(fast[1])
     assert n > 10 and boxes > n
     assert has_layout(text)
+    # as ROS 2 writes its own .msg files: comments, same-package types unqualified, defaults
+    ros_style = (
+        text.replace("vision_msgs/Detection2D[] detections", "# proposals\nDetection2D[] detections")
+        .replace("vision_msgs/Pose2D center", "Pose2D center  # the box's center")
+        .replace("float64 w", "float64 w 1")
+        .replace("float64 theta", "float64 theta\nuint8 NONE=0")
+    )
+    assert ros_style != text and has_layout(ros_style)
     assert not has_layout(text.replace("float64 score", "float32 score"))
     assert not has_layout(text.replace("vision_msgs/Pose2D center", "geometry_msgs/Pose2D center"))
     assert parse_detection_array(m.data[:-9]) is None  # cut short: not this layout
