@@ -1,6 +1,6 @@
 # Two commands on a fresh machine:
 #   make demo   set up what the demo needs (core + viz), then run the built-in example (Figure 1)
-#   make test   set up everything (every extra: peers, boxmot, fleet, dev), then run the test suite
+#   make test   set up everything (every extra: peers, boxmot, fleet, ros, dev), then run the test suite
 PYTHON ?= python3
 VENV   ?= .venv
 BIN    := $(VENV)/bin
@@ -19,7 +19,7 @@ $(DEMO_STAMP): pyproject.toml | $(BIN)/pip
 	touch $(DEMO_STAMP)
 
 $(STAMP): pyproject.toml | $(BIN)/pip
-	$(BIN)/pip install --quiet -e '.[dev,viz,benchmark,boxmot,fleet]'
+	$(BIN)/pip install --quiet -e '.[dev,viz,benchmark,boxmot,fleet,ros]'
 	touch $(STAMP) $(DEMO_STAMP)
 
 setup: $(STAMP)

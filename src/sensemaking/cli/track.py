@@ -223,6 +223,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="a parameter file (JSON or TOML, e.g. from `sensemaking calibrate`) over the "
         "preset of --format",
     )
+    from sensemaking.ros.cli import add_options as add_ros_options
+
+    add_ros_options(p)  # --topic, --classes, --passthrough, --live, ...: docs/ROS.md
     p.set_defaults(func=run)
 
 
@@ -586,6 +589,9 @@ def run(args: argparse.Namespace) -> int:
     # several files (one per class) are one input; args.detections is the first (seqinfo, name)
     args.detection_files = list(args.detections or [])
     args.detections = args.detection_files[0] if args.detection_files else None
+    from sensemaking.ros import cli as ros
+
+    bag = ros.open_input(args)  # a ROS 2 bag or MCAP file (sets --format's default)
     if args.detections is not None and args.format is None:
         raise InputError("--format mot|kitti is required with --detections")
     _check_options(args)
@@ -621,7 +627,7 @@ def run(args: argparse.Namespace) -> int:
     context, profile = _situation_context(args)
     fps = size = length = None
     if args.detections is not None:
-        fps, size, length = _sequence_info(args)
+        fps, size, length = bag.info() if bag else _sequence_info(args)
     else:
         frames, size = _video_frames(args)
     if args.fps:
@@ -632,8 +638,10 @@ def run(args: argparse.Namespace) -> int:
     first = last = None
     class_files: dict[int, Path] | None = None
     if args.detections is not None:
-        frames, first, last, classes = _file_frames(args, config, length)
-        class_files = _output_paths(args, classes)
+        frames, first, last, classes = (
+            bag.frames(args, config) if bag else _file_frames(args, config, length)
+        )
+        class_files = None if ros.is_mcap_output(args.output) else _output_paths(args, classes)
         if class_files is not None:
             from sensemaking.classes import class_name
 
@@ -669,6 +677,8 @@ def run(args: argparse.Namespace) -> int:
                 sinks.append(
                     ClassTracksSink(class_files, args.format, write_hidden=args.write_hidden)
                 )
+            elif ros.is_mcap_output(args.output):
+                sinks.append(ros.tracks_sink(args, config, bag))
             else:
                 sinks.append(TracksSink(args.output, args.format, write_hidden=args.write_hidden))
             if args.events:
@@ -692,6 +702,7 @@ def run(args: argparse.Namespace) -> int:
                         },
                     )
                 )
+            sinks.extend(ros.extra_sinks(args, config, bag))
         except BaseException:
             from sensemaking.sinks import close_all
 
