@@ -11,7 +11,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, replace
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -19,10 +19,10 @@ from typing import Any
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from sensemaking import settings
 from sensemaking.abduction.components import ComponentSolver
 from sensemaking.abduction.problem import VISIBILITY_VALUES, FrameProblem
 from sensemaking.abduction.solver import AbductionSolver, Answer, Det, read_encoding
+from sensemaking.config import AbductionCosts, KalmanConfig, TrackerConfig
 from sensemaking.detections import Detections, check_frame_number, validate_detections
 from sensemaking.geometry import (
     box_area,
@@ -33,213 +33,21 @@ from sensemaking.geometry import (
     iou_from_intersection,
     safe_ratio,
 )
-from sensemaking.motion import KalmanConfig
 from sensemaking.results import Event, FrameAbduction, FrameResult, TrackState
 from sensemaking.track_table import TrackTable
 
-__all__ = ["TrackerConfig", "Tracker", "FrameResult", "Event", "TrackState"]
+# the configuration lives in sensemaking.config; re-exported here, where users import it from
+__all__ = [
+    "TrackerConfig",
+    "AbductionCosts",
+    "KalmanConfig",
+    "Tracker",
+    "FrameResult",
+    "Event",
+    "TrackState",
+]
 
 log = logging.getLogger(__name__)
-
-
-@dataclass(frozen=True)
-class AbductionCosts:
-    """Costs of actions and events, in likelihood units (a perfect IoU match is worth 1000).
-
-    Raising a cost makes the explanation rarer; each is a trade-off between two mistakes.
-    """
-
-    enters: int = 100  #: enters_fov at the border. Higher: fewer new tracks at the border.
-    #: a track starting away from the border. Higher: fewer false tracks, later starts.
-    appears: int = 400
-    leaves: int = 100  #: leaves_fov at the border. Higher: tracks linger at the border as missing.
-    #: a track ending without explanation. Higher: tracks are kept as missing longer.
-    lost: int = 600
-    #: a tentative (unconfirmed) track ending: a hypothesis dropped. Higher: young tracks fight
-    #: for detections.
-    dropped: int = 0
-    #: hides_behind. Higher: fewer occlusion explanations, more missing detections.
-    hides: int = 50
-    missing: int = 250  #: missing_detections. Higher: tracks end instead of waiting.
-    unseen: int = 20  #: per frame a track stays missing. Higher: missing tracks end sooner.
-    #: ignoring a detection, times its confidence. Higher: more tracks from weak detections.
-    ignore: int = 600
-    #: a hidden or missing track seen again (unhides_from_behind or reappears). An unseen track's
-    #: prediction is widened, so it fits a detection better than its drifted box deserves; hiding
-    #: a visible track costs only ``hides``, and without this cost an unseen track took the
-    #: detection of a visible track whose own prediction fits it whenever its widened fit was 0.05
-    #: IoU better. Higher: a visible track keeps its detection unless the unseen one fits it
-    #: clearly better (by (hides + resumes) / 1000 IoU). Keep it below ``enters`` + 1000 x
-    #: ``iou_resume``, else an unseen track at the border loses a weakly fitting detection to a new
-    #: track entering there (a new id).
-    resumes: int = 100
-
-    def __post_init__(self) -> None:
-        for name, value in asdict(self).items():
-            if not isinstance(value, int) or value < 0:
-                raise ValueError(f"cost {name} must be a non-negative integer, got {value!r}")
-
-
-@dataclass(frozen=True)
-class TrackerConfig:
-    """Parameters of :class:`Tracker`. Times are in seconds and turned into frames with ``fps``.
-
-    Attributes:
-        abduction: abduce assignments and events with clingo (True) or match by Hungarian IoU
-            only (False, the paper's "without abduction"; events are then only starts/ends).
-        fps: frame rate of the input (frames per second); converts the time limits below.
-        image_size: ``(width, height)`` of the field of view in pixels. Needed to explain
-            entering/leaving at the border; without it, tracks only start and end.
-        iou_assign: minimum IoU of prediction and detection to continue a visible track.
-            Lower: follows fast or erratic motion, but risks id swaps between neighbours.
-        iou_resume: minimum IoU to resume a hidden or missing track (its prediction is widened
-            by ``resume_growth`` per unseen frame, up to 2x). Lower: more re-identification
-            after long gaps, with more wrong re-identifications.
-        resume_growth: widening of an unseen track's predicted box per frame, fraction of size.
-        new_track_growth: widening of the predicted box of a track seen only once (its velocity
-            is unknown), e.g. 1.5 = 50 % larger. Higher: fast objects keep their id from the
-            second frame on; too high: neighbours can take each other's young tracks.
-        min_confidence: minimum detection score to continue or resume a track (score units of
-            the detector). Low-score detections can then keep tracks alive without starting any.
-        start_confidence: minimum detection score to start a track. Higher: fewer false tracks.
-        max_hidden_s: how long a track hidden behind a known occluder is kept (seconds).
-        max_missing_s: how long a track with missing detections (no occluder) is kept (seconds).
-        min_hits: detections needed before a new track is reported (1 = at once). During the
-            first ``min_hits`` frames of a run tracks are reported at once.
-        confirm_confidence: a detection scoring at least this confirms its track at once, whatever
-            ``min_hits`` says (detector score units; None: only ``min_hits`` confirms). Strong
-            evidence is reported from the first frame, weak evidence must repeat itself.
-        hide_cover: fraction of a track's predicted box that a track in front must cover for it to
-            hide behind it. Lower: occlusion is abduced more readily.
-        keep_cover: fraction of coverage needed to stay hidden (hysteresis; <= hide_cover).
-        emerge_margin: a hidden track can only unhide where it touches its occluder's box,
-            widened by this fraction of the occluder's size on every side. Lower: fewer wrong
-            re-identifications in crowds; too low: objects that re-emerge fast get a new id.
-        partial_cover: fraction of coverage from which a visible track is partially occluded.
-        border_margin: distance to the image border (pixels) counted as "at the border".
-        class_aware: only match detections of the track's class.
-        inherit_motion: a new track's first prediction moves with the median image velocity of
-            the established tracks (seen ``min_hits`` + 2 times or more, visible now; one is
-            enough): with a moving camera every object shifts with it, and a new object predicted
-            to stand still loses its id to the object behind it (convoys, turning ego vehicle).
-            Its own fit at rest counts as well, so an object that does not share the motion is
-            still found. False: start at rest, as SORT does.
-        confidence_sigmoid: map detector scores through a sigmoid for the costs (for detectors
-            that give logits, e.g. PointRCNN). Thresholds stay in the detector's own units.
-        likelihood_levels: resolution of likelihoods and confidences in the solver's objective
-            (IoU and score are rounded to multiples of 1/levels). Core-guided optimisation slows
-            with the number of distinct weights: with full resolution a crowded frame of 100
-            tracks took 25 s, with 40 levels 30 ms. Higher: finer preferences, slower worst case.
-        decompose: solve the independent components of a frame (objects linked by candidate
-            or occlusion facts) separately, each answered by clingo or by the cache of its
-            earlier answers to the same facts. Exact for the packaged encoding. None (default):
-            on with the packaged encoding, off with a user's encoding or rules (whose rules may
-            relate unconnected objects); set True when yours only relate linked objects.
-        max_conflicts: deterministic per-component work budget of the solver, in conflicts:
-            past it the best answer found so far is used and counted. The same input gives the
-            same output on any machine. None: no limit.
-        max_solve_ms: per-frame wall-clock budget for grounding + solving (milliseconds). Past
-            it the best answer found so far is used (or Hungarian matching if none) and counted;
-            results then depend on the machine's load. None: no limit.
-        velocity_prior: std of a new track's velocity before its detections show it, in box sizes
-            per second (width for x, height for y); sets ``kalman.init_velocity_std`` to
-            ``velocity_prior / fps``, so one value fits every frame rate. The velocity after the
-            second detection is the Bayesian compromise of this prior (mean: rest, or the scene's
-            motion with ``inherit_motion``) and the difference of two jittery boxes, weighted by
-            their variances. Set it near the spread of true velocities: lower trusts a young
-            track's first displacement less (no runaway predictions from detector jitter on
-            small boxes), but lets fast objects lag for a few frames (id loss after a gap).
-            None: use ``kalman.init_velocity_std`` (per frame) as given.
-        weak_confidence: detections scoring from this up to ``min_confidence`` (detector score
-            units) are weak evidence: they may continue a confirmed track that was visible in the
-            previous frame, seen twice or more and without a candidate detection scoring
-            ``min_confidence`` or more, if their IoU with its prediction is at least ``weak_iou``;
-            they never resume, start or confirm a track -- ByteTrack's second association (low
-            threshold 0.1), strong evidence first as in its cascade. None: off, detections
-            under ``min_confidence`` are not used.
-        weak_iou: minimum IoU of a weak detection with the prediction of the track it continues
-            (ByteTrack's second association: 0.5). Higher: fewer false continuations.
-        resume_reupdate: when a hidden or missing track is seen again after k unseen frames,
-            re-estimate its motion from the observations at both ends of the gap (OC-SORT's
-            observation-centric re-update): the filter returns to its state after the last
-            detection and is run over k + 1 virtual detections on the straight line from that
-            detection to the new one, instead of one correction from the drifted prediction.
-            False: one Kalman correction, as SORT does. Switch (no unit).
-        scene_shift: a hidden or missing track moves, each frame, with the image motion of the
-            scene that the predictions missed, estimated from the matched boxes: its box centre
-            and centre velocity receive the median Kalman correction (pixels, pixels/frame) of
-            the established tracks matched in that frame (at least ``SCENE_SHIFT_MIN_TRACKS``),
-            as if it had been seen where they were. A moving camera's turn or pitch moves every
-            object in the image; an unseen track otherwise keeps the image motion it had when
-            last seen. Translation only: the image scaling of forward motion depends on each
-            object's depth. Switch (no unit).
-        costs: :class:`AbductionCosts`.
-        kalman: :class:`~sensemaking.motion.KalmanConfig`.
-    """
-
-    abduction: bool = True
-    fps: float = 10.0
-    image_size: tuple[int, int] | None = None
-    iou_assign: float = 0.3
-    iou_resume: float = 0.1
-    resume_growth: float = 0.05
-    new_track_growth: float = 1.5
-    min_confidence: float = 0.0
-    start_confidence: float = 0.5
-    max_hidden_s: float = 3.0
-    max_missing_s: float = 1.0
-    min_hits: int = 1
-    confirm_confidence: float | None = None
-    hide_cover: float = 0.5
-    emerge_margin: float = 0.25
-    keep_cover: float = 0.2
-    partial_cover: float = 0.1
-    border_margin: float = 10.0
-    class_aware: bool = True
-    inherit_motion: bool = True
-    confidence_sigmoid: bool = False
-    likelihood_levels: int = 40
-    decompose: bool | None = None
-    max_conflicts: int | None = 100_000
-    max_solve_ms: float | None = None
-    velocity_prior: float | None = 3.0
-    weak_confidence: float | None = None
-    weak_iou: float = 0.5
-    resume_reupdate: bool = False
-    scene_shift: bool = False
-    costs: AbductionCosts = field(default_factory=AbductionCosts)
-    kalman: KalmanConfig = field(default_factory=KalmanConfig)
-
-    def __post_init__(self) -> None:
-        settings.validate(self)  # every parameter's type, unit and range: sensemaking.settings
-
-    @property
-    def max_hidden_frames(self) -> int:
-        return max(1, int(round(self.max_hidden_s * self.fps)))
-
-    @property
-    def max_missing_frames(self) -> int:
-        return max(1, int(round(self.max_missing_s * self.fps)))
-
-    @property
-    def kalman_config(self) -> KalmanConfig:
-        """``kalman`` with ``velocity_prior`` (if set) as its per-frame ``init_velocity_std``."""
-        if self.velocity_prior is None:
-            return self.kalman
-        return replace(self.kalman, init_velocity_std=self.velocity_prior / self.fps)
-
-    def replace(self, **changes: Any) -> TrackerConfig:
-        """A copy with some parameters changed."""
-        return replace(self, **changes)
-
-    def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
-
-    @classmethod
-    def for_dataset(cls, family: str, **changes: Any) -> TrackerConfig:
-        """The one parameter set per dataset family (``"kitti"`` or ``"mot"``); see
-        docs/PARAMETERS.md."""
-        return settings.preset_config(family, **changes)  # presets/<family>.json
 
 
 #: ``scene_shift`` needs at least this many matched established tracks: a median of three
