@@ -220,7 +220,7 @@ class KalmanBank:
             raise ValueError("update: boxes must be finite")
         self._correct(idx, z)
 
-    def _update_trusted(self, index: np.ndarray, xyxy: np.ndarray) -> None:
+    def update_trusted(self, index: np.ndarray, xyxy: np.ndarray) -> None:
         """:meth:`update` without its input checks, for callers that guarantee them (the
         tracker): ``index`` a (K,) int array of distinct rows in range, K >= 1, and ``xyxy``
         (K, 4) finite float boxes. Same arithmetic, so the same result."""
