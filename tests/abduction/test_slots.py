@@ -13,7 +13,8 @@ from sensemaking.abduction.components import ComponentSolver
 from sensemaking.abduction.observe import quantize
 from sensemaking.abduction.problem import TRACK_FLAGS, Component, FrameProblem
 from sensemaking.abduction.slots import SlotSolver, Shape, piece_facts, pieces, shape_of
-from sensemaking.abduction.solver import AbductionSolver, Answer, _parsed
+from sensemaking.abduction.solver import AbductionSolver, Answer
+from sensemaking.asp import parsed
 
 from conftest import SHARED_DATA
 
@@ -47,7 +48,7 @@ def optimal_answers(solver: AbductionSolver, component: Component) -> set[tuple[
     """Every optimal answer's shown atoms (clingo's ``--opt-mode=optN`` on a fresh Control)."""
     ctl = clingo.Control([*solver.options, "--opt-mode=optN", "-n0"])
     with ProgramBuilder(ctl) as builder:
-        for statement in _parsed(solver.program):
+        for statement in parsed(solver.program):
             builder.add(statement)
     with ctl.backend() as backend:
         for fact in component.facts(solver.uses):
