@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from sensemaking.abduction.components import ComponentSolver
+from sensemaking.abduction.components import ComponentSolver, SolverCache
 from sensemaking.abduction.hungarian import match_hungarian
 from sensemaking.abduction.observe import frame_problem, likelihood, likelihood_grid, quantize
 from sensemaking.abduction.problem import VISIBILITY_VALUES, FrameProblem
@@ -58,6 +58,7 @@ class Tracker:
         *,
         encoding: str | Path | None = None,
         rules: str | Path | Sequence[str | Path] = (),
+        solver_cache: SolverCache | None = None,
         **overrides: Any,
     ):
         """Args:
@@ -67,6 +68,11 @@ class Tracker:
         rules: more rules (``.lp`` paths or text) added to the encoding, e.g. your own
             events: ``occurs(stops(T)) :- track(T), speed(T,S), S < 5.`` is reported as an
             event ``stops`` on every frame where it holds (see ``tracking.lp``'s facts).
+        solver_cache: where clingo's answers and ground Controls are remembered (default: the
+            process's :data:`~sensemaking.abduction.components.SHARED`, shared by every tracker
+            of the process not given its own). Where optimal answers tie, which one a frame
+            gets may depend on what the cache's trackers solved before: give a tracker a
+            ``SolverCache()`` of its own for an output that depends on its input only.
         """
         self.config = (
             replace(config or TrackerConfig(), **overrides)
@@ -95,7 +101,9 @@ class Tracker:
         )
         packaged = encoding is None and not extra
         decompose = packaged if c.decompose is None else c.decompose
-        self._solver = ComponentSolver(solver, decompose=decompose, numbers=likelihood_grid(c))
+        self._solver = ComponentSolver(
+            solver, decompose=decompose, numbers=likelihood_grid(c), cache=solver_cache
+        )
         self.reset()
 
     # -- state ------------------------------------------------------------------------------
@@ -399,8 +407,8 @@ class Tracker:
         ``inherit_motion`` or without any of them ((4,) over every class when ``classes`` is
         None). One established track is enough: a lone car leading a convoy into view is the
         only motion known, and the fit at rest still counts for the new tracks (see
-        ``observe.uncertain_boxes``). Per class because cars and pedestrians move apart: a joint run of
-        several classes starts each class's tracks as its own run would."""
+        ``observe.uncertain_boxes``). Per class because cars and pedestrians move apart: a
+        joint run of several classes starts each class's tracks as its own run would."""
         pooled = classes is None
         kinds = np.zeros(1, dtype=np.int64) if classes is None else np.asarray(classes)
         prior = np.zeros((len(kinds), 4))
