@@ -452,7 +452,7 @@ def _declared(cls: type, prefix: str = "") -> dict[str, Param]:
             continue
         spec = f.metadata[_PARAM]
         if spec is None:  # a group: its own fields, named <name>.<field>
-            kind = f.default_factory  # type: ignore[misc]
+            kind = f.default_factory
             out.update(_declared(kind, f"{prefix}{f.name}."))  # type: ignore[arg-type]
         else:
             out[prefix + f.name] = replace(spec, key=prefix + f.name)

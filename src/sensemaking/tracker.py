@@ -22,6 +22,7 @@ from sensemaking.abduction.hungarian import match_hungarian
 from sensemaking.abduction.observe import frame_problem, likelihood, likelihood_grid, quantize
 from sensemaking.abduction.problem import VISIBILITY_VALUES, FrameProblem
 from sensemaking.abduction.solver import AbductionSolver, Answer, Det, read_encoding
+from sensemaking.adapters import as_detections
 from sensemaking.config import AbductionCosts, KalmanConfig, TrackerConfig
 from sensemaking.detections import Detections, check_frame_number, validate_detections
 from sensemaking.results import Event, FrameAbduction, FrameResult, TrackState
@@ -503,8 +504,4 @@ def _no_tracks() -> Detections:
 def _coerce(obj: Any) -> Detections:
     if isinstance(obj, Detections):
         return obj
-    from sensemaking.adapters import (
-        as_detections,
-    )  # duck-typed adapters (supervision, ultralytics, arrays)
-
-    return as_detections(obj)
+    return as_detections(obj)  # duck-typed adapters (supervision, ultralytics, arrays)

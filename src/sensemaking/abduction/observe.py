@@ -300,14 +300,14 @@ def emerges(
     ]
     if not pairs:
         return np.zeros((0, 2), dtype=np.int64)
-    tracks, occ = np.array(pairs, dtype=np.int64).T
+    hidden, occ = np.array(pairs, dtype=np.int64).T
     x1, y1, x2, y2 = pred[occ].T
     mx, my = (x2 - x1) * config.emerge_margin, (y2 - y1) * config.emerge_margin
     boxes = np.stack([x1 - mx, y1 - my, x2 + mx, y2 + my], axis=1)
     # (hidden track, detection): a candidate that touches the widened occluder box
-    touch = (lik[tracks] > 0) & (intersection(boxes, dets.xyxy) > 0)
+    touch = (lik[hidden] > 0) & (intersection(boxes, dets.xyxy) > 0)
     h, d = np.nonzero(touch)
-    return int_columns(d, tracks[h])
+    return int_columns(d, hidden[h])
 
 
 def _quantize(x: np.ndarray, levels: int, rounding=np.rint) -> np.ndarray:
