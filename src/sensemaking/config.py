@@ -5,8 +5,10 @@ Every field carries its kind, unit and valid range in its dataclass metadata (:f
 its meaning is the class docstring's ``Attributes:`` entry or the field's ``#:`` comment.
 :data:`PARAMETERS` (dotted name -> :class:`Param`) is read from that metadata, :func:`validate`
 checks a whole configuration against it generically (``TrackerConfig.__post_init__`` calls it)
-and :func:`parameters_table` renders it for ``docs/PARAMETERS.md``. Reading parameter files,
-presets and ``--set`` overrides is :mod:`sensemaking.settings`'s job.
+and :func:`parameters_table` renders it for ``docs/PARAMETERS.md``. The shipped presets
+(``presets/<family>.json``, :meth:`TrackerConfig.for_dataset`) and the parameter document they
+share with users' files (:func:`document_params`) are read here too; reading users' files and
+``--set`` overrides is :mod:`sensemaking.settings`'s job.
 """
 
 from __future__ import annotations
@@ -14,11 +16,14 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import inspect
+import json
 import logging
 import math
 import numbers
 import re
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, replace
+from importlib import resources
 from typing import Any
 
 import numpy as np
@@ -36,7 +41,17 @@ __all__ = [
     "MIN_FPS",
     "MAX_FPS",
     "MAX_IMAGE_SIDE",
+    "FAMILIES",
+    "FORMAT",
+    "SCENE_PROFILES",
     "param",
+    "family_name",
+    "preset_params",
+    "preset_source",
+    "preset_profile",
+    "preset_config",
+    "document_params",
+    "apply_settings",
     "check_value",
     "validate",
     "params_of",
@@ -438,9 +453,6 @@ class TrackerConfig:
     def for_dataset(cls, family: str, **changes: Any) -> TrackerConfig:
         """The one parameter set per dataset family (``"kitti"`` or ``"mot"``); see
         docs/PARAMETERS.md."""
-        # the presets are parameter files, read by the settings layer (the one upward import)
-        from sensemaking.settings import preset_config
-
         return preset_config(family, **changes)  # presets/<family>.json
 
 
@@ -465,6 +477,145 @@ PARAMETERS: dict[str, Param] = _declared(TrackerConfig)
 NESTED: tuple[str, ...] = tuple(
     f.name for f in dataclasses.fields(TrackerConfig) if f.metadata.get(_PARAM, 0) is None
 )
+
+
+#: the dataset families with a shipped preset (``presets/<family>.json``)
+FAMILIES: tuple[str, ...] = ("kitti", "mot")
+#: other names accepted for a family
+_FAMILY_ALIASES = {
+    "mot17": "mot",
+    "mot15": "mot",
+    "mot16": "mot",
+    "mot20": "mot",
+    "motchallenge": "mot",
+}
+#: the ``format`` tag of parameter files this version reads and writes
+FORMAT = "sensemaking-params/1"
+_FILE_KEYS = {"format", "base", "source", "params", "profile"}
+#: scene profiles: a camera on an ego vehicle, or a standing / handheld camera without one
+SCENE_PROFILES: tuple[str, ...] = ("driving", "fixed")
+
+
+# -- families ------------------------------------------------------------------------------------
+def family_name(family: str) -> str:
+    """The canonical family (``kitti`` / ``mot``) of a family or benchmark-rules name."""
+    key = str(family).strip().lower()
+    key = _FAMILY_ALIASES.get(key, key)
+    if key not in FAMILIES:
+        raise ParameterError(f"unknown dataset family {family!r} (kitti or mot)")
+    return key
+
+
+# -- presets and parameter documents ------------------------------------------------------------
+def _preset_document(family: str) -> dict[str, Any]:
+    name = family_name(family)
+    ref = resources.files("sensemaking") / "presets" / f"{name}.json"
+    return json.loads(ref.read_text(encoding="utf-8"))
+
+
+def preset_params(family: str) -> dict[str, Any]:
+    """The shipped preset of a family as dotted key -> value (only the values it changes)."""
+    name = family_name(family)
+    doc = _preset_document(name)
+    return document_params(doc, f"presets/{name}.json")
+
+
+def preset_source(family: str) -> str:
+    """Where a preset's values came from (its ``source`` text)."""
+    return str(_preset_document(family).get("source", ""))
+
+
+def preset_profile(family: str) -> str:
+    """The scene profile a family's preset names (``driving`` when it names none)."""
+    return str(_preset_document(family).get("profile", "driving"))
+
+
+def _flatten(params: Mapping[str, Any], where: str) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key, value in params.items():
+        if key in NESTED and isinstance(value, Mapping):
+            for sub, v in value.items():
+                out[f"{key}.{sub}"] = v
+        else:
+            out[str(key)] = value
+    return out
+
+
+def document_params(doc: Any, where: str) -> dict[str, Any]:
+    """Validated dotted params of a parameter document (``where`` names it in errors)."""
+    if not isinstance(doc, Mapping):
+        raise ParameterError("a parameter file must hold an object with a 'params' table", where)
+    unknown = sorted(set(doc) - _FILE_KEYS)
+    if unknown:
+        raise ParameterError(
+            f"unknown key {unknown[0]!r} (expected {', '.join(sorted(_FILE_KEYS))})", where
+        )
+    fmt = doc.get("format", FORMAT)
+    if fmt != FORMAT:
+        raise ParameterError(f"format {fmt!r} is not {FORMAT!r}", where)
+    profile = doc.get("profile", SCENE_PROFILES[0])
+    if profile not in SCENE_PROFILES:
+        raise ParameterError(
+            f"profile {profile!r} is not one of {', '.join(SCENE_PROFILES)}", where
+        )
+    params = doc.get("params", {})
+    if not isinstance(params, Mapping):
+        raise ParameterError("'params' must be a table of parameter: value", where)
+    out: dict[str, Any] = {}
+    for key, value in _flatten(params, where).items():
+        if key in NESTED:
+            raise ParameterError(
+                f"{key}: expected a table of {key}.NAME values, got {value!r}", where
+            )
+        if key not in PARAMETERS:
+            raise ParameterError(f"params: unknown parameter {key!r}{suggest(key)}", where)
+        if isinstance(value, list) and key in PARAMETERS and PARAMETERS[key].kind == "size":
+            value = tuple(value)
+        try:
+            out[key] = check_value(key, value)
+        except ParameterError as exc:
+            raise ParameterError(f"params.{exc.problem}", where) from None
+    return out
+
+
+def apply_settings(
+    config: TrackerConfig, params: Mapping[str, Any], where: str | None = None
+) -> TrackerConfig:
+    """``config`` with dotted ``params`` applied (``costs.x`` / ``kalman.x`` reach the nested
+    settings), validated as a whole."""
+    top: dict[str, Any] = {}
+    nested: dict[str, dict[str, Any]] = {}
+    for key, value in params.items():
+        try:
+            value = check_value(key, value)
+        except ParameterError as exc:
+            raise ParameterError(exc.problem, where) from None
+        head, _, tail = key.partition(".")
+        if tail:
+            nested.setdefault(head, {})[tail] = value
+        else:
+            top[key] = value
+    for head, changes in nested.items():
+        top[head] = dataclasses.replace(getattr(config, head), **changes)
+    try:
+        return dataclasses.replace(config, **top)
+    except ParameterError as exc:
+        raise ParameterError(exc.problem, where) from None
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(str(exc), where) from None
+
+
+def _default_config() -> TrackerConfig:
+    return TrackerConfig()
+
+
+def preset_config(family: str, **changes: Any) -> TrackerConfig:
+    """The family's preset (``presets/<family>.json``) over the defaults, then ``changes``
+    (keyword names; ``costs`` / ``kalman`` as objects, as ``TrackerConfig`` takes them)."""
+    config = apply_settings(
+        _default_config(), preset_params(family), f"presets/{family_name(family)}.json"
+    )
+    return dataclasses.replace(config, **changes) if changes else config
 
 
 def suggest(key: str) -> str:

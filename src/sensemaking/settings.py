@@ -1,9 +1,10 @@
-"""Tracker parameters from files: presets, parameter files and ``--set`` overrides.
+"""Tracker parameters from users' files and ``--set`` overrides, merged over a preset.
 
 The parameters themselves, with their kind, unit and valid range, are declared once in
 :mod:`sensemaking.config` (:data:`~sensemaking.config.PARAMETERS`, read from the fields'
-metadata); this module loads and merges values over them (the names it re-exports from there
-are kept for its callers). :func:`parse_value` turns the text of ``--set KEY=VALUE`` into a
+metadata), which also reads the shipped presets and the parameter document format; this module
+loads users' files and overrides and merges them in layers (:func:`load_config`). The names it
+re-exports from :mod:`sensemaking.config` are kept for its callers. :func:`parse_value` turns the text of ``--set KEY=VALUE`` into a
 typed value; presets (``presets/<family>.json``, shipped with the package) and user parameter
 files share one format:
 
@@ -33,25 +34,32 @@ is stated in ``reasoning/encodings/situations.lp``.
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import logging
 import re
 from collections.abc import Iterable, Mapping
-from importlib import resources
 from os import PathLike
 from pathlib import Path
 from typing import Any
 
 from sensemaking.config import (
-    NESTED,
+    FAMILIES,
+    FORMAT,
     PARAMETERS,
+    SCENE_PROFILES,
     Param,
     ParameterError,
     TrackerConfig,
+    apply_settings,
     check_value,
+    document_params,
+    family_name,
     parameters_table,
     params_of,
+    preset_config,
+    preset_params,
+    preset_profile,
+    preset_source,
     suggest,
     validate,
 )
@@ -81,33 +89,6 @@ __all__ = [
 ]
 
 log = logging.getLogger(__name__)
-
-#: the dataset families with a shipped preset (``presets/<family>.json``)
-FAMILIES: tuple[str, ...] = ("kitti", "mot")
-#: other names accepted for a family
-_FAMILY_ALIASES = {
-    "mot17": "mot",
-    "mot15": "mot",
-    "mot16": "mot",
-    "mot20": "mot",
-    "motchallenge": "mot",
-}
-#: the ``format`` tag of parameter files this version reads and writes
-FORMAT = "sensemaking-params/1"
-_NESTED = NESTED
-_FILE_KEYS = {"format", "base", "source", "params", "profile"}
-#: scene profiles: a camera on an ego vehicle, or a standing / handheld camera without one
-SCENE_PROFILES: tuple[str, ...] = ("driving", "fixed")
-
-
-# -- families ------------------------------------------------------------------------------------
-def family_name(family: str) -> str:
-    """The canonical family (``kitti`` / ``mot``) of a family or benchmark-rules name."""
-    key = str(family).strip().lower()
-    key = _FAMILY_ALIASES.get(key, key)
-    if key not in FAMILIES:
-        raise ParameterError(f"unknown dataset family {family!r} (kitti or mot)")
-    return key
 
 
 # -- overrides ------------------------------------------------------------------------------
@@ -144,78 +125,6 @@ def parse_value(key: str, text: str) -> Any:
     return check_value(key, value)
 
 
-# -- presets and files -----------------------------------------------------------------------
-def _preset_document(family: str) -> dict[str, Any]:
-    name = family_name(family)
-    ref = resources.files("sensemaking") / "presets" / f"{name}.json"
-    return json.loads(ref.read_text(encoding="utf-8"))
-
-
-def preset_params(family: str) -> dict[str, Any]:
-    """The shipped preset of a family as dotted key -> value (only the values it changes)."""
-    name = family_name(family)
-    doc = _preset_document(name)
-    return _document_params(doc, f"presets/{name}.json")
-
-
-def preset_source(family: str) -> str:
-    """Where a preset's values came from (its ``source`` text)."""
-    return str(_preset_document(family).get("source", ""))
-
-
-def preset_profile(family: str) -> str:
-    """The scene profile a family's preset names (``driving`` when it names none)."""
-    return str(_preset_document(family).get("profile", "driving"))
-
-
-def _flatten(params: Mapping[str, Any], where: str) -> dict[str, Any]:
-    out: dict[str, Any] = {}
-    for key, value in params.items():
-        if key in _NESTED and isinstance(value, Mapping):
-            for sub, v in value.items():
-                out[f"{key}.{sub}"] = v
-        else:
-            out[str(key)] = value
-    return out
-
-
-def _document_params(doc: Any, where: str) -> dict[str, Any]:
-    """Validated dotted params of a parameter document (``where`` names it in errors)."""
-    if not isinstance(doc, Mapping):
-        raise ParameterError("a parameter file must hold an object with a 'params' table", where)
-    unknown = sorted(set(doc) - _FILE_KEYS)
-    if unknown:
-        raise ParameterError(
-            f"unknown key {unknown[0]!r} (expected {', '.join(sorted(_FILE_KEYS))})", where
-        )
-    fmt = doc.get("format", FORMAT)
-    if fmt != FORMAT:
-        raise ParameterError(f"format {fmt!r} is not {FORMAT!r}", where)
-    profile = doc.get("profile", SCENE_PROFILES[0])
-    if profile not in SCENE_PROFILES:
-        raise ParameterError(
-            f"profile {profile!r} is not one of {', '.join(SCENE_PROFILES)}", where
-        )
-    params = doc.get("params", {})
-    if not isinstance(params, Mapping):
-        raise ParameterError("'params' must be a table of parameter: value", where)
-    out: dict[str, Any] = {}
-    for key, value in _flatten(params, where).items():
-        if key in _NESTED:
-            raise ParameterError(
-                f"{key}: expected a table of {key}.NAME values, got {value!r}", where
-            )
-        if key not in PARAMETERS:
-            raise ParameterError(f"params: unknown parameter {key!r}{suggest(key)}", where)
-        if isinstance(value, list) and key in PARAMETERS and PARAMETERS[key].kind == "size":
-            value = tuple(value)
-        try:
-            out[key] = check_value(key, value)
-        except ParameterError as exc:
-            raise ParameterError(f"params.{exc.problem}", where) from None
-    return out
-
-
 def read_params_file(path: str | PathLike[str]) -> tuple[dict[str, Any], str | None, str]:
     """(validated dotted params, base family or None, source text) of a parameter file."""
     p = Path(path)
@@ -237,7 +146,7 @@ def read_params_file(path: str | PathLike[str]) -> tuple[dict[str, Any], str | N
             doc = json.loads(text)
         except json.JSONDecodeError as exc:
             raise ParameterError(f"not valid JSON: {exc.msg}", p, exc.lineno) from None
-    params = _document_params(doc, str(p))
+    params = document_params(doc, str(p))
     base = doc.get("base")
     if base is not None:
         if base == "defaults":
@@ -255,44 +164,8 @@ def load_params(path: str | PathLike[str]) -> dict[str, Any]:
     return read_params_file(path)[0]
 
 
-def apply_settings(
-    config: TrackerConfig, params: Mapping[str, Any], where: str | None = None
-) -> TrackerConfig:
-    """``config`` with dotted ``params`` applied (``costs.x`` / ``kalman.x`` reach the nested
-    settings), validated as a whole."""
-    top: dict[str, Any] = {}
-    nested: dict[str, dict[str, Any]] = {}
-    for key, value in params.items():
-        try:
-            value = check_value(key, value)
-        except ParameterError as exc:
-            raise ParameterError(exc.problem, where) from None
-        head, _, tail = key.partition(".")
-        if tail:
-            nested.setdefault(head, {})[tail] = value
-        else:
-            top[key] = value
-    for head, changes in nested.items():
-        top[head] = dataclasses.replace(getattr(config, head), **changes)
-    try:
-        return dataclasses.replace(config, **top)
-    except ParameterError as exc:
-        raise ParameterError(exc.problem, where) from None
-    except (TypeError, ValueError) as exc:
-        raise ParameterError(str(exc), where) from None
-
-
 def _default_config() -> TrackerConfig:
     return TrackerConfig()
-
-
-def preset_config(family: str, **changes: Any) -> TrackerConfig:
-    """The family's preset (``presets/<family>.json``) over the defaults, then ``changes``
-    (keyword names; ``costs`` / ``kalman`` as objects, as ``TrackerConfig`` takes them)."""
-    config = apply_settings(
-        _default_config(), preset_params(family), f"presets/{family_name(family)}.json"
-    )
-    return dataclasses.replace(config, **changes) if changes else config
 
 
 def load_config(
