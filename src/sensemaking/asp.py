@@ -6,7 +6,8 @@ caller follows the same steps::
 
     ctl = asp.control(args, program=asp.parsed(text), facts=symbols)
     ctl.ground([("base", [])])
-    solved = asp.solve(ctl, budget_ms=50.0)  # None: no model within the budget
+    solved = asp.solve(ctl, budget_ms=50.0)  # optimisation: None if no model within the budget
+    found, satisfiable = asp.models(ctl, first=True)  # enumeration: the shown atoms per model
 
 :func:`encoding` reads a packaged encoding (``importlib.resources``), :func:`parsed` parses a
 program text once per process (re-adding its statements is ~3x cheaper than parsing),
@@ -38,6 +39,7 @@ __all__ = [
     "add_facts",
     "forbid",
     "solve",
+    "models",
     "quiet_logger",
 ]
 
@@ -219,3 +221,25 @@ def solve(
         log.debug("no model within the budget (%.1f ms, timed out: %s)", ms, timed_out)
         return None
     return Solved(best, info["cost"], bool(result.exhausted), timed_out, ms)
+
+
+def models(
+    ctl: clingo.Control,
+    *,
+    first: bool = False,
+    on_model: Callable[[list[Symbol]], None] | None = None,
+) -> tuple[list[list[Symbol]], bool]:
+    """Enumerate a ground ``Control``'s models (as many as its ``--models`` argument allows;
+    only the first with ``first``): the shown atoms of each, sorted, and whether the program
+    is satisfiable. ``on_model`` sees each model's atoms as it is found."""
+    found: list[list[Symbol]] = []
+
+    def each(model: clingo.Model) -> bool:
+        atoms = sorted(model.symbols(shown=True))
+        found.append(atoms)
+        if on_model is not None:
+            on_model(atoms)
+        return not first
+
+    result = ctl.solve(on_model=each)
+    return found, bool(result.satisfiable)

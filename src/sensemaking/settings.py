@@ -4,9 +4,9 @@ The parameters themselves, with their kind, unit and valid range, are declared o
 :mod:`sensemaking.config` (:data:`~sensemaking.config.PARAMETERS`, read from the fields'
 metadata), which also reads the shipped presets and the parameter document format; this module
 loads users' files and overrides and merges them in layers (:func:`load_config`). The names it
-re-exports from :mod:`sensemaking.config` are kept for its callers. :func:`parse_value` turns the text of ``--set KEY=VALUE`` into a
-typed value; presets (``presets/<family>.json``, shipped with the package) and user parameter
-files share one format:
+re-exports from :mod:`sensemaking.config` are kept for its callers. :func:`parse_value` turns
+the text of ``--set KEY=VALUE`` into a typed value; presets (``presets/<family>.json``, shipped
+with the package) and user parameter files share one format:
 
 .. code-block:: json
 
