@@ -143,12 +143,13 @@ class Tracker:
             frame: the frame number; default: the detections' frame column, else last + 1.
         """
         dets, frame = self._admit(detections, frame)
-        pred = self._predict()
+        pred = self._predict()  # Kalman prediction of every track
         t0 = time.perf_counter()
+        # likelihood and gating (observe.frame_problem), then abduction (or matching without it)
         problem, answer, timed_out = self._explain(pred, dets)
         solve_ms = (time.perf_counter() - t0) * 1000.0
         self.stats["solve_ms"] += solve_ms
-        events, observed = self._apply(answer, dets, frame)
+        events, observed = self._apply(answer, dets, frame)  # update the tracks by the answer
         abduction = None
         if problem is not None:
             started = set(answer.start)
