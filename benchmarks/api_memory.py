@@ -65,7 +65,7 @@ def main(argv: list[str] | None = None) -> int:
         )
         tracker.update(dets, frame=f)
         if f in marks:
-            s = tracker._solver.stats
+            s = tracker.solver.stats
             print(
                 f"{f:8d} {rss_mb():8.1f} {(time.perf_counter() - t0) / f * 1e3:9.2f} "
                 f"{s['components']:11d} "

@@ -134,7 +134,7 @@ def main(argv: list[str] | None = None) -> int:
         doc = json.loads(path.read_text(encoding="utf-8"))
         new, line = preset_from_run(family, cv, run, doc)
         text = dump(new)
-        settings._document_params(json.loads(text), str(path))  # every value valid
+        settings.document_params(json.loads(text), str(path))  # every value valid
         path.write_text(text, encoding="utf-8")
         print(f"{path}: {line}")
     return 0

@@ -110,8 +110,7 @@ def score_sequence(
     # every run starts cold, as `sensemaking track` on one sequence does: the answer cache and
     # slot Controls are shared by the process, and would otherwise speed up whichever variant of
     # a sequence runs second
-    components._CACHES.clear()
-    components._SLOTS.clear()
+    components.SHARED.clear()
     tracker = OursAdapter(name="ours", config=config, states=(0,))
     tracks, seconds = run_sequence(tracker, seq)
     path = out_dir / key / f"{seq.name}.txt"

@@ -317,7 +317,7 @@ def test_trusted_update_equals_checked_update(bank, seed):
     truth[:, 2:] = np.maximum(truth[:, 2:], truth[:, :2] + rng.uniform(0.1, 5.0, (rows.size, 2)))
     checked, trusted = bank.copy(), bank.copy()
     checked.update(rows, truth)
-    trusted._update_trusted(rows.astype(np.int64), truth)
+    trusted.update_trusted(rows.astype(np.int64), truth)
     _assert_same(_state(checked), _state(trusted))
 
 

@@ -26,9 +26,9 @@ def test_new_tracks_inherit_the_motion_of_their_own_class() -> None:
     objects = [(100.0, 12.0, CAR), (300.0, 12.0, CAR), (800.0, -3.0, PED)]
     for f in range(6):
         t.update(boxes(f, *objects), frame=f)
-    prior = t._scene_velocity(np.array([CAR, PED, CLASS_IDS["cyclist"]]))
+    prior = t.scene_velocity(np.array([CAR, PED, CLASS_IDS["cyclist"]]))
     assert prior.shape == (3, 4)
     assert abs(prior[0, 0] - 12.0) < 1.5 and abs(prior[1, 0] + 3.0) < 1.0
     assert prior[2].tolist() == [0.0, 0.0, 0.0, 0.0]  # no cyclist established: at rest
-    pooled = t._scene_velocity()  # over every class: the cars' motion outvotes the pedestrian's
+    pooled = t.scene_velocity()  # over every class: the cars' motion outvotes the pedestrian's
     assert pooled.shape == (4,) and abs(pooled[0] - 12.0) < 1.5

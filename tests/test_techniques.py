@@ -52,7 +52,7 @@ def _walker_velocities(reupdate: bool) -> tuple[list[float], set[int]]:
         x = 100 + SPEED * max(0, f - 5)
         result = tracker.update(frame() if f in UNSEEN else frame(box(x)), frame=f)
         ids |= set(result.tracks.tracker_id.tolist())
-        velocities.append(float(tracker._tracks.kf.velocity()[0, 0]))
+        velocities.append(float(tracker.tracks.kf.velocity()[0, 0]))
     return velocities, ids
 
 
@@ -242,7 +242,7 @@ def test_weak_detection_waits_for_strong_evidence() -> None:
     dets = Detections(
         np.array([box(120.0), box(126.0)]), confidence=np.array([0.3, 0.9]), class_id=PED
     )
-    lik = tracker._likelihood(tracker._tracks.kf.peek(1), dets)
+    lik = tracker.likelihood(tracker.tracks.kf.peek(1), dets)
     assert lik[0, 0] == 0.0 and lik[0, 1] > 0.5
     result = tracker.update(dets, frame=5)
     np.testing.assert_allclose(result.tracks.xyxy, [box(126.0)])

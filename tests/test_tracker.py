@@ -10,6 +10,7 @@ import pytest
 
 from sensemaking.classes import CLASS_IDS
 from sensemaking.detections import Detections
+from sensemaking.abduction.observe import borders, int_columns, quantize
 from sensemaking.evaluation import evaluate_sequence
 from sensemaking.results import Event, FrameResult, TrackState
 from sensemaking.synthetic import SyntheticScene, crossing_scene, occlusion_suite
@@ -277,18 +278,18 @@ def test_scene_velocity_from_the_established_tracks_one_is_enough():
     t = Tracker(TrackerConfig())
     for f in range(2):
         t.update(frame(walker(f, v=10.0)), frame=f)
-    np.testing.assert_array_equal(t._scene_velocity(), np.zeros(4))  # not established yet
+    np.testing.assert_array_equal(t.scene_velocity(), np.zeros(4))  # not established yet
     for f in range(2, 5):
         t.update(frame(walker(f, v=10.0)), frame=f)
-    assert abs(t._scene_velocity()[0] - 10.0) < 1.0  # one established track: its motion
+    assert abs(t.scene_velocity()[0] - 10.0) < 1.0  # one established track: its motion
     t2 = Tracker(TrackerConfig())
     for f in range(5):
         t2.update(frame(walker(f, v=10.0), walker(f, x0=600, v=10.0)), frame=f)
-    assert abs(t2._scene_velocity()[0] - 10.0) < 1.0 and t2._scene_velocity()[2:].tolist() == [0.0, 0.0]
+    assert abs(t2.scene_velocity()[0] - 10.0) < 1.0 and t2.scene_velocity()[2:].tolist() == [0.0, 0.0]
     t3 = Tracker(TrackerConfig(inherit_motion=False))
     for f in range(5):
         t3.update(frame(walker(f, v=10.0)), frame=f)
-    np.testing.assert_array_equal(t3._scene_velocity(), np.zeros(4))
+    np.testing.assert_array_equal(t3.scene_velocity(), np.zeros(4))
 
 
 @pytest.mark.parametrize("abduction", [True, False])
@@ -371,7 +372,7 @@ def test_no_model_in_time_falls_back_to_hungarian_and_is_counted(monkeypatch):
     scene = with_rows(crossing_scene(2))
     t = Tracker(TrackerConfig(fps=scene.fps, image_size=(scene.width, scene.height), decompose=False))
     # as if the budget ran out before any model
-    monkeypatch.setattr(t._solver, "solve", lambda problem, budget_ms=None: None)
+    monkeypatch.setattr(t.solver, "solve", lambda problem, budget_ms=None: None)
     results = [t.update(d, frame=f) for f, d in scene.frames()]
     assert t.stats["fallback"] == t.stats["timed_out"] == len(results)
     assert all(r.timed_out for r in results)
@@ -384,16 +385,16 @@ def test_no_model_in_time_falls_back_to_hungarian_and_is_counted(monkeypatch):
 # ---- gating is only an optimisation ---------------------------------------------------------
 def _gated_and_ungated(t: Tracker, dets: Detections):
     """This frame's problem as the tracker gates it, and with every same-class pair of IoU > 0."""
-    pred = t._tracks.kf.copy().predict(1) if len(t._tracks.kf) else np.zeros((0, 4))
-    gated = t._problem(pred, dets)
+    pred = t.tracks.kf.copy().predict(1) if len(t.tracks.kf) else np.zeros((0, 4))
+    gated = t.problem(dets, pred)
     config = t.config
     t.config = config.replace(iou_assign=0.0, iou_resume=0.0)  # the solver keeps its thresholds
     try:
-        lik = t._likelihood(pred, dets)
+        lik = t.likelihood(pred, dets)
     finally:
         t.config = config
     ti, dj = np.nonzero(lik > 0)
-    cand = np.stack([ti, dj, t._quantize(lik[ti, dj])], axis=1) if ti.size else np.zeros((0, 3), np.int64)
+    cand = np.stack([ti, dj, quantize(t.config, lik[ti, dj])], axis=1) if ti.size else np.zeros((0, 3), np.int64)
     return gated, dataclasses.replace(gated, cand=cand, cand_exact=lik[ti, dj])
 
 
@@ -420,7 +421,7 @@ def test_gating_is_only_an_optimisation_on_random_problems():
             gated_pairs = {tuple(r) for r in gated.cand.tolist()}
             assert gated_pairs <= {tuple(r) for r in ungated.cand.tolist()}
             if len(gated_pairs) != len(ungated.cand):
-                a, b = t._solver.solver.solve(gated), t._solver.solver.solve(ungated)
+                a, b = t.solver.solver.solve(gated), t.solver.solver.solve(ungated)
                 assert a.cost == b.cost, (seed, f, a.atoms(), b.atoms())
                 compared += 1
             t.update(dets, frame=f)
@@ -505,19 +506,19 @@ def test_components_keep_the_frames_optimum_on_a_dense_scene():
     scene = make_scene(30, n_frames=40, overlap=0.5, seed=7, miss_rate=0.1, false_positive_rate=0.3)
     t = Tracker(TrackerConfig(fps=scene.fps, image_size=(scene.width, scene.height), min_confidence=0.2,
                               start_confidence=0.6))
-    whole = ComponentSolver(t._solver.solver, decompose=False)
+    whole = ComponentSolver(t.solver.solver, decompose=False)
     split = 0
     for f, dets in scene.frames():
-        pred = t._tracks.kf.copy().predict(1) if len(t._tracks.kf) else np.zeros((0, 4))
-        problem = t._problem(pred, dets)
-        assert cost_of(problem, t._solver.solve(problem)) == cost_of(problem, whole.solve(problem)), f"frame {f}"
+        pred = t.tracks.kf.copy().predict(1) if len(t.tracks.kf) else np.zeros((0, 4))
+        problem = t.problem(dets, pred)
+        assert cost_of(problem, t.solver.solve(problem)) == cost_of(problem, whole.solve(problem)), f"frame {f}"
         split += len(problem.components()) > 1
         t.update(dets, frame=f)
-    assert split > 30 and t._solver.stats["cache_hits"] > 0  # the decomposition really did something
+    assert split > 30 and t.solver.stats["cache_hits"] > 0  # the decomposition really did something
 
 
 def _borders_reference(t: Tracker, boxes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Tracker._borders in its former per-coordinate formulation."""
+    """observe.borders in its former per-coordinate formulation."""
     w, h = t.config.image_size
     m = t.config.border_margin
     x1, y1, x2, y2 = boxes.T
@@ -539,31 +540,30 @@ def test_borders_match_the_per_coordinate_formulation():
         wh = rng.choice([0.0, 1.0, 5.0, 50.0, 400.0], (n, 2)) * rng.random((n, 2))
         boxes = np.concatenate([xy, xy + wh], axis=1)
         boxes[rng.random(n) < 0.1] = [10.0, 10.0, 1232.0, 365.0]  # exactly at the margins
-        at, out = t._borders(boxes)
+        at, out = borders(boxes, t.config)
         at_ref, out_ref = _borders_reference(t, boxes)
         assert np.array_equal(at, at_ref) and np.array_equal(out, out_ref)
-    empty = Tracker()._borders(np.zeros((3, 4)))
+    empty = borders(np.zeros((3, 4)), TrackerConfig())
     assert not empty[0].any() and not empty[1].any()
 
 
 def test_quantize_rounds_as_np_round():
-    """_quantize rounds with np.rint: np.round's own choice for 0 decimals (halves to even)."""
+    """quantize rounds with np.rint: np.round's own choice for 0 decimals (halves to even)."""
     t = Tracker()
     rng = np.random.default_rng(2)
     x = np.concatenate([rng.random(5000), np.arange(0, 41) / 40, (np.arange(0, 80) + 0.5) / 80, [0.0, 1.0, 1.5, -0.2]])
     levels = t.config.likelihood_levels
     ref = (np.round(np.minimum(np.maximum(x, 0.0), 1.0) * levels + 1e-9) * 1000 // levels).astype(np.int64)
-    assert np.array_equal(t._quantize(x), ref)
+    assert np.array_equal(quantize(t.config, x), ref)
     assert np.array_equal(np.rint(x * 7), np.round(x * 7))
 
 
 @pytest.mark.parametrize("n", [0, 1, 7])
 def test_int_columns_equals_np_stack(n):
-    from sensemaking.tracker import _int_columns
 
     rng = np.random.default_rng(n)
     cols = [rng.integers(-5, 50, n), rng.integers(0, 9, n).astype(np.intp), rng.integers(0, 1000, n)]
-    out, ref = _int_columns(*cols), np.stack(cols, axis=1).astype(np.int64)
+    out, ref = int_columns(*cols), np.stack(cols, axis=1).astype(np.int64)
     assert out.dtype == ref.dtype and out.shape == ref.shape and out.flags.c_contiguous
     np.testing.assert_array_equal(out, ref)
 

@@ -32,10 +32,10 @@ def test_a_new_event_in_user_rules_is_reported_on_every_frame_where_it_holds():
     reported, expected = [], []
     for f, dets in _frames():
         # the rule's condition, from the tracker's own prediction for this frame
-        if len(tracker._tracks.kf):
-            v = tracker._tracks.kf.copy().predict(1) - tracker._tracks.kf.xyxy()
+        if len(tracker.tracks.kf):
+            v = tracker.tracks.kf.copy().predict(1) - tracker.tracks.kf.xyxy()
             speed = np.rint(np.hypot((v[:, 0] + v[:, 2]) / 2, (v[:, 1] + v[:, 3]) / 2) * 10)
-            ids = tracker._tracks.id.tolist()
+            ids = tracker.tracks.id.tolist()
             expected += [(f, t) for t, s in zip(ids, speed.tolist()) if s < 30]
         result = tracker.update(dets, frame=f)
         reported += [(f, e.args[0]) for e in result.events if e.name == "stops"]

@@ -24,60 +24,11 @@ boxes, unchanged; it only sets how large the covariance (for gating) is relative
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
+from sensemaking.config import KalmanConfig  # declared with the other parameters
+
 __all__ = ["KalmanConfig", "KalmanBank"]
-
-
-@dataclass
-class KalmanConfig:
-    """Noise levels of :class:`KalmanBank`, as fractions of the box size (width for ``cx, w``,
-    height for ``cy, h``); defaults follow DeepSORT.
-
-    Attributes:
-        position_std: process noise std of ``cx, cy, w, h`` per frame. Larger lets the
-            filter follow jittery or manoeuvring boxes faster, but makes predictions across
-            gaps spread out (looser gating).
-        velocity_std: process noise std of the velocities per frame. Larger adapts faster to
-            changes of speed (turning, braking); smaller extrapolates occluded objects more
-            stiffly. DeepSORT's 1/160 is small: velocity is mostly learned at birth.
-        measurement_std: std of detector noise. Larger trusts detections less (smoother,
-            laggier boxes); smaller follows each detection closely.
-        min_size: lower bound, pixels, on predicted and corrected ``w`` and ``h``: SORT-style
-            filters otherwise let a shrinking box collapse to zero or negative size during
-            long predictions.
-        init_position_std: std of the initial ``cx, cy, w, h`` (DeepSORT: 2 x position_std).
-        init_velocity_std: std of the initial velocities, per frame. Large (SORT uses a
-            1000x inflated prior) means the second detection of a track sets its velocity
-            almost exactly (two-point initialisation), so a constant-velocity box is
-            predicted to within a pixel after a few frames; DeepSORT's 10 x velocity_std
-            (1/16) instead takes tens of frames to learn a fast object's speed. The cost:
-            the first velocity carries about sqrt(2) x the detector noise.
-            The tracker sets it from ``TrackerConfig.velocity_prior`` (box sizes per second,
-            divided by the frame rate) unless that is None.
-    """
-
-    position_std: float = 1 / 20
-    velocity_std: float = 1 / 160
-    measurement_std: float = 1 / 20
-    min_size: float = 1.0
-    init_position_std: float = 2 / 20
-    init_velocity_std: float = 1.0
-
-    def __post_init__(self) -> None:
-        for name in (
-            "position_std",
-            "velocity_std",
-            "measurement_std",
-            "min_size",
-            "init_position_std",
-            "init_velocity_std",
-        ):
-            value = getattr(self, name)
-            if not np.isfinite(value) or value <= 0:
-                raise ValueError(f"KalmanConfig.{name} must be finite and > 0, got {value!r}")
 
 
 # columns of the (T, 44) state array (one array: a row gather, scatter, append or delete is one
@@ -269,7 +220,7 @@ class KalmanBank:
             raise ValueError("update: boxes must be finite")
         self._correct(idx, z)
 
-    def _update_trusted(self, index: np.ndarray, xyxy: np.ndarray) -> None:
+    def update_trusted(self, index: np.ndarray, xyxy: np.ndarray) -> None:
         """:meth:`update` without its input checks, for callers that guarantee them (the
         tracker): ``index`` a (K,) int array of distinct rows in range, K >= 1, and ``xyxy``
         (K, 4) finite float boxes. Same arithmetic, so the same result."""

@@ -27,18 +27,104 @@ Memory is flat in the length of the input when the sinks are (they are: see
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol, runtime_checkable
 
+from sensemaking.adapters import as_detections
 from sensemaking.detections import Detections, check_frame_number, validate_detections
 from sensemaking.errors import InputError
 from sensemaking.results import FrameResult
 from sensemaking.sinks import Sink, close_all
 
-__all__ = ["Pipeline", "PipelineSummary", "FrameStep"]
+__all__ = [
+    "Pipeline",
+    "PipelineSummary",
+    "FrameStep",
+    "FrameTracker",
+    "CountsTracks",
+    "Configured",
+    "Recorder",
+    "Monitor",
+    "TakesWarningEnds",
+]
 
 log = logging.getLogger(__name__)
+
+
+# -- what the pipeline runs ------------------------------------------------------------------
+class FrameTracker(Protocol):
+    """A tracker: one frame's detections in, the frame's result out (frames increase)."""
+
+    def update(self, detections: Detections, /, frame: int) -> FrameResult: ...
+
+
+class TrackerSettings(Protocol):
+    """The parameters the pipeline reads from a tracker's ``config``."""
+
+    @property
+    def image_size(self) -> tuple[int, int] | None: ...
+
+    @property
+    def min_hits(self) -> int: ...
+
+
+@runtime_checkable
+class Configured(Protocol):
+    """A tracker with a ``config``: its image size checks the detections, its ``min_hits``
+    tells when an empty frame still confirms tracks."""
+
+    @property
+    def config(self) -> TrackerSettings: ...
+
+
+@runtime_checkable
+class CountsTracks(Protocol):
+    """A tracker that tells its live tracks and counts its frames (``stats["frames"]``): once
+    nothing is live, the empty frames of a gap are skipped at once. Other trackers step every
+    frame."""
+
+    @property
+    def n_tracks(self) -> int: ...
+
+    @property
+    def stats(self) -> Mapping[str, Any]: ...
+
+
+class Recorder(Protocol):
+    """Keeps every frame's result (e.g. :class:`~sensemaking.scene.SceneRecorder`)."""
+
+    def add(self, result: FrameResult) -> None: ...
+
+
+class WindowConfig(Protocol):
+    def window_frames(self, fps: float) -> int: ...
+
+
+class Monitor(Protocol):
+    """Issues warnings from frame results (e.g.
+    :class:`~sensemaking.reasoning.online.SituationMonitor`): ``update`` gives a frame's new
+    warnings, ``ended`` the episodes that ended at it, ``finish`` ends the open ones; it keeps
+    the last ``config.window_frames(fps)`` frames."""
+
+    fps: float
+
+    @property
+    def config(self) -> WindowConfig: ...
+
+    @property
+    def ended(self) -> Sequence[Any]: ...
+
+    def update(self, result: FrameResult) -> Iterable[Any]: ...
+
+    def finish(self, reason: str = ...) -> Iterable[Any]: ...
+
+
+@runtime_checkable
+class TakesWarningEnds(Protocol):
+    """A sink that records the ends of warning episodes (e.g. the warnings file)."""
+
+    def end_warnings(self, ends: list[Any]) -> None: ...
 
 
 @dataclass(frozen=True)
@@ -67,9 +153,9 @@ class PipelineSummary:
 
 
 class Pipeline:
-    """Runs ``tracker`` (``update(dets, frame=f) -> FrameResult``) and, per frame result, the
-    ``recorder`` (``add(result)``), the ``monitor`` (``update(result) -> warnings``) and each of
-    ``sinks`` (:class:`~sensemaking.sinks.Sink`).
+    """Runs ``tracker`` (:class:`FrameTracker`) and, per frame result, the ``recorder``
+    (:class:`Recorder`), the ``monitor`` (:class:`Monitor`) and each of ``sinks``
+    (:class:`~sensemaking.sinks.Sink`).
 
     Args:
         validate: check every frame's detections
@@ -80,9 +166,9 @@ class Pipeline:
 
     def __init__(
         self,
-        tracker: Any,
-        recorder: Any = None,
-        monitor: Any = None,
+        tracker: FrameTracker,
+        recorder: Recorder | None = None,
+        monitor: Monitor | None = None,
         sinks: Sequence[Sink] = (),
         *,
         validate: bool = True,
@@ -97,15 +183,16 @@ class Pipeline:
         self.summary = PipelineSummary()
         self._quiet = 0  # consecutive stepped frames after which nothing was live
         self._closed = False
-        config = getattr(tracker, "config", None)
-        self._image_size = getattr(config, "image_size", None)
-        self._min_hits = int(getattr(config, "min_hits", 1))
+        # asked once, used every frame
+        self._counter: CountsTracks | None = tracker if isinstance(tracker, CountsTracks) else None
+        settings = tracker.config if isinstance(tracker, Configured) else None
+        self._image_size = None if settings is None else settings.image_size
+        self._min_hits = 1 if settings is None else int(settings.min_hits)
         # the monitor keeps its last `window` frame snapshots (a count, not frame numbers): a
         # gap is skipped only once that window holds nothing but empty frames
         self._horizon = 0
         if monitor is not None:
-            window = getattr(getattr(monitor, "config", None), "window_frames", None)
-            self._horizon = int(window(monitor.fps)) + 1 if callable(window) else -1
+            self._horizon = int(monitor.config.window_frames(monitor.fps)) + 1
 
     # -- one frame -----------------------------------------------------------------------------
     def step(self, frame: int, detections: Any = None) -> FrameStep:
@@ -118,8 +205,6 @@ class Pipeline:
         if detections is None:
             detections = Detections.empty()
         elif not isinstance(detections, Detections):
-            from sensemaking.adapters import as_detections
-
             detections = as_detections(detections)
         if self.validate:
             validate_detections(detections, self._image_size)
@@ -127,7 +212,7 @@ class Pipeline:
         if self.recorder is not None:
             self.recorder.add(result)
         warnings = list(self.monitor.update(result)) if self.monitor is not None else []
-        ended = list(getattr(self.monitor, "ended", ()))
+        ended = list(self.monitor.ended) if self.monitor is not None else []
         for sink in self.sinks:
             sink.frame(result, warnings)
         self._end_warnings(ended)
@@ -148,24 +233,21 @@ class Pipeline:
         """Give the ends of warning episodes to the sinks that take them (``end_warnings``)."""
         if ends:
             for sink in self.sinks:
-                take = getattr(sink, "end_warnings", None)
-                if take is not None:
-                    take(ends)
+                if isinstance(sink, TakesWarningEnds):
+                    sink.end_warnings(ends)
 
     def _finish_warnings(self, reason: str) -> None:
         """End the monitor's open warning episodes (the input ended or was interrupted)."""
-        finish = getattr(self.monitor, "finish", None)
-        if callable(finish):
-            self._end_warnings(list(finish(reason)))
+        if self.monitor is not None:
+            self._end_warnings(list(self.monitor.finish(reason)))
 
     def _tracker_idle(self) -> bool:
         """True when an empty frame would change nothing in the tracker but its frame counters:
         no live track, and past the first ``min_hits`` frames (which confirm tracks at once)."""
-        n_tracks = getattr(self.tracker, "n_tracks", None)
-        stats = getattr(self.tracker, "stats", None)
-        if n_tracks is None or not isinstance(stats, dict) or "frames" not in stats:
-            return False  # an unknown tracker: every frame is stepped
-        return n_tracks == 0 and stats["frames"] > self._min_hits
+        tracker = self._counter
+        if tracker is None or "frames" not in tracker.stats:
+            return False  # a tracker that does not tell: every frame is stepped
+        return tracker.n_tracks == 0 and tracker.stats["frames"] > self._min_hits
 
     def _fill(self, first: int, last: int) -> None:
         """Frames ``first..last`` have no detections: step them while something is live, then

@@ -109,11 +109,11 @@ def test_gate_and_relations_agree_where_box_bottom_and_depth_disagree():
     # the tracker's facts use the same function: the detection 1 (nearer) covers track 0
     t = Tracker(TrackerConfig(fps=10, image_size=SIZE))
     t.update(frame(*boxes, depth=list(depth)), frame=0)
-    problem = t._problem(t._tracks.kf.predict(1), frame(*boxes, depth=list(depth)))
+    problem = t.problem(frame(*boxes, depth=list(depth)), t.tracks.kf.predict(1))
     covers = {(int(d), int(k)) for d, k in problem.covers.tolist()}
     assert (1, 0) in covers and (0, 1) not in covers
     # detections without depth: box bottom decides, in the tracker as in pair_front
-    problem = t._problem(t._tracks.kf.predict(1), frame(*boxes))
+    problem = t.problem(frame(*boxes), t.tracks.kf.predict(1))
     covers = {(int(d), int(k)) for d, k in problem.covers.tolist()}
     assert (0, 1) in covers and (1, 0) not in covers
 
@@ -182,9 +182,9 @@ def test_depth_from_a_3d_detector_is_carried_into_the_track_table():
     assert own.depth.tolist() == [7.0]
     t = Tracker(TrackerConfig(fps=10, image_size=SIZE))
     t.update(frame([100, 100, 200, 200], depth=[20.0]), frame=0)
-    assert t._tracks.depth.tolist() == [20.0]
+    assert t.tracks.depth.tolist() == [20.0]
     t.update(frame([102, 100, 202, 200], depth=[19.0]), frame=1)
-    assert t._tracks.depth.tolist() == [19.0]  # the depth of the last match
+    assert t.tracks.depth.tolist() == [19.0]  # the depth of the last match
 
 
 def test_pair_front_with_the_relations_margin_is_the_lower_bottom_y_relation():

@@ -10,9 +10,11 @@ import pytest
 from clingo.ast import ProgramBuilder
 
 from sensemaking.abduction.components import ComponentSolver
+from sensemaking.abduction.observe import quantize
 from sensemaking.abduction.problem import TRACK_FLAGS, Component, FrameProblem
 from sensemaking.abduction.slots import SlotSolver, Shape, piece_facts, pieces, shape_of
-from sensemaking.abduction.solver import AbductionSolver, Answer, _parsed
+from sensemaking.abduction.solver import AbductionSolver, Answer
+from sensemaking.asp import parsed
 
 from conftest import SHARED_DATA
 
@@ -46,7 +48,7 @@ def optimal_answers(solver: AbductionSolver, component: Component) -> set[tuple[
     """Every optimal answer's shown atoms (clingo's ``--opt-mode=optN`` on a fresh Control)."""
     ctl = clingo.Control([*solver.options, "--opt-mode=optN", "-n0"])
     with ProgramBuilder(ctl) as builder:
-        for statement in _parsed(solver.program):
+        for statement in parsed(solver.program):
             builder.add(statement)
     with ctl.backend() as backend:
         for fact in component.facts(solver.uses):
@@ -182,18 +184,18 @@ def test_real_kitti_components_same_optimum() -> None:
     tracker = Tracker(ours_config(spec.family, fps=seq.info.fps,
                                   image_size=(seq.info.width, seq.info.height)))
     seen: dict[Component, None] = {}
-    solve = tracker._solver.solve
+    solve = tracker.solver.solve
 
     def collect(problem: FrameProblem, budget_ms: float | None = None) -> Answer | None:
         seen.update(dict.fromkeys(c for c, _, _ in problem.components()))
         return solve(problem, budget_ms)
 
-    tracker._solver.solve = collect  # type: ignore[method-assign]
+    tracker.solver.solve = collect  # type: ignore[method-assign]
     frames = dict(seq.detections.frames())
     for f in seq.frame_numbers:
         tracker.update(frames.get(f, Detections.empty()), frame=f)
-    solver = tracker._solver.solver
-    grid = tracker._quantize(np.linspace(0.0, 1.0, tracker.config.likelihood_levels + 1))
+    solver = tracker.solver.solver
+    grid = quantize(tracker.config, np.linspace(0.0, 1.0, tracker.config.likelihood_levels + 1))
     slots = SlotSolver(solver, numbers=grid.tolist(), misses_per_cell=0)
     components = list(seen)
     counts = check_same_optimum(solver, slots, components)

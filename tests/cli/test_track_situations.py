@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from sensemaking.cli import main
-from sensemaking.settings import ParameterError, _document_params, preset_profile
+from sensemaking.settings import ParameterError, document_params, preset_profile
 
 from conftest import SHARED_DATA
 
@@ -109,7 +109,7 @@ def test_context_options_need_warnings(tmp_path: Path, capsys):
 def test_presets_name_their_profile():
     assert preset_profile("kitti") == "driving" and preset_profile("mot") == "fixed"
     with pytest.raises(ParameterError, match="profile"):
-        _document_params({"format": "sensemaking-params/1", "profile": "flying", "params": {}}, "x.json")
+        document_params({"format": "sensemaking-params/1", "profile": "flying", "params": {}}, "x.json")
 
 
 MOT17_02 = SHARED_DATA / "mot17" / "MOT17-02-YOLOX-half" / "det" / "det.txt"

@@ -20,11 +20,12 @@ Four shortcuts, each forced by the structure of the problem rather than by any r
   An optimal answer of that program is optimal for each component at every priority, since each
   level is a sum over components.
 
-The cache and the slot Controls are shared by the trackers of a process with the same program
-and options. Nothing here depends on time or machine load, so the same input gives the same
-output on any machine. Where several optimal answers tie (measured: about 1 in 7,700 components
-on KITTI), which one a component gets may depend on what the process solved before: the
-components solved beside it, and whether its shape's Control was ground yet.
+The cache and the slot Controls live in a :class:`SolverCache`, per program and options; the
+trackers of a process share :data:`SHARED` unless given their own. Nothing here depends on
+time or machine load, so the same input gives the same output on any machine. Where several
+optimal answers tie (measured: about 1 in 7,700 components on KITTI), which one a component
+gets may depend on what the cache's solvers solved before: the components solved beside it,
+and whether its shape's Control was ground yet.
 """
 
 from __future__ import annotations
@@ -39,14 +40,57 @@ from sensemaking.abduction.problem import Component, FrameProblem
 from sensemaking.abduction.slots import SlotSolver
 from sensemaking.abduction.solver import AbductionSolver, Answer, Det, Ref
 
-__all__ = ["ComponentSolver"]
+__all__ = ["ComponentSolver", "SolverCache", "SHARED"]
 
-#: per (program, options): the Controls ground once for small components (grounding a shape
-#: costs far more than a solve; clasp forgets between solves)
-_SLOTS: dict[tuple[str, tuple[str, ...]], SlotSolver] = {}
-#: per (program, options): clingo's answers by component, least recently used first
-_CACHES: dict[tuple[str, tuple[str, ...]], OrderedDict[Component, Answer]] = {}
-_LOCK = threading.Lock()
+_Key = tuple[str, tuple[str, ...]]  # (program, options)
+
+
+class SolverCache:
+    """What :class:`ComponentSolver` objects remember between frames, per program and options:
+    clingo's answers by component (least recently used first) and the Controls ground once for
+    small components (grounding a shape costs far more than a solve; clasp forgets between
+    solves). Solvers given the same cache share both, so where optima tie, one tracker's
+    answers may depend on what another solved before; a cache of its own makes a tracker's
+    output depend on its input only. Thread-safe."""
+
+    def __init__(self) -> None:
+        self._answers: dict[_Key, OrderedDict[Component, Answer]] = {}
+        self._slots: dict[_Key, SlotSolver] = {}
+        self.lock = threading.Lock()
+
+    def answers(self, solver: AbductionSolver) -> OrderedDict[Component, Answer]:
+        """The answers remembered for ``solver``'s program and options (guard with ``lock``)."""
+        with self.lock:
+            return self._answers.setdefault(_key(solver), OrderedDict())
+
+    def slots(self, solver: AbductionSolver) -> SlotSolver:
+        """The slot Controls of ``solver``'s program and options."""
+        with self.lock:
+            key = _key(solver)
+            found = self._slots.get(key)
+            if found is None:
+                found = self._slots[key] = SlotSolver(solver)
+            return found
+
+    def __len__(self) -> int:
+        """Answers remembered, over every program."""
+        with self.lock:
+            return sum(len(a) for a in self._answers.values())
+
+    def clear(self) -> None:
+        """Forget every answer and ground Control."""
+        with self.lock:
+            self._answers.clear()
+            self._slots.clear()
+
+
+def _key(solver: AbductionSolver) -> _Key:
+    return (solver.program, tuple(solver.options))
+
+
+#: the cache shared by every solver (and tracker) of the process not given its own: the
+#: default, as it was before caches were objects, so that outputs stay as they were
+SHARED = SolverCache()
 
 
 class ComponentSolver:
@@ -63,6 +107,7 @@ class ComponentSolver:
             (:class:`~sensemaking.abduction.slots.SlotSolver`) instead of a fresh Control.
         numbers: the likelihoods and confidences (0..1000) the facts take, e.g. the tracker's
             likelihood grid: ground into the slots up front (others are learnt as they come).
+        cache: where answers and slot Controls are kept (default :data:`SHARED`, the process's).
     """
 
     def __init__(
@@ -72,17 +117,18 @@ class ComponentSolver:
         cache_size: int = 20_000,
         slots: bool = True,
         numbers: Iterable[int] = (),
+        cache: SolverCache | None = None,
     ):
         self.solver = solver
         self.decompose = decompose
         self.cache_size = cache_size
+        self.cache = SHARED if cache is None else cache
+        self._lock = self.cache.lock
         self._slots: SlotSolver | None = None
-        key = (solver.program, tuple(solver.options))
-        with _LOCK:
-            self._cache = _CACHES.setdefault(key, OrderedDict())
-            if slots:
-                self._slots = _SLOTS.setdefault(key, SlotSolver(solver))
-                self._slots.expect(numbers)
+        self._cache = self.cache.answers(solver)
+        if slots:
+            self._slots = self.cache.slots(solver)
+            self._slots.expect(numbers)
         self.stats = {"components": 0, "cache_hits": 0, "solver_calls": 0, "slot_calls": 0}
 
     def solve(self, problem: FrameProblem, budget_ms: float | None = None) -> Answer | None:
@@ -93,7 +139,7 @@ class ComponentSolver:
         answer = Answer()
         missed: dict[Component, list[tuple[list[int], list[int]]]] = {}
         for component, track_ids, det_rows in parts:
-            with _LOCK:
+            with self._lock:
                 local = self._cache.get(component)
                 if local is not None:
                     self._cache.move_to_end(component)
@@ -129,7 +175,7 @@ class ComponentSolver:
 
     def _remember(self, component: Component, local: Answer) -> None:
         if not local.timed_out and self.cache_size > 0:
-            with _LOCK:
+            with self._lock:
                 self._cache[component] = local
                 while len(self._cache) > self.cache_size:
                     self._cache.popitem(last=False)

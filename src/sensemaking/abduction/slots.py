@@ -31,12 +31,11 @@ from collections.abc import Collection, Iterable
 from dataclasses import dataclass, replace
 from typing import Any
 
-import clingo
 from clingo import Symbol
-from clingo.ast import ProgramBuilder
 
+from sensemaking import asp
 from sensemaking.abduction.problem import TRACK_FLAGS, VISIBILITY_VALUES, Component
-from sensemaking.abduction.solver import AbductionSolver, Answer, _decode, _parsed, _quiet_logger
+from sensemaking.abduction.solver import AbductionSolver, Answer, answer_of
 
 __all__ = ["SlotSolver", "Shape", "shape_of", "vocabulary", "pieces", "piece_facts"]
 
@@ -156,10 +155,7 @@ class _Grounded:
         self.universe = universe
         #: the classes and numbers the universe was made with
         self.classes, self.numbers = classes, numbers
-        self.ctl = clingo.Control([*solver.options, _FORGET], logger=_quiet_logger)
-        with ProgramBuilder(self.ctl) as builder:
-            for statement in _parsed(solver.program):
-                builder.add(statement)
+        self.ctl = asp.control([*solver.options, _FORGET], asp.parsed(solver.program))
         externals = "\n".join(f"#external {fact}. [free]" for fact in sorted(universe))
         self.ctl.add("base", [], externals)
         self.ctl.ground([("base", [])])
@@ -215,33 +211,8 @@ class _Grounded:
         for lit in true:
             if lit:  # 0: a fact no rule reads
                 assumptions[position[lit]] = lit
-        best: list[Symbol] = []
-        info: dict[str, int] = {}
-
-        def on_model(model: clingo.Model) -> None:
-            best[:] = model.symbols(shown=True)
-            info["cost"] = sum(
-                c for c, p in zip(model.cost, model.priority, strict=True) if p >= 0
-            )
-
-        timed_out = False
-        if budget_ms is None:
-            result = self.ctl.solve(assumptions=assumptions, on_model=on_model)
-        else:
-            with self.ctl.solve(assumptions=assumptions, on_model=on_model, async_=True) as handle:
-                if not handle.wait(max(budget_ms / 1000.0 - (time.perf_counter() - t0), 0.0)):
-                    handle.cancel()
-                    timed_out = True
-                result = handle.get()
-        if "cost" not in info:
-            return None
-        answer = _decode(best)
-        answer.cost = info["cost"]
-        answer.optimal = bool(result.exhausted) and not timed_out
-        answer.budget_hit = not answer.optimal and not timed_out
-        answer.timed_out = timed_out
-        answer.solve_ms = (time.perf_counter() - t0) * 1000.0
-        return answer
+        solved = asp.solve(self.ctl, budget_ms, assumptions=assumptions, started=t0)
+        return None if solved is None else answer_of(solved)
 
 
 class SlotSolver:

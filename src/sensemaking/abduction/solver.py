@@ -12,16 +12,14 @@ import logging
 import time
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
-from functools import cache, lru_cache
-from importlib import resources
 from pathlib import Path
 from typing import NamedTuple
 
-import clingo
 from clingo import Function, Number, Symbol, SymbolType
-from clingo.ast import ASTType, ProgramBuilder, parse_string
 
+from sensemaking import asp
 from sensemaking.abduction.problem import FrameProblem
+from sensemaking.errors import InputError
 
 __all__ = [
     "Alternative",
@@ -33,6 +31,7 @@ __all__ = [
     "load_encoding",
     "encoding_constants",
     "read_encoding",
+    "answer_of",
 ]
 
 log = logging.getLogger(__name__)
@@ -52,53 +51,15 @@ class Det(NamedTuple):
 Ref = int | Det | str
 
 
-@lru_cache(maxsize=16)
-def _parsed(encoding: str) -> tuple:
-    """The encoding parsed once into AST statements (re-adding them: ~3x cheaper than parsing)."""
-    statements: list = []
-    parse_string(encoding, statements.append)
-    return tuple(statements)
-
-
-@lru_cache(maxsize=16)
-def _mentioned(encoding: str) -> frozenset[str]:
-    """Names of every predicate or function the encoding mentions (an over-approximation of
-    what its rules read: a fact whose name is not here cannot change an answer)."""
-    names: set[str] = set()
-
-    def visit(node: object) -> None:
-        if isinstance(node, clingo.ast.AST):
-            if node.ast_type == ASTType.Function:
-                names.add(node.name)
-            elif node.ast_type == ASTType.SymbolicTerm and node.symbol.type == SymbolType.Function:
-                names.add(node.symbol.name)
-            for key in node.child_keys:
-                visit(getattr(node, key))
-        elif isinstance(node, (list, tuple, clingo.ast.ASTSequence)):
-            for child in node:
-                visit(child)
-
-    for statement in _parsed(encoding):
-        visit(statement)
-    return frozenset(names)
-
-
-@cache
 def load_encoding(name: str = "tracking.lp") -> str:
     """Text of an encoding shipped as package data in ``sensemaking/abduction/encodings``."""
-    return (
-        resources.files("sensemaking.abduction")
-        .joinpath("encodings", name)
-        .read_text(encoding="utf-8")
-    )
+    return asp.encoding("sensemaking.abduction", name)
 
 
 def read_encoding(source: str | Path) -> str:
     """An encoding's text from a path (``.lp`` file) or the text itself. Raises a
     :class:`~sensemaking.errors.InputError` naming the file and clingo's message when it does
     not parse."""
-    from sensemaking.errors import InputError
-
     path = Path(source) if isinstance(source, Path) or str(source).endswith(".lp") else None
     if path is not None:
         try:
@@ -107,29 +68,18 @@ def read_encoding(source: str | Path) -> str:
             raise InputError(f"cannot read the encoding: {exc}", path) from None
     else:
         text = str(source)
-    messages: list[str] = []
-    try:
-        parse_string(text, lambda _: None, logger=lambda _c, m: messages.append(m.strip()))
-    except RuntimeError:
+    messages = asp.parse_messages(text)
+    if messages is not None:
         where = f"{path}: " if path is not None else ""
         raise InputError(
             f"{where}the encoding does not parse: {'; '.join(messages) or 'syntax error'}"
-        ) from None
+        )
     return text
 
 
 def encoding_constants(encoding: str | None = None) -> dict[str, int]:
     """The ``#const`` defaults of an encoding's text (default: the packaged ``tracking.lp``)."""
-    return dict(_constants(encoding if encoding is not None else load_encoding()))
-
-
-@lru_cache(maxsize=8)
-def _constants(encoding: str) -> tuple[tuple[str, int], ...]:
-    return tuple(
-        (stmt.name, int(stmt.value.symbol.number))
-        for stmt in _parsed(encoding)
-        if stmt.ast_type == ASTType.Definition
-    )
+    return dict(asp.constants(encoding if encoding is not None else load_encoding()))
 
 
 @dataclass
@@ -231,12 +181,11 @@ class AbductionSolver:
     ):
         self.constants = {k: int(v) for k, v in (constants or {}).items()}
         self.options = list(options) + [f"-c{k}={v}" for k, v in sorted(self.constants.items())]
-        if max_conflicts is not None:
-            self.options.append(f"--solve-limit={int(max_conflicts)}")
+        self.options += asp.limits(max_conflicts=max_conflicts)
         base = encoding if encoding is not None else load_encoding()
         self.program = "\n".join([base, *rules])
         #: names the program mentions: optional facts are only given when read
-        self.uses = _mentioned(self.program)
+        self.uses = asp.mentioned(self.program)
 
     def solve(self, problem: FrameProblem, budget_ms: float | None = None) -> Answer | None:
         """The whole frame in one program (no decomposition); None if no model in time."""
@@ -343,45 +292,23 @@ class AbductionSolver:
     ) -> tuple[list[Symbol], Answer] | None:
         """The shown atoms of the optimal model and their :class:`Answer` (see solve_facts)."""
         t0 = time.perf_counter()
-        ctl = clingo.Control(self.options, logger=_quiet_logger)
-        with ProgramBuilder(ctl) as builder:
-            for statement in _parsed(self.program):
-                builder.add(statement)
-        with ctl.backend() as backend:
-            for fact in facts:
-                backend.add_rule([backend.add_atom(fact)])
+        ctl = asp.control(self.options, asp.parsed(self.program), facts)
         ctl.ground([("base", [])])
-        _add_forbidden(ctl, forbid)
-        best: list[Symbol] = []
-        info: dict[str, int] = {}
+        asp.forbid(ctl, forbid)
+        solved = asp.solve(ctl, budget_ms, started=t0)
+        return None if solved is None else (solved.symbols, answer_of(solved))
 
-        def on_model(model: clingo.Model) -> None:
-            best[:] = model.symbols(shown=True)
-            # the cost of the main objective; the tie-break levels (priority < 0) are not a cost
-            levels = zip(model.cost, model.priority, strict=True)
-            info["cost"] = sum(c for c, p in levels if p >= 0)
 
-        timed_out = False
-        if budget_ms is None:
-            result = ctl.solve(on_model=on_model)
-        else:
-            remaining = budget_ms / 1000.0 - (time.perf_counter() - t0)
-            with ctl.solve(on_model=on_model, async_=True) as handle:
-                if not handle.wait(max(remaining, 0.0)):
-                    handle.cancel()
-                    timed_out = True
-                result = handle.get()
-        ms = (time.perf_counter() - t0) * 1000.0
-        if "cost" not in info:
-            log.debug("no model within the budget (%.1f ms, timed out: %s)", ms, timed_out)
-            return None
-        answer = _decode(best)
-        answer.cost = info["cost"]
-        answer.optimal = bool(result.exhausted) and not timed_out
-        answer.budget_hit = not answer.optimal and not timed_out
-        answer.timed_out = timed_out
-        answer.solve_ms = ms
-        return best, answer
+def answer_of(solved: asp.Solved) -> Answer:
+    """The :class:`Answer` of a solve of the tracking encoding: its shown atoms read, with the
+    cost, optimality and budget flags of the search."""
+    answer = _decode(solved.symbols)
+    answer.cost = solved.cost
+    answer.optimal = solved.exhausted and not solved.timed_out
+    answer.budget_hit = not answer.optimal and not solved.timed_out
+    answer.timed_out = solved.timed_out
+    answer.solve_ms = solved.ms
+    return answer
 
 
 @dataclass(frozen=True)
@@ -524,29 +451,6 @@ def _local_refs(
             return None
         rest.append(r)
     return (first, *rest)
-
-
-def _add_forbidden(ctl: clingo.Control, forbid: Iterable[Iterable[Symbol]]) -> None:
-    """Integrity constraints ``:- a1, ..., an.`` over ground atoms; a conjunction with an atom
-    the ground program lacks can never hold and needs none."""
-    rules = []
-    for conjunction in forbid:
-        lits = []
-        for sym in conjunction:
-            atom = ctl.symbolic_atoms[sym]
-            if atom is None:
-                break
-            lits.append(atom.literal)
-        else:
-            rules.append(lits)
-    if rules:
-        with ctl.backend() as backend:
-            for lits in rules:
-                backend.add_rule([], lits)
-
-
-def _quiet_logger(code: clingo.MessageCode, message: str) -> None:
-    log.debug("clingo: %s", message.strip())
 
 
 def _ref(sym: Symbol) -> Ref:

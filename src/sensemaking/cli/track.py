@@ -10,13 +10,13 @@ from pathlib import Path
 from typing import Any
 
 from sensemaking.cli._progress import Progress
+
+# option ranges: the ranges of the parameters fps and image_size (a frame rate or an image side
+# beyond these is a typo, not a camera)
+from sensemaking.config import MAX_FPS, MAX_IMAGE_SIDE, MIN_FPS
 from sensemaking.errors import InputError
 
 log = logging.getLogger(__name__)
-
-#: option ranges (a frame rate or an image side beyond these is a typo, not a camera)
-MIN_FPS, MAX_FPS = 0.01, 1000.0  # frames per second: a frame a 100 s .. a frame a ms
-MAX_IMAGE_SIDE = 100_000
 
 
 def add_matching_options(p: argparse.ArgumentParser) -> None:

@@ -1,0 +1,744 @@
+"""The tracker's parameters, declared once: :class:`TrackerConfig`, :class:`AbductionCosts` and
+:class:`KalmanConfig`.
+
+Every field carries its kind, unit and valid range in its dataclass metadata (:func:`param`);
+its meaning is the class docstring's ``Attributes:`` entry or the field's ``#:`` comment.
+:data:`PARAMETERS` (dotted name -> :class:`Param`) is read from that metadata, :func:`validate`
+checks a whole configuration against it generically (``TrackerConfig.__post_init__`` calls it)
+and :func:`parameters_table` renders it for ``docs/PARAMETERS.md``. The shipped presets
+(``presets/<family>.json``, :meth:`TrackerConfig.for_dataset`) and the parameter document they
+share with users' files (:func:`document_params`) are read here too; reading users' files and
+``--set`` overrides is :mod:`sensemaking.settings`'s job.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import inspect
+import json
+import logging
+import math
+import numbers
+import re
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field, replace
+from importlib import resources
+from typing import Any
+
+import numpy as np
+
+from sensemaking.errors import InputError
+
+__all__ = [
+    "AbductionCosts",
+    "KalmanConfig",
+    "TrackerConfig",
+    "Param",
+    "ParameterError",
+    "PARAMETERS",
+    "NESTED",
+    "MIN_FPS",
+    "MAX_FPS",
+    "MAX_IMAGE_SIDE",
+    "FAMILIES",
+    "FORMAT",
+    "SCENE_PROFILES",
+    "param",
+    "family_name",
+    "preset_params",
+    "preset_source",
+    "preset_profile",
+    "preset_config",
+    "document_params",
+    "apply_settings",
+    "check_value",
+    "validate",
+    "params_of",
+    "parameters_table",
+]
+
+log = logging.getLogger(__name__)
+
+MIN_FPS, MAX_FPS = 0.01, 1000.0  # frames per second: a frame a 100 s .. a frame a ms
+MAX_IMAGE_SIDE = 100_000  # pixels, each side of the field of view
+#: metadata key of a field's :class:`Param`
+_PARAM = "sensemaking.param"
+
+
+class ParameterError(InputError):
+    """A parameter value of the wrong type, unit or range, or an unknown parameter."""
+
+
+@dataclass(frozen=True)
+class Param:
+    """One parameter: ``kind`` is ``bool``, ``int``, ``float`` or ``size`` (width, height);
+    values lie in ``[low, high]`` (``low_open``: ``low`` itself excluded); ``optional``: None
+    is allowed (meaning: off / not set)."""
+
+    key: str
+    kind: str
+    unit: str
+    low: float | None = None
+    high: float | None = None
+    low_open: bool = False
+    optional: bool = False
+
+    def range_text(self) -> str:
+        if self.kind == "bool":
+            return "true / false"
+        if self.kind == "size":
+            return f"two integers in [{_num(self.low)}, {_num(self.high)}]"
+        low = "(" if self.low_open else "["
+        lo = "-inf" if self.low is None else _num(self.low)
+        hi = "inf" if self.high is None else _num(self.high)
+        text = f"{low}{lo}, {hi}]" if self.high is not None else f"{low}{lo}, inf)"
+        if self.kind == "int":
+            text = f"integer in {text}"
+        elif self.low is None and self.high is None:
+            text = "any finite number"
+        return text + (", or null" if self.optional else "")
+
+    def expect(self) -> str:
+        """Unit and range, for error messages."""
+        return f"{self.unit}, {self.range_text()}" if self.unit != "-" else self.range_text()
+
+    def check(self, value: Any) -> Any:
+        """``value`` if it is valid for this parameter (sizes become tuples), else
+        :class:`ParameterError` saying what is expected."""
+        key = self.key
+        if value is None:
+            if self.optional:
+                return None
+            raise ParameterError(f"{key} must not be null ({self.expect()})")
+        if self.kind == "bool":
+            if not isinstance(value, (bool, np.bool_)):
+                raise ParameterError(f"{key} must be true or false, got {value!r}")
+            return bool(value)
+        if self.kind == "size":
+            if (
+                not isinstance(value, (tuple, list))
+                or len(value) != 2
+                or not all(_is_int(v) for v in value)
+            ):
+                raise ParameterError(
+                    f"{key} must be (width, height) in integer pixels, got {value!r}"
+                )
+            for v in value:
+                self._check_range(v)
+            return (int(value[0]), int(value[1]))
+        if self.kind == "int":
+            if not _is_int(value):
+                raise ParameterError(f"{key} must be an integer ({self.expect()}), got {value!r}")
+            self._check_range(value)
+            return value
+        if not _is_real(value) or not math.isfinite(float(value)):
+            raise ParameterError(f"{key} must be a finite number ({self.expect()}), got {value!r}")
+        self._check_range(value)
+        return value
+
+    def _check_range(self, value: float) -> None:
+        v = float(value)
+        too_low = self.low is not None and (v <= self.low if self.low_open else v < self.low)
+        too_high = self.high is not None and v > self.high
+        if too_low or too_high:
+            raise ParameterError(
+                f"{self.key} must be in {self.range_text()} ({self.unit}), got {value!r}"
+            )
+
+
+def _num(x: float | None) -> str:
+    return "" if x is None else (str(int(x)) if float(x).is_integer() else repr(float(x)))
+
+
+def _is_int(value: Any) -> bool:
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
+
+
+def _is_real(value: Any) -> bool:
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
+
+
+def param(
+    default: Any,
+    kind: str,
+    unit: str,
+    low: float | None = None,
+    high: float | None = None,
+    *,
+    low_open: bool = False,
+    optional: bool = False,
+) -> Any:
+    """A dataclass field with its :class:`Param` (kind, unit, range) in its metadata; the key
+    is the field's dotted name, filled in by :data:`PARAMETERS`."""
+    spec = Param("", kind, unit, low, high, low_open, optional)
+    return field(default=default, metadata={_PARAM: spec})
+
+
+def nested(cls: type) -> Any:
+    """A field holding a parameter group (its fields are ``<name>.<field>`` parameters)."""
+    return field(default_factory=cls, metadata={_PARAM: None})
+
+
+_SCORE = "detector score"
+_COST = "solver units (1000 = a perfect IoU match)"
+_BOX = "fraction of box size"
+
+
+def _cost(default: int) -> Any:
+    return param(default, "int", _COST, 0, 100_000)
+
+
+@dataclass(frozen=True)
+class AbductionCosts:
+    """Costs of actions and events, in likelihood units (a perfect IoU match is worth 1000).
+
+    Raising a cost makes the explanation rarer; each is a trade-off between two mistakes.
+    """
+
+    #: enters_fov at the border. Higher: fewer new tracks at the border.
+    enters: int = _cost(100)
+    #: a track starting away from the border. Higher: fewer false tracks, later starts.
+    appears: int = _cost(400)
+    #: leaves_fov at the border. Higher: tracks linger at the border as missing.
+    leaves: int = _cost(100)
+    #: a track ending without explanation. Higher: tracks are kept as missing longer.
+    lost: int = _cost(600)
+    #: a tentative (unconfirmed) track ending: a hypothesis dropped. Higher: young tracks fight
+    #: for detections.
+    dropped: int = _cost(0)
+    #: hides_behind. Higher: fewer occlusion explanations, more missing detections.
+    hides: int = _cost(50)
+    #: missing_detections. Higher: tracks end instead of waiting.
+    missing: int = _cost(250)
+    #: per frame a track stays missing. Higher: missing tracks end sooner.
+    unseen: int = _cost(20)
+    #: ignoring a detection, times its confidence. Higher: more tracks from weak detections.
+    ignore: int = _cost(600)
+    #: a hidden or missing track seen again (unhides_from_behind or reappears). An unseen track's
+    #: prediction is widened, so it fits a detection better than its drifted box deserves; hiding
+    #: a visible track costs only ``hides``, and without this cost an unseen track took the
+    #: detection of a visible track whose own prediction fits it whenever its widened fit was 0.05
+    #: IoU better. Higher: a visible track keeps its detection unless the unseen one fits it
+    #: clearly better (by (hides + resumes) / 1000 IoU). Keep it below ``enters`` + 1000 x
+    #: ``iou_resume``, else an unseen track at the border loses a weakly fitting detection to a new
+    #: track entering there (a new id).
+    resumes: int = _cost(100)
+
+    def __post_init__(self) -> None:
+        # its own, weaker check (a TrackerConfig checks the ranges): costs are made on their own
+        for name, value in asdict(self).items():
+            if not isinstance(value, int) or value < 0:
+                raise ValueError(f"cost {name} must be a non-negative integer, got {value!r}")
+
+
+@dataclass
+class KalmanConfig:
+    """Noise levels of :class:`KalmanBank`, as fractions of the box size (width for ``cx, w``,
+    height for ``cy, h``); defaults follow DeepSORT.
+
+    Attributes:
+        position_std: process noise std of ``cx, cy, w, h`` per frame. Larger lets the
+            filter follow jittery or manoeuvring boxes faster, but makes predictions across
+            gaps spread out (looser gating).
+        velocity_std: process noise std of the velocities per frame. Larger adapts faster to
+            changes of speed (turning, braking); smaller extrapolates occluded objects more
+            stiffly. DeepSORT's 1/160 is small: velocity is mostly learned at birth.
+        measurement_std: std of detector noise. Larger trusts detections less (smoother,
+            laggier boxes); smaller follows each detection closely.
+        min_size: lower bound, pixels, on predicted and corrected ``w`` and ``h``: SORT-style
+            filters otherwise let a shrinking box collapse to zero or negative size during
+            long predictions.
+        init_position_std: std of the initial ``cx, cy, w, h`` (DeepSORT: 2 x position_std).
+        init_velocity_std: std of the initial velocities, per frame. Large (SORT uses a
+            1000x inflated prior) means the second detection of a track sets its velocity
+            almost exactly (two-point initialisation), so a constant-velocity box is
+            predicted to within a pixel after a few frames; DeepSORT's 10 x velocity_std
+            (1/16) instead takes tens of frames to learn a fast object's speed. The cost:
+            the first velocity carries about sqrt(2) x the detector noise.
+            The tracker sets it from ``TrackerConfig.velocity_prior`` (box sizes per second,
+            divided by the frame rate) unless that is None.
+    """
+
+    position_std: float = param(1 / 20, "float", _BOX + " per frame", 0.0, 100.0, low_open=True)
+    velocity_std: float = param(1 / 160, "float", _BOX + " per frame", 0.0, 100.0, low_open=True)
+    measurement_std: float = param(1 / 20, "float", _BOX, 0.0, 100.0, low_open=True)
+    init_position_std: float = param(
+        2 / 20, "float", _BOX + " per frame", 0.0, 100.0, low_open=True
+    )
+    init_velocity_std: float = param(1.0, "float", _BOX + " per frame", 0.0, 100.0, low_open=True)
+    min_size: float = param(1.0, "float", "pixels", 0.0, 10_000.0, low_open=True)
+
+    def __post_init__(self) -> None:
+        # its own, weaker check (a TrackerConfig checks the ranges): a bank is made on its own
+        for name in (
+            "position_std",
+            "velocity_std",
+            "measurement_std",
+            "min_size",
+            "init_position_std",
+            "init_velocity_std",
+        ):
+            value = getattr(self, name)
+            if not np.isfinite(value) or value <= 0:
+                raise ValueError(f"KalmanConfig.{name} must be finite and > 0, got {value!r}")
+
+
+@dataclass(frozen=True)
+class TrackerConfig:
+    """Parameters of :class:`Tracker`. Times are in seconds and turned into frames with ``fps``.
+
+    Attributes:
+        abduction: abduce assignments and events with clingo (True) or match by Hungarian IoU
+            only (False, the paper's "without abduction"; events are then only starts/ends).
+        fps: frame rate of the input (frames per second); converts the time limits below.
+        image_size: ``(width, height)`` of the field of view in pixels. Needed to explain
+            entering/leaving at the border; without it, tracks only start and end.
+        iou_assign: minimum IoU of prediction and detection to continue a visible track.
+            Lower: follows fast or erratic motion, but risks id swaps between neighbours.
+        iou_resume: minimum IoU to resume a hidden or missing track (its prediction is widened
+            by ``resume_growth`` per unseen frame, up to 2x). Lower: more re-identification
+            after long gaps, with more wrong re-identifications.
+        resume_growth: widening of an unseen track's predicted box per frame, fraction of size.
+        new_track_growth: widening of the predicted box of a track seen only once (its velocity
+            is unknown), e.g. 1.5 = 50 % larger. Higher: fast objects keep their id from the
+            second frame on; too high: neighbours can take each other's young tracks.
+        min_confidence: minimum detection score to continue or resume a track (score units of
+            the detector). Low-score detections can then keep tracks alive without starting any.
+        start_confidence: minimum detection score to start a track. Higher: fewer false tracks.
+        max_hidden_s: how long a track hidden behind a known occluder is kept (seconds).
+        max_missing_s: how long a track with missing detections (no occluder) is kept (seconds).
+        min_hits: detections needed before a new track is reported (1 = at once). During the
+            first ``min_hits`` frames of a run tracks are reported at once.
+        confirm_confidence: a detection scoring at least this confirms its track at once, whatever
+            ``min_hits`` says (detector score units; None: only ``min_hits`` confirms). Strong
+            evidence is reported from the first frame, weak evidence must repeat itself.
+        hide_cover: fraction of a track's predicted box that a track in front must cover for it to
+            hide behind it. Lower: occlusion is abduced more readily.
+        keep_cover: fraction of coverage needed to stay hidden (hysteresis; <= hide_cover).
+        emerge_margin: a hidden track can only unhide where it touches its occluder's box,
+            widened by this fraction of the occluder's size on every side. Lower: fewer wrong
+            re-identifications in crowds; too low: objects that re-emerge fast get a new id.
+        partial_cover: fraction of coverage from which a visible track is partially occluded.
+        border_margin: distance to the image border (pixels) counted as "at the border".
+        class_aware: only match detections of the track's class.
+        inherit_motion: a new track's first prediction moves with the median image velocity of
+            the established tracks (seen ``min_hits`` + 2 times or more, visible now; one is
+            enough): with a moving camera every object shifts with it, and a new object predicted
+            to stand still loses its id to the object behind it (convoys, turning ego vehicle).
+            Its own fit at rest counts as well, so an object that does not share the motion is
+            still found. False: start at rest, as SORT does.
+        confidence_sigmoid: map detector scores through a sigmoid for the costs (for detectors
+            that give logits, e.g. PointRCNN). Thresholds stay in the detector's own units.
+        likelihood_levels: resolution of likelihoods and confidences in the solver's objective
+            (IoU and score are rounded to multiples of 1/levels). Core-guided optimisation slows
+            with the number of distinct weights: with full resolution a crowded frame of 100
+            tracks took 25 s, with 40 levels 30 ms. Higher: finer preferences, slower worst case.
+        decompose: solve the independent components of a frame (objects linked by candidate
+            or occlusion facts) separately, each answered by clingo or by the cache of its
+            earlier answers to the same facts. Exact for the packaged encoding. None (default):
+            on with the packaged encoding, off with a user's encoding or rules (whose rules may
+            relate unconnected objects); set True when yours only relate linked objects.
+        max_conflicts: deterministic per-component work budget of the solver, in conflicts:
+            past it the best answer found so far is used and counted. The same input gives the
+            same output on any machine. None: no limit.
+        max_solve_ms: per-frame wall-clock budget for grounding + solving (milliseconds). Past
+            it the best answer found so far is used (or Hungarian matching if none) and counted;
+            results then depend on the machine's load. None: no limit.
+        velocity_prior: std of a new track's velocity before its detections show it, in box sizes
+            per second (width for x, height for y); sets ``kalman.init_velocity_std`` to
+            ``velocity_prior / fps``, so one value fits every frame rate. The velocity after the
+            second detection is the Bayesian compromise of this prior (mean: rest, or the scene's
+            motion with ``inherit_motion``) and the difference of two jittery boxes, weighted by
+            their variances. Set it near the spread of true velocities: lower trusts a young
+            track's first displacement less (no runaway predictions from detector jitter on
+            small boxes), but lets fast objects lag for a few frames (id loss after a gap).
+            None: use ``kalman.init_velocity_std`` (per frame) as given.
+        weak_confidence: detections scoring from this up to ``min_confidence`` (detector score
+            units) are weak evidence: they may continue a confirmed track that was visible in the
+            previous frame, seen twice or more and without a candidate detection scoring
+            ``min_confidence`` or more, if their IoU with its prediction is at least ``weak_iou``;
+            they never resume, start or confirm a track -- ByteTrack's second association (low
+            threshold 0.1), strong evidence first as in its cascade. None: off, detections
+            under ``min_confidence`` are not used.
+        weak_iou: minimum IoU of a weak detection with the prediction of the track it continues
+            (ByteTrack's second association: 0.5). Higher: fewer false continuations.
+        resume_reupdate: when a hidden or missing track is seen again after k unseen frames,
+            re-estimate its motion from the observations at both ends of the gap (OC-SORT's
+            observation-centric re-update): the filter returns to its state after the last
+            detection and is run over k + 1 virtual detections on the straight line from that
+            detection to the new one, instead of one correction from the drifted prediction.
+            False: one Kalman correction, as SORT does. Switch (no unit).
+        scene_shift: a hidden or missing track moves, each frame, with the image motion of the
+            scene that the predictions missed, estimated from the matched boxes: its box centre
+            and centre velocity receive the median Kalman correction (pixels, pixels/frame) of
+            the established tracks matched in that frame (at least ``SCENE_SHIFT_MIN_TRACKS``),
+            as if it had been seen where they were. A moving camera's turn or pitch moves every
+            object in the image; an unseen track otherwise keeps the image motion it had when
+            last seen. Translation only: the image scaling of forward motion depends on each
+            object's depth. Switch (no unit).
+        costs: :class:`AbductionCosts`.
+        kalman: :class:`~sensemaking.motion.KalmanConfig`.
+    """
+
+    abduction: bool = param(True, "bool", "-")
+    fps: float = param(10.0, "float", "frames / s", MIN_FPS, MAX_FPS)
+    image_size: tuple[int, int] | None = param(
+        None, "size", "pixels (width, height)", 1, MAX_IMAGE_SIDE, optional=True
+    )
+    iou_assign: float = param(0.3, "float", "IoU", 0.0, 1.0)
+    iou_resume: float = param(0.1, "float", "IoU", 0.0, 1.0)
+    resume_growth: float = param(0.05, "float", "fraction of box size per frame", 0.0, 1.0)
+    new_track_growth: float = param(1.5, "float", "factor", 1.0, 10.0)
+    min_confidence: float = param(0.0, "float", _SCORE)
+    start_confidence: float = param(0.5, "float", _SCORE)
+    max_hidden_s: float = param(3.0, "float", "s", 0.0, 3600.0)
+    max_missing_s: float = param(1.0, "float", "s", 0.0, 3600.0)
+    min_hits: int = param(1, "int", "detections", 1, 1000)
+    confirm_confidence: float | None = param(None, "float", _SCORE, optional=True)
+    hide_cover: float = param(0.5, "float", "fraction of box area", 0.0, 1.0)
+    emerge_margin: float = param(0.25, "float", "fraction of occluder size", 0.0, 10.0)
+    keep_cover: float = param(0.2, "float", "fraction of box area (<= hide_cover)", 0.0, 1.0)
+    partial_cover: float = param(0.1, "float", "fraction of box area", 0.0, 1.0)
+    border_margin: float = param(10.0, "float", "pixels", 0.0, 10_000.0)
+    class_aware: bool = param(True, "bool", "-")
+    inherit_motion: bool = param(True, "bool", "-")
+    confidence_sigmoid: bool = param(False, "bool", "-")
+    likelihood_levels: int = param(40, "int", "levels", 1, 1000)
+    decompose: bool | None = param(
+        None, "bool", "- (null: on for the packaged encoding)", optional=True
+    )
+    max_conflicts: int | None = param(
+        100_000, "int", "solver conflicts per program", 1, 10**9, optional=True
+    )
+    max_solve_ms: float | None = param(
+        None, "float", "ms", 0.0, 3_600_000.0, low_open=True, optional=True
+    )
+    velocity_prior: float | None = param(
+        3.0, "float", "box sizes / s", 0.0, 1000.0, low_open=True, optional=True
+    )
+    weak_confidence: float | None = param(None, "float", _SCORE, optional=True)
+    weak_iou: float = param(0.5, "float", "IoU", 0.0, 1.0)
+    resume_reupdate: bool = param(False, "bool", "-")
+    scene_shift: bool = param(False, "bool", "-")
+    costs: AbductionCosts = nested(AbductionCosts)
+    kalman: KalmanConfig = nested(KalmanConfig)
+
+    def __post_init__(self) -> None:
+        validate(self)  # every field's type, unit and range: its metadata
+
+    @property
+    def max_hidden_frames(self) -> int:
+        return max(1, int(round(self.max_hidden_s * self.fps)))
+
+    @property
+    def max_missing_frames(self) -> int:
+        return max(1, int(round(self.max_missing_s * self.fps)))
+
+    @property
+    def kalman_config(self) -> KalmanConfig:
+        """``kalman`` with ``velocity_prior`` (if set) as its per-frame ``init_velocity_std``."""
+        if self.velocity_prior is None:
+            return self.kalman
+        return replace(self.kalman, init_velocity_std=self.velocity_prior / self.fps)
+
+    def replace(self, **changes: Any) -> TrackerConfig:
+        """A copy with some parameters changed."""
+        return replace(self, **changes)
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    @classmethod
+    def for_dataset(cls, family: str, **changes: Any) -> TrackerConfig:
+        """The one parameter set per dataset family (``"kitti"`` or ``"mot"``); see
+        docs/PARAMETERS.md."""
+        return preset_config(family, **changes)  # presets/<family>.json
+
+
+def _declared(cls: type, prefix: str = "") -> dict[str, Param]:
+    """Dotted name -> :class:`Param` of every field of ``cls`` with one, groups expanded."""
+    out: dict[str, Param] = {}
+    for f in dataclasses.fields(cls):
+        if _PARAM not in f.metadata:
+            continue
+        spec = f.metadata[_PARAM]
+        if spec is None:  # a group: its own fields, named <name>.<field>
+            kind = f.default_factory
+            out.update(_declared(kind, f"{prefix}{f.name}."))  # type: ignore[arg-type]
+        else:
+            out[prefix + f.name] = replace(spec, key=prefix + f.name)
+    return out
+
+
+#: dotted parameter name -> :class:`Param`, in declaration order
+PARAMETERS: dict[str, Param] = _declared(TrackerConfig)
+#: the fields of :class:`TrackerConfig` that hold parameter groups
+NESTED: tuple[str, ...] = tuple(
+    f.name for f in dataclasses.fields(TrackerConfig) if f.metadata.get(_PARAM, 0) is None
+)
+
+
+#: the dataset families with a shipped preset (``presets/<family>.json``)
+FAMILIES: tuple[str, ...] = ("kitti", "mot")
+#: other names accepted for a family
+_FAMILY_ALIASES = {
+    "mot17": "mot",
+    "mot15": "mot",
+    "mot16": "mot",
+    "mot20": "mot",
+    "motchallenge": "mot",
+}
+#: the ``format`` tag of parameter files this version reads and writes
+FORMAT = "sensemaking-params/1"
+_FILE_KEYS = {"format", "base", "source", "params", "profile"}
+#: scene profiles: a camera on an ego vehicle, or a standing / handheld camera without one
+SCENE_PROFILES: tuple[str, ...] = ("driving", "fixed")
+
+
+# -- families ------------------------------------------------------------------------------------
+def family_name(family: str) -> str:
+    """The canonical family (``kitti`` / ``mot``) of a family or benchmark-rules name."""
+    key = str(family).strip().lower()
+    key = _FAMILY_ALIASES.get(key, key)
+    if key not in FAMILIES:
+        raise ParameterError(f"unknown dataset family {family!r} (kitti or mot)")
+    return key
+
+
+# -- presets and parameter documents ------------------------------------------------------------
+def _preset_document(family: str) -> dict[str, Any]:
+    name = family_name(family)
+    ref = resources.files("sensemaking") / "presets" / f"{name}.json"
+    return json.loads(ref.read_text(encoding="utf-8"))
+
+
+def preset_params(family: str) -> dict[str, Any]:
+    """The shipped preset of a family as dotted key -> value (only the values it changes)."""
+    name = family_name(family)
+    doc = _preset_document(name)
+    return document_params(doc, f"presets/{name}.json")
+
+
+def preset_source(family: str) -> str:
+    """Where a preset's values came from (its ``source`` text)."""
+    return str(_preset_document(family).get("source", ""))
+
+
+def preset_profile(family: str) -> str:
+    """The scene profile a family's preset names (``driving`` when it names none)."""
+    return str(_preset_document(family).get("profile", "driving"))
+
+
+def _flatten(params: Mapping[str, Any], where: str) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key, value in params.items():
+        if key in NESTED and isinstance(value, Mapping):
+            for sub, v in value.items():
+                out[f"{key}.{sub}"] = v
+        else:
+            out[str(key)] = value
+    return out
+
+
+def document_params(doc: Any, where: str) -> dict[str, Any]:
+    """Validated dotted params of a parameter document (``where`` names it in errors)."""
+    if not isinstance(doc, Mapping):
+        raise ParameterError("a parameter file must hold an object with a 'params' table", where)
+    unknown = sorted(set(doc) - _FILE_KEYS)
+    if unknown:
+        raise ParameterError(
+            f"unknown key {unknown[0]!r} (expected {', '.join(sorted(_FILE_KEYS))})", where
+        )
+    fmt = doc.get("format", FORMAT)
+    if fmt != FORMAT:
+        raise ParameterError(f"format {fmt!r} is not {FORMAT!r}", where)
+    profile = doc.get("profile", SCENE_PROFILES[0])
+    if profile not in SCENE_PROFILES:
+        raise ParameterError(
+            f"profile {profile!r} is not one of {', '.join(SCENE_PROFILES)}", where
+        )
+    params = doc.get("params", {})
+    if not isinstance(params, Mapping):
+        raise ParameterError("'params' must be a table of parameter: value", where)
+    out: dict[str, Any] = {}
+    for key, value in _flatten(params, where).items():
+        if key in NESTED:
+            raise ParameterError(
+                f"{key}: expected a table of {key}.NAME values, got {value!r}", where
+            )
+        if key not in PARAMETERS:
+            raise ParameterError(f"params: unknown parameter {key!r}{suggest(key)}", where)
+        if isinstance(value, list) and key in PARAMETERS and PARAMETERS[key].kind == "size":
+            value = tuple(value)
+        try:
+            out[key] = check_value(key, value)
+        except ParameterError as exc:
+            raise ParameterError(f"params.{exc.problem}", where) from None
+    return out
+
+
+def apply_settings(
+    config: TrackerConfig, params: Mapping[str, Any], where: str | None = None
+) -> TrackerConfig:
+    """``config`` with dotted ``params`` applied (``costs.x`` / ``kalman.x`` reach the nested
+    settings), validated as a whole."""
+    top: dict[str, Any] = {}
+    nested: dict[str, dict[str, Any]] = {}
+    for key, value in params.items():
+        try:
+            value = check_value(key, value)
+        except ParameterError as exc:
+            raise ParameterError(exc.problem, where) from None
+        head, _, tail = key.partition(".")
+        if tail:
+            nested.setdefault(head, {})[tail] = value
+        else:
+            top[key] = value
+    for head, changes in nested.items():
+        top[head] = dataclasses.replace(getattr(config, head), **changes)
+    try:
+        return dataclasses.replace(config, **top)
+    except ParameterError as exc:
+        raise ParameterError(exc.problem, where) from None
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(str(exc), where) from None
+
+
+def _default_config() -> TrackerConfig:
+    return TrackerConfig()
+
+
+def preset_config(family: str, **changes: Any) -> TrackerConfig:
+    """The family's preset (``presets/<family>.json``) over the defaults, then ``changes``
+    (keyword names; ``costs`` / ``kalman`` as objects, as ``TrackerConfig`` takes them)."""
+    config = apply_settings(
+        _default_config(), preset_params(family), f"presets/{family_name(family)}.json"
+    )
+    return dataclasses.replace(config, **changes) if changes else config
+
+
+def suggest(key: str) -> str:
+    """`` (did you mean 'x'?)`` for an unknown parameter name close to a known one, else ``""``."""
+    close = difflib.get_close_matches(key, list(PARAMETERS), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def check_value(key: str, value: Any) -> Any:
+    """``value`` if it is valid for parameter ``key`` (sizes become tuples), else
+    :class:`ParameterError` saying what is expected."""
+    p = PARAMETERS.get(key)
+    if p is None:
+        raise ParameterError(f"unknown parameter {key!r}{suggest(key)}")
+    return p.check(value)
+
+
+def params_of(config: Any) -> dict[str, Any]:
+    """Every parameter of a ``TrackerConfig`` as dotted key -> value."""
+    out: dict[str, Any] = {}
+    for f in dataclasses.fields(config):
+        value = getattr(config, f.name)
+        if f.name in NESTED and dataclasses.is_dataclass(value):
+            for g in dataclasses.fields(value):
+                out[f"{f.name}.{g.name}"] = getattr(value, g.name)
+        else:
+            out[f.name] = value
+    return out
+
+
+def validate(config: Any) -> None:
+    """Check every parameter of a ``TrackerConfig`` against its metadata (:data:`PARAMETERS`)
+    and the relations between them. Raises :class:`ParameterError` (a ``ValueError``) naming
+    the first bad one. Fields without metadata are left to their own class."""
+    for key, value in params_of(config).items():
+        if key in PARAMETERS:
+            check_value(key, value)
+        else:
+            log.debug("parameter %s has no Param in its field metadata", key)
+    if config.keep_cover > config.hide_cover:
+        raise ParameterError(
+            f"keep_cover ({config.keep_cover}) must not exceed hide_cover ({config.hide_cover})"
+        )
+
+
+# -- documentation ------------------------------------------------------------------------------
+def _docstring_meanings(cls: type) -> dict[str, str]:
+    """``name: text`` entries of a class docstring's ``Attributes:`` section."""
+    doc = inspect.getdoc(cls) or ""
+    out: dict[str, str] = {}
+    section = doc.split("Attributes:", 1)[1] if "Attributes:" in doc else ""
+    current: str | None = None
+    for line in section.splitlines():
+        m = re.match(r"^    (\w+): (.*)$", line)
+        if m:
+            current = m.group(1)
+            out[current] = m.group(2).strip()
+        elif current and line.startswith("        "):
+            out[current] += " " + line.strip()
+        elif line.strip() == "":
+            continue
+        else:
+            current = None
+    return out
+
+
+def _comment_meanings(cls: type) -> dict[str, str]:
+    """``#:`` comments of a dataclass's fields (on the line, or in the lines above)."""
+    try:
+        source = inspect.getsource(cls)
+    except (OSError, TypeError):  # pragma: no cover - source not shipped
+        return {}
+    out: dict[str, str] = {}
+    above: list[str] = []
+    for line in source.splitlines():
+        s = line.strip()
+        if s.startswith("#:"):
+            above.append(s[2:].strip())
+            continue
+        m = re.match(r"^(\w+): [^=]+=[^#]*(?:#:\s*(.*))?$", s)
+        if m:
+            text = " ".join(above + ([m.group(2)] if m.group(2) else []))
+            out[m.group(1)] = text.strip()
+        above = []
+    return out
+
+
+def meanings() -> dict[str, str]:
+    """Dotted parameter name -> its meaning, read from the docstrings and field comments of
+    the configuration classes."""
+    config = TrackerConfig()
+    out = dict(_docstring_meanings(TrackerConfig))
+    for name in NESTED:
+        cls = type(getattr(config, name))
+        found = _docstring_meanings(cls) or _comment_meanings(cls)
+        if not found or len(found) < len(dataclasses.fields(cls)) // 2:
+            found = {**_comment_meanings(cls), **found}
+        for k, v in found.items():
+            out[f"{name}.{k}"] = v
+    return out
+
+
+def parameters_table() -> str:
+    """The markdown table of every parameter: name, unit, valid range, default, meaning."""
+    defaults = params_of(TrackerConfig())
+    texts = meanings()
+    lines = ["| parameter | unit | valid values | default | meaning |", "|---|---|---|---|---|"]
+    for key, p in PARAMETERS.items():
+        default = defaults.get(key)
+        text = texts.get(key, "").replace("|", "\\|")
+        lines.append(
+            f"| `{key}` | {p.unit} | {p.range_text()} | {_fmt_default(default)} | {text} |"
+        )
+    return "\n".join(lines)
+
+
+def _fmt_default(value: Any) -> str:
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    if isinstance(value, tuple):
+        return "x".join(str(v) for v in value)
+    return str(value)

@@ -1,0 +1,41 @@
+"""Solver caches are objects: a tracker remembers its answers where it is told to."""
+
+from __future__ import annotations
+
+from sensemaking.abduction.components import SHARED, SolverCache
+from sensemaking.config import AbductionCosts
+from sensemaking.synthetic import crossing_scene
+from sensemaking.tracker import Tracker, TrackerConfig
+
+SCENE = crossing_scene(seed=3)
+# a cost no other test uses: a program (and so a cache key) of this module's own
+CONFIG = TrackerConfig(
+    fps=SCENE.fps, image_size=(SCENE.width, SCENE.height), costs=AbductionCosts(ignore=601)
+)
+
+
+def _run(tracker: Tracker) -> list[tuple[int, list[int], list[str]]]:
+    out = []
+    for f, d in SCENE.frames():
+        r = tracker.update(d, frame=f)
+        out.append((f, r.tracks.tracker_id.tolist(), [e.name for e in r.events]))
+    return out
+
+
+def test_a_tracker_with_its_own_cache_leaves_the_shared_one_alone():
+    shared_before = len(SHARED)
+    own = SolverCache()
+    tracker = Tracker(CONFIG, solver_cache=own)
+    results = _run(tracker)
+    assert tracker.solver.cache is own
+    assert len(own) > 0 and len(SHARED) == shared_before
+    # a second tracker on the same cache is answered from it; the answers are the same
+    again = Tracker(CONFIG, solver_cache=own)
+    assert _run(again) == results
+    assert again.solver.stats["cache_hits"] > tracker.solver.stats["cache_hits"]
+    own.clear()
+    assert len(own) == 0
+
+
+def test_the_default_cache_is_the_shared_one():
+    assert Tracker(CONFIG).solver.cache is SHARED
