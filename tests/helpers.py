@@ -14,7 +14,9 @@ ENCODING = load_encoding()
 COLUMNS = ("xyxy", "confidence", "class_id", "tracker_id", "frame", "source_row")
 
 
-def assert_same(a: Detections, b: Detections, skip: tuple[str, ...] = (), where: object = "") -> None:
+def assert_same(
+    a: Detections, b: Detections, skip: tuple[str, ...] = (), where: object = ""
+) -> None:
     """Every column identical: same dtype, same values bit for bit (signed zeros included)."""
     assert len(a) == len(b), where
     for name in COLUMNS:
@@ -34,9 +36,13 @@ def same_array(x: np.ndarray, y: np.ndarray, name: str) -> None:
 
 
 # ---- the encoding: optimal answers and their cost ----------------------------------------
-def optimal(facts: str, consts: dict[str, int] | None = None, extra: str = "") -> list[tuple[int, list[str]]]:
+def optimal(
+    facts: str, consts: dict[str, int] | None = None, extra: str = ""
+) -> list[tuple[int, list[str]]]:
     """Every optimal answer (cost, sorted shown atoms), distinct in the shown atoms."""
-    opts = ["--opt-mode=optN", "--warn=none", "0"] + [f"-c{k}={v}" for k, v in (consts or {}).items()]
+    opts = ["--opt-mode=optN", "--warn=none", "0"] + [
+        f"-c{k}={v}" for k, v in (consts or {}).items()
+    ]
     ctl = clingo.Control(opts)
     ctl.add("base", [], ENCODING)
     ctl.add("base", [], facts + "\n" + extra)
@@ -44,7 +50,9 @@ def optimal(facts: str, consts: dict[str, int] | None = None, extra: str = "") -
     found: dict[tuple[str, ...], int] = {}
 
     def on_model(m: clingo.Model) -> None:
-        if m.optimality_proven or not m.cost:  # no weak constraint grounded: every model is optimal
+        if (
+            m.optimality_proven or not m.cost
+        ):  # no weak constraint grounded: every model is optimal
             found[tuple(sorted(str(s) for s in m.symbols(shown=True)))] = sum(m.cost)
 
     result = ctl.solve(on_model=on_model)
@@ -70,6 +78,8 @@ def cost_of(problem: FrameProblem, answer) -> int:
     forced += [f":- not resume({local[t]},d({d}))." for t, d in answer.resume.items()]
     forced += [f":- not start(d({d}))." for d in answer.start]
     forced += [f":- not {n}({local[t]})." for n in ("end", "halt") for t in getattr(answer, n)]
-    forced += [f":- not occurs({n}({','.join(str(local[a]) if isinstance(a, int) else f'd({a.row})' for a in args)}))."
-               for n, args in answer.events]
+    forced += [
+        f":- not occurs({n}({','.join(str(local[a]) if isinstance(a, int) else f'd({a.row})' for a in args)}))."
+        for n, args in answer.events
+    ]
     return cost(facts_text(problem) + "\n".join(forced))

@@ -9,12 +9,27 @@ import numpy as np
 import pytest
 
 from sensemaking.adapters import (
-    COCO_ALIASES, as_detections, from_array, from_supervision, from_ultralytics, map_class_name, to_supervision,
+    COCO_ALIASES,
+    as_detections,
+    from_array,
+    from_supervision,
+    from_ultralytics,
+    map_class_name,
+    to_supervision,
 )
 from sensemaking.classes import CLASS_IDS
 from sensemaking.detections import Detections
 
-COCO = {0: "person", 1: "bicycle", 2: "car", 3: "motorcycle", 5: "bus", 6: "train", 7: "truck", 9: "traffic light"}
+COCO = {
+    0: "person",
+    1: "bicycle",
+    2: "car",
+    3: "motorcycle",
+    5: "bus",
+    6: "train",
+    7: "truck",
+    9: "traffic light",
+}
 
 
 class FakeTensor:
@@ -36,7 +51,9 @@ class FakeTensor:
         return self._values
 
 
-def fake_ultralytics(xyxy: Any, conf: Any, cls: Any, names: dict[int, str] = COCO, tensors: bool = True) -> Any:
+def fake_ultralytics(
+    xyxy: Any, conf: Any, cls: Any, names: dict[int, str] = COCO, tensors: bool = True
+) -> Any:
     wrap = FakeTensor if tensors else np.asarray
     boxes = SimpleNamespace(xyxy=wrap(xyxy), conf=wrap(conf), cls=wrap(cls), id=None)
     return SimpleNamespace(boxes=boxes, names=names, orig_shape=(375, 1242))
@@ -65,7 +82,12 @@ def test_from_ultralytics(tensors: bool):
     assert isinstance(det, Detections) and len(det) == 4
     np.testing.assert_allclose(det.xyxy, BOXES)
     np.testing.assert_allclose(det.confidence, [0.9, 0.8, 0.7, 0.3], rtol=1e-6)
-    assert det.class_id.tolist() == [CLASS_IDS["pedestrian"], CLASS_IDS["car"], CLASS_IDS["truck"], 0]
+    assert det.class_id.tolist() == [
+        CLASS_IDS["pedestrian"],
+        CLASS_IDS["car"],
+        CLASS_IDS["truck"],
+        0,
+    ]
     assert det.data["source_class_id"].tolist() == [0, 2, 5, 9]
     assert det.data["class_name"].tolist() == ["person", "car", "bus", "traffic light"]
     assert det.frame.tolist() == [7] * 4 and det.tracker_id.tolist() == [-1] * 4
@@ -86,33 +108,58 @@ def test_from_ultralytics_edge_cases():
 
 def test_from_supervision_like():
     sv_like = SimpleNamespace(
-        xyxy=np.array(BOXES[:3], dtype=np.float32), confidence=np.array([0.5, 0.6, 0.7]),
-        class_id=np.array([0, 2, 1]), tracker_id=None, mask=None,
-        data={"class_name": np.array(["person", "car", "bicycle"]), "depth": np.array([1.0, 2.0, 3.0])},
+        xyxy=np.array(BOXES[:3], dtype=np.float32),
+        confidence=np.array([0.5, 0.6, 0.7]),
+        class_id=np.array([0, 2, 1]),
+        tracker_id=None,
+        mask=None,
+        data={
+            "class_name": np.array(["person", "car", "bicycle"]),
+            "depth": np.array([1.0, 2.0, 3.0]),
+        },
     )
     det = from_supervision(sv_like, frame=3)
-    assert det.class_id.tolist() == [CLASS_IDS["pedestrian"], CLASS_IDS["car"], CLASS_IDS["bicycle"]]
+    assert det.class_id.tolist() == [
+        CLASS_IDS["pedestrian"],
+        CLASS_IDS["car"],
+        CLASS_IDS["bicycle"],
+    ]
     assert det.data["depth"].tolist() == [1.0, 2.0, 3.0]
     assert det.data["class_name"].tolist() == ["person", "car", "bicycle"]
     # no class names: ids through ``names`` or unknown
-    bare = SimpleNamespace(xyxy=np.array(BOXES[:2]), confidence=None, class_id=np.array([2, 7]), data={})
+    bare = SimpleNamespace(
+        xyxy=np.array(BOXES[:2]), confidence=None, class_id=np.array([2, 7]), data={}
+    )
     assert from_supervision(bare).class_id.tolist() == [0, 0]
-    assert from_supervision(bare, names=COCO).class_id.tolist() == [CLASS_IDS["car"], CLASS_IDS["truck"]]
+    assert from_supervision(bare, names=COCO).class_id.tolist() == [
+        CLASS_IDS["car"],
+        CLASS_IDS["truck"],
+    ]
     assert from_supervision(bare).confidence.tolist() == [1.0, 1.0]
-    no_class = SimpleNamespace(xyxy=np.array(BOXES[:2]), confidence=np.array([0.1, 0.2]), class_id=None, data={})
+    no_class = SimpleNamespace(
+        xyxy=np.array(BOXES[:2]), confidence=np.array([0.1, 0.2]), class_id=None, data={}
+    )
     assert from_supervision(no_class).class_id.tolist() == [0, 0]
 
 
 def test_supervision_round_trip():
     sv = pytest.importorskip("supervision")
-    ours = Detections(xyxy=np.array(BOXES[:2], float), confidence=[0.4, 0.9],
-                      class_id=[CLASS_IDS["car"], CLASS_IDS["cyclist"]], tracker_id=[4, 9], frame=12,
-                      data={"state": np.array([0, 1]), "occluder": np.array([-1, 4])})
+    ours = Detections(
+        xyxy=np.array(BOXES[:2], float),
+        confidence=[0.4, 0.9],
+        class_id=[CLASS_IDS["car"], CLASS_IDS["cyclist"]],
+        tracker_id=[4, 9],
+        frame=12,
+        data={"state": np.array([0, 1]), "occluder": np.array([-1, 4])},
+    )
     theirs = to_supervision(ours)
     assert isinstance(theirs, sv.Detections)
     assert theirs.tracker_id.tolist() == [4, 9]
     assert list(theirs.data["class_name"]) == ["car", "cyclist"]
-    assert theirs.data["occluder"].tolist() == [-1, 4] and theirs.data["frame"].tolist() == [12, 12]
+    assert theirs.data["occluder"].tolist() == [-1, 4] and theirs.data["frame"].tolist() == [
+        12,
+        12,
+    ]
     back = from_supervision(theirs)
     np.testing.assert_allclose(back.xyxy, ours.xyxy)
     assert back.class_id.tolist() == ours.class_id.tolist()
@@ -155,7 +202,9 @@ def test_as_detections_dispatch():
 
 def test_tracker_accepts_detector_outputs():
     tracker_mod = pytest.importorskip("sensemaking.tracker")
-    tracker = tracker_mod.Tracker(tracker_mod.TrackerConfig.for_dataset("kitti", image_size=(1242, 375)))
+    tracker = tracker_mod.Tracker(
+        tracker_mod.TrackerConfig.for_dataset("kitti", image_size=(1242, 375))
+    )
     for f in range(4):
         shifted = np.array(BOXES[:2], float) + [2 * f, 0, 2 * f, 0]
         result = tracker.update(fake_ultralytics(shifted, [0.95, 0.9], [2, 2]), frame=f)

@@ -61,7 +61,8 @@ def _onnx_model(path: Path, output: np.ndarray, size: int = 64, names: str | Non
         helper.make_node("Add", ["raw", "nothing"], ["output0"]),
     ]
     graph = helper.make_graph(
-        nodes, "tiny-yolo",
+        nodes,
+        "tiny-yolo",
         [helper.make_tensor_value_info("images", TensorProto.FLOAT, [1, 3, size, size])],
         [helper.make_tensor_value_info("output0", TensorProto.FLOAT, list(output.shape))],
         initializer=[const, zero],
@@ -84,10 +85,15 @@ def image() -> np.ndarray:
 
 
 # candidates in network pixels: cx, cy, w, h
-CANDIDATES = np.array([[32, 32, 20, 10], [33, 32, 20, 10], [33, 32, 20, 10], [10, 30, 4, 4]], float)
+CANDIDATES = np.array(
+    [[32, 32, 20, 10], [33, 32, 20, 10], [33, 32, 20, 10], [10, 30, 4, 4]], float
+)
 PERSON = np.array([0.9, 0.8, 0.0, 0.0])
 CAR = np.array([0.0, 0.0, 0.7, 0.1])
-EXPECTED = [[44, 22, 84, 42], [46, 22, 86, 42]]  # image pixels of candidates 0 (person) and 2 (car)
+EXPECTED = [
+    [44, 22, 84, 42],
+    [46, 22, 86, 42],
+]  # image pixels of candidates 0 (person) and 2 (car)
 
 
 def _check(det, classes=(CLASS_IDS["pedestrian"], CLASS_IDS["car"])) -> None:
@@ -116,7 +122,14 @@ def test_onnx_yolov5_layout(tmp_path: Path, image: np.ndarray):
 
 def test_onnx_end_to_end_layout(tmp_path: Path, image: np.ndarray):
     c = CANDIDATES
-    xyxy = np.column_stack([c[:, 0] - c[:, 2] / 2, c[:, 1] - c[:, 3] / 2, c[:, 0] + c[:, 2] / 2, c[:, 1] + c[:, 3] / 2])
+    xyxy = np.column_stack(
+        [
+            c[:, 0] - c[:, 2] / 2,
+            c[:, 1] - c[:, 3] / 2,
+            c[:, 0] + c[:, 2] / 2,
+            c[:, 1] + c[:, 3] / 2,
+        ]
+    )
     rows = np.column_stack([xyxy[[0, 2]], [0.9, 0.7], [0, 1]])  # already suppressed
     raw = np.concatenate([rows, np.zeros((298, 6))])[None]  # (1, 300, 6): padded like exports
     _check(load_detector(_onnx_model(tmp_path / "e2e.onnx", raw))(image))
@@ -129,7 +142,9 @@ def test_onnx_options(tmp_path: Path, image: np.ndarray):
     assert det.class_id.tolist() == [0, 0] and "class_name" not in det.data
     named = load_detector(path, layout="yolov8", names={0: "Cyclist", 1: "bus"}, conf=0.8)(image)
     assert named.class_id.tolist() == [CLASS_IDS["cyclist"]]
-    dropped = load_detector(_onnx_model(tmp_path / "n.onnx", raw, names="{0: 'cat', 1: 'car'}"), drop_unknown=True)
+    dropped = load_detector(
+        _onnx_model(tmp_path / "n.onnx", raw, names="{0: 'cat', 1: 'car'}"), drop_unknown=True
+    )
     assert dropped(image).class_id.tolist() == [CLASS_IDS["car"]]
     with pytest.raises(ValueError, match="RGB"):
         load_detector(path, layout="yolov8")(np.zeros((8, 8), np.uint8))
@@ -193,12 +208,31 @@ def test_track_verb_runs_a_local_onnx_model_on_a_video(tmp_path: Path, image: np
     raw = np.concatenate([CANDIDATES.T, PERSON[None], CAR[None]])[None]
     model = _onnx_model(tmp_path / "v8.onnx", raw)
     video = tmp_path / "clip.gif"
-    iio.imwrite(video, np.stack([image + 40 * i for i in range(6)]).astype(np.uint8), extension=".gif")
+    iio.imwrite(
+        video, np.stack([image + 40 * i for i in range(6)]).astype(np.uint8), extension=".gif"
+    )
     out = tmp_path / "res.txt"
     # the car scores 0.7 (float32): below the MOTChallenge family's start threshold, so set one
     # that both objects pass -- this test is about the detector pipeline, not the thresholds
-    assert main(["-q", "track", "--source", str(video), "--detector", str(model), "--output", str(out),
-                 "--fps", "10", "--set", "start_confidence=0.5"]) == 0
+    assert (
+        main(
+            [
+                "-q",
+                "track",
+                "--source",
+                str(video),
+                "--detector",
+                str(model),
+                "--output",
+                str(out),
+                "--fps",
+                "10",
+                "--set",
+                "start_confidence=0.5",
+            ]
+        )
+        == 0
+    )
     res = read_mot(out, kind="results")
     assert res.frame.min() == 1 and res.frame.max() == 6
     assert len(np.unique(res.tracker_id)) == 2 and len(res) == 12

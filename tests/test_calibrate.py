@@ -8,14 +8,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import SHARED_DATA
 
 from sensemaking import settings
 from sensemaking.calibrate import CalibrationSequence, calibrate
 from sensemaking.cli import main
 from sensemaking.detections import Detections
 from sensemaking.errors import InputError
-
-from conftest import SHARED_DATA
 
 SIZE = (640, 480)
 

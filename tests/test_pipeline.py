@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from sensemaking.detections import Detections
-from sensemaking.sinks import EventsSink, SceneSink, TracksSink, WarningsSink
 from sensemaking.pipeline import Pipeline
 from sensemaking.reasoning.online import SituationMonitor
 from sensemaking.scene import SceneRecorder
+from sensemaking.sinks import EventsSink, SceneSink, TracksSink, WarningsSink
 from sensemaking.synthetic import crossing_scene, figure1_scene
 from sensemaking.tracker import Tracker, TrackerConfig
 
@@ -22,7 +22,9 @@ def gapped_frames() -> list[tuple[int, Detections]]:
     a, b = figure1_scene(), crossing_scene(0, gap=12, far_speed=8.0)
     out = [(f, d) for f, d in a.frames() if not 30 <= f < 33]
     last = out[-1][0]
-    out += [(f + last + 500, d.with_(frame=np.full(len(d), f + last + 500))) for f, d in b.frames()]
+    out += [
+        (f + last + 500, d.with_(frame=np.full(len(d), f + last + 500))) for f, d in b.frames()
+    ]
     return out
 
 

@@ -7,7 +7,15 @@ import json
 import clingo
 import numpy as np
 import pytest
-from test_scene_helpers import CAR, CYC, Obj, build_results, build_scene, cyclist_behind_turning_car, linear
+from test_scene_helpers import (
+    CAR,
+    CYC,
+    Obj,
+    build_results,
+    build_scene,
+    cyclist_behind_turning_car,
+    linear,
+)
 
 from sensemaking.errors import InputError
 from sensemaking.reasoning.facts import scene_facts_text
@@ -26,8 +34,12 @@ def test_recorder_builds_tracks_events_and_frames(scene):
     cyc = scene.tracks[1]
     assert cyc.class_name == "cyclist" and cyc.frames.tolist() == list(range(45))
     assert (cyc.state == TrackState.HIDDEN).sum() == 13
-    assert [str(e) for e in scene.events] == ["starts(1)@0", "starts(2)@0", "hides_behind(1, 2)@21",
-                                              "unhides_from_behind(1, 2)@34"]
+    assert [str(e) for e in scene.events] == [
+        "starts(1)@0",
+        "starts(2)@0",
+        "hides_behind(1, 2)@21",
+        "unhides_from_behind(1, 2)@34",
+    ]
     assert 1 in scene and 42 not in scene and "1" not in scene
     assert scene.describe(1) == "track 1 (cyclist)" and scene.describe(42) == "track 42"
 
@@ -36,14 +48,22 @@ def test_fluents_as_intervals(scene):
     hid = scene.fluent_intervals("hidden_by")
     assert hid == [FluentInterval(21, 33, "hidden_by", (1, 2), "true")]
     assert [(f.start, f.end, f.value) for f in scene.fluent_intervals("visibility", 1)] == [
-        (0, 19, "fully_visible"), (20, 20, "partially_occluded"), (21, 33, "fully_occluded"),
-        (34, 35, "partially_occluded"), (36, 44, "fully_visible")]
+        (0, 19, "fully_visible"),
+        (20, 20, "partially_occluded"),
+        (21, 33, "fully_occluded"),
+        (34, 35, "partially_occluded"),
+        (36, 44, "fully_visible"),
+    ]
     assert [(f.start, f.end) for f in scene.fluent_intervals("in_fov")] == [(0, 44), (0, 44)]
     assert hid[0].asp() == "holds_during(hidden_by(1,2),true,21,33)."
 
 
 def test_in_fov_breaks_at_gaps_and_occluder_changes():
-    a = Obj(1, CAR, {**linear(range(0, 4), (500, 200, 560, 240)), **linear(range(7, 9), (500, 200, 560, 240))})
+    a = Obj(
+        1,
+        CAR,
+        {**linear(range(0, 4), (500, 200, 560, 240)), **linear(range(7, 9), (500, 200, 560, 240))},
+    )
     scene = build_scene([a], 10)
     assert [(f.start, f.end) for f in scene.fluent_intervals("in_fov")] == [(0, 3), (7, 8)]
 
@@ -96,22 +116,30 @@ def test_frame_results_replay(scene):
     again = list(scene.frame_results())
     orig = build_results(cyclist_behind_turning_car())
     assert [r.frame for r in again] == [r.frame for r in orig]
-    for a, b in zip(again, orig):
+    for a, b in zip(again, orig, strict=False):
         assert a.events == b.events
         assert sorted(a.tracks.tracker_id.tolist()) == sorted(b.tracks.tracker_id.tolist())
         assert a.state_of(1) == b.state_of(1)
 
 
-@pytest.mark.parametrize("text,problem", [
-    ("{", "not valid JSON"),
-    ('{"format": "other"}', "not a scene file"),
-    ('{"format": "sensemaking.scene", "version": 99}', "newer"),
-    ('{"format": "sensemaking.scene", "tracks": [{"id": 1, "frames": [0, 1], "boxes": [[0,0,1,1]]}]}',
-     "'boxes' has 1 entries for 2 frames"),
-    ('{"format": "sensemaking.scene", "tracks": [{"id": 1, "frames": [0], "boxes": [[0,0,1,1]], '
-     '"state": ["flying"]}]}', "unknown state 'flying'"),
-    ('{"format": "sensemaking.scene", "tracks": [{"frames": [0]}]}', "malformed scene"),
-])
+@pytest.mark.parametrize(
+    "text,problem",
+    [
+        ("{", "not valid JSON"),
+        ('{"format": "other"}', "not a scene file"),
+        ('{"format": "sensemaking.scene", "version": 99}', "newer"),
+        (
+            '{"format": "sensemaking.scene", "tracks": [{"id": 1, "frames": [0, 1], "boxes": [[0,0,1,1]]}]}',
+            "'boxes' has 1 entries for 2 frames",
+        ),
+        (
+            '{"format": "sensemaking.scene", "tracks": [{"id": 1, "frames": [0], "boxes": [[0,0,1,1]], '
+            '"state": ["flying"]}]}',
+            "unknown state 'flying'",
+        ),
+        ('{"format": "sensemaking.scene", "tracks": [{"frames": [0]}]}', "malformed scene"),
+    ],
+)
 def test_load_errors_name_the_file(tmp_path, text, problem):
     p = tmp_path / "bad.json"
     p.write_text(text)
@@ -154,16 +182,38 @@ def test_scene_facts_are_valid_asp_with_the_documented_predicates(scene):
     ctl.ground([("base", [])])
     names: set[str] = set()
     ctl.solve(on_model=lambda m: names.update(s.name for s in m.symbols(atoms=True)))
-    assert names == {"scene_frames", "frame", "fps", "image", "track", "first_frame", "last_frame", "box", "state",
-                     "occurs_at", "holds_during", "in_corridor", "ra", "front", "motion"}
+    assert names == {
+        "scene_frames",
+        "frame",
+        "fps",
+        "image",
+        "track",
+        "first_frame",
+        "last_frame",
+        "box",
+        "state",
+        "occurs_at",
+        "holds_during",
+        "in_corridor",
+        "ra",
+        "front",
+        "motion",
+    }
     assert "track(1,cyclist)." in text and "box(2,0,760,170,960,290)." in text
     assert "state(1,21,hidden)." in text and "occurs_at(hides_behind(1,2),21)." in text
     assert "frame(0)." in text and "frame(44)." in text and "frame(45)." not in text
     assert "motion(1,10,moving_right)." in text and "motion(2,10,moving_left)." in text
     # the cyclist's box lies inside the car's when hidden: during/during (x/y, y within tolerance)
     assert "ra(1,2,25,during,during)." in text
-    small = scene_facts_text(scene, boxes=False, states=False, relations=False, motion=False, corridor=False)
-    assert "box(" not in small and "ra(" not in small and "motion(" not in small and "in_corridor(" not in small
+    small = scene_facts_text(
+        scene, boxes=False, states=False, relations=False, motion=False, corridor=False
+    )
+    assert (
+        "box(" not in small
+        and "ra(" not in small
+        and "motion(" not in small
+        and "in_corridor(" not in small
+    )
     assert "state(" not in small and "last_frame(1,44)." in small
 
 

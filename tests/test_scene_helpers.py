@@ -34,8 +34,12 @@ class Obj:
     missing: set[int] = field(default_factory=set)
 
 
-def linear(frames: Iterable[int], box: Sequence[float], vel: Sequence[float] = (0, 0, 0, 0),
-           start: int | None = None) -> dict[int, np.ndarray]:
+def linear(
+    frames: Iterable[int],
+    box: Sequence[float],
+    vel: Sequence[float] = (0, 0, 0, 0),
+    start: int | None = None,
+) -> dict[int, np.ndarray]:
     """Boxes ``box + vel * (f - start)`` (pixels, px/frame per corner) for each frame."""
     frames = list(frames)
     s = frames[0] if start is None else start
@@ -46,7 +50,7 @@ def linear(frames: Iterable[int], box: Sequence[float], vel: Sequence[float] = (
 def piecewise(keys: Sequence[tuple[int, Sequence[float]]]) -> dict[int, np.ndarray]:
     """Boxes interpolated linearly between keyframes ``(frame, box)``."""
     out = {}
-    for (f0, b0), (f1, b1) in zip(keys, keys[1:]):
+    for (f0, b0), (f1, b1) in zip(keys, keys[1:], strict=False):
         b0, b1 = np.asarray(b0, float), np.asarray(b1, float)
         for f in range(f0, f1 + 1):
             out[f] = b0 + (b1 - b0) * (f - f0) / (f1 - f0)
@@ -63,9 +67,17 @@ def _at_border(b: np.ndarray, size: tuple[int, int], margin: float = 10.0) -> bo
     return b[0] <= margin or b[1] <= margin or b[2] >= size[0] - margin or b[3] >= size[1] - margin
 
 
-def build_results(objs: Sequence[Obj], n_frames: int | None = None, *, size: tuple[int, int] = (W, H),
-                  hide_cover: float = 0.5, partial_cover: float = 0.1, noise_px: float = 0.0,
-                  seed: int = 0, first_frame: int = 0) -> list[FrameResult]:
+def build_results(
+    objs: Sequence[Obj],
+    n_frames: int | None = None,
+    *,
+    size: tuple[int, int] = (W, H),
+    hide_cover: float = 0.5,
+    partial_cover: float = 0.1,
+    noise_px: float = 0.0,
+    seed: int = 0,
+    first_frame: int = 0,
+) -> list[FrameResult]:
     """The frame results a perfect tracker would give for the scripted objects."""
     rng = np.random.default_rng(seed)
     last = max(max(o.boxes) for o in objs) if objs else 0
@@ -96,8 +108,13 @@ def build_results(objs: Sequence[Obj], n_frames: int | None = None, *, size: tup
                 state, occ = TrackState.MISSING, -1
             else:
                 state, occ = TrackState.VISIBLE, -1
-            vis = (Visibility.FULLY_OCCLUDED if state == TrackState.HIDDEN else
-                   Visibility.PARTIALLY_OCCLUDED if best >= partial_cover else Visibility.FULLY_VISIBLE)
+            vis = (
+                Visibility.FULLY_OCCLUDED
+                if state == TrackState.HIDDEN
+                else Visibility.PARTIALLY_OCCLUDED
+                if best >= partial_cover
+                else Visibility.FULLY_VISIBLE
+            )
             if state == TrackState.VISIBLE:
                 box = b + (rng.normal(0, noise_px, 4) if noise_px else 0.0)
                 seen.setdefault(o.id, []).append((f, box))
@@ -114,7 +131,13 @@ def build_results(objs: Sequence[Obj], n_frames: int | None = None, *, size: tup
                 unseen[o.id] = unseen.get(o.id, 0) + 1
             before = prev_state.get(o.id)
             if before is None:
-                events.append(Event(f, "enters_fov" if _at_border(b, size) and f > first_frame else "starts", (o.id,)))
+                events.append(
+                    Event(
+                        f,
+                        "enters_fov" if _at_border(b, size) and f > first_frame else "starts",
+                        (o.id,),
+                    )
+                )
             elif before == TrackState.VISIBLE and state == TrackState.HIDDEN:
                 events.append(Event(f, "hides_behind", (o.id, occ)))
             elif before == TrackState.VISIBLE and state == TrackState.MISSING:
@@ -132,19 +155,29 @@ def build_results(objs: Sequence[Obj], n_frames: int | None = None, *, size: tup
             events.append(Event(f, "leaves_fov" if _at_border(lastb, size) else "ends", (t,)))
             del prev_state[t]
         tracks = Detections(
-            xyxy=np.array([r[2] for r in rows]).reshape(-1, 4), class_id=[r[1] for r in rows],
-            tracker_id=[r[0] for r in rows], frame=np.full(len(rows), f),
-            data={"state": np.array([int(r[3]) for r in rows], dtype=np.int64),
-                  "occluder": np.array([r[4] for r in rows], dtype=np.int64),
-                  "visibility": np.array([int(r[5]) for r in rows], dtype=np.int64),
-                  "hidden_frames": np.array([r[6] for r in rows], dtype=np.int64)},
+            xyxy=np.array([r[2] for r in rows]).reshape(-1, 4),
+            class_id=[r[1] for r in rows],
+            tracker_id=[r[0] for r in rows],
+            frame=np.full(len(rows), f),
+            data={
+                "state": np.array([int(r[3]) for r in rows], dtype=np.int64),
+                "occluder": np.array([r[4] for r in rows], dtype=np.int64),
+                "visibility": np.array([int(r[5]) for r in rows], dtype=np.int64),
+                "hidden_frames": np.array([r[6] for r in rows], dtype=np.int64),
+            },
         )
         out.append(FrameResult(f, tracks, sorted(events)))
     return out
 
 
-def build_scene(objs: Sequence[Obj], n_frames: int | None = None, *, fps: float = 10.0,
-                size: tuple[int, int] = (W, H), **kw) -> Scene:
+def build_scene(
+    objs: Sequence[Obj],
+    n_frames: int | None = None,
+    *,
+    fps: float = 10.0,
+    size: tuple[int, int] = (W, H),
+    **kw,
+) -> Scene:
     """The :class:`Scene` a recorder makes of :func:`build_results`."""
     rec = SceneRecorder(fps=fps, image_size=size)
     for r in build_results(objs, n_frames, size=size, **kw):

@@ -213,7 +213,7 @@ def det_file(tmp_path: Path) -> Path:
     order = np.argsort(d.frame, kind="stable")
     lines = [
         f"{d.frame[i] + 1},-1,{x:.2f},{y:.2f},{w:.2f},{h:.2f},{d.confidence[i]:.3f},-1,-1,-1"
-        for i, (x, y, w, h) in zip(order, d.xywh[order])
+        for i, (x, y, w, h) in zip(order, d.xywh[order], strict=False)
     ]
     (seq / "det" / "det.txt").write_text("\n".join(lines) + "\n")
     (seq / "seqinfo.ini").write_text(

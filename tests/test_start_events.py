@@ -6,13 +6,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import SHARED_DATA
 
 from sensemaking.detections import Detections
 from sensemaking.evaluation.explanations import late_start_events
 from sensemaking.results import Event, FrameResult
 from sensemaking.tracker import Tracker, TrackerConfig
-
-from conftest import SHARED_DATA
 
 START = ("starts", "enters_fov")
 
@@ -68,6 +67,8 @@ def test_kitti_sequence_log_and_tracks_agree():
     tracker = Tracker(ours_config("kitti", fps=float(seq.info.fps), image_size=size))
     assert tracker.config.min_hits > 1  # tentative tracks exist
     frames = dict(seq.detections.frames())
-    results = [tracker.update(frames.get(f, Detections.empty()), frame=f) for f in seq.frame_numbers]
+    results = [
+        tracker.update(frames.get(f, Detections.empty()), frame=f) for f in seq.frame_numbers
+    ]
     late, total = _check_agreement(results)
     assert total > 0 and late == 0

@@ -8,9 +8,9 @@ import time
 import numpy as np
 import pytest
 
+from sensemaking.abduction.observe import borders, int_columns, quantize
 from sensemaking.classes import CLASS_IDS
 from sensemaking.detections import Detections
-from sensemaking.abduction.observe import borders, int_columns, quantize
 from sensemaking.evaluation import evaluate_sequence
 from sensemaking.results import Event, FrameResult, TrackState
 from sensemaking.synthetic import SyntheticScene, crossing_scene, occlusion_suite
@@ -27,7 +27,9 @@ def frame(*boxes, cls=PED, conf=0.9, rows=None) -> Detections:
     return Detections(np.array(boxes, dtype=float), confidence=conf, class_id=cls, source_row=rows)
 
 
-def walker(f: int, x0: float = 100.0, y0: float = 100.0, v: float = 5.0, w: float = 40.0, h: float = 100.0):
+def walker(
+    f: int, x0: float = 100.0, y0: float = 100.0, v: float = 5.0, w: float = 40.0, h: float = 100.0
+):
     return (x0 + v * f, y0, x0 + v * f + w, y0 + h)
 
 
@@ -55,7 +57,7 @@ def gt_of(scene: SyntheticScene, results: list[FrameResult]) -> dict[int, set[in
     out: dict[int, set[int]] = {}
     for r in results:
         v = r.visible
-        for t, row in zip(v.tracker_id.tolist(), v.source_row.tolist()):
+        for t, row in zip(v.tracker_id.tolist(), v.source_row.tolist(), strict=False):
             out.setdefault(t, set()).add(int(scene.detections.data["gt_id"][row]))
     return out
 
@@ -111,16 +113,21 @@ def test_frame_number_taken_from_the_detections():
 
 # ---- hidden tracks ------------------------------------------------------------------------
 def test_hidden_track_is_reported_with_predicted_box_and_occluder():
-    scene = with_rows(crossing_scene(0))  # far pedestrian (object 1) passes behind the near one (2)
+    scene = with_rows(
+        crossing_scene(0)
+    )  # far pedestrian (object 1) passes behind the near one (2)
     results = run(scene)
     owner = gt_of(scene, results)
     assert all(len(v) == 1 for v in owner.values()), "no identity switch"
     far = next(t for t, v in owner.items() if v == {1})
     near = next(t for t, v in owner.items() if v == {2})
     det = scene.detections
-    gap = [f for f in range(scene.n_frames)
-           if not np.any((det.frame == f) & (det.data["gt_id"] == 1))
-           and np.any(scene.ground_truth.frame == f)]
+    gap = [
+        f
+        for f in range(scene.n_frames)
+        if not np.any((det.frame == f) & (det.data["gt_id"] == 1))
+        and np.any(scene.ground_truth.frame == f)
+    ]
     assert len(gap) == 8
     boxes = []
     for f in gap:
@@ -193,7 +200,7 @@ def test_nested_objects_born_together_keep_their_ids():
     t = Tracker()
     for f in range(4):
         r = t.update(frame(NEAR, FAR), frame=f)
-        assert dict(zip(ids(r), map(tuple, r.tracks.xyxy.tolist()))) == {1: NEAR, 2: FAR}, f
+        assert dict(zip(ids(r), map(tuple, r.tracks.xyxy.tolist()), strict=False)) == {1: NEAR, 2: FAR}, f
 
 
 # ---- confirmation -------------------------------------------------------------------------
@@ -230,7 +237,9 @@ def test_confirm_confidence_reports_strong_tracks_at_once_and_weak_ones_after_mi
     for f in range(3, 8):
         strong = Detections(np.array([walker(f)]), confidence=0.95, class_id=PED)
         weak = Detections(np.array([walker(f, x0=500)]), confidence=0.8, class_id=PED)
-        results.append(t.update(Detections.concatenate([frame(walker(f, x0=900)), strong, weak]), frame=f))
+        results.append(
+            t.update(Detections.concatenate([frame(walker(f, x0=900)), strong, weak]), frame=f)
+        )
     strong_id, weak_id = 2, 3
     assert strong_id in ids(results[0])  # confirmed by its first, strong detection
     assert weak_id not in ids(results[0]) and weak_id not in ids(results[1])
@@ -241,8 +250,15 @@ def test_confirm_confidence_none_keeps_plain_min_hits():
     t = Tracker(TrackerConfig(min_hits=3))
     for f in range(3):
         t.update(frame(walker(f, x0=900)), frame=f)
-    r = t.update(Detections.concatenate([frame(walker(3, x0=900)),
-                                         Detections(np.array([walker(3)]), confidence=0.99, class_id=PED)]), frame=3)
+    r = t.update(
+        Detections.concatenate(
+            [
+                frame(walker(3, x0=900)),
+                Detections(np.array([walker(3)]), confidence=0.99, class_id=PED),
+            ]
+        ),
+        frame=3,
+    )
     assert ids(r) == [1]
 
 
@@ -259,19 +275,23 @@ def convoy(f: int, n_cars: int = 3, start: int = 3) -> list[tuple]:
 @pytest.mark.parametrize("abduction", [True, False])
 def test_inherit_motion_keeps_ids_in_a_convoy_seen_from_a_turning_camera(abduction):
     def switches(inherit: bool) -> int:
-        t = Tracker(TrackerConfig(fps=10, abduction=abduction, inherit_motion=inherit, iou_assign=0.2))
+        t = Tracker(
+            TrackerConfig(fps=10, abduction=abduction, inherit_motion=inherit, iou_assign=0.2)
+        )
         owner: dict[int, int] = {}  # source row within the convoy -> track id
         n = 0
         for f in range(12):
             r = t.update(frame(*convoy(f), cls=CAR, rows=np.arange(len(convoy(f)))), frame=f)
-            for tid, row in zip(ids(r), r.tracks.source_row.tolist()):
+            for tid, row in zip(ids(r), r.tracks.source_row.tolist(), strict=False):
                 if row >= 2:
                     n += owner.get(row, tid) != tid
                     owner[row] = tid
         return n
 
     assert switches(True) == 0
-    assert switches(False) > 0  # standing-still predictions: each car takes the track of the one ahead
+    assert (
+        switches(False) > 0
+    )  # standing-still predictions: each car takes the track of the one ahead
 
 
 def test_scene_velocity_from_the_established_tracks_one_is_enough():
@@ -285,7 +305,10 @@ def test_scene_velocity_from_the_established_tracks_one_is_enough():
     t2 = Tracker(TrackerConfig())
     for f in range(5):
         t2.update(frame(walker(f, v=10.0), walker(f, x0=600, v=10.0)), frame=f)
-    assert abs(t2.scene_velocity()[0] - 10.0) < 1.0 and t2.scene_velocity()[2:].tolist() == [0.0, 0.0]
+    assert abs(t2.scene_velocity()[0] - 10.0) < 1.0 and t2.scene_velocity()[2:].tolist() == [
+        0.0,
+        0.0,
+    ]
     t3 = Tracker(TrackerConfig(inherit_motion=False))
     for f in range(5):
         t3.update(frame(walker(f, v=10.0)), frame=f)
@@ -297,9 +320,12 @@ def test_a_convoy_led_by_one_tracked_car_keeps_its_ids(abduction):
     """KITTI 0007 frames 38-50: one tracked car leads a convoy into view, the cars behind move
     45 px a frame, more than their gaps: a follower predicted at rest took the detection of the
     car behind it, every frame, until the scene's motion was known from two tracks."""
+
     def boxes(f: int) -> list[tuple]:
         lead = [(45 * f, 190, 45 * f + 120, 250)]  # big and near: its boxes overlap
-        return lead + [(45 * f - 50 * k, 200, 45 * f - 50 * k + 60, 240) for k in range(1, 4) if f >= 6 + k]
+        return lead + [
+            (45 * f - 50 * k, 200, 45 * f - 50 * k + 60, 240) for k in range(1, 4) if f >= 6 + k
+        ]
 
     t = Tracker(TrackerConfig(fps=10, abduction=abduction, iou_assign=0.2, iou_resume=0.2))
     owner: dict[int, int] = {}  # source row (car) -> track id
@@ -307,7 +333,7 @@ def test_a_convoy_led_by_one_tracked_car_keeps_its_ids(abduction):
     for f in range(16):
         b = boxes(f)
         r = t.update(frame(*b, cls=CAR, rows=np.arange(len(b))), frame=f)
-        for tid, row in zip(ids(r), r.tracks.source_row.tolist()):
+        for tid, row in zip(ids(r), r.tracks.source_row.tolist(), strict=False):
             n += owner.get(row, tid) != tid
             owner[row] = tid
     assert n == 0 and len(owner) == 4
@@ -346,14 +372,20 @@ def test_source_row_of_visible_tracks_points_to_the_input_row():
     # the input's own row numbers, not positions in the frame
     t = Tracker()
     r = t.update(frame(walker(0), walker(0, x0=400), rows=[17, 3]), frame=0)
-    assert dict(zip(ids(r), r.tracks.source_row.tolist())) == {1: 17, 2: 3}
+    assert dict(zip(ids(r), r.tracks.source_row.tolist(), strict=False)) == {1: 17, 2: 3}
 
 
 # ---- budget -------------------------------------------------------------------------------
 def test_tiny_solve_budget_never_stalls():
     scene = with_rows(crossing_scene(2))
-    t = Tracker(TrackerConfig(fps=scene.fps, image_size=(scene.width, scene.height), max_solve_ms=0.001,
-                              decompose=False))
+    t = Tracker(
+        TrackerConfig(
+            fps=scene.fps,
+            image_size=(scene.width, scene.height),
+            max_solve_ms=0.001,
+            decompose=False,
+        )
+    )
     t0 = time.perf_counter()
     results = [t.update(d, frame=f) for f, d in scene.frames()]
     elapsed = time.perf_counter() - t0
@@ -370,7 +402,9 @@ def test_tiny_solve_budget_never_stalls():
 
 def test_no_model_in_time_falls_back_to_hungarian_and_is_counted(monkeypatch):
     scene = with_rows(crossing_scene(2))
-    t = Tracker(TrackerConfig(fps=scene.fps, image_size=(scene.width, scene.height), decompose=False))
+    t = Tracker(
+        TrackerConfig(fps=scene.fps, image_size=(scene.width, scene.height), decompose=False)
+    )
     # as if the budget ran out before any model
     monkeypatch.setattr(t.solver, "solve", lambda problem, budget_ms=None: None)
     results = [t.update(d, frame=f) for f, d in scene.frames()]
@@ -394,7 +428,11 @@ def _gated_and_ungated(t: Tracker, dets: Detections):
     finally:
         t.config = config
     ti, dj = np.nonzero(lik > 0)
-    cand = np.stack([ti, dj, quantize(t.config, lik[ti, dj])], axis=1) if ti.size else np.zeros((0, 3), np.int64)
+    cand = (
+        np.stack([ti, dj, quantize(t.config, lik[ti, dj])], axis=1)
+        if ti.size
+        else np.zeros((0, 3), np.int64)
+    )
     return gated, dataclasses.replace(gated, cand=cand, cand_exact=lik[ti, dj])
 
 
@@ -407,15 +445,23 @@ def _random_frames(rng: np.random.Generator, n_frames: int = 10):
     for f in range(n_frames):
         seen = rng.random(n) > 0.25
         p = xy + v * f + rng.normal(0, 6, (n, 2))
-        yield f, Detections(np.concatenate([p, p + wh], axis=1)[seen],
-                            confidence=rng.uniform(0.3, 1.0, int(seen.sum())), class_id=cls[seen])
+        yield (
+            f,
+            Detections(
+                np.concatenate([p, p + wh], axis=1)[seen],
+                confidence=rng.uniform(0.3, 1.0, int(seen.sum())),
+                class_id=cls[seen],
+            ),
+        )
 
 
 def test_gating_is_only_an_optimisation_on_random_problems():
     compared = 0
     for seed in range(16):
         rng = np.random.default_rng(seed)
-        t = Tracker(TrackerConfig(likelihood_levels=int(rng.choice([10, 40])), image_size=(400, 400)))
+        t = Tracker(
+            TrackerConfig(likelihood_levels=int(rng.choice([10, 40])), image_size=(400, 400))
+        )
         for f, dets in _random_frames(rng):
             gated, ungated = _gated_and_ungated(t, dets)
             gated_pairs = {tuple(r) for r in gated.cand.tolist()}
@@ -443,15 +489,22 @@ def test_gate_admits_a_pair_that_rounds_up_to_the_threshold():
 @pytest.fixture(scope="module")
 def suite_runs():
     """(seed, scene, abductive results, ablation results) for the occlusion suite, seeds 0-2."""
-    return [(seed, s, run(s), run(s, abduction=False))
-            for seed in (0, 1, 2) for s in map(with_rows, occlusion_suite(seed))]
+    return [
+        (seed, s, run(s), run(s, abduction=False))
+        for seed in (0, 1, 2)
+        for s in map(with_rows, occlusion_suite(seed))
+    ]
 
 
 def _idsw(scene: SyntheticScene, results: list[FrameResult]) -> int:
     tracks = Detections.concatenate([r.visible for r in results])
     tracks = tracks.with_(frame=tracks.frame + 1, data={}, class_id=np.ones(len(tracks), int))
     gt = scene.ground_truth
-    gt = gt.with_(frame=gt.frame + 1, class_id=np.ones(len(gt), int), data={"consider": np.ones(len(gt), int)})
+    gt = gt.with_(
+        frame=gt.frame + 1,
+        class_id=np.ones(len(gt), int),
+        data={"consider": np.ones(len(gt), int)},
+    )
     return int(evaluate_sequence(gt, tracks, "mot15", n_frames=scene.n_frames)["IDSW"])
 
 
@@ -499,22 +552,35 @@ def test_figure1_cyclist_hides_behind_the_car_and_unhides(suite_runs):
 def test_components_keep_the_frames_optimum_on_a_dense_scene():
     """Independent components solved apart (and answered from the cache) cost what the whole
     frame in one program costs, on every frame of a dense scene with misses and false positives."""
-    from sensemaking.abduction.components import ComponentSolver
-    from sensemaking.synthetic import make_scene
     from helpers import cost_of
 
-    scene = make_scene(30, n_frames=40, overlap=0.5, seed=7, miss_rate=0.1, false_positive_rate=0.3)
-    t = Tracker(TrackerConfig(fps=scene.fps, image_size=(scene.width, scene.height), min_confidence=0.2,
-                              start_confidence=0.6))
+    from sensemaking.abduction.components import ComponentSolver
+    from sensemaking.synthetic import make_scene
+
+    scene = make_scene(
+        30, n_frames=40, overlap=0.5, seed=7, miss_rate=0.1, false_positive_rate=0.3
+    )
+    t = Tracker(
+        TrackerConfig(
+            fps=scene.fps,
+            image_size=(scene.width, scene.height),
+            min_confidence=0.2,
+            start_confidence=0.6,
+        )
+    )
     whole = ComponentSolver(t.solver.solver, decompose=False)
     split = 0
     for f, dets in scene.frames():
         pred = t.tracks.kf.copy().predict(1) if len(t.tracks.kf) else np.zeros((0, 4))
         problem = t.problem(dets, pred)
-        assert cost_of(problem, t.solver.solve(problem)) == cost_of(problem, whole.solve(problem)), f"frame {f}"
+        assert cost_of(problem, t.solver.solve(problem)) == cost_of(
+            problem, whole.solve(problem)
+        ), f"frame {f}"
         split += len(problem.components()) > 1
         t.update(dets, frame=f)
-    assert split > 30 and t.solver.stats["cache_hits"] > 0  # the decomposition really did something
+    assert (
+        split > 30 and t.solver.stats["cache_hits"] > 0
+    )  # the decomposition really did something
 
 
 def _borders_reference(t: Tracker, boxes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -523,8 +589,9 @@ def _borders_reference(t: Tracker, boxes: np.ndarray) -> tuple[np.ndarray, np.nd
     m = t.config.border_margin
     x1, y1, x2, y2 = boxes.T
     at = (x1 <= m) | (y1 <= m) | (x2 >= w - m) | (y2 >= h - m)
-    inter = np.maximum(np.minimum(x2, w) - np.maximum(x1, 0.0), 0.0) * \
-        np.maximum(np.minimum(y2, h) - np.maximum(y1, 0.0), 0.0)
+    inter = np.maximum(np.minimum(x2, w) - np.maximum(x1, 0.0), 0.0) * np.maximum(
+        np.minimum(y2, h) - np.maximum(y1, 0.0), 0.0
+    )
     area = np.maximum(x2 - x1, 0.0) * np.maximum(y2 - y1, 0.0)
     with np.errstate(divide="ignore", invalid="ignore"):
         inside = np.where(area > 0, inter / np.where(area > 0, area, 1.0), 0.0)
@@ -551,9 +618,18 @@ def test_quantize_rounds_as_np_round():
     """quantize rounds with np.rint: np.round's own choice for 0 decimals (halves to even)."""
     t = Tracker()
     rng = np.random.default_rng(2)
-    x = np.concatenate([rng.random(5000), np.arange(0, 41) / 40, (np.arange(0, 80) + 0.5) / 80, [0.0, 1.0, 1.5, -0.2]])
+    x = np.concatenate(
+        [
+            rng.random(5000),
+            np.arange(0, 41) / 40,
+            (np.arange(0, 80) + 0.5) / 80,
+            [0.0, 1.0, 1.5, -0.2],
+        ]
+    )
     levels = t.config.likelihood_levels
-    ref = (np.round(np.minimum(np.maximum(x, 0.0), 1.0) * levels + 1e-9) * 1000 // levels).astype(np.int64)
+    ref = (np.round(np.minimum(np.maximum(x, 0.0), 1.0) * levels + 1e-9) * 1000 // levels).astype(
+        np.int64
+    )
     assert np.array_equal(quantize(t.config, x), ref)
     assert np.array_equal(np.rint(x * 7), np.round(x * 7))
 
@@ -562,7 +638,11 @@ def test_quantize_rounds_as_np_round():
 def test_int_columns_equals_np_stack(n):
 
     rng = np.random.default_rng(n)
-    cols = [rng.integers(-5, 50, n), rng.integers(0, 9, n).astype(np.intp), rng.integers(0, 1000, n)]
+    cols = [
+        rng.integers(-5, 50, n),
+        rng.integers(0, 9, n).astype(np.intp),
+        rng.integers(0, 1000, n),
+    ]
     out, ref = int_columns(*cols), np.stack(cols, axis=1).astype(np.int64)
     assert out.dtype == ref.dtype and out.shape == ref.shape and out.flags.c_contiguous
     np.testing.assert_array_equal(out, ref)
@@ -575,9 +655,11 @@ def test_a_young_track_does_not_run_away_on_the_jitter_of_its_second_box(abducti
     (two-point initialisation) carried the prediction a box width away during a 2-frame gap,
     and the returning detection started a new id. ``velocity_prior`` weighs the first
     displacement against how fast objects plausibly move, so the track waits near its boxes."""
+
     def same_id(config: TrackerConfig) -> bool:
         t = Tracker(config)
-        small = lambda x: (x, 200.0, x + 16.0, 240.0)
+        def small(x):
+            return (x, 200.0, x + 16.0, 240.0)
         first = ids(t.update(frame(small(400.0)), frame=0))
         t.update(frame(small(404.0)), frame=1)  # detector jitter, not motion
         for f in (2, 3):
@@ -585,13 +667,20 @@ def test_a_young_track_does_not_run_away_on_the_jitter_of_its_second_box(abducti
         return ids(t.update(frame(small(400.0)), frame=4)) == first
 
     config = TrackerConfig(fps=30, abduction=abduction)
-    assert config.velocity_prior == 3.0 and config.kalman_config.init_velocity_std == pytest.approx(0.1)
+    assert (
+        config.velocity_prior == 3.0
+        and config.kalman_config.init_velocity_std == pytest.approx(0.1)
+    )
     assert same_id(config)
-    assert not same_id(config.replace(velocity_prior=None))  # the per-frame 1.0: two-point velocity
+    assert not same_id(
+        config.replace(velocity_prior=None)
+    )  # the per-frame 1.0: two-point velocity
 
 
 def test_velocity_prior_is_per_second_and_validated():
-    assert TrackerConfig(fps=10, velocity_prior=3.0).kalman_config.init_velocity_std == pytest.approx(0.3)
+    assert TrackerConfig(
+        fps=10, velocity_prior=3.0
+    ).kalman_config.init_velocity_std == pytest.approx(0.3)
     config = TrackerConfig(velocity_prior=None)
     assert config.kalman_config is config.kalman
     for bad in (0.0, -1.0, float("nan")):

@@ -23,8 +23,14 @@ def _car(f: int) -> tuple[float, float, float, float]:
 
 def _frames(n: int = 50):
     for f in range(n):
-        yield f, Detections(np.array([_car(f), (300 + 6 * f, 300, 350 + 6 * f, 340)], dtype=float),
-                            confidence=np.array([0.9, 0.9]), class_id=np.array([2, 2]))
+        yield (
+            f,
+            Detections(
+                np.array([_car(f), (300 + 6 * f, 300, 350 + 6 * f, 340)], dtype=float),
+                confidence=np.array([0.9, 0.9]),
+                class_id=np.array([2, 2]),
+            ),
+        )
 
 
 def test_a_new_event_in_user_rules_is_reported_on_every_frame_where_it_holds():
@@ -36,7 +42,7 @@ def test_a_new_event_in_user_rules_is_reported_on_every_frame_where_it_holds():
             v = tracker.tracks.kf.copy().predict(1) - tracker.tracks.kf.xyxy()
             speed = np.rint(np.hypot((v[:, 0] + v[:, 2]) / 2, (v[:, 1] + v[:, 3]) / 2) * 10)
             ids = tracker.tracks.id.tolist()
-            expected += [(f, t) for t, s in zip(ids, speed.tolist()) if s < 30]
+            expected += [(f, t) for t, s in zip(ids, speed.tolist(), strict=False) if s < 30]
         result = tracker.update(dets, frame=f)
         reported += [(f, e.args[0]) for e in result.events if e.name == "stops"]
     assert reported == expected
@@ -63,15 +69,21 @@ def test_a_replaced_encoding_is_used_and_rules_may_come_from_a_file(tmp_path):
     names = set()
     for f in range(12):
         x = 100 + 30 * f
-        dets = Detections(np.array([[x, 100, x + 60, 160]], dtype=float) if x < 300 else np.zeros((0, 4)),
-                          confidence=np.full(int(x < 300), 0.9), class_id=np.full(int(x < 300), 2))
+        dets = Detections(
+            np.array([[x, 100, x + 60, 160]], dtype=float) if x < 300 else np.zeros((0, 4)),
+            confidence=np.full(int(x < 300), 0.9),
+            class_id=np.full(int(x < 300), 2),
+        )
         names |= {e.name for e in tracker.update(dets, frame=f).events}
     assert "leaves_fov" not in names and "ends" in names
     default = Tracker(TrackerConfig(fps=10, image_size=(300, 300), min_hits=1))
     for f in range(12):
         x = 100 + 30 * f
-        dets = Detections(np.array([[x, 100, x + 60, 160]], dtype=float) if x < 300 else np.zeros((0, 4)),
-                          confidence=np.full(int(x < 300), 0.9), class_id=np.full(int(x < 300), 2))
+        dets = Detections(
+            np.array([[x, 100, x + 60, 160]], dtype=float) if x < 300 else np.zeros((0, 4)),
+            confidence=np.full(int(x < 300), 0.9),
+            class_id=np.full(int(x < 300), 2),
+        )
         names |= {e.name for e in default.update(dets, frame=f).events}
     assert "leaves_fov" in names
 
@@ -115,10 +127,32 @@ def test_track_cli_reports_user_events_and_situations(tmp_path):
     situations.write_text("warn(seen,(T,)) :- now(N), track(T,_), state(T,N,visible).\n")
     out, events, warnings = tmp_path / "out.txt", tmp_path / "ev.jsonl", tmp_path / "w.jsonl"
     scene = tmp_path / "scene.json"
-    code = main(["-q", "track", "--detections", str(det), "--format", "mot", "--output", str(out),
-                 "--events", str(events), "--warnings", str(warnings), "--fps", "10",
-                 "--scene", str(scene),
-                 "--image-size", "1000x500", "--rules", str(rules), "--situations", str(situations)])
+    code = main(
+        [
+            "-q",
+            "track",
+            "--detections",
+            str(det),
+            "--format",
+            "mot",
+            "--output",
+            str(out),
+            "--events",
+            str(events),
+            "--warnings",
+            str(warnings),
+            "--fps",
+            "10",
+            "--scene",
+            str(scene),
+            "--image-size",
+            "1000x500",
+            "--rules",
+            str(rules),
+            "--situations",
+            str(situations),
+        ]
+    )
     assert code == 0
     names = [json.loads(line)["event"] for line in events.read_text().splitlines()]
     assert "stops" in names and "starts" in names

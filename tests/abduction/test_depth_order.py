@@ -5,14 +5,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import optimal
 
 from sensemaking.classes import CLASS_IDS
 from sensemaking.detections import Detections
 from sensemaking.geometry import cut_by_border, in_front
 from sensemaking.reasoning.relations import pair_front
 from sensemaking.tracker import Tracker, TrackerConfig
-
-from helpers import optimal
 
 CAR = CLASS_IDS["car"]
 SIZE = (1242, 375)
@@ -120,8 +119,12 @@ def test_gate_and_relations_agree_where_box_bottom_and_depth_disagree():
 
 # ---- the successor rule of tracking.lp, on tiny programs ----------------------------------
 def _track(t: int, *flags: str) -> str:
-    out = [f"track({t}).", f"ttype({t},1).", f"holds(in_fov({t}),true,0).",
-           f"holds(visibility({t}),fully_visible,0)."]
+    out = [
+        f"track({t}).",
+        f"ttype({t},1).",
+        f"holds(in_fov({t}),true,0).",
+        f"holds(visibility({t}),fully_visible,0).",
+    ]
     return " ".join(out + [f"{f}({t})." for f in flags])
 
 
@@ -160,22 +163,28 @@ def test_a_track_never_hides_behind_a_tentative_successor_but_may_behind_a_confi
 def test_a_track_cut_by_the_border_leaves_rather_than_starts_hiding():
     # track 1 is cut by the border and a track in front covers it (as 3D depth can say of a
     # truncated car): it leaves the view, it does not start hiding
-    facts = _track(1, "active", "at_border", "cut") + _track(2, "active") + _det(0) + (
-        "cand(2,d(0),900). covers(d(0),1).")
+    facts = (
+        _track(1, "active", "at_border", "cut")
+        + _track(2, "active")
+        + _det(0)
+        + ("cand(2,d(0),900). covers(d(0),1).")
+    )
     for ev in _events(facts):
         assert "occurs(leaves_fov(1))" in ev
         assert not any(a.startswith("occurs(hides_behind(1,") for a in ev)
     # away from the border the same track hides; so does one whose top only is cut
     inside = facts.replace("cut(1).", "")
     assert all("occurs(hides_behind(1,2))" in ev for ev in _events(inside))
-    assert all("occurs(hides_behind(1,2))" in ev for ev in _events(inside.replace("at_border(1).", "")))
-
+    assert all(
+        "occurs(hides_behind(1,2))" in ev for ev in _events(inside.replace("at_border(1).", ""))
+    )
 
 
 def test_depth_from_a_3d_detector_is_carried_into_the_track_table():
     loc = np.array([[1.0, 1.5, 12.5], [0.0, 1.5, -1000.0]])
-    dets = Detections(np.array([[0, 0, 10, 10], [20, 0, 30, 10]], dtype=float),
-                      data={"location": loc})
+    dets = Detections(
+        np.array([[0, 0, 10, 10], [20, 0, 30, 10]], dtype=float), data={"location": loc}
+    )
     assert dets.depth[0] == 12.5 and np.isnan(dets.depth[1])  # KITTI's placeholder: unknown
     assert np.isnan(Detections(np.array([[0, 0, 10, 10]], dtype=float)).depth).all()
     own = Detections(np.array([[0, 0, 10, 10]], dtype=float), data={"depth": [7.0]})
@@ -200,7 +209,9 @@ def test_pair_front_with_the_relations_margin_is_the_lower_bottom_y_relation():
     pairs, codes = pair_relations(boxes, RelationConfig(near=10.0))
     front = pair_front(boxes, pairs, config=RelationConfig())
     assert len(pairs) > 100
-    assert [f == 1 for f in front.tolist()] == [IA_RELATIONS[c[1]] in lower for c in codes.tolist()]
+    assert [f == 1 for f in front.tolist()] == [
+        IA_RELATIONS[c[1]] in lower for c in codes.tolist()
+    ]
     plain = in_front(boxes)
     for (i, j), f in zip(pairs.tolist(), front.tolist(), strict=True):
         if f == 1:
@@ -227,8 +238,14 @@ def test_kitti_cars_cut_by_the_border_are_not_hidden(shared_data):
         result = tracker.update(frames.get(f, Detections.empty()), frame=f)
         outputs.append(result.visible)
         events += result.events
-    gt = load_ground_truth(seq.gt_path, "kitti", image_size=size, fps=float(seq.info.fps),
-                           classes=("car",), n_frames=int(seq.info.length))
+    gt = load_ground_truth(
+        seq.gt_path,
+        "kitti",
+        image_size=size,
+        fps=float(seq.info.fps),
+        classes=("car",),
+        n_frames=int(seq.info.length),
+    )
     verdicts = evaluate_explanations(gt, Detections.concatenate(outputs), events).events
     hides = [v for v in verdicts if v.event.name == "hides_behind"]
     assert hides  # real occlusions are still explained as hiding

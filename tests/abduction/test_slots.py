@@ -8,29 +8,40 @@ import clingo
 import numpy as np
 import pytest
 from clingo.ast import ProgramBuilder
+from conftest import SHARED_DATA
 
 from sensemaking.abduction.components import ComponentSolver
 from sensemaking.abduction.observe import quantize
 from sensemaking.abduction.problem import TRACK_FLAGS, Component, FrameProblem
-from sensemaking.abduction.slots import SlotSolver, Shape, piece_facts, pieces, shape_of
+from sensemaking.abduction.slots import Shape, SlotSolver, piece_facts, pieces, shape_of
 from sensemaking.abduction.solver import AbductionSolver, Answer
 from sensemaking.asp import parsed
-
-from conftest import SHARED_DATA
 
 GRID = [k * 1000 // 40 for k in range(41)]
 
 
-def random_component(rng: random.Random, nt: int, nd: int, no: int,
-                     classes: tuple[int, ...] = (1, 2)) -> Component:
+def random_component(
+    rng: random.Random, nt: int, nd: int, no: int, classes: tuple[int, ...] = (1, 2)
+) -> Component:
     """Facts on the likelihood grid; relations drawn at random (not all of them physical)."""
-    tracks = tuple((rng.random() < 0.6, *[rng.random() < 0.2 for _ in TRACK_FLAGS],
-                    rng.choice(classes), rng.randrange(3), -1) for _ in range(nt))
-    dets = tuple((rng.choice(GRID + [1]), rng.choice(classes), rng.random() < 0.3,
-                  rng.random() < 0.3) for _ in range(nd))
+    tracks = tuple(
+        (
+            rng.random() < 0.6,
+            *[rng.random() < 0.2 for _ in TRACK_FLAGS],
+            rng.choice(classes),
+            rng.randrange(3),
+            -1,
+        )
+        for _ in range(nt)
+    )
+    dets = tuple(
+        (rng.choice(GRID + [1]), rng.choice(classes), rng.random() < 0.3, rng.random() < 0.3)
+        for _ in range(nd)
+    )
     pairs = [(t, d) for t in range(nt) for d in range(nd)]
-    cand = tuple((t, d, rng.choice(GRID), rng.random() < 0.4) for t, d in pairs
-                 if rng.random() < 0.7)
+    cand = tuple(
+        (t, d, rng.choice(GRID), rng.random() < 0.4) for t, d in pairs if rng.random() < 0.7
+    )
     covers = []
     for t in range(nt):
         ds = [d for d in range(nd) if rng.random() < 0.3]
@@ -39,9 +50,17 @@ def random_component(rng: random.Random, nt: int, nd: int, no: int,
     if no and nt and not any(o >= nt for _, o in hidden):
         hidden += ((0, nt + no - 1),)
     fits = tuple((t, d) for d, t, _ in covers if rng.random() < 0.5)  # a subset of covers
-    return Component(rng.random() < 0.1, tracks, dets, cand, tuple(covers),
-                     tuple((d, t) for t, d in pairs if rng.random() < 0.3),
-                     tuple((d, t) for t, d in pairs if rng.random() < 0.3), hidden, fits)
+    return Component(
+        rng.random() < 0.1,
+        tracks,
+        dets,
+        cand,
+        tuple(covers),
+        tuple((d, t) for t, d in pairs if rng.random() < 0.3),
+        tuple((d, t) for t, d in pairs if rng.random() < 0.3),
+        hidden,
+        fits,
+    )
 
 
 def optimal_answers(solver: AbductionSolver, component: Component) -> set[tuple[str, ...]]:
@@ -68,8 +87,9 @@ def readable(answer: Answer) -> tuple[list[str], list[str]]:
     return answer.atoms(), sorted(map(str, answer.fluents))
 
 
-def check_same_optimum(solver: AbductionSolver, slots: SlotSolver,
-                       components: list[Component]) -> dict[str, int]:
+def check_same_optimum(
+    solver: AbductionSolver, slots: SlotSolver, components: list[Component]
+) -> dict[str, int]:
     """Slot answer vs fresh solve: same cost always, same atoms where the optimum is unique."""
     counts = {"answered": 0, "same": 0, "ties_broken_otherwise": 0}
     for component in components:
@@ -102,8 +122,10 @@ def test_random_components_same_cost_and_unique_optima_same_atoms() -> None:
     solver = AbductionSolver()
     slots = SlotSolver(solver, numbers=GRID + [1], max_tracks=3, max_dets=3, misses_per_cell=0)
     rng = random.Random(1)
-    components = [random_component(rng, rng.randint(1, 3), rng.randint(1, 3), rng.randint(0, 2))
-                  for _ in range(150)]
+    components = [
+        random_component(rng, rng.randint(1, 3), rng.randint(1, 3), rng.randint(0, 2))
+        for _ in range(150)
+    ]
     counts = check_same_optimum(solver, slots, components)
     assert counts["answered"] == len(components)
     assert counts["same"] >= 0.9 * len(components)
@@ -112,8 +134,10 @@ def test_random_components_same_cost_and_unique_optima_same_atoms() -> None:
 def test_answers_do_not_depend_on_what_was_solved_before() -> None:
     solver = AbductionSolver()
     rng = random.Random(11)
-    components = [random_component(rng, rng.randint(1, 3), rng.randint(1, 3), 0, classes=(1,))
-                  for _ in range(120)]
+    components = [
+        random_component(rng, rng.randint(1, 3), rng.randint(1, 3), 0, classes=(1,))
+        for _ in range(120)
+    ]
     first = SlotSolver(solver, numbers=GRID + [1], misses_per_cell=0)
     second = SlotSolver(solver, numbers=GRID + [1], misses_per_cell=0)
     before = {c: readable(first.solve(c)) for c in components}
@@ -135,8 +159,9 @@ def test_outside_the_slots_goes_to_the_fresh_control() -> None:
     assert answer.cost == solver.solve_facts(other.facts(solver.uses)).cost
     # facts outside the vocabulary of the universe (speed/2, read by a user's rule)
     user = AbductionSolver(rules=["occurs(stops(T)) :- track(T), speed(T,S), S < 5."])
-    moving = Component(False, ((True, *[False] * len(TRACK_FLAGS), 1, 0, 3),), (), (), (), (),
-                       (), ())
+    moving = Component(
+        False, ((True, *[False] * len(TRACK_FLAGS), 1, 0, 3),), (), (), (), (), (), ()
+    )
     assert SlotSolver(user, numbers=GRID, misses_per_cell=0).solve(moving) is None
 
 
@@ -153,12 +178,20 @@ def test_a_shape_is_ground_once_met_often_enough() -> None:
 def test_component_solver_answers_misses_from_the_slots() -> None:
     solver = AbductionSolver()
     problem = FrameProblem(
-        track_id=np.array([4, 9]), active=np.array([True, True]),
-        tentative=np.zeros(2, bool), expired=np.zeros(2, bool), outside=np.zeros(2, bool),
-        at_border=np.zeros(2, bool), overlapped=np.zeros(2, bool), track_class=np.array([1, 1]),
-        det_conf=np.array([900, 800]), det_class=np.array([1, 1]),
-        det_border=np.zeros(2, bool), det_overlapped=np.zeros(2, bool),
-        cand=np.array([[0, 0, 850], [1, 1, 700], [1, 0, 400]]))
+        track_id=np.array([4, 9]),
+        active=np.array([True, True]),
+        tentative=np.zeros(2, bool),
+        expired=np.zeros(2, bool),
+        outside=np.zeros(2, bool),
+        at_border=np.zeros(2, bool),
+        overlapped=np.zeros(2, bool),
+        track_class=np.array([1, 1]),
+        det_conf=np.array([900, 800]),
+        det_class=np.array([1, 1]),
+        det_border=np.zeros(2, bool),
+        det_overlapped=np.zeros(2, bool),
+        cand=np.array([[0, 0, 850], [1, 1, 700], [1, 0, 400]]),
+    )
     answers = []
     for slots in (True, False):
         components = ComponentSolver(solver, cache_size=0, slots=slots, numbers=GRID)
@@ -178,11 +211,12 @@ def test_real_kitti_components_same_optimum() -> None:
     from sensemaking.tracker import Tracker
 
     found = datasets.discover(SHARED_DATA, only=["kitti-rrc-car"])
-    (spec, sources), = found.found
+    ((spec, sources),) = found.found
     bench = datasets.load_benchmark(spec, [s for s in sources if s.name == "0000"])
     seq = bench.sequences[0]
-    tracker = Tracker(ours_config(spec.family, fps=seq.info.fps,
-                                  image_size=(seq.info.width, seq.info.height)))
+    tracker = Tracker(
+        ours_config(spec.family, fps=seq.info.fps, image_size=(seq.info.width, seq.info.height))
+    )
     seen: dict[Component, None] = {}
     solve = tracker.solver.solve
 

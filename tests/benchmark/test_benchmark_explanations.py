@@ -8,10 +8,9 @@ import json
 from pathlib import Path
 
 import pytest
+from conftest import SHARED_DATA, load_benchmarks_script
 from test_runner import make_fake_data
 
-from conftest import load_benchmarks_script
-from conftest import SHARED_DATA
 from sensemaking.benchmark import datasets, runner
 from sensemaking.benchmark.explanations import (
     EXPLANATIONS_DIR,
@@ -95,7 +94,9 @@ def test_runner_and_evaluate_explanations_agree_on_a_synthetic_benchmark(
         warned = ex.log_dir / EXPLANATIONS_DIR / f"{bench.sequences[0].name}.warnings.jsonl"
         assert warned.is_file() == ex.warnings
         assert ex.log_dir == tmp_path / "out" / spec.name
-        assert (ex.log_dir / EXPLANATIONS_DIR / f"{bench.sequences[0].name}.events.jsonl").is_file()
+        assert (
+            ex.log_dir / EXPLANATIONS_DIR / f"{bench.sequences[0].name}.events.jsonl"
+        ).is_file()
         # clean synthetic detections: every track starts inside the image on the first frame
         starts = ex.summary()["events"]["starts"]
         assert starts["total"] == starts["plausible"] > 0
@@ -106,9 +107,24 @@ def test_runner_and_evaluate_explanations_agree_on_a_synthetic_benchmark(
 def test_no_explanations_runs_no_monitor_and_writes_no_logs(tmp_path: Path) -> None:
     data = make_fake_data(tmp_path / "data")
     docs = tmp_path / "d" / "B.md"
-    code = report.main(["--data", str(data), "--output", str(tmp_path / "o"),
-                        "--only", "mot15", "--trackers", "ours", "--no-crossval", "--no-explanations",
-                        "--docs", str(docs), "--params-doc", ""])
+    code = report.main(
+        [
+            "--data",
+            str(data),
+            "--output",
+            str(tmp_path / "o"),
+            "--only",
+            "mot15",
+            "--trackers",
+            "ours",
+            "--no-crossval",
+            "--no-explanations",
+            "--docs",
+            str(docs),
+            "--params-doc",
+            "",
+        ]
+    )
     assert code == 0
     doc = json.loads((docs.parent / "benchmarks.json").read_text())
     assert doc["benchmarks"][0]["explanations"] is None and "--no-explanations" in doc["command"]
@@ -116,9 +132,24 @@ def test_no_explanations_runs_no_monitor_and_writes_no_logs(tmp_path: Path) -> N
     assert "## Explanations" not in docs.read_text()
     for flags, warned in (([], False), (["--all-warnings"], True)):
         out = tmp_path / f"o{len(flags)}"
-        code = report.main(["--data", str(data), "--output", str(out),
-                            "--only", "mot15", "--trackers", "ours", "--no-crossval",
-                            "--docs", str(docs), "--params-doc", "", *flags])
+        code = report.main(
+            [
+                "--data",
+                str(data),
+                "--output",
+                str(out),
+                "--only",
+                "mot15",
+                "--trackers",
+                "ours",
+                "--no-crossval",
+                "--docs",
+                str(docs),
+                "--params-doc",
+                "",
+                *flags,
+            ]
+        )
         assert code == 0 and "## Explanations" in docs.read_text()
         assert ("did not run on mot15" in docs.read_text()) == (not warned)
         logs = out / "mot15" / EXPLANATIONS_DIR
@@ -157,7 +188,10 @@ def _explained(spec_name: str, events: list[Verdict], warnings: list[WarningVerd
     b = runner.BenchmarkRun(spec, ["s"], 10, [])
     result = ExplanationResult("s", events, warnings)
     b.explanations = BenchmarkExplanations(
-        [result], Path("x"), warnings=spec.family == "kitti", monitor_seconds=1.5,
+        [result],
+        Path("x"),
+        warnings=spec.family == "kitti",
+        monitor_seconds=1.5,
         judge_seconds=0.25,
     )
     return b
@@ -184,8 +218,11 @@ def test_report_has_the_explanation_table_and_the_targets(tmp_path: Path) -> Non
         + [_hide(20 + f, "undecidable", "unmatched") for f in range(5)],
         [],
     )
-    checks = {(c.benchmark, c.target): c for b in (kitti, mot) for c in
-              report.check_explanation_targets(b)}
+    checks = {
+        (c.benchmark, c.target): c
+        for b in (kitti, mot)
+        for c in report.check_explanation_targets(b)
+    }
     assert len(checks) == 5
     c = checks[("kitti-rrc-car", "hides_behind: at least 90% plausible")]
     assert c.met and c.margin == pytest.approx(0.0)
@@ -201,7 +238,7 @@ def test_report_has_the_explanation_table_and_the_targets(tmp_path: Path) -> Non
 
     summary = runner.RunSummary([kitti, mot], [], ["ours"], "data", "out", "cmd", "now")
     md = report.render_markdown(summary)
-    section = md[md.index("## Explanations"): md.index("## Targets")]
+    section = md[md.index("## Explanations") : md.index("## Targets")]
     rows = [line for line in section.splitlines() if line.startswith("| kitti-rrc-car | ")]
     assert rows[0].startswith("| kitti-rrc-car | hides_behind | 10 | 9 | 1 | 0 | 90.0 | 90.0 |")
     assert "implausible at border 1" in rows[0]
@@ -209,13 +246,19 @@ def test_report_has_the_explanation_table_and_the_targets(tmp_path: Path) -> Non
     assert "| 5 | 3 | 2 | 0 | 60.0 | 60.0 |" in he and "reappeared 4, never 1" in he
     assert "| mot17-yolox-halfval | hides_behind | 25 | 17 | 3 | 5 | 85.0 | 68.0 |" in section
     assert "added 3.5 s to the run: 3.0 s of situation monitor" in section  # 2 x (1.5 + 0.25)
-    assert "Warnings are judged on kitti-rrc-car; the situation monitor did not run on " \
+    assert (
+        "Warnings are judged on kitti-rrc-car; the situation monitor did not run on "
         "mot17-yolox-halfval" in section
-    targets = md[md.index("## Targets"):]
-    assert "| kitti-rrc-car | hides_behind: none implausible at the image border | **no** | -1 |" \
+    )
+    targets = md[md.index("## Targets") :]
+    assert (
+        "| kitti-rrc-car | hides_behind: none implausible at the image border | **no** | -1 |"
         in targets
-    assert "| mot17-yolox-halfval | hides_behind: at least 85% plausible of the decidable | yes |" \
+    )
+    assert (
+        "| mot17-yolox-halfval | hides_behind: at least 85% plausible of the decidable | yes |"
         in targets
+    )
     assert "checked on this run: 2 of 5 met" in targets
 
     _, js = report.write_report(summary, tmp_path / "B.md")

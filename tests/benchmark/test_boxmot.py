@@ -51,7 +51,7 @@ def test_boxmot_peer_keeps_ids_and_reports_input_rows(key: str) -> None:
     assert (
         len(late) == 2 and (late.tracker_id >= 1).all() and len(set(late.tracker_id.tolist())) == 2
     )
-    ids_late = {tuple(b): t for b, t in zip(late.xyxy.round(1).tolist(), late.tracker_id.tolist())}
+    ids_late = {tuple(b): t for b, t in zip(late.xyxy.round(1).tolist(), late.tracker_id.tolist(), strict=False)}
     assert all(tuple(b) in {tuple(x) for x in frames[-1].xyxy.tolist()} for b in ids_late)
     # the same two ids over the last four frames: identities are kept
     assert {int(t) for o in outs[-4:] for t in o.tracker_id} == set(late.tracker_id.tolist())
@@ -59,7 +59,7 @@ def test_boxmot_peer_keeps_ids_and_reports_input_rows(key: str) -> None:
     # only the image's shape is read: noise instead of the blank image changes nothing
     adapter._img = np.random.default_rng(0).integers(0, 255, adapter._img.shape, dtype=np.uint8)
     noisy = _run(adapter, frames)
-    for a, b in zip(outs, noisy):
+    for a, b in zip(outs, noisy, strict=False):
         np.testing.assert_array_equal(a.xyxy, b.xyxy)
         np.testing.assert_array_equal(a.tracker_id, b.tracker_id)
 

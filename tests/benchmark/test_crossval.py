@@ -8,11 +8,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import SHARED_DATA
 
 from sensemaking.benchmark import crossval, datasets
 from sensemaking.detections import Detections
-
-from conftest import SHARED_DATA
 
 
 def test_folds_are_videos() -> None:
@@ -111,6 +110,7 @@ def test_one_video_is_not_cross_validated(tmp_path: Path) -> None:
 
 def test_reports_show_the_crossval_headline(tmp_path: Path) -> None:
     from conftest import load_benchmarks_script
+
     from sensemaking.benchmark import runner
 
     report = load_benchmarks_script("benchmark_report")

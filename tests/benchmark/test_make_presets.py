@@ -6,9 +6,9 @@ import importlib.util
 import json
 from pathlib import Path
 
-from sensemaking import settings
-
 from conftest import REPO
+
+from sensemaking import settings
 
 SCRIPT = REPO / "benchmarks" / "make_presets.py"
 PRESETS = REPO / "src" / "sensemaking" / "presets"

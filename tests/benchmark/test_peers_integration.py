@@ -6,22 +6,22 @@ import importlib.util
 from pathlib import Path
 
 import pytest
-
-from sensemaking.benchmark import datasets, runner
-
 from conftest import SHARED_DATA
 
+from sensemaking.benchmark import datasets, runner
 
 pytestmark = [
     pytest.mark.integration,
     pytest.mark.skipif(not (SHARED_DATA / "kitti").is_dir(), reason="needs ../shared/data/kitti"),
-    pytest.mark.skipif(importlib.util.find_spec("trackers") is None, reason="needs the 'benchmark' extra"),
+    pytest.mark.skipif(
+        importlib.util.find_spec("trackers") is None, reason="needs the 'benchmark' extra"
+    ),
 ]
 
 
 def test_peers_on_kitti_0000_car_rrc(tmp_path: Path) -> None:
     found = datasets.discover(SHARED_DATA, only=["kitti-rrc-car"])
-    (spec, sources), = found.found
+    ((spec, sources),) = found.found
     bench = datasets.load_benchmark(spec, [s for s in sources if s.name == "0000"])
     assert [s.name for s in bench.sequences] == ["0000"] and bench.n_frames == 154
     result = runner.run_benchmark(bench, ["sort", "bytetrack", "ocsort"], tmp_path)

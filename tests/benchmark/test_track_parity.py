@@ -11,12 +11,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import SHARED_DATA
 
 from sensemaking.benchmark import datasets, runner
 from sensemaking.cli import main
-
-from conftest import SHARED_DATA
-
 
 pytestmark = [
     pytest.mark.integration,
@@ -67,7 +65,9 @@ def test_track_then_evaluate_equals_the_runner(
     if spec.logit_scores:  # the file holds logits; every tracker sees probabilities
         raw = np.loadtxt(seq.det_path, delimiter=",", usecols=6, ndmin=1)
         assert (raw < 0).any()
-        np.testing.assert_allclose(np.sort(seq.detections.confidence), np.sort(1 / (1 + np.exp(-raw))))
+        np.testing.assert_allclose(
+            np.sort(seq.detections.confidence), np.sort(1 / (1 + np.exp(-raw)))
+        )
     out = tmp_path / "track" / f"{sequence}.txt"
     args = [
         "-q",

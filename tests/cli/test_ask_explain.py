@@ -20,7 +20,8 @@ def scene_file(tmp_path_factory):
 def test_ask_named_question(scene_file, capsys):
     assert main(["ask", str(scene_file), "reappeared", "1"]) == 0
     assert capsys.readouterr().out == (
-        "track 1 (cyclist) reappeared at frame 34 from behind track 2 (car), unseen since frame 21: 13 frames (1.3 s)\n")
+        "track 1 (cyclist) reappeared at frame 34 from behind track 2 (car), unseen since frame 21: 13 frames (1.3 s)\n"
+    )
 
 
 def test_ask_asp_query_and_json(scene_file, capsys):
@@ -43,7 +44,9 @@ def test_ask_query_from_file_and_unsat_exit_status(scene_file, tmp_path, capsys)
 def test_ask_malformed_query_is_a_clean_error_with_position(scene_file, capsys):
     assert main(["ask", str(scene_file), "q(T) :- track(T,car"]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("sensemaking ask: error: invalid query: query:") and "syntax error" in err
+    assert (
+        err.startswith("sensemaking ask: error: invalid query: query:") and "syntax error" in err
+    )
     assert "Traceback" not in err
 
 
@@ -64,7 +67,9 @@ def test_explain(scene_file, capsys):
     assert main(["explain", str(scene_file)]) == 0
     out = capsys.readouterr().out
     paragraphs = out.strip().split("\n\n")
-    assert len(paragraphs) == 2 and paragraphs[0].startswith("Track 1 (cyclist) is in view from the first frame")
+    assert len(paragraphs) == 2 and paragraphs[0].startswith(
+        "Track 1 (cyclist) is in view from the first frame"
+    )
     assert main(["explain", str(scene_file), "--track", "2", "--json"]) == 0
     record = json.loads(capsys.readouterr().out)
     assert record["2"][2] == "At frame 21 it hides track 1 (cyclist) from view."

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import REPO
 
 from sensemaking.cli import main
 from sensemaking.detections import Detections
@@ -20,14 +21,14 @@ from sensemaking.errors import InputError
 from sensemaking.io.mot import read_mot
 from sensemaking.synthetic import crossing_scene
 
-from conftest import REPO
 
 def write_det(path: Path, n_frames: int = 30, frame_offset: int = 1) -> Path:
     """A small MOT det.txt: one box per frame moving right."""
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(
         "".join(
-            f"{f + frame_offset},-1,{100 + 3 * f},100,40,80,0.9,-1,-1,-1\n" for f in range(n_frames)
+            f"{f + frame_offset},-1,{100 + 3 * f},100,40,80,0.9,-1,-1,-1\n"
+            for f in range(n_frames)
         )
     )
     return path
@@ -268,8 +269,8 @@ def test_a_scene_asking_for_a_billion_frames_is_refused(
 def test_warnings_are_written_while_the_run_goes_on_and_kept_on_interruption(
     tmp_path: Path, monkeypatch, capsys
 ) -> None:
-    from sensemaking.reasoning.situations import SituationWarning
     from sensemaking.reasoning import online
+    from sensemaking.reasoning.situations import SituationWarning
 
     det = write_det(tmp_path / "d" / "det.txt", n_frames=40)
     warnings_path = tmp_path / "w.jsonl"
@@ -487,8 +488,10 @@ def test_empty_files_are_treated_alike_in_both_formats(tmp_path: Path, caplog) -
         argv = ["track", "--detections", str(det), "--format", fmt, "--output", str(out)]
         assert main(argv) == 0
         assert out.read_text() == ""
-        assert any("no detections in file" in r.getMessage() and str(det) in r.getMessage()
-                   for r in caplog.records)
+        assert any(
+            "no detections in file" in r.getMessage() and str(det) in r.getMessage()
+            for r in caplog.records
+        )
 
 
 @pytest.mark.parametrize(
@@ -560,7 +563,7 @@ def test_same_run_same_bytes_with_the_streaming_pipeline(tmp_path: Path) -> None
     """The streaming run writes what the whole-file writers write: results read back equal the
     Pipeline's frame results."""
     from sensemaking.io.mot import write_mot
-    from sensemaking.tracker import Tracker, TrackerConfig
+    from sensemaking.tracker import Tracker
 
     scene = crossing_scene(0, gap=12, far_speed=8.0)
     seq = tmp_path / "X"
@@ -569,7 +572,7 @@ def test_same_run_same_bytes_with_the_streaming_pipeline(tmp_path: Path) -> None
     lines = [
         f"{d.frame[i] + 1},-1,{x:.2f},{y:.2f},{w:.2f},{h:.2f},{d.confidence[i]:.3f},-1,-1,-1"
         for i, (x, y, w, h) in zip(
-            np.argsort(d.frame, kind="stable"), d.xywh[np.argsort(d.frame, kind="stable")]
+            np.argsort(d.frame, kind="stable"), d.xywh[np.argsort(d.frame, kind="stable")], strict=False
         )
     ]
     (seq / "det" / "det.txt").write_text("\n".join(lines) + "\n")
@@ -592,8 +595,9 @@ def test_same_run_same_bytes_with_the_streaming_pipeline(tmp_path: Path) -> None
         )
         == 0
     )
-    from sensemaking.cli.track import tracker_config
     import argparse
+
+    from sensemaking.cli.track import tracker_config
 
     args = argparse.Namespace(format="mot", no_abduction=False, max_solve_ms=None, params=[])
     tracker = Tracker(tracker_config(args, 10.0, (1242, 375)))
@@ -623,35 +627,67 @@ def test_an_output_reaching_the_input_through_a_link_is_refused(tmp_path: Path, 
     (tmp_path / "sym.txt").symlink_to(det)
     os.link(det, tmp_path / "hard.txt")
     for link in ("sym.txt", "hard.txt"):
-        argv = ["track", "--detections", str(det), "--format", "mot", "--output", str(tmp_path / link)]
+        argv = [
+            "track",
+            "--detections",
+            str(det),
+            "--format",
+            "mot",
+            "--output",
+            str(tmp_path / link),
+        ]
         assert main(argv) == 2
         assert "would overwrite the input" in one_line_error(capsys)
     assert det.read_bytes() == before
 
 
 def test_argument_errors_are_one_line_too(capsys) -> None:
-    for argv in (["track", "--detections", "x", "--format", "mot", "--output", "y", "--fps", "abc"],
-                 ["track"], ["ask"], ["nonsense-verb"]):
+    for argv in (
+        ["track", "--detections", "x", "--format", "mot", "--output", "y", "--fps", "abc"],
+        ["track"],
+        ["ask"],
+        ["nonsense-verb"],
+    ):
         with pytest.raises(SystemExit) as exc:
             main(argv)
         assert exc.value.code == 2
         assert "error:" in one_line_error(capsys)
 
 
-def test_render_frames_beyond_the_scene_ask_for_no_work(scene_file: Path, tmp_path: Path,
-                                                        capsys) -> None:
+def test_render_frames_beyond_the_scene_ask_for_no_work(
+    scene_file: Path, tmp_path: Path, capsys
+) -> None:
     pytest.importorskip("PIL")
     out = tmp_path / "r.gif"
     t0 = time.monotonic()
-    assert main(["-q", "render", str(scene_file), "-o", str(out), "--frames", "0:1000000000",
-                 "--no-warnings", "--scale", "0.2"]) == 0
+    assert (
+        main(
+            [
+                "-q",
+                "render",
+                str(scene_file),
+                "-o",
+                str(out),
+                "--frames",
+                "0:1000000000",
+                "--no-warnings",
+                "--scale",
+                "0.2",
+            ]
+        )
+        == 0
+    )
     assert time.monotonic() - t0 < 30 and out.exists()
-    assert main(["render", str(scene_file), "-o", str(tmp_path / "x.gif"), "--frames", "5000:6000"]) == 2
+    assert (
+        main(["render", str(scene_file), "-o", str(tmp_path / "x.gif"), "--frames", "5000:6000"])
+        == 2
+    )
     assert "none of them in that range" in one_line_error(capsys)
 
 
-def test_evaluate_refuses_a_billion_frame_ground_truth_before_allocating(tmp_path: Path,
-                                                                         capsys) -> None:
+def test_evaluate_refuses_a_billion_frame_ground_truth_before_allocating(
+    tmp_path: Path, capsys
+) -> None:
     gt, res = tmp_path / "gt.txt", tmp_path / "res.txt"
     gt.write_text("1,1,10,10,40,80,1,1,1\n1000000000,1,10,10,40,80,1,1,1\n")
     res.write_text("1,1,10,10,40,80,1,-1,-1,-1\n")
@@ -659,8 +695,9 @@ def test_evaluate_refuses_a_billion_frame_ground_truth_before_allocating(tmp_pat
     assert f"{gt}:2: frame 1000000000 is beyond the plausibility bound" in one_line_error(capsys)
 
 
-def test_report_and_render_do_not_overwrite_their_inputs(scene_file: Path, tmp_path: Path,
-                                                         capsys) -> None:
+def test_report_and_render_do_not_overwrite_their_inputs(
+    scene_file: Path, tmp_path: Path, capsys
+) -> None:
     pytest.importorskip("PIL")
     before = scene_file.read_bytes()
     assert main(["report", str(scene_file), "-o", str(scene_file)]) == 2

@@ -8,13 +8,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import SHARED_DATA
 
 from sensemaking.classes import CLASS_IDS
 from sensemaking.cli import main
 from sensemaking.io.kitti import read_kitti_labels
 from sensemaking.synthetic import crossing_scene
-
-from conftest import SHARED_DATA
 
 CAR, CYCLIST, PEDESTRIAN = CLASS_IDS["car"], CLASS_IDS["cyclist"], CLASS_IDS["pedestrian"]
 
@@ -26,7 +25,7 @@ def write_rrc(path: Path, dets) -> None:
     path.write_text(
         "".join(
             f"{dets.frame[i]},{x1:.2f},{y1:.2f},{x2:.2f},{y2:.2f},{dets.confidence[i]:.3f}\n"
-            for i, (x1, y1, x2, y2) in zip(order, dets.xyxy[order])
+            for i, (x1, y1, x2, y2) in zip(order, dets.xyxy[order], strict=False)
         )
     )
 
@@ -53,8 +52,24 @@ def events_of(path: Path) -> list[dict]:
 def test_joint_run_hides_the_cyclist_behind_the_car(tmp_path: Path, car_and_cyclist) -> None:
     car, cyclist = car_and_cyclist
     out, ev = tmp_path / "joint" / "{class}" / "0042.txt", tmp_path / "joint.jsonl"
-    assert main(["-q", "track", "--format", "kitti", "--detections", str(car), str(cyclist),
-                 "--output", str(out), "--events", str(ev)]) == 0
+    assert (
+        main(
+            [
+                "-q",
+                "track",
+                "--format",
+                "kitti",
+                "--detections",
+                str(car),
+                str(cyclist),
+                "--output",
+                str(out),
+                "--events",
+                str(ev),
+            ]
+        )
+        == 0
+    )
     cars = read_kitti_labels(tmp_path / "joint" / "car" / "0042.txt")
     cyclists = read_kitti_labels(tmp_path / "joint" / "cyclist" / "0042.txt")
     assert set(cars.class_id.tolist()) == {CAR} and set(cyclists.class_id.tolist()) == {CYCLIST}
@@ -70,8 +85,23 @@ def test_joint_run_hides_the_cyclist_behind_the_car(tmp_path: Path, car_and_cycl
 
     # tracked alone (its own run, as before), the cyclist has nothing to hide behind
     alone = tmp_path / "alone.jsonl"
-    assert main(["-q", "track", "--format", "kitti", "--detections", str(cyclist),
-                 "--output", str(tmp_path / "alone.txt"), "--events", str(alone)]) == 0
+    assert (
+        main(
+            [
+                "-q",
+                "track",
+                "--format",
+                "kitti",
+                "--detections",
+                str(cyclist),
+                "--output",
+                str(tmp_path / "alone.txt"),
+                "--events",
+                str(alone),
+            ]
+        )
+        == 0
+    )
     assert not [r for r in events_of(alone) if r["event"] == "hides_behind"]
 
 
@@ -82,8 +112,22 @@ def test_per_class_files_are_the_one_file_split_by_class(tmp_path: Path, car_and
     one = tmp_path / "one" / "0042.txt"
     split = tmp_path / "split" / "{class}" / "0042.txt"
     for out in (one, split):
-        assert main(["-q", "track", "--format", "kitti", "--detections", str(car), str(cyclist),
-                     "--output", str(out)]) == 0
+        assert (
+            main(
+                [
+                    "-q",
+                    "track",
+                    "--format",
+                    "kitti",
+                    "--detections",
+                    str(car),
+                    str(cyclist),
+                    "--output",
+                    str(out),
+                ]
+            )
+            == 0
+        )
     lines = one.read_text().splitlines()
     for name, kitti in (("car", "Car"), ("cyclist", "Cyclist")):
         part = (tmp_path / "split" / name / "0042.txt").read_text().splitlines()
@@ -100,8 +144,13 @@ def pointrcnn_lines(dets) -> list[tuple[int, str]]:
     for i, (x1, y1, x2, y2) in enumerate(dets.xyxy):
         p = min(float(dets.confidence[i]), 0.999)
         logit = np.log(p / (1 - p))
-        out.append((int(dets.frame[i]), f"{dets.frame[i]},{code[int(dets.class_id[i])]},{x1:.2f},"
-                    f"{y1:.2f},{x2:.2f},{y2:.2f},{logit:.4f},1.5,0.6,1.7,2.0,1.6,{4000 / y2:.2f},0.1,0.2\n"))
+        out.append(
+            (
+                int(dets.frame[i]),
+                f"{dets.frame[i]},{code[int(dets.class_id[i])]},{x1:.2f},"
+                f"{y1:.2f},{x2:.2f},{y2:.2f},{logit:.4f},1.5,0.6,1.7,2.0,1.6,{4000 / y2:.2f},0.1,0.2\n",
+            )
+        )
     return out
 
 
@@ -117,16 +166,48 @@ def test_one_multiclass_file_is_the_class_files_together(tmp_path: Path) -> None
     (root / "all" / "0042.txt").write_text("".join(line for _, line in lines))
     for c, cid in (("car", CAR), ("cyclist", CYCLIST)):
         (root / c / "0042.txt").write_text(
-            "".join(line for (_, line), k in zip(lines, d.class_id, strict=True) if k == cid))
+            "".join(line for (_, line), k in zip(lines, d.class_id, strict=True) if k == cid)
+        )
     (root / "seqinfo.csv").write_text(
         f"seq,num_frames,im_width,im_height,frame_rate\n0042,{scene.n_frames},1242,375,10\n"
     )
     one, two = tmp_path / "one" / "{class}" / "0042.txt", tmp_path / "two" / "{class}" / "0042.txt"
     ev1, ev2 = tmp_path / "one.jsonl", tmp_path / "two.jsonl"
-    assert main(["-q", "track", "--format", "kitti", "--detections", str(root / "all" / "0042.txt"),
-                 "--output", str(one), "--events", str(ev1)]) == 0
-    assert main(["-q", "track", "--format", "kitti", "--detections", str(root / "car" / "0042.txt"),
-                 str(root / "cyclist" / "0042.txt"), "--output", str(two), "--events", str(ev2)]) == 0
+    assert (
+        main(
+            [
+                "-q",
+                "track",
+                "--format",
+                "kitti",
+                "--detections",
+                str(root / "all" / "0042.txt"),
+                "--output",
+                str(one),
+                "--events",
+                str(ev1),
+            ]
+        )
+        == 0
+    )
+    assert (
+        main(
+            [
+                "-q",
+                "track",
+                "--format",
+                "kitti",
+                "--detections",
+                str(root / "car" / "0042.txt"),
+                str(root / "cyclist" / "0042.txt"),
+                "--output",
+                str(two),
+                "--events",
+                str(ev2),
+            ]
+        )
+        == 0
+    )
     for c in ("car", "cyclist"):
         a = (tmp_path / "one" / c / "0042.txt").read_text()
         assert a and a == (tmp_path / "two" / c / "0042.txt").read_text()
@@ -139,8 +220,22 @@ def test_empty_class_file_still_gets_its_results_file(tmp_path: Path, car_and_cy
     ped = car.parent.parent / "pedestrian" / "0042.txt"
     ped.parent.mkdir()
     ped.write_text("")
-    assert main(["-q", "track", "--format", "kitti", "--detections", str(car), str(ped),
-                 "--output", str(tmp_path / "r" / "{class}" / "0042.txt")]) == 0
+    assert (
+        main(
+            [
+                "-q",
+                "track",
+                "--format",
+                "kitti",
+                "--detections",
+                str(car),
+                str(ped),
+                "--output",
+                str(tmp_path / "r" / "{class}" / "0042.txt"),
+            ]
+        )
+        == 0
+    )
     assert (tmp_path / "r" / "pedestrian" / "0042.txt").read_text() == ""
     assert len(read_kitti_labels(tmp_path / "r" / "car" / "0042.txt")) > 0
 
@@ -148,10 +243,39 @@ def test_empty_class_file_still_gets_its_results_file(tmp_path: Path, car_and_cy
 def test_repeated_option_is_the_same_as_a_list(tmp_path: Path, car_and_cyclist) -> None:
     car, cyclist = car_and_cyclist
     a, b = tmp_path / "a.txt", tmp_path / "b.txt"
-    assert main(["-q", "track", "--format", "kitti", "--detections", str(car), str(cyclist),
-                 "--output", str(a)]) == 0
-    assert main(["-q", "track", "--format", "kitti", "--detections", str(car),
-                 "--detections", str(cyclist), "--output", str(b)]) == 0
+    assert (
+        main(
+            [
+                "-q",
+                "track",
+                "--format",
+                "kitti",
+                "--detections",
+                str(car),
+                str(cyclist),
+                "--output",
+                str(a),
+            ]
+        )
+        == 0
+    )
+    assert (
+        main(
+            [
+                "-q",
+                "track",
+                "--format",
+                "kitti",
+                "--detections",
+                str(car),
+                "--detections",
+                str(cyclist),
+                "--output",
+                str(b),
+            ]
+        )
+        == 0
+    )
     assert a.read_text() == b.read_text()
 
 
@@ -170,12 +294,32 @@ def test_classes_apart_track_as_in_separate_runs(tmp_path: Path) -> None:
     )
     files = [root / "car" / "0005.txt", root / "pedestrian" / "0005.txt"]
     common = ["-q", "track", "--format", "kitti", "--set", "inherit_motion=false"]
-    assert main([*common, "--detections", *map(str, files),
-                 "--output", str(tmp_path / "joint" / "{class}" / "0005.txt")]) == 0
+    assert (
+        main(
+            [
+                *common,
+                "--detections",
+                *map(str, files),
+                "--output",
+                str(tmp_path / "joint" / "{class}" / "0005.txt"),
+            ]
+        )
+        == 0
+    )
     for f in files:
         c = f.parent.name
-        assert main([*common, "--detections", str(f),
-                     "--output", str(tmp_path / "sep" / c / "0005.txt")]) == 0
+        assert (
+            main(
+                [
+                    *common,
+                    "--detections",
+                    str(f),
+                    "--output",
+                    str(tmp_path / "sep" / c / "0005.txt"),
+                ]
+            )
+            == 0
+        )
         joint = read_kitti_labels(tmp_path / "joint" / c / "0005.txt")
         sep = read_kitti_labels(tmp_path / "sep" / c / "0005.txt")
         assert len(joint) == len(sep) > 0
@@ -236,8 +380,20 @@ def test_bad_multiclass_input_is_one_line_exit_2(
     elif problem == "overwrite_input":
         extra = ["--output", str(car.parent.parent / "{class}" / "0042.txt")]  # the last wins
     before = {f: f.read_bytes() for f in files if f.exists()}
-    code = main(["track", "--format", fmt, "--detections", *map(str, files),
-                 "--output", str(out), "--events", str(tmp_path / "out" / "ev.jsonl"), *extra])
+    code = main(
+        [
+            "track",
+            "--format",
+            fmt,
+            "--detections",
+            *map(str, files),
+            "--output",
+            str(out),
+            "--events",
+            str(tmp_path / "out" / "ev.jsonl"),
+            *extra,
+        ]
+    )
     err = capsys.readouterr().err
     assert code == 2
     assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
@@ -249,8 +405,17 @@ def test_bad_multiclass_input_is_one_line_exit_2(
 def test_class_field_needs_detection_files(tmp_path: Path, capsys) -> None:
     video = tmp_path / "frames"
     video.mkdir()
-    code = main(["track", "--source", str(video), "--detector", str(tmp_path / "m.onnx"),
-                 "--output", str(tmp_path / "{class}" / "r.txt")])
+    code = main(
+        [
+            "track",
+            "--source",
+            str(video),
+            "--detector",
+            str(tmp_path / "m.onnx"),
+            "--output",
+            str(tmp_path / "{class}" / "r.txt"),
+        ]
+    )
     assert code == 2
     assert "{class} needs --detections" in capsys.readouterr().err
 
@@ -271,24 +436,58 @@ def test_kitti_cyclist_hides_behind_a_car_in_a_joint_run(tmp_path: Path) -> None
     seq = CYCLIST_BEHIND_CAR_SEQUENCE
     files = [POINTRCNN / c / f"{seq}.txt" for c in ("car", "pedestrian", "cyclist")]
     ev, one = tmp_path / "ev.jsonl", tmp_path / "all" / f"{seq}.txt"
-    assert main(["-q", "track", "--format", "kitti", "--detections", *map(str, files),
-                 "--output", str(tmp_path / "{class}" / f"{seq}.txt"), "--events", str(ev)]) == 0
+    assert (
+        main(
+            [
+                "-q",
+                "track",
+                "--format",
+                "kitti",
+                "--detections",
+                *map(str, files),
+                "--output",
+                str(tmp_path / "{class}" / f"{seq}.txt"),
+                "--events",
+                str(ev),
+            ]
+        )
+        == 0
+    )
     classes: dict[int, int] = {}
     for c in ("car", "pedestrian", "cyclist"):
         res = read_kitti_labels(tmp_path / c / f"{seq}.txt")
         assert set(res.class_id.tolist()) <= {CLASS_IDS[c]}
         classes.update(dict.fromkeys(res.tracker_id.tolist(), CLASS_IDS[c]))
     events = [event_from_record(r) for r in events_of(ev)]
-    across = [e for e in events if e.name == "hides_behind"
-              and classes.get(e.args[0]) == CYCLIST and classes.get(e.args[1]) == CAR]
+    across = [
+        e
+        for e in events
+        if e.name == "hides_behind"
+        and classes.get(e.args[0]) == CYCLIST
+        and classes.get(e.args[1]) == CAR
+    ]
     assert across, [e for e in events if e.name == "hides_behind"]
     # judged against the multi-class ground truth: the cyclist was occluded, the car in front
     # covering it, and the same cyclist came out again
-    assert main(["-q", "track", "--format", "kitti", "--detections", *map(str, files),
-                 "--output", str(one)]) == 0
+    assert (
+        main(
+            [
+                "-q",
+                "track",
+                "--format",
+                "kitti",
+                "--detections",
+                *map(str, files),
+                "--output",
+                str(one),
+            ]
+        )
+        == 0
+    )
     labels = read_kitti_labels(KITTI / "training" / "label_02" / f"{seq}.txt")
-    truth = GroundTruth.from_kitti(labels, image_size=(1242, 375),
-                                   classes=("car", "pedestrian", "cyclist"))
+    truth = GroundTruth.from_kitti(
+        labels, image_size=(1242, 375), classes=("car", "pedestrian", "cyclist")
+    )
     verdicts = evaluate_explanations(truth, read_kitti_labels(one), events).events
     judged = [v for v in verdicts if v.event in across]
     assert any(v.verdict == "plausible" and v.identity == "kept" for v in judged), judged
@@ -297,14 +496,39 @@ def test_kitti_cyclist_hides_behind_a_car_in_a_joint_run(tmp_path: Path) -> None
     assert [gt_class[g] for g in good.gt] == [CYCLIST, CAR]
     # the same verdict from `evaluate --explanations` with cyclists among the classes
     verdicts_json = tmp_path / "verdicts.json"
-    assert main(["-q", "evaluate", "--explanations", "--gt", str(KITTI / "training" / "label_02" /
-                 f"{seq}.txt"), "--results", str(one), "--events", str(ev),
-                 "--classes", "car,pedestrian,cyclist", "--json", str(verdicts_json)]) == 0
+    assert (
+        main(
+            [
+                "-q",
+                "evaluate",
+                "--explanations",
+                "--gt",
+                str(KITTI / "training" / "label_02" / f"{seq}.txt"),
+                "--results",
+                str(one),
+                "--events",
+                str(ev),
+                "--classes",
+                "car,pedestrian,cyclist",
+                "--json",
+                str(verdicts_json),
+            ]
+        )
+        == 0
+    )
     doc = json.loads(verdicts_json.read_text())["sequences"][seq]["events"]
-    assert {"frame": good.event.frame, "event": "hides_behind", "args": list(good.event.args),
-            "verdict": "plausible"}.items() <= next(
-        r for r in doc if r["event"] == "hides_behind" and r["args"] == list(good.event.args)
-        and r["frame"] == good.event.frame).items()
+    assert {
+        "frame": good.event.frame,
+        "event": "hides_behind",
+        "args": list(good.event.args),
+        "verdict": "plausible",
+    }.items() <= next(
+        r
+        for r in doc
+        if r["event"] == "hides_behind"
+        and r["args"] == list(good.event.args)
+        and r["frame"] == good.event.frame
+    ).items()
 
     # the per-class files score as the one file does (KITTI scores a class's rows only)
     gt_file = KITTI / "training" / "label_02" / f"{seq}.txt"
@@ -312,8 +536,25 @@ def test_kitti_cyclist_hides_behind_a_car_in_a_joint_run(tmp_path: Path) -> None
     for c in ("car", "pedestrian"):
         for name, results in ((f"{c}-split", tmp_path / c / f"{seq}.txt"), (f"{c}-one", one)):
             out = tmp_path / f"{name}.json"
-            assert main(["-q", "evaluate", "--gt", str(gt_file), "--results", str(results),
-                         "--benchmark", "kitti", "--classes", c, "--json", str(out)]) == 0
+            assert (
+                main(
+                    [
+                        "-q",
+                        "evaluate",
+                        "--gt",
+                        str(gt_file),
+                        "--results",
+                        str(results),
+                        "--benchmark",
+                        "kitti",
+                        "--classes",
+                        c,
+                        "--json",
+                        str(out),
+                    ]
+                )
+                == 0
+            )
             scores[name] = json.loads(out.read_text())["classes"][c]["combined"]
         assert scores[f"{c}-split"] == scores[f"{c}-one"]
     assert scores["car-one"]["HOTA"] > 0.3 and scores["pedestrian-one"]["HOTA"] > 0.1

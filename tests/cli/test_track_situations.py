@@ -7,11 +7,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import SHARED_DATA
 
 from sensemaking.cli import main
 from sensemaking.settings import ParameterError, document_params, preset_profile
-
-from conftest import SHARED_DATA
 
 LANES = {"lanes": [{"id": 1, "points": [[620, 150], [620, 375]], "width": 300}]}
 
@@ -24,8 +23,22 @@ def parked_car_det(tmp_path: Path, n: int = 40) -> Path:
 
 
 def track(tmp_path: Path, det: Path, *extra: str) -> int:
-    return main(["track", "--detections", str(det), "--format", "mot", "--fps", "10",
-                 "--image-size", "1242x375", "--output", str(tmp_path / "res.txt"), *extra])
+    return main(
+        [
+            "track",
+            "--detections",
+            str(det),
+            "--format",
+            "mot",
+            "--fps",
+            "10",
+            "--image-size",
+            "1242x375",
+            "--output",
+            str(tmp_path / "res.txt"),
+            *extra,
+        ]
+    )
 
 
 def records(path: Path) -> list[dict]:
@@ -44,7 +57,19 @@ def test_blocked_lane_fires_through_track_lanes(tmp_path: Path):
     assert start["severity"] in (1, 2, 3) and start["lane_position"] == "unknown"  # MOT: fixed
     # with a driving camera the car stands on the ego lane
     warnings.unlink()
-    assert track(tmp_path, det, "--warnings", str(warnings), "--lanes", str(lanes), "--profile", "driving") == 0
+    assert (
+        track(
+            tmp_path,
+            det,
+            "--warnings",
+            str(warnings),
+            "--lanes",
+            str(lanes),
+            "--profile",
+            "driving",
+        )
+        == 0
+    )
     start = next(r for r in records(warnings) if r["situation"] == "BLOCKED_LANE")
     assert start["lane_position"] == "ego" and start["severity"] == 3
 
@@ -60,11 +85,35 @@ def test_segmentation_beside_the_road_blocks_no_lane(tmp_path: Path):
     lanes.write_text(json.dumps(LANES))
     seg = tmp_path / "seg.npy"
     np.save(seg, np.full((375, 1242), 1, dtype=np.int64))  # Cityscapes 1: sidewalk everywhere
-    assert track(tmp_path, det, "--warnings", str(warnings), "--lanes", str(lanes), "--segmentation", str(seg)) == 0
+    assert (
+        track(
+            tmp_path,
+            det,
+            "--warnings",
+            str(warnings),
+            "--lanes",
+            str(lanes),
+            "--segmentation",
+            str(seg),
+        )
+        == 0
+    )
     assert all(r["situation"] != "BLOCKED_LANE" for r in records(warnings))
     np.save(seg, np.zeros((375, 1242), dtype=np.int64))  # 0: road
     warnings.unlink()
-    assert track(tmp_path, det, "--warnings", str(warnings), "--lanes", str(lanes), "--segmentation", str(seg)) == 0
+    assert (
+        track(
+            tmp_path,
+            det,
+            "--warnings",
+            str(warnings),
+            "--lanes",
+            str(lanes),
+            "--segmentation",
+            str(seg),
+        )
+        == 0
+    )
     assert any(r["situation"] == "BLOCKED_LANE" for r in records(warnings))
 
 
@@ -89,8 +138,21 @@ def test_bad_lanes_file_is_one_line_and_exit_2(tmp_path: Path, capsys, content, 
     else:
         lanes.write_text(content)
     out = tmp_path / "out"
-    code = main(["track", "--detections", str(det), "--format", "mot", "--output", str(out / "res.txt"),
-                 "--warnings", str(out / "w.jsonl"), "--lanes", str(lanes)])
+    code = main(
+        [
+            "track",
+            "--detections",
+            str(det),
+            "--format",
+            "mot",
+            "--output",
+            str(out / "res.txt"),
+            "--warnings",
+            str(out / "w.jsonl"),
+            "--lanes",
+            str(lanes),
+        ]
+    )
     err = capsys.readouterr().err.strip()
     assert code == 2
     assert len(err.splitlines()) == 1 and str(lanes) in err and problem in err
@@ -109,7 +171,9 @@ def test_context_options_need_warnings(tmp_path: Path, capsys):
 def test_presets_name_their_profile():
     assert preset_profile("kitti") == "driving" and preset_profile("mot") == "fixed"
     with pytest.raises(ParameterError, match="profile"):
-        document_params({"format": "sensemaking-params/1", "profile": "flying", "params": {}}, "x.json")
+        document_params(
+            {"format": "sensemaking-params/1", "profile": "flying", "params": {}}, "x.json"
+        )
 
 
 MOT17_02 = SHARED_DATA / "mot17" / "MOT17-02-YOLOX-half" / "det" / "det.txt"
@@ -119,8 +183,22 @@ MOT17_02 = SHARED_DATA / "mot17" / "MOT17-02-YOLOX-half" / "det" / "det.txt"
 @pytest.mark.skipif(not MOT17_02.exists(), reason="needs ../shared/data (MOT17-02)")
 def test_mot17_fixed_camera_gives_no_ego_vehicle_warnings(tmp_path: Path):
     warnings, events = tmp_path / "w.jsonl", tmp_path / "ev.jsonl"
-    code = main(["--quiet", "track", "--detections", str(MOT17_02), "--format", "mot", "--output", str(tmp_path / "res.txt"),
-                 "--events", str(events), "--warnings", str(warnings)])
+    code = main(
+        [
+            "--quiet",
+            "track",
+            "--detections",
+            str(MOT17_02),
+            "--format",
+            "mot",
+            "--output",
+            str(tmp_path / "res.txt"),
+            "--events",
+            str(events),
+            "--warnings",
+            str(warnings),
+        ]
+    )
     assert code == 0
     hides = [r for r in records(events) if r["event"] == "hides_behind"]
     assert len(hides) > 20  # people do hide: with an ego vehicle this would warn

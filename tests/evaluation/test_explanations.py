@@ -424,7 +424,8 @@ def mot_run(tmp_path, crossing):
     events = tmp_path / "CROSS.events.jsonl"
     events.write_text(
         "".join(
-            json.dumps(event_record(Event(e.frame + 1, e.name, e.args))) + "\n" for e in (HIDE, UNHIDE)
+            json.dumps(event_record(Event(e.frame + 1, e.name, e.args))) + "\n"
+            for e in (HIDE, UNHIDE)
         )
     )
     return tmp_path, res, events
@@ -573,7 +574,10 @@ def test_occlusion_recall_says_what_the_tracker_said_instead(crossing):
     table = explanation_table({"b": combined})
     assert "occluded when lost, said instead: missing_detections 1, nothing 1" in table
     # without visibility in the ground truth there is no occasion, and nothing is counted
-    assert evaluate_explanations(_truth(crossing, kind="boxes"), tracks, [missing]).occlusions_said == {}
+    assert (
+        evaluate_explanations(_truth(crossing, kind="boxes"), tracks, [missing]).occlusions_said
+        == {}
+    )
 
 
 def test_read_events_and_warnings_name_the_bad_line(tmp_path):

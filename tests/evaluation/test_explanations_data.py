@@ -14,12 +14,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import SHARED_DATA
 
 from sensemaking.detections import Detections
 from sensemaking.evaluation.explanations import evaluate_explanations, load_ground_truth
 from sensemaking.results import Event
-
-from conftest import SHARED_DATA
 
 KITTI_GT = SHARED_DATA / "kitti" / "training" / "label_02" / "0001.txt"
 MOT_GT = SHARED_DATA / "mot17" / "MOT17-05-YOLOX-half" / "gt" / "gt.txt"

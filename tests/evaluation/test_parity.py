@@ -17,12 +17,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import SHARED_DATA
 
 from sensemaking.classes import CLASS_IDS
 from sensemaking.detections import Detections
 from sensemaking.evaluation import COMBINED, evaluate, load_kitti_benchmark, load_mot_benchmark
-
-from conftest import SHARED_DATA
 
 pytestmark = pytest.mark.integration
 

@@ -9,7 +9,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import SHARED_DATA
 
 ray = pytest.importorskip("ray")
@@ -24,7 +23,6 @@ from sensemaking.fleet.query import NAMED_QUERIES, run_query  # noqa: E402
 from sensemaking.fleet.run import RunParams, run_sequence  # noqa: E402
 from sensemaking.fleet.specs import find_sequences, read_manifest  # noqa: E402
 from sensemaking.fleet.synthetic import write_synthetic_fleet  # noqa: E402
-
 
 
 @pytest.fixture(scope="module")

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import assert_same, same_array
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
@@ -14,11 +15,17 @@ from sensemaking.classes import CLASS_IDS, KITTI_NAMES
 from sensemaking.detections import Detections
 from sensemaking.errors import InputError
 from sensemaking.io.formats import read_detections, write_results
-from sensemaking.io.kitti import read_kitti_detections, read_kitti_labels, read_kitti_seqinfo, write_kitti
+from sensemaking.io.kitti import (
+    read_kitti_detections,
+    read_kitti_labels,
+    read_kitti_seqinfo,
+    write_kitti,
+)
 from sensemaking.io.mot import SequenceInfo
 
-from helpers import assert_same, same_array
-CAR, PED, CYC, VAN, DONTCARE = (CLASS_IDS[n] for n in ("car", "pedestrian", "cyclist", "van", "dontcare"))
+CAR, PED, CYC, VAN, DONTCARE = (
+    CLASS_IDS[n] for n in ("car", "pedestrian", "cyclist", "van", "dontcare")
+)
 
 LABELS = (
     "0 -1 DontCare -1 -1 -10.000000 219.310000 188.490000 245.500000 218.560000 -1000.000000 -1000.000000 "
@@ -73,8 +80,11 @@ def test_empty_labels_give_empty_detections_with_columns(tmp_path: Path) -> None
 
 def test_write_kitti_text_with_defaults(tmp_path: Path) -> None:
     tracks = Detections(
-        xyxy=[[10, 20, 30.5, 40], [1, 2, 3, 4]], confidence=[0.75, 1], class_id=[CAR, PED],
-        tracker_id=[3, 1], frame=[5, 2],
+        xyxy=[[10, 20, 30.5, 40], [1, 2, 3, 4]],
+        confidence=[0.75, 1],
+        class_id=[CAR, PED],
+        tracker_id=[3, 1],
+        frame=[5, 2],
     )
     out = tmp_path / "out" / "0001.txt"
     write_kitti(out, tracks)
@@ -101,24 +111,54 @@ names = st.sampled_from(sorted(KITTI_NAMES))
 real = st.floats(allow_nan=False, allow_infinity=False)
 pixel = st.floats(min_value=-1e4, max_value=1e4, allow_nan=False)
 label_row = st.tuples(
-    st.integers(0, 10**5), st.integers(-1, 10**6), names, real, st.integers(-1, 3),
-    st.tuples(pixel, pixel, st.floats(1e-3, 1e4), st.floats(1e-3, 1e4)), st.lists(real, min_size=8, max_size=8), real,
+    st.integers(0, 10**5),
+    st.integers(-1, 10**6),
+    names,
+    real,
+    st.integers(-1, 3),
+    st.tuples(pixel, pixel, st.floats(1e-3, 1e4), st.floats(1e-3, 1e4)),
+    st.lists(real, min_size=8, max_size=8),
+    real,
 )
 
 
-@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=100, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
 @given(st.lists(label_row, min_size=1, max_size=20))
-@example([(0, 1, CAR, 0.30000000000000004, 0, (0.1, 0.2, 1e-3, 1.0), [-0.0, 1e-300, 1e300, 2.5, -7.0,
-                                                                              1 / 3, 2**0.5, -1e-7], 1e16)])
+@example(
+    [
+        (
+            0,
+            1,
+            CAR,
+            0.30000000000000004,
+            0,
+            (0.1, 0.2, 1e-3, 1.0),
+            [-0.0, 1e-300, 1e300, 2.5, -7.0, 1 / 3, 2**0.5, -1e-7],
+            1e16,
+        )
+    ]
+)
 def test_kitti_round_trip_is_exact_for_random_floats(tmp_path: Path, rows: list[tuple]) -> None:
     rows.sort(key=lambda r: (r[0], r[1]))
     xyxy = np.array([[x, y, x + w, y + h] for _, _, _, _, _, (x, y, w, h), _, _ in rows])
     extra = np.array([r[6] for r in rows])
     first = Detections(
-        xyxy=xyxy, confidence=[r[7] for r in rows], class_id=[r[2] for r in rows],
-        tracker_id=[r[1] for r in rows], frame=[r[0] for r in rows], source_row=np.arange(1, len(rows) + 1),
-        data={"truncated": np.array([r[3] for r in rows]), "occluded": np.array([r[4] for r in rows]),
-              "alpha": extra[:, 0], "dimensions": extra[:, 1:4], "location": extra[:, 4:7], "rotation_y": extra[:, 7]},
+        xyxy=xyxy,
+        confidence=[r[7] for r in rows],
+        class_id=[r[2] for r in rows],
+        tracker_id=[r[1] for r in rows],
+        frame=[r[0] for r in rows],
+        source_row=np.arange(1, len(rows) + 1),
+        data={
+            "truncated": np.array([r[3] for r in rows]),
+            "occluded": np.array([r[4] for r in rows]),
+            "alpha": extra[:, 0],
+            "dimensions": extra[:, 1:4],
+            "location": extra[:, 4:7],
+            "rotation_y": extra[:, 7],
+        },
     )
     out = tmp_path / "0000.txt"
     write_kitti(out, first)
@@ -156,7 +196,9 @@ def test_pointrcnn(tmp_path: Path) -> None:
     assert d.data["rotation_y"][0] == -2.1125 and d.data["alpha"][0] == -1.7867
 
 
-def test_zero_width_detection_is_dropped_with_warning(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+def test_zero_width_detection_is_dropped_with_warning(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
     text = "0,1,2,3,4,0.5\n1,1241,185.4478,1241,374,0.1\n2,1,2,3,4,0.5\n"
     d = read_kitti_detections(write(tmp_path / "car" / "0000.txt", text))
     assert d.source_row.tolist() == [1, 3]
@@ -181,8 +223,11 @@ def test_read_detections_sniffs_kitti_kinds(tmp_path: Path) -> None:
 
 
 def test_read_kitti_seqinfo(tmp_path: Path) -> None:
-    path = write(tmp_path / "seqinfo.csv", "seq,num_frames,im_width,im_height,frame_rate\n0000,154,1242,375,10\n\n"
-                                           "0001,447,1242,375,10\n")
+    path = write(
+        tmp_path / "seqinfo.csv",
+        "seq,num_frames,im_width,im_height,frame_rate\n0000,154,1242,375,10\n\n"
+        "0001,447,1242,375,10\n",
+    )
     infos = read_kitti_seqinfo(path)
     assert infos == {
         "0000": SequenceInfo("0000", 154, 1242, 375, 10.0),
@@ -197,7 +242,10 @@ def test_read_kitti_seqinfo(tmp_path: Path) -> None:
 def parsed(shared_data: Path) -> tuple[dict[str, Detections], float]:
     """Every KITTI file of the shared data, read once: (relative path -> Detections, seconds)."""
     start = time.perf_counter()
-    out = {str(p.relative_to(shared_data)): read_kitti_labels(p) for p in sorted(shared_data.glob("kitti/training/label_02/*.txt"))}
+    out = {
+        str(p.relative_to(shared_data)): read_kitti_labels(p)
+        for p in sorted(shared_data.glob("kitti/training/label_02/*.txt"))
+    }
     for p in sorted(shared_data.glob("kitti/detections/*/*/*.txt")):
         out[str(p.relative_to(shared_data))] = read_detections(p, "kitti")
     return out, time.perf_counter() - start
@@ -216,14 +264,26 @@ def test_known_label_rows(parsed: tuple[dict[str, Detections], float]) -> None:
     gt = parsed[0]["kitti/training/label_02/0000.txt"]
     assert len(gt) == 1089
     # line 1: 0 -1 DontCare -1 -1 -10.000000 219.310000 188.490000 245.500000 218.560000 -1000 ...
-    assert (gt.frame[0], gt.tracker_id[0], gt.class_id[0], gt.source_row[0]) == (0, -1, DONTCARE, 1)
+    assert (gt.frame[0], gt.tracker_id[0], gt.class_id[0], gt.source_row[0]) == (
+        0,
+        -1,
+        DONTCARE,
+        1,
+    )
     np.testing.assert_array_equal(gt.xyxy[0], [219.31, 188.49, 245.5, 218.56])
     # line 3: 0 0 Van 0 0 -1.793451 296.744956 161.752147 455.226042 292.372804 2 1.823255 4.433886 ...
-    assert (gt.tracker_id[2], gt.class_id[2], gt.source_row[2], gt.data["occluded"][2]) == (0, VAN, 3, 0)
+    assert (gt.tracker_id[2], gt.class_id[2], gt.source_row[2], gt.data["occluded"][2]) == (
+        0,
+        VAN,
+        3,
+        0,
+    )
     np.testing.assert_array_equal(gt.data["location"][2], [-4.552284, 1.858523, 13.410495])
     assert gt.data["rotation_y"][2] == -2.115488
     assert np.unique(gt.class_id).tolist() == [PED, CAR, VAN, CYC, DONTCARE]
-    assert gt.source_row.tolist() == list(range(1, 1090))  # the file is sorted by (frame, id) already
+    assert gt.source_row.tolist() == list(
+        range(1, 1090)
+    )  # the file is sorted by (frame, id) already
 
 
 @pytest.mark.integration
@@ -240,13 +300,17 @@ def test_known_detection_rows(parsed: tuple[dict[str, Detections], float]) -> No
     assert len(prcnn) == 1054 - 1  # line 614 has x1 == x2 == 1241: dropped
     assert 614 not in prcnn.source_row.tolist()
     # read_detections maps PointRCNN logits through the sigmoid (8.2981 and -0.4501 in the file)
-    np.testing.assert_allclose(prcnn.confidence[[0, 2]], 1 / (1 + np.exp(-np.array([8.2981, -0.4501]))))
+    np.testing.assert_allclose(
+        prcnn.confidence[[0, 2]], 1 / (1 + np.exp(-np.array([8.2981, -0.4501])))
+    )
     np.testing.assert_array_equal(prcnn.data["dimensions"][0], [1.9605, 1.8137, 4.7549])
     assert set(files["kitti/detections/pointrcnn/cyclist/0000.txt"].class_id.tolist()) == {CYC}
 
 
 @pytest.mark.integration
-def test_round_trip_every_kitti_file(parsed: tuple[dict[str, Detections], float], tmp_path: Path) -> None:
+def test_round_trip_every_kitti_file(
+    parsed: tuple[dict[str, Detections], float], tmp_path: Path
+) -> None:
     out = tmp_path / "0000.txt"
     for name, first in parsed[0].items():
         write_kitti(out, first)
@@ -260,7 +324,9 @@ def test_round_trip_every_kitti_file(parsed: tuple[dict[str, Detections], float]
 
 
 @pytest.mark.integration
-def test_kitti_seqinfo_fits_labels(shared_data: Path, parsed: tuple[dict[str, Detections], float]) -> None:
+def test_kitti_seqinfo_fits_labels(
+    shared_data: Path, parsed: tuple[dict[str, Detections], float]
+) -> None:
     infos = read_kitti_seqinfo(shared_data / "kitti/training/seqinfo.csv")
     assert sorted(infos) == [f"{i:04d}" for i in range(11)]
     assert infos["0000"] == SequenceInfo("0000", 154, 1242, 375, 10.0)

@@ -7,14 +7,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import assert_same
 from hypothesis import HealthCheck, assume, example, given, settings
 from hypothesis import strategies as st
 
 from sensemaking.detections import Detections
 from sensemaking.io.formats import read_detections, write_results
 from sensemaking.io.mot import SequenceInfo, read_mot, read_seqinfo, write_mot
-
-from helpers import assert_same
 
 
 def write(tmp_path: Path, text: str, name: str = "det.txt") -> Path:
@@ -27,9 +26,12 @@ def write(tmp_path: Path, text: str, name: str = "det.txt") -> Path:
 
 
 def test_read_det_ten_fields(tmp_path: Path) -> None:
-    path = write(tmp_path, "1,-1,10.5,20,30,40.25,0.9,-1,-1,-1\n"
-                           "1,-1,0,0,1,2,0.01,-1,-1,-1\n"
-                           "4,-1,5,6,7,8,0.5,-1,-1,-1\n")
+    path = write(
+        tmp_path,
+        "1,-1,10.5,20,30,40.25,0.9,-1,-1,-1\n"
+        "1,-1,0,0,1,2,0.01,-1,-1,-1\n"
+        "4,-1,5,6,7,8,0.5,-1,-1,-1\n",
+    )
     d = read_mot(path)
     assert len(d) == 3
     np.testing.assert_array_equal(d.xyxy[0], [10.5, 20, 40.5, 60.25])
@@ -49,7 +51,9 @@ def test_read_det_seven_fields_and_default_class(tmp_path: Path) -> None:
 
 
 def test_crlf_and_blank_lines_keep_line_numbers(tmp_path: Path) -> None:
-    path = write(tmp_path, "1,-1,1,2,3,4,0.5\r\n\r\n2,-1,1,2,3,4,0.6\r\n  \n3,-1,1,2,3,4,0.7\r\n\n\n")
+    path = write(
+        tmp_path, "1,-1,1,2,3,4,0.5\r\n\r\n2,-1,1,2,3,4,0.6\r\n  \n3,-1,1,2,3,4,0.7\r\n\n\n"
+    )
     d = read_mot(path)
     assert d.source_row.tolist() == [1, 3, 5]
     assert d.confidence.tolist() == [0.5, 0.6, 0.7]
@@ -74,7 +78,9 @@ def test_read_gt_mot17_sorted_by_frame_then_id(tmp_path: Path) -> None:
 
 
 def test_read_gt_mot15_ten_fields(tmp_path: Path) -> None:
-    path = write(tmp_path, "1,1,212,204,20,57,0,-3.1784,16.34,0.45739\n1,2,223,181,36,104,1,-1,-1,-1\n")
+    path = write(
+        tmp_path, "1,1,212,204,20,57,0,-3.1784,16.34,0.45739\n1,2,223,181,36,104,1,-1,-1,-1\n"
+    )
     d = read_mot(path, kind="gt", default_class=1)
     assert d.class_id.tolist() == [1, 1]
     assert d.data["consider"].tolist() == [0, 1]  # TrackEval drops MOT15 rows marked 0
@@ -82,7 +88,9 @@ def test_read_gt_mot15_ten_fields(tmp_path: Path) -> None:
 
 
 def test_read_results(tmp_path: Path) -> None:
-    path = write(tmp_path, "1,7,1,2,3,4,-1,-1,-1,-1\n1,3,5,6,7,8,0.5,-1,-1,-1\n2,7,1,2,3,4,1,-1,-1,-1\n")
+    path = write(
+        tmp_path, "1,7,1,2,3,4,-1,-1,-1,-1\n1,3,5,6,7,8,0.5,-1,-1,-1\n2,7,1,2,3,4,1,-1,-1,-1\n"
+    )
     d = read_mot(path, kind="results")
     assert d.tracker_id.tolist() == [7, 3, 7]
     assert d.confidence.tolist() == [-1.0, 0.5, 1.0]
@@ -95,7 +103,9 @@ def test_empty_results_and_gt_are_legal(tmp_path: Path) -> None:
     assert len(gt) == 0 and sorted(gt.data) == ["consider", "visibility"]
 
 
-def test_zero_sized_detection_dropped_with_warning(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+def test_zero_sized_detection_dropped_with_warning(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
     path = write(tmp_path, "1,-1,1,2,3,4,0.5\n1,-1,1,2,0,4,0.5\n2,-1,1,2,3,4,0.5\n")
     d = read_mot(path)
     assert d.source_row.tolist() == [1, 3]
@@ -114,7 +124,9 @@ def test_read_detections_mot_uses_class_name(tmp_path: Path) -> None:
 def test_write_mot_text(tmp_path: Path) -> None:
     tracks = Detections.from_xywh(
         [[10, 20, 30, 40], [0.1, 0.2, 0.2, 1e-7]],
-        confidence=[0.5, 1.0], tracker_id=[5, 6], frame=[2, 1],
+        confidence=[0.5, 1.0],
+        tracker_id=[5, 6],
+        frame=[2, 1],
     )
     out = tmp_path / "sub" / "res.txt"
     write_mot(out, tracks)
@@ -156,21 +168,31 @@ def test_write_keeps_frame_order_stable(tmp_path: Path) -> None:
 coords = st.floats(min_value=-1e5, max_value=1e5, allow_nan=False, allow_infinity=False)
 sizes = st.floats(min_value=1e-300, max_value=1e5, allow_nan=False, allow_infinity=False)
 scores = st.floats(allow_nan=False, allow_infinity=False)
-ROW = st.tuples(coords, coords, sizes, sizes, scores, st.integers(1, 10**6), st.integers(-1, 10**9))
+ROW = st.tuples(
+    coords, coords, sizes, sizes, scores, st.integers(1, 10**6), st.integers(-1, 10**9)
+)
 
 
-@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=100, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
 @given(st.lists(ROW, min_size=1, max_size=20))
 @example([(0.1, 0.2, 0.2, 0.1, 0.30000000000000004, 1, 1)])
 @example([(-1000.0, 1e-3, 1000.001, 1.0, -0.0, 1, 1)])
 @example([(1234.5678901234567, 1e-5, 1.2345678901234567e-3, 3.3333333333333335, 1e300, 2, 3)])
 def test_mot_round_trip_is_exact_for_random_floats(tmp_path: Path, rows: list[tuple]) -> None:
-    rows = sorted((r for r in rows if r[0] + r[2] > r[0] and r[1] + r[3] > r[1]), key=lambda r: r[5])
+    rows = sorted(
+        (r for r in rows if r[0] + r[2] > r[0] and r[1] + r[3] > r[1]), key=lambda r: r[5]
+    )
     assume(rows)  # x + w == x for a tiny w: no box
     arr = np.array([r[:4] for r in rows], dtype=np.float64)
     first = Detections.from_xywh(  # exactly what read_mot builds from "x,y,w,h"
-        arr, confidence=[r[4] for r in rows], frame=[r[5] for r in rows], tracker_id=[r[6] for r in rows],
-        source_row=np.arange(1, len(rows) + 1), class_id=1,
+        arr,
+        confidence=[r[4] for r in rows],
+        frame=[r[5] for r in rows],
+        tracker_id=[r[6] for r in rows],
+        source_row=np.arange(1, len(rows) + 1),
+        class_id=1,
     )
     out = tmp_path / "res.txt"
     write_mot(out, first)
@@ -180,16 +202,25 @@ def test_mot_round_trip_is_exact_for_random_floats(tmp_path: Path, rows: list[tu
     assert_same(second, read_mot(out, kind="results"))
 
 
-@settings(max_examples=50, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(st.lists(st.tuples(st.floats(0, 1e5), st.floats(0, 1e5), st.floats(0, 1e5), st.floats(0, 1e5)),
-                min_size=1, max_size=20))
+@settings(
+    max_examples=50, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    st.lists(
+        st.tuples(st.floats(0, 1e5), st.floats(0, 1e5), st.floats(0, 1e5), st.floats(0, 1e5)),
+        min_size=1,
+        max_size=20,
+    )
+)
 @example([(0.0, 1.0, 1.2922106224250456, 32769.78174769245)])  # a tie: no float w has y + w == y2
 def test_mot_any_corners_come_back_within_one_ulp(tmp_path: Path, rows: list[tuple]) -> None:
     # Corners not read from x, w (e.g. a filter's output) cannot always be hit exactly by x + w
     # (rounding ties); x1, y1 come back exactly and x2, y2 within one ulp, then stay put.
     corners = np.array([[min(a, b), min(c, d), max(a, b), max(c, d)] for a, b, c, d in rows])
     assume(bool(((corners[:, 2] > corners[:, 0]) & (corners[:, 3] > corners[:, 1])).all()))
-    tracks = Detections(xyxy=corners, frame=1, tracker_id=1, class_id=1, source_row=np.arange(1, len(rows) + 1))
+    tracks = Detections(
+        xyxy=corners, frame=1, tracker_id=1, class_id=1, source_row=np.arange(1, len(rows) + 1)
+    )
     out = tmp_path / "res.txt"
     write_mot(out, tracks)
     back = read_mot(out, kind="results")
@@ -212,7 +243,9 @@ def test_read_seqinfo_file_and_folder(tmp_path: Path) -> None:
     expected = SequenceInfo(name="SEQ-01", length=600, width=1920, height=1080, fps=30.0)
     assert read_seqinfo(seq) == expected
     assert read_seqinfo(seq / "seqinfo.ini") == expected
-    (seq / "seqinfo.ini").write_text("[Sequence]\nframeRate=12.5\nseqLength=3\nimWidth=4\nimHeight=5\n")
+    (seq / "seqinfo.ini").write_text(
+        "[Sequence]\nframeRate=12.5\nseqLength=3\nimWidth=4\nimHeight=5\n"
+    )
     assert read_seqinfo(seq) == SequenceInfo("SEQ-01", 3, 4, 5, 12.5)
 
 
@@ -226,7 +259,9 @@ def parsed(shared_data: Path) -> tuple[dict[str, Detections], float]:
     out: dict[str, Detections] = {}
     for path in sorted(shared_data.glob("mot*/*/det/det.txt")):
         out[str(path.relative_to(shared_data))] = read_detections(path, "mot")
-    for path in sorted(shared_data.glob("mot*/*/gt/gt.txt")) + sorted(shared_data.glob("metric-fixtures/*/gt.txt")):
+    for path in sorted(shared_data.glob("mot*/*/gt/gt.txt")) + sorted(
+        shared_data.glob("metric-fixtures/*/gt.txt")
+    ):
         out[str(path.relative_to(shared_data))] = read_mot(path, kind="gt")
     for path in sorted(shared_data.glob("metric-fixtures/*/test.txt")):
         out[str(path.relative_to(shared_data))] = read_mot(path, kind="results")
@@ -248,7 +283,13 @@ def test_known_rows_mot17(shared_data: Path, parsed: tuple[dict[str, Detections]
     assert len(det) == 24951
     # line 1: 1,-1,889.7,422.6,137.7,520.4,0.94,-1,-1,-1
     np.testing.assert_array_equal(det.xyxy[0], [889.7, 422.6, 889.7 + 137.7, 422.6 + 520.4])
-    first = (det.frame[0], det.confidence[0], det.class_id[0], det.tracker_id[0], det.source_row[0])
+    first = (
+        det.frame[0],
+        det.confidence[0],
+        det.class_id[0],
+        det.tracker_id[0],
+        det.source_row[0],
+    )
     assert first == (1, 0.94, 1, -1, 1)
     assert det.confidence.min() == 0.01 and det.confidence.max() == 0.95
     assert det.frame.max() == read_seqinfo(shared_data / "mot17/MOT17-02-YOLOX-half").length == 299
@@ -272,7 +313,9 @@ def test_known_rows_mot17(shared_data: Path, parsed: tuple[dict[str, Detections]
 
 
 @pytest.mark.integration
-def test_known_rows_mot15_and_fixtures(shared_data: Path, parsed: tuple[dict[str, Detections], float]) -> None:
+def test_known_rows_mot15_and_fixtures(
+    shared_data: Path, parsed: tuple[dict[str, Detections], float]
+) -> None:
     files = parsed[0]
     gt = files["mot15/ETH-Bahnhof/gt/gt.txt"]
     assert len(gt) == 7670
@@ -285,11 +328,15 @@ def test_known_rows_mot15_and_fixtures(shared_data: Path, parsed: tuple[dict[str
     # line 1: 1,3,113.84,274.5,57.307,130.05,-1,-1,-1,-1
     np.testing.assert_array_equal(res.xyxy[0], [113.84, 274.5, 113.84 + 57.307, 274.5 + 130.05])
     assert (res.frame[0], res.tracker_id[0], res.confidence[0]) == (1, 3, -1.0)
-    assert read_seqinfo(shared_data / "mot15/TUD-Campus/seqinfo.ini") == SequenceInfo("TUD-Campus", 71, 640, 480, 25.0)
+    assert read_seqinfo(shared_data / "mot15/TUD-Campus/seqinfo.ini") == SequenceInfo(
+        "TUD-Campus", 71, 640, 480, 25.0
+    )
 
 
 @pytest.mark.integration
-def test_round_trip_every_mot_file(parsed: tuple[dict[str, Detections], float], tmp_path: Path) -> None:
+def test_round_trip_every_mot_file(
+    parsed: tuple[dict[str, Detections], float], tmp_path: Path
+) -> None:
     out = tmp_path / "out.txt"
     for name, first in parsed[0].items():
         write_mot(out, first)
@@ -298,11 +345,18 @@ def test_round_trip_every_mot_file(parsed: tuple[dict[str, Detections], float], 
         elif name.endswith("test.txt"):
             assert_same(first, read_mot(out, kind="results"), where=name)
         else:  # gt has no writer of its own: boxes, ids and frames survive the results format
-            assert_same(first, read_mot(out, kind="results"), skip=("class_id", "source_row", "data"), where=name)
+            assert_same(
+                first,
+                read_mot(out, kind="results"),
+                skip=("class_id", "source_row", "data"),
+                where=name,
+            )
 
 
 @pytest.mark.integration
-def test_every_sequence_fits_its_seqinfo(shared_data: Path, parsed: tuple[dict[str, Detections], float]) -> None:
+def test_every_sequence_fits_its_seqinfo(
+    shared_data: Path, parsed: tuple[dict[str, Detections], float]
+) -> None:
     seqs = sorted(p.parent for p in shared_data.glob("mot*/*/seqinfo.ini"))
     assert len(seqs) == 11
     for seq in seqs:
@@ -315,7 +369,9 @@ def test_every_sequence_fits_its_seqinfo(shared_data: Path, parsed: tuple[dict[s
 
 def test_results_sorted_by_id_are_accepted_in_file_order(tmp_path):
     path = tmp_path / "res.txt"
-    path.write_text("1,1,10,20,30,40,1,-1,-1,-1\n2,1,11,20,30,40,1,-1,-1,-1\n1,2,50,20,30,40,1,-1,-1,-1\n")
+    path.write_text(
+        "1,1,10,20,30,40,1,-1,-1,-1\n2,1,11,20,30,40,1,-1,-1,-1\n1,2,50,20,30,40,1,-1,-1,-1\n"
+    )
     res = read_mot(path, kind="results")
     assert res.frame.tolist() == [1, 2, 1]
     assert res.tracker_id.tolist() == [1, 1, 2]

@@ -10,15 +10,20 @@ import pytest
 from sensemaking.classes import CLASS_IDS
 from sensemaking.detections import Detections
 from sensemaking.io.kitti import read_kitti_labels
-from sensemaking.sinks import ClassTracksSink, TracksSink, class_paths
-from sensemaking.io.stream import iter_detection_frames, merge_frames, scan_detections, sequence_name
+from sensemaking.io.stream import (
+    iter_detection_frames,
+    merge_frames,
+    scan_detections,
+    sequence_name,
+)
 from sensemaking.results import FrameResult
+from sensemaking.sinks import ClassTracksSink, TracksSink, class_paths
 
 CAR, PED, CYC = CLASS_IDS["car"], CLASS_IDS["pedestrian"], CLASS_IDS["cyclist"]
 
 
 def pointrcnn_line(frame: int, code: int, x: float, logit: float = 1.0) -> str:
-    return (f"{frame},{code},{x},100,{x + 40},180,{logit},1.5,1.6,3.9,1.0,1.6,20.0,0.1,0.2\n")
+    return f"{frame},{code},{x},100,{x + 40},180,{logit},1.5,1.6,3.9,1.0,1.6,20.0,0.1,0.2\n"
 
 
 @pytest.fixture()
@@ -103,7 +108,9 @@ def test_class_sink_writes_what_one_sink_writes_split_by_class(tmp_path: Path) -
     split.finish()
     lines = (tmp_path / "all.txt").read_text().splitlines()
     for cid, kitti in ((CAR, "Car"), (PED, "Pedestrian"), (CYC, "Cyclist")):
-        assert paths[cid].read_text().splitlines() == [ln for ln in lines if ln.split()[2] == kitti]
+        assert paths[cid].read_text().splitlines() == [
+            ln for ln in lines if ln.split()[2] == kitti
+        ]
     assert paths[CYC].read_text() == ""  # the hidden cyclist is not written (no --write-hidden)
     assert split.ids == {1, 2, 3} and split.boxes == one.boxes == 4
     assert set(read_kitti_labels(paths[CAR]).tracker_id.tolist()) == {1, 3}

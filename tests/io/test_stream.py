@@ -7,13 +7,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import SHARED_DATA
 
 from sensemaking.errors import InputError
 from sensemaking.io.formats import read_detections
 from sensemaking.io.stream import iter_detection_frames, scan_detections
-
-from conftest import SHARED_DATA
-
 
 
 def assert_same_frames(path: Path, fmt: str, chunk_lines: int) -> None:

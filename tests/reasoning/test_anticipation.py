@@ -4,7 +4,15 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_scene_helpers import CAR, CYC, Obj, build_results, build_scene, cyclist_behind_turning_car, linear
+from test_scene_helpers import (
+    CAR,
+    CYC,
+    Obj,
+    build_results,
+    build_scene,
+    cyclist_behind_turning_car,
+    linear,
+)
 
 from sensemaking.reasoning.anticipation import (
     AnticipationConfig,
@@ -68,11 +76,19 @@ def test_synthetic_occlusion_suite(record_property):
         objs = []
         for i in np.unique(gt.tracker_id):
             m = gt.tracker_id == i
-            objs.append(Obj(int(i), int(gt.class_id[m][0]), {int(f): b for f, b in zip(gt.frame[m], gt.xyxy[m])}))
-        scene = build_scene(objs, sc.n_frames, size=(sc.width, sc.height), hide_cover=0.6, fps=sc.fps)
+            objs.append(
+                Obj(
+                    int(i),
+                    int(gt.class_id[m][0]),
+                    {int(f): b for f, b in zip(gt.frame[m], gt.xyxy[m], strict=False)},
+                )
+            )
+        scene = build_scene(
+            objs, sc.n_frames, size=(sc.width, sc.height), hide_cover=0.6, fps=sc.fps
+        )
         for e in reappearance_errors(scene, config=AnticipationConfig(reappear_coverage=0.6)):
             m = gt.tracker_id == e.track
-            vis = dict(zip(gt.frame[m].tolist(), gt.data["visibility"][m].tolist()))
+            vis = dict(zip(gt.frame[m].tolist(), gt.data["visibility"][m].tolist(), strict=False))
             truth = next(f for f in sorted(vis) if f > e.hidden_from and vis[f] >= 0.4)
             results.append((sc.name, e.predicted_frame - truth, e.position_error_px))
     assert len(results) >= 6
@@ -119,7 +135,9 @@ def test_online_monitor_warns_with_the_same_prediction_while_hidden():
     assert w.details["lead_frames"] == 13 and w.details["lead_s"] == pytest.approx(1.3)
     ant = w.details["anticipation"]
     assert ant["reappear_frame"] == 34 and ant["position"] == [658.0, 254.0] and ant["in_corridor"]
-    assert "may reappear in front of the ego vehicle at frame 34 (in 13 frames, 1.3 s)" in w.message
+    assert (
+        "may reappear in front of the ego vehicle at frame 34 (in 13 frames, 1.3 s)" in w.message
+    )
     # issued while hidden: the cyclist is hidden at the warning frame
     assert results[21].state_of(1).name == "HIDDEN"
 
@@ -135,7 +153,9 @@ def test_prediction_follows_the_occluder_during_the_occlusion():
     for r in results:
         mon.update(r)
         leads += [(r.frame, a.reappear_frame) for a in mon.anticipations]
-    first_visible = next(r.frame for r in results if r.frame > 12 and r.state_of(1).name == "VISIBLE")
+    first_visible = next(
+        r.frame for r in results if r.frame > 12 and r.state_of(1).name == "VISIBLE"
+    )
     assert first_visible == 29
     assert [f for f, _ in leads] == list(range(12, 29)) and all(rf == 29 for _, rf in leads)
 
@@ -158,8 +178,12 @@ def test_first_uncovered_is_the_frame_by_frame_look_ahead():
     for it in range(3000):
         tb = rng.uniform(300, 700, 2).tolist()
         tb = tb + [tb[0] + rng.uniform(0.5, 80), tb[1] + rng.uniform(0.5, 80)]
-        ob = [tb[0] - rng.uniform(0, 60), tb[1] - rng.uniform(0, 60), tb[2] + rng.uniform(-20, 60),
-              tb[3] + rng.uniform(-20, 60)]
+        ob = [
+            tb[0] - rng.uniform(0, 60),
+            tb[1] - rng.uniform(0, 60),
+            tb[2] + rng.uniform(-20, 60),
+            tb[3] + rng.uniform(-20, 60),
+        ]
         scale = [0.0, 0.05, 1.0, 4.0][it % 4]
         tv = (rng.normal(0, scale, 4)).tolist()
         ov = (np.asarray(tv) + rng.normal(0, scale / 4 + 0.01, 4)).tolist()
@@ -176,7 +200,9 @@ def test_first_uncovered_is_the_frame_by_frame_look_ahead():
 
 
 # -- the pinhole motion model -----------------------------------------------------------------
-def _project(x: float, y: float, z: float, w: float, h: float, size=(1242, 375), f=700.0) -> list[float]:
+def _project(
+    x: float, y: float, z: float, w: float, h: float, size=(1242, 375), f=700.0
+) -> list[float]:
     """The box of an object w x h metres standing at (x, y, z) metres before a pinhole camera
     (focal length f px, principal point at the image centre)."""
     cx, cy = size[0] / 2, size[1] / 2
@@ -193,14 +219,22 @@ def test_pinhole_model_is_exact_for_constant_velocity_in_3d():
     car = np.array([_project(-2.0 + 0.12 * t, 1.65, 14.0 - 0.3 * t, 1.8, 1.5) for t in frames])
     from sensemaking.reasoning.anticipation import _coverage
 
-    cover = [_coverage(list(p), list(c)) for p, c in zip(ped, car)]
+    cover = [_coverage(list(p), list(c)) for p, c in zip(ped, car, strict=False)]
     now = next(f for f in frames if cover[f] >= 0.5)
     back = next(f for f in frames if f > now and cover[f] < 0.5)
     truth = ((ped[back][0] + ped[back][2]) / 2, ped[back][3])
     got = {}
     for model in ("pinhole", "linear"):
-        a = anticipate(frames[:now], ped[:now], frames[: now + 1], car[: now + 1], int(now), fps=10.0,
-                       image_size=(1242, 375), config=AnticipationConfig(motion_model=model))
+        a = anticipate(
+            frames[:now],
+            ped[:now],
+            frames[: now + 1],
+            car[: now + 1],
+            int(now),
+            fps=10.0,
+            image_size=(1242, 375),
+            config=AnticipationConfig(motion_model=model),
+        )
         got[model] = a.reappear_frame
         if model == "pinhole":
             assert a.position == pytest.approx(truth, abs=1e-6)
@@ -215,11 +249,21 @@ def test_pinhole_model_an_occluder_passing_the_camera_uncovers():
     ped = np.array([_project(0.0, 1.65, 30.0, 0.6, 1.7) for _ in frames])
     truck = np.array([_project(0.0, 1.65, 10.0 - 0.9 * t, 2.5, 4.0) for t in frames])
     car = truck
-    a = anticipate(frames[:1], ped[:1], frames, car, 9, fps=10.0, image_size=(1242, 375),
-                   config=AnticipationConfig(motion_model="pinhole"))
+    a = anticipate(
+        frames[:1],
+        ped[:1],
+        frames,
+        car,
+        9,
+        fps=10.0,
+        image_size=(1242, 375),
+        config=AnticipationConfig(motion_model="pinhole"),
+    )
     assert a is not None and a.reappear_frame == 12 and not a.overdue
     assert a.position == pytest.approx(((ped[0][0] + ped[0][2]) / 2, ped[0][3]))
-    assert anticipate(frames[:1], ped[:1], frames, car, 9, fps=10.0, image_size=(1242, 375)) is None
+    assert (
+        anticipate(frames[:1], ped[:1], frames, car, 9, fps=10.0, image_size=(1242, 375)) is None
+    )
 
 
 def test_motion_model_is_checked():

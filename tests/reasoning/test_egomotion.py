@@ -259,7 +259,7 @@ def test_overtaking_in_the_world_needs_a_moving_overtaken_vehicle():
         rows = []
         for g, (za, zb) in zip(
             range(-5, 1),
-            [(800, 1500), (1000, 1500), (1200, 1500), (1500, 1500), (1700, 1500), (1900, 1500)],
+            [(800, 1500), (1000, 1500), (1200, 1500), (1500, 1500), (1700, 1500), (1900, 1500)], strict=False,
         ):
             rows.append(
                 f"position(1,{g},{za},-300). position(2,{g},{zb},200). "

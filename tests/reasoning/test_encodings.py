@@ -37,11 +37,16 @@ def test_inverse_table_matches_python():
 def test_converse_closer_side_by_side_touching():
     prog = "ra(1,2,0,before,overlaps). ra(3,4,0,overlaps,finishes)."
     assert atoms(prog, "relations.lp", show="#show ra/5.") == [
-        "ra(1,2,0,before,overlaps)", "ra(2,1,0,after,overlapped_by)",
-        "ra(3,4,0,overlaps,finishes)", "ra(4,3,0,overlapped_by,finished_by)"]
+        "ra(1,2,0,before,overlaps)",
+        "ra(2,1,0,after,overlapped_by)",
+        "ra(3,4,0,overlaps,finishes)",
+        "ra(4,3,0,overlapped_by,finished_by)",
+    ]
     # depth order is not read off the y relation: closer/3 is front/3 (relations.pair_front)
     assert atoms(prog, "relations.lp", show="#show closer/3.") == []
-    assert atoms(prog + "front(2,1,0).", "relations.lp", show="#show closer/3.") == ["closer(2,1,0)"]
+    assert atoms(prog + "front(2,1,0).", "relations.lp", show="#show closer/3.") == [
+        "closer(2,1,0)"
+    ]
     assert atoms(prog, "relations.lp", show="#show side_by_side/3.") == [
         "side_by_side(1,2,0)",
         "side_by_side(2,1,0)",
@@ -65,8 +70,8 @@ def test_bottom_lower_is_exactly_the_lower_bottom_relations():
     a = np.stack([lo[:, 0], lo[:, 0] + rng.integers(1, 10, 4000)], axis=1)
     b = np.stack([lo[:, 1], lo[:, 1] + rng.integers(1, 10, 4000)], axis=1)
     names = [IA_RELATIONS[c] for c in interval_relations(a, b)]
-    assert {n for n, lower in zip(names, a[:, 1] > b[:, 1]) if lower} == lp
-    assert not {n for n, lower in zip(names, a[:, 1] <= b[:, 1]) if lower} & lp
+    assert {n for n, lower in zip(names, a[:, 1] > b[:, 1], strict=False) if lower} == lp
+    assert not {n for n, lower in zip(names, a[:, 1] <= b[:, 1], strict=False) if lower} & lp
 
 
 # -- scene.lp and questions.lp -------------------------------------------------------------------
@@ -170,17 +175,27 @@ def test_constants_and_defaults():
 
 
 def test_overtaking_rule():
-    flip = ("vehicle(1). vehicle(2). ra(1,2,7,before,after). ra(1,2,10,before,before). "
-            "front(1,2,7). front(2,1,10).")
-    assert sit(flip, "overtaking") == ["info(overtaking,(1,2),nearer_until,frame(7))",
-                                       "warn(overtaking,(1,2))"]
+    flip = (
+        "vehicle(1). vehicle(2). ra(1,2,7,before,after). ra(1,2,10,before,before). "
+        "front(1,2,7). front(2,1,10)."
+    )
+    assert sit(flip, "overtaking") == [
+        "info(overtaking,(1,2),nearer_until,frame(7))",
+        "warn(overtaking,(1,2))",
+    ]
     # oncoming: the overtaken vehicle approaches
     assert sit(flip + "motion(2,10,approaching).", "overtaking") == []
     # too long ago for ov_ms
     assert sit(flip, "overtaking", ov_ms=200) == []
     # one behind the other (x during): not side by side
-    assert sit("vehicle(1). vehicle(2). ra(1,2,7,during,after). ra(1,2,10,during,before). "
-               "front(1,2,7). front(2,1,10).", "overtaking") == []
+    assert (
+        sit(
+            "vehicle(1). vehicle(2). ra(1,2,7,during,after). ra(1,2,10,during,before). "
+            "front(1,2,7). front(2,1,10).",
+            "overtaking",
+        )
+        == []
+    )
 
 
 def test_hidden_entity_rule():

@@ -6,7 +6,6 @@ import importlib.util
 import sys
 
 import pytest
-
 from conftest import REPO, SHARED_DATA
 
 SCRIPT = REPO / "benchmarks" / "reasoning_overhead.py"

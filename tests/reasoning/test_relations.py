@@ -61,15 +61,18 @@ def test_all_thirteen_relations_covered_and_vectorised():
     assert [IA_RELATIONS[c] for c in interval_relations(a, b)] == list(IA_RELATIONS)
 
 
-@pytest.mark.parametrize("a,b,tol,expected", [
-    ((0, 2.9), (3, 8), 0.0, "before"),
-    ((0, 2.9), (3, 8), 0.2, "meets"),      # a gap within the tolerance meets
-    ((0, 3.1), (3, 8), 0.2, "meets"),      # so does a small overlap
-    ((0, 3.5), (3, 8), 0.2, "overlaps"),
-    ((2.1, 6.1), (2, 6), 0.2, "equal"),
-    ((2.1, 5.0), (2, 6), 0.2, "starts"),
-    ((1.0, 5.95), (2, 6), 0.2, "finished_by"),
-])
+@pytest.mark.parametrize(
+    "a,b,tol,expected",
+    [
+        ((0, 2.9), (3, 8), 0.0, "before"),
+        ((0, 2.9), (3, 8), 0.2, "meets"),  # a gap within the tolerance meets
+        ((0, 3.1), (3, 8), 0.2, "meets"),  # so does a small overlap
+        ((0, 3.5), (3, 8), 0.2, "overlaps"),
+        ((2.1, 6.1), (2, 6), 0.2, "equal"),
+        ((2.1, 5.0), (2, 6), 0.2, "starts"),
+        ((1.0, 5.95), (2, 6), 0.2, "finished_by"),
+    ],
+)
 def test_tolerance_for_meets_and_equal(a, b, tol, expected):
     assert IA_RELATIONS[interval_relations([a], [b], tol)[0]] == expected
 
@@ -87,13 +90,19 @@ def test_bad_intervals_raise():
 
 
 interval = st.tuples(st.floats(-50, 50, allow_nan=False), st.floats(0, 30, allow_nan=False)).map(
-    lambda t: (t[0], t[0] + t[1]))
-small_ints = st.tuples(st.integers(-6, 6), st.integers(0, 6)).map(lambda t: (float(t[0]), float(t[0] + t[1])))
+    lambda t: (t[0], t[0] + t[1])
+)
+small_ints = st.tuples(st.integers(-6, 6), st.integers(0, 6)).map(
+    lambda t: (float(t[0]), float(t[0] + t[1]))
+)
 
 
 @settings(max_examples=400, deadline=None)
-@given(a=st.one_of(interval, small_ints), b=st.one_of(interval, small_ints),
-       tol=st.one_of(st.just(0.0), st.floats(0, 10, allow_nan=False)))
+@given(
+    a=st.one_of(interval, small_ints),
+    b=st.one_of(interval, small_ints),
+    tol=st.one_of(st.just(0.0), st.floats(0, 10, allow_nan=False)),
+)
 def test_exactly_one_relation_holds_and_converse(a, b, tol):
     masks = interval_relation_masks([a], [b], tol)
     assert masks[:, 0].sum() == 1
@@ -149,14 +158,24 @@ def test_pair_relations_and_facts_are_written_smaller_id_first():
 
 
 def test_motion_features_and_kinds():
-    prev = np.array([[100, 100, 140, 180],   # approaching: grows, bottom moves down
-                     [100, 100, 140, 180],   # receding
-                     [100, 100, 140, 180],   # moving right, same size
-                     [100, 100, 140, 180]], float)  # stopped
-    cur = np.array([[95, 100, 145, 210],
-                    [105, 100, 135, 170],
-                    [130, 100, 170, 180],
-                    [100.5, 100, 140.5, 180]], float)
+    prev = np.array(
+        [
+            [100, 100, 140, 180],  # approaching: grows, bottom moves down
+            [100, 100, 140, 180],  # receding
+            [100, 100, 140, 180],  # moving right, same size
+            [100, 100, 140, 180],
+        ],
+        float,
+    )  # stopped
+    cur = np.array(
+        [
+            [95, 100, 145, 210],
+            [105, 100, 135, 170],
+            [130, 100, 170, 180],
+            [100.5, 100, 140.5, 180],
+        ],
+        float,
+    )
     feats = motion_features(prev, cur, 0.5)
     assert feats.vx[2] == pytest.approx(60.0) and feats.vbottom[0] == pytest.approx(60.0)
     kinds = classify_motion(feats, speed_before=np.array([0, 0, 0, 80.0]))
@@ -199,4 +218,6 @@ def _random_boxes(rng: np.random.Generator, n: int) -> np.ndarray:
     if rng.random() < 0.3:
         x0 += rng.random(n) * 7.3
         y0 += rng.random(n)
-    return np.stack([x0, y0, x0 + rng.integers(1, 30, n), y0 + rng.integers(1, 30, n)], 1).reshape(n, 4)
+    return np.stack([x0, y0, x0 + rng.integers(1, 30, n), y0 + rng.integers(1, 30, n)], 1).reshape(
+        n, 4
+    )

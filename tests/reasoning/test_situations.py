@@ -8,7 +8,17 @@ import logging
 
 import numpy as np
 import pytest
-from test_scene_helpers import CAR, CYC, PED, TRUCK, Obj, build_results, cyclist_behind_turning_car, linear, piecewise
+from test_scene_helpers import (
+    CAR,
+    CYC,
+    PED,
+    TRUCK,
+    Obj,
+    build_results,
+    cyclist_behind_turning_car,
+    linear,
+    piecewise,
+)
 
 from sensemaking.errors import InputError
 from sensemaking.reasoning.context import Lane, LaneMap, SceneContext
@@ -32,7 +42,9 @@ def kinds(warnings: list[SituationWarning]) -> list[tuple[int, str, tuple[int, .
     return [(w.frame, w.situation, w.objects) for w in warnings if w.objects]
 
 
-def only(warnings: list[SituationWarning], situation: str) -> list[tuple[int, str, tuple[int, ...]]]:
+def only(
+    warnings: list[SituationWarning], situation: str
+) -> list[tuple[int, str, tuple[int, ...]]]:
     return [k for k in kinds(warnings) if k[1] == situation]
 
 
@@ -41,7 +53,9 @@ def box(cx: float, bottom: float, w: float, h: float) -> list[float]:
 
 
 # -- scenes ---------------------------------------------------------------------------------------
-def overtaking(a_speed: float = 4.0, b_down: float = -0.5, ids: tuple[int, int] = (1, 2)) -> list[Obj]:
+def overtaking(
+    a_speed: float = 4.0, b_down: float = -0.5, ids: tuple[int, int] = (1, 2)
+) -> list[Obj]:
     """Two cars ahead in adjacent lanes; car 1 starts nearer and pulls away faster than car 2."""
     a = piecewise([(0, box(500, 300, 140, 90)), (30, box(560, 300 - 30 * a_speed, 100, 64))])
     b = piecewise([(0, box(680, 280, 120, 78)), (30, box(700, 280 + 30 * b_down, 112, 74))])
@@ -52,7 +66,9 @@ def cyclist_far_left() -> list[Obj]:
     """The hidden-cyclist scene shifted to the left edge: it reappears outside the corridor."""
     shifted = []
     for o in cyclist_behind_turning_car():
-        shifted.append(Obj(o.id, o.cls, {f: np.asarray(b) - [400, 0, 400, 0] for f, b in o.boxes.items()}))
+        shifted.append(
+            Obj(o.id, o.cls, {f: np.asarray(b) - [400, 0, 400, 0] for f, b in o.boxes.items()})
+        )
     return shifted
 
 
@@ -84,14 +100,17 @@ def looming_car(calm_first: bool) -> list[Obj]:
     return [Obj(1, CAR, keys)]
 
 
-def parked_car_and_person(appear_at: tuple[float, float, float, float], start: int = 10,
-                          car_speed: float = 0.0) -> list[Obj]:
+def parked_car_and_person(
+    appear_at: tuple[float, float, float, float], start: int = 10, car_speed: float = 0.0
+) -> list[Obj]:
     car = Obj(1, CAR, linear(range(30), (700, 200, 880, 300), (car_speed, 0, car_speed, 0)))
     ped = Obj(2, PED, linear(range(start, 30), appear_at, (1, 0, 1, 0)))
     return [car, ped]
 
 
-LANES = LaneMap((Lane(1, np.array([[560.0, 200], [400, 375]]), np.array([[680.0, 200], [840, 375]])),))
+LANES = LaneMap(
+    (Lane(1, np.array([[560.0, 200], [400, 375]]), np.array([[680.0, 200], [840, 375]])),)
+)
 
 
 # -- OVERTAKING -----------------------------------------------------------------------------------
@@ -127,7 +146,8 @@ def test_hidden_entity_not_when_it_will_not_come_out_soon():
     # and not with a lead time shorter than the anticipated one
     config = SituationConfig(constants={"he_lead_ms": 1000})
     assert only(run(cyclist_behind_turning_car(), config=config), "HIDDEN_ENTITY") == [
-        (24, "HIDDEN_ENTITY", (1, 2))]  # from frame 24 the reappearance at 34 is within 1 s
+        (24, "HIDDEN_ENTITY", (1, 2))
+    ]  # from frame 24 the reappearance at 34 is within 1 s
 
 
 # -- REDUCED_VISIBILITY ---------------------------------------------------------------------------
@@ -239,8 +259,17 @@ def test_each_situation_is_found_by_some_scene():
 
 
 def test_warning_once_per_episode_and_active_list():
-    truck = Obj(1, TRUCK, {**linear(range(0, 10), (420, 170, 820, 370)), **linear(range(25, 30), (420, 170, 820, 370))})
-    mon = SituationMonitor(SituationConfig(situations={"REDUCED_VISIBILITY"}), fps=10.0, image_size=SIZE)
+    truck = Obj(
+        1,
+        TRUCK,
+        {
+            **linear(range(0, 10), (420, 170, 820, 370)),
+            **linear(range(25, 30), (420, 170, 820, 370)),
+        },
+    )
+    mon = SituationMonitor(
+        SituationConfig(situations={"REDUCED_VISIBILITY"}), fps=10.0, image_size=SIZE
+    )
     frames = []
     for r in build_results([truck], 30):
         if mon.update(r):
@@ -257,7 +286,9 @@ def test_warning_json_round_trip():
     text = json.dumps(record)
     back = SituationWarning.from_json(json.loads(text))
     assert back == w and back.details == w.details
-    assert str(w).startswith("[21] HIDDEN_ENTITY: track 1 (cyclist) is hidden behind track 2 (car)")
+    assert str(w).startswith(
+        "[21] HIDDEN_ENTITY: track 1 (cyclist) is hidden behind track 2 (car)"
+    )
 
 
 def test_config_selects_situations_and_validates():
@@ -293,7 +324,9 @@ def test_empty_frames_and_unknown_classes():
     from sensemaking.results import FrameResult
 
     mon = SituationMonitor(SituationConfig())
-    assert [w.situation for w in mon.update(FrameResult(0, Detections.empty()))] == ["BLOCKED_LANE"]
+    assert [w.situation for w in mon.update(FrameResult(0, Detections.empty()))] == [
+        "BLOCKED_LANE"
+    ]
     odd = Obj(1, 18, linear(range(5), (420, 170, 820, 370)))  # misc: neither vehicle nor person
     warnings = mon.run(build_results([odd]))
     assert [k[1] for k in kinds(warnings)] == ["REDUCED_VISIBILITY"]
@@ -301,13 +334,16 @@ def test_empty_frames_and_unknown_classes():
 
 def test_without_image_size_corridor_situations_are_skipped():
     mon = SituationMonitor(fps=10.0, image_size=None)
-    assert set(mon.skipped) == {"BLOCKED_LANE", "HIDDEN_ENTITY", "REDUCED_VISIBILITY", "SUDDEN_STOP"}
+    assert set(mon.skipped) == {
+        "BLOCKED_LANE",
+        "HIDDEN_ENTITY",
+        "REDUCED_VISIBILITY",
+        "SUDDEN_STOP",
+    }
     warnings = mon.run(build_results(cyclist_behind_turning_car() + overtaking(ids=(3, 4))))
     notes = {w.situation: w.details["skipped"] for w in warnings if not w.objects}
     assert notes["HIDDEN_ENTITY"] == "needs the image size (for the ego corridor)"
     assert {k[1] for k in kinds(warnings)} == {"OVERTAKING"}
-
-
 
 
 # -- user encodings -------------------------------------------------------------------------------
@@ -323,8 +359,18 @@ def test_a_new_situation_in_a_user_encoding_is_warned_on_every_frame_where_it_ho
     of the user's file, nothing in Python) holds exactly while its motion is ``stopped``."""
     rule = tmp_path / "stopped_ahead.lp"
     rule.write_text(STOPPED_AHEAD)
-    car = Obj(1, CAR, piecewise([(0, (560, 200, 700, 290)), (10, (560, 240, 700, 330)),
-                                 (20, (560, 240, 700, 330)), (30, (560, 280, 700, 370))]))
+    car = Obj(
+        1,
+        CAR,
+        piecewise(
+            [
+                (0, (560, 200, 700, 290)),
+                (10, (560, 240, 700, 330)),
+                (20, (560, 240, 700, 330)),
+                (30, (560, 280, 700, 370)),
+            ]
+        ),
+    )
     mon = SituationMonitor(fps=10.0, image_size=SIZE, extra_encodings=[rule])
     plain = SituationMonitor(fps=10.0, image_size=SIZE)
     held, stopped = [], []
@@ -336,8 +382,9 @@ def test_a_new_situation_in_a_user_encoding_is_warned_on_every_frame_where_it_ho
         if "stopped" in mon._frames[-1].motion.get(1, ()):
             stopped.append(r.frame)
         # the built-in situations are untouched by the extra rules
-        assert [w.to_json() for w in mon.active if w.situation != "STOPPED_AHEAD"] == \
-            [w.to_json() for w in plain.active]
+        assert [w.to_json() for w in mon.active if w.situation != "STOPPED_AHEAD"] == [
+            w.to_json() for w in plain.active
+        ]
     assert held == stopped and len(held) >= 5
     w = next(w for w in mon.run(build_results([car], 30)) if w.situation == "STOPPED_AHEAD")
     assert w.objects == (1,) and w.details["since"] == w.frame and "stopped ahead" in w.message
@@ -381,7 +428,9 @@ def test_a_monitor_pickles_mid_sequence_and_goes_on_with_the_same_warnings(tmp_p
     results = build_results(cyclist_behind_turning_car() + overtaking(ids=(3, 4)))
     mon = SituationMonitor(fps=10.0, image_size=SIZE, extra_encodings=[rule])
     frames = [w.frame for w in SituationMonitor(fps=10.0, image_size=SIZE).run(results)]
-    half = next(i for i, r in enumerate(results) if r.frame == max(frames))  # before the last warning
+    half = next(
+        i for i, r in enumerate(results) if r.frame == max(frames)
+    )  # before the last warning
     for r in results[:half]:
         mon.update(r)
     copy = pickle.loads(pickle.dumps(mon))

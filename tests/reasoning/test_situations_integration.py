@@ -2,16 +2,14 @@
 
 from __future__ import annotations
 
-
 import numpy as np
 import pytest
+from conftest import SHARED_DATA
 from test_scene_helpers import Obj, build_results
 
 from sensemaking.reasoning.online import SituationMonitor
 from sensemaking.reasoning.situations import SituationConfig
 from sensemaking.results import TrackState
-
-from conftest import SHARED_DATA
 
 KITTI = SHARED_DATA / "kitti"
 
@@ -21,7 +19,13 @@ def _oracle_results(sc, hide_cover: float = 0.6):
     objs = []
     for i in np.unique(gt.tracker_id):
         m = gt.tracker_id == i
-        objs.append(Obj(int(i), int(gt.class_id[m][0]), {int(f): b for f, b in zip(gt.frame[m], gt.xyxy[m])}))
+        objs.append(
+            Obj(
+                int(i),
+                int(gt.class_id[m][0]),
+                {int(f): b for f, b in zip(gt.frame[m], gt.xyxy[m], strict=False)},
+            )
+        )
     return build_results(objs, sc.n_frames, size=(sc.width, sc.height), hide_cover=hide_cover)
 
 
@@ -29,14 +33,20 @@ def test_demo_scene_cyclist_behind_turning_car_warns_while_hidden():
     """Figure 1 scene of sensemaking.synthetic with the cyclist reported hidden: HIDDEN_ENTITY
     at the hiding frame, reappearance anticipated within a frame of the truth."""
     synthetic = pytest.importorskip("sensemaking.synthetic")
-    sc = next(s for s in synthetic.occlusion_suite(0) if s.name == "car_turns_right_hiding_cyclist")
+    sc = next(
+        s for s in synthetic.occlusion_suite(0) if s.name == "car_turns_right_hiding_cyclist"
+    )
     results = _oracle_results(sc)
     mon = SituationMonitor(fps=sc.fps, image_size=(sc.width, sc.height))
     (w,) = [w for w in mon.run(results) if w.situation == "HIDDEN_ENTITY"]
     cyclist = w.objects[0]
     hidden = [r.frame for r in results if r.state_of(cyclist) == TrackState.HIDDEN]
     assert w.frame == hidden[0] and w.details["classes"] == ["cyclist", "car"]
-    back = next(r.frame for r in results if r.frame > hidden[-1] and r.state_of(cyclist) == TrackState.VISIBLE)
+    back = next(
+        r.frame
+        for r in results
+        if r.frame > hidden[-1] and r.state_of(cyclist) == TrackState.VISIBLE
+    )
     assert abs(w.details["anticipation"]["reappear_frame"] - back) <= 1
 
 
@@ -49,7 +59,9 @@ def test_monitor_on_the_trackers_output():
     tracker_mod = pytest.importorskip("sensemaking.tracker")
     n_hidden = 0
     for sc in synthetic.occlusion_suite(0):
-        tracker = tracker_mod.Tracker(tracker_mod.TrackerConfig(fps=sc.fps, image_size=(sc.width, sc.height)))
+        tracker = tracker_mod.Tracker(
+            tracker_mod.TrackerConfig(fps=sc.fps, image_size=(sc.width, sc.height))
+        )
         mon = SituationMonitor(fps=sc.fps, image_size=(sc.width, sc.height))
         for f, dets in sc.frames():
             r = tracker.update(dets, frame=f)
@@ -58,14 +70,19 @@ def test_monitor_on_the_trackers_output():
                     n_hidden += 1
                     t, o = w.objects
                     i = int(np.flatnonzero(r.tracks.tracker_id == t)[0])
-                    assert r.tracks.data["state"][i] == TrackState.HIDDEN and r.tracks.data["occluder"][i] == o
+                    assert (
+                        r.tracks.data["state"][i] == TrackState.HIDDEN
+                        and r.tracks.data["occluder"][i] == o
+                    )
     assert n_hidden >= 1
 
 
 @pytest.mark.integration
 @pytest.mark.slow
-@pytest.mark.skipif(not (KITTI / "detections" / "rrc" / "car" / "0001.txt").exists(),
-                    reason="needs ../shared/data/kitti with RRC detections")
+@pytest.mark.skipif(
+    not (KITTI / "detections" / "rrc" / "car" / "0001.txt").exists(),
+    reason="needs ../shared/data/kitti with RRC detections",
+)
 def test_situations_on_the_trackers_kitti_output():
     """KITTI 0002 tracked from RRC detections (cars overtaking, hidden behind others,
     ahead, braking): the four situations of a driving camera occur, each warning is active at its
@@ -77,7 +94,9 @@ def test_situations_on_the_trackers_kitti_output():
     size = (1242, 375)
     seen: set[str] = set()
     for seq in ("0002",):
-        by_frame = dict(read_kitti_detections(KITTI / "detections" / "rrc" / "car" / f"{seq}.txt").frames())
+        by_frame = dict(
+            read_kitti_detections(KITTI / "detections" / "rrc" / "car" / f"{seq}.txt").frames()
+        )
         tracker = Tracker(TrackerConfig.for_dataset("kitti", fps=10.0, image_size=size))
         mon = SituationMonitor(SituationConfig(), fps=10.0, image_size=size)
         for f in range(max(by_frame) + 1):

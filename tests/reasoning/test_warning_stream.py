@@ -8,14 +8,23 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_scene_helpers import CAR, PED, TRUCK, Obj, build_results, cyclist_behind_turning_car, linear, piecewise
+from test_scene_helpers import (
+    CAR,
+    PED,
+    TRUCK,
+    Obj,
+    build_results,
+    cyclist_behind_turning_car,
+    linear,
+    piecewise,
+)
 
 from sensemaking.detections import Detections
-from sensemaking.sinks import WarningsSink
 from sensemaking.pipeline import Pipeline
 from sensemaking.reasoning.context import Lane, LaneMap, SceneContext
 from sensemaking.reasoning.online import LANE_POSITIONS, SEVERITY_NAMES, SituationMonitor
 from sensemaking.reasoning.situations import SituationConfig
+from sensemaking.sinks import WarningsSink
 
 SIZE = (1242, 375)
 EGO_SITUATIONS = {"HIDDEN_ENTITY", "REDUCED_VISIBILITY", "SUDDEN_STOP"}
@@ -49,8 +58,12 @@ def test_a_fixed_camera_issues_no_ego_vehicle_warnings():
 
 def test_a_fixed_camera_still_warns_about_other_road_users():
     car = linear(range(30), (560, 230, 700, 310))
-    lanes = LaneMap((Lane(1, np.array([[560.0, 200], [400, 375]]), np.array([[680.0, 200], [840, 375]])),))
-    mon = SituationMonitor(context=SceneContext(lanes=lanes), fps=10.0, image_size=SIZE, profile="fixed")
+    lanes = LaneMap(
+        (Lane(1, np.array([[560.0, 200], [400, 375]]), np.array([[680.0, 200], [840, 375]])),)
+    )
+    mon = SituationMonitor(
+        context=SceneContext(lanes=lanes), fps=10.0, image_size=SIZE, profile="fixed"
+    )
     warnings = [w for w in mon.run(build_results([Obj(1, CAR, car)])) if w.objects]
     assert [w.situation for w in warnings] == ["BLOCKED_LANE"]
     assert warnings[0].details["lane_position"] == "unknown"  # no ego vehicle, no ego lane
@@ -61,8 +74,13 @@ def test_unknown_profile_is_refused():
         SituationMonitor(profile="flying")
 
 
-def stream(tmp_path: Path, objs: list[Obj], n: int, config: SituationConfig | None = None,
-           context: SceneContext | None = None) -> list[dict]:
+def stream(
+    tmp_path: Path,
+    objs: list[Obj],
+    n: int,
+    config: SituationConfig | None = None,
+    context: SceneContext | None = None,
+) -> list[dict]:
     """The warnings file of a pipeline fed the frame results of a perfect tracker."""
     results = iter(build_results(objs, n))
 
@@ -85,7 +103,14 @@ def test_an_episode_is_one_start_and_one_end_record(tmp_path: Path):
     truck = Obj(1, TRUCK, {**linear(range(0, 10), box_), **linear(range(25, 30), box_)})
     records = stream(tmp_path, [truck], 30, SituationConfig(situations={"REDUCED_VISIBILITY"}))
     assert [(r["record"], r["episode"]) for r in records] == [
-        ("start", 1, ), ("end", 1), ("start", 2), ("end", 2)]
+        (
+            "start",
+            1,
+        ),
+        ("end", 1),
+        ("start", 2),
+        ("end", 2),
+    ]
     s1, e1, s2, e2 = records
     assert (s1["frame"], e1["start_frame"], e1["last_frame"], e1["reason"]) == (0, 0, 9, "cleared")
     assert e1["frame"] == 20  # known over once it has not held for more than rearm_s (10 frames)
@@ -106,8 +131,9 @@ def test_repeats_are_suppressed_over_a_short_gap(tmp_path: Path):
 
 
 def test_hidden_entity_severity_and_lane_position_come_from_where_it_reappears(tmp_path: Path):
-    records = stream(tmp_path, cyclist_behind_turning_car(), 45,
-                     SituationConfig(situations={"HIDDEN_ENTITY"}))
+    records = stream(
+        tmp_path, cyclist_behind_turning_car(), 45, SituationConfig(situations={"HIDDEN_ENTITY"})
+    )
     starts = [r for r in records if r["record"] == "start"]
     ends = [r for r in records if r["record"] == "end"]
     assert len(starts) == 1 and len(ends) == 1 and ends[0]["episode"] == starts[0]["episode"]
@@ -116,7 +142,11 @@ def test_hidden_entity_severity_and_lane_position_come_from_where_it_reappears(t
     assert s["lane_position"] in LANE_POSITIONS
     cl, cr = SceneContext().corridor.span_at(np.array([y]), SIZE)
     quarter = (cr[0] - cl[0]) / 4
-    expected = "ego" if cl[0] + quarter <= x <= cr[0] - quarter else ("left" if x < cl[0] + quarter else "right")
+    expected = (
+        "ego"
+        if cl[0] + quarter <= x <= cr[0] - quarter
+        else ("left" if x < cl[0] + quarter else "right")
+    )
     assert s["lane_position"] == expected
     assert s["severity"] == (3 if expected == "ego" else 2)
 
@@ -124,15 +154,20 @@ def test_hidden_entity_severity_and_lane_position_come_from_where_it_reappears(t
 def test_lane_position_from_lanes_left_ego_right():
     # three lanes; the middle one runs under the bottom centre of the image (x = 621)
     def lane(i: int, x_bottom: float) -> Lane:
-        return Lane(i, np.array([[x_bottom - 60, 150], [x_bottom - 200, 375]]),
-                    np.array([[x_bottom + 60, 150], [x_bottom + 200, 375]]))
+        return Lane(
+            i,
+            np.array([[x_bottom - 60, 150], [x_bottom - 200, 375]]),
+            np.array([[x_bottom + 60, 150], [x_bottom + 200, 375]]),
+        )
 
     lanes = LaneMap((lane(1, 221), lane(2, 621), lane(3, 1021)))
     ctx = SceneContext(lanes=lanes)
     got = {}
     for name, cx in (("left", 230), ("ego", 621), ("right", 1010)):
         car = Obj(1, CAR, linear(range(30), box(cx, 330, 120, 80)))
-        mon = SituationMonitor(SituationConfig(situations={"BLOCKED_LANE"}), context=ctx, fps=10.0, image_size=SIZE)
+        mon = SituationMonitor(
+            SituationConfig(situations={"BLOCKED_LANE"}), context=ctx, fps=10.0, image_size=SIZE
+        )
         (w,) = [w for w in mon.run(build_results([car])) if w.objects]
         got[name] = (w.details["lane_position"], w.details["severity"])
     assert got == {"left": ("left", 2), "ego": ("ego", 3), "right": ("right", 2)}

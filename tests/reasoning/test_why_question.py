@@ -73,7 +73,7 @@ def test_why_follows_the_trackers_costs():
     scene = hiding_scene(NEAR_MID, FAR_MID, costs=AbductionCosts(missing=120))
     answer = ask(scene, "why 1 6")
     assert scene.abduction is not None and scene.abduction.constants["cost_missing"] == 120
-    assert f"missing detections) (cost " in str(answer)
+    assert "missing detections) (cost " in str(answer)
     assert f"{120 - C['cost_hides']:+d})" in str(answer)
 
 
@@ -83,7 +83,7 @@ def test_why_a_tentative_tracks_start_is_abduced_at_its_first_frame():
     assert start.name == "starts" and start.frame == scene.tracks[2].first == 5
     text = str(ask(scene, "why 2"))
     assert "abduced at frame 3, when its detection started the track" in text
-    assert f"is ignored (a detection explained by no track)" in text
+    assert "is ignored (a detection explained by no track)" in text
 
 
 def test_why_round_trips_through_the_scene_file(tmp_path):
@@ -131,7 +131,10 @@ def test_bad_why_input_is_a_one_line_error(edge_file, tmp_path, capsys):
 def test_why_without_an_event_at_the_frame(edge_file):
     scene = Scene.load(edge_file)
     answer = ask(scene, "why 1 4")
-    assert str(answer) == "track 1 (pedestrian) has no event at frame 4 (frames with its events: 0, 6)"
+    assert (
+        str(answer)
+        == "track 1 (pedestrian) has no event at frame 4 (frames with its events: 0, 6)"
+    )
     with pytest.raises(QueryError):
         ask(scene, "why 1 2 3")
 

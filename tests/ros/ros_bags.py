@@ -59,7 +59,7 @@ def read_channels(path: Path) -> dict[str, list[tuple[int, dict]]]:
         for ch in summary.channels.values():
             assert ch.schema_id in summary.schemas, ch.topic
             out.setdefault(ch.topic, [])
-        for schema, channel, message in reader.iter_messages(log_time_order=True):
+        for _schema, channel, message in reader.iter_messages(log_time_order=True):
             if channel.message_encoding == "json":
                 out[channel.topic].append((message.log_time, json.loads(message.data)))
     return out

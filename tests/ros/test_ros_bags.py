@@ -13,12 +13,6 @@ import pytest
 pytest.importorskip("rosbags")
 pytest.importorskip("mcap")
 
-from sensemaking.cli import main  # noqa: E402
-from sensemaking.detections import Detections  # noqa: E402
-from sensemaking.io.kitti import read_kitti_labels  # noqa: E402
-from sensemaking.io.mot import read_mot  # noqa: E402
-from sensemaking.synthetic import crossing_scene  # noqa: E402
-
 from conftest import SHARED_DATA  # noqa: E402
 from ros_bags import (  # noqa: E402
     bag_from_text,
@@ -27,6 +21,12 @@ from ros_bags import (  # noqa: E402
     result_rows,
     track_rows,
 )
+
+from sensemaking.cli import main  # noqa: E402
+from sensemaking.detections import Detections  # noqa: E402
+from sensemaking.io.kitti import read_kitti_labels  # noqa: E402
+from sensemaking.io.mot import read_mot  # noqa: E402
+from sensemaking.synthetic import crossing_scene  # noqa: E402
 
 KITTI_0001 = SHARED_DATA / "kitti" / "detections" / "rrc" / "car" / "0001.txt"
 MOT17_05 = SHARED_DATA / "mot17" / "MOT17-05-YOLOX-half" / "det" / "det.txt"
@@ -62,8 +62,14 @@ def crossing(tmp_path: Path) -> tuple[Path, Path, int]:
         )
     )
     bag = bag_from_text(
-        text, "kitti", tmp_path / "bag", first=0, last=scene.n_frames - 1, fps=10.0,
-        image_size=(1242, 375), class_name="car",
+        text,
+        "kitti",
+        tmp_path / "bag",
+        first=0,
+        last=scene.n_frames - 1,
+        fps=10.0,
+        image_size=(1242, 375),
+        class_name="car",
     )
     return text, bag, scene.n_frames
 
@@ -71,25 +77,76 @@ def crossing(tmp_path: Path) -> tuple[Path, Path, int]:
 def test_bag_tracks_like_its_text_file_and_mcap_holds_the_run(crossing, tmp_path, capsys) -> None:
     text, bag, n = crossing
     common = ["--image-size", "1242x375", "--fps", "10"]
-    assert main(["-q", "track", "--detections", str(text), "--format", "kitti", "--class", "car",
-                 "--output", str(tmp_path / "text.txt"), "--write-hidden",
-                 "--events", str(tmp_path / "text.jsonl"), *common]) == 0
+    assert (
+        main(
+            [
+                "-q",
+                "track",
+                "--detections",
+                str(text),
+                "--format",
+                "kitti",
+                "--class",
+                "car",
+                "--output",
+                str(tmp_path / "text.txt"),
+                "--write-hidden",
+                "--events",
+                str(tmp_path / "text.jsonl"),
+                *common,
+            ]
+        )
+        == 0
+    )
     # the folder and the bare .mcap file in it read the same; the topic found by its type
     for source in (bag, mcap_file(bag)):
         out = tmp_path / f"bag-{source.suffix or 'dir'}.txt"
-        assert main(["-q", "track", "--detections", str(source), "--format", "kitti",
-                     "--output", str(out), "--write-hidden"]) == 0
+        assert (
+            main(
+                [
+                    "-q",
+                    "track",
+                    "--detections",
+                    str(source),
+                    "--format",
+                    "kitti",
+                    "--output",
+                    str(out),
+                    "--write-hidden",
+                ]
+            )
+            == 0
+        )
         assert out.read_bytes() == (tmp_path / "text.txt").read_bytes()
     run = tmp_path / "run.mcap"
-    assert main(["-q", "track", "--detections", str(bag), "--topic", "/detections",
-                 "--output", str(run), "--warnings", str(tmp_path / "w.jsonl")]) == 0
+    assert (
+        main(
+            [
+                "-q",
+                "track",
+                "--detections",
+                str(bag),
+                "--topic",
+                "/detections",
+                "--output",
+                str(run),
+                "--warnings",
+                str(tmp_path / "w.jsonl"),
+            ]
+        )
+        == 0
+    )
     channels = read_channels(run)
     # the warnings, start and end records, as the --warnings file of the same run has them
     said = [json.loads(s) for s in (tmp_path / "w.jsonl").read_text().splitlines()]
-    got = [{k: v for k, v in m.items() if k != "timestamp"} for _, m in channels["/sensemaking/warnings"]]
+    got = [
+        {k: v for k, v in m.items() if k != "timestamp"}
+        for _, m in channels["/sensemaking/warnings"]
+    ]
     assert got == said and {r["record"] for r in said} == {"start", "end"}
     assert sum(m["level"] == 3 for _, m in channels["/sensemaking/log"]) == len(
-        [r for r in said if r["record"] == "start"])
+        [r for r in said if r["record"] == "start"]
+    )
     assert set(CHANNELS) <= set(channels)
     # every box (hidden tracks at their predicted boxes too) of the text run, exactly
     expected = result_rows(read_kitti_labels(tmp_path / "text.txt"))
@@ -98,7 +155,10 @@ def test_bag_tracks_like_its_text_file_and_mcap_holds_the_run(crossing, tmp_path
     assert "hidden" in states
     # every event, as the --events file has it, stamped with its frame's header stamp
     events = [json.loads(s) for s in (tmp_path / "text.jsonl").read_text().splitlines()]
-    got = [{k: v for k, v in m.items() if k != "timestamp"} for _, m in channels["/sensemaking/events"]]
+    got = [
+        {k: v for k, v in m.items() if k != "timestamp"}
+        for _, m in channels["/sensemaking/events"]
+    ]
     assert got == events and any(e["event"] == "hides_behind" for e in events)
     t0 = 1_700_000_000_000_000_000
     for log_time, m in channels["/sensemaking/events"]:
@@ -112,7 +172,9 @@ def test_bag_tracks_like_its_text_file_and_mcap_holds_the_run(crossing, tmp_path
         assert len(m["points"]) == len(tracks[log_time]["tracks"])
         assert all(p["type"] == 2 and len(p["points"]) == 4 for p in m["points"])
     labels = [t["text"] for _, m in channels["/sensemaking/annotations"] for t in m["texts"]]
-    assert any("(hidden)" in s for s in labels) and any(s.startswith("hides_behind(") for s in labels)
+    assert any("(hidden)" in s for s in labels) and any(
+        s.startswith("hides_behind(") for s in labels
+    )
 
 
 def test_mcap_schemas_and_passthrough(crossing, tmp_path) -> None:
@@ -120,7 +182,9 @@ def test_mcap_schemas_and_passthrough(crossing, tmp_path) -> None:
 
     _, bag, n = crossing
     run = tmp_path / "run.mcap"
-    assert main(["-q", "track", "--detections", str(bag), "--output", str(run), "--passthrough"]) == 0
+    assert (
+        main(["-q", "track", "--detections", str(bag), "--output", str(run), "--passthrough"]) == 0
+    )
     with open(run, "rb") as f:
         summary = make_reader(f).get_summary()
     assert summary is not None
@@ -129,7 +193,9 @@ def test_mcap_schemas_and_passthrough(crossing, tmp_path) -> None:
         assert names[topic] == schema
     assert names["/detections"] == "vision_msgs/msg/Detection2DArray"
     assert names["/camera/camera_info"] == "sensor_msgs/msg/CameraInfo"
-    counts = {summary.channels[c].topic: k for c, k in summary.statistics.channel_message_counts.items()}
+    counts = {
+        summary.channels[c].topic: k for c, k in summary.statistics.channel_message_counts.items()
+    }
     assert counts["/detections"] == n and counts["/camera/camera_info"] == 1
     # copied byte for byte
     with open(mcap_file(bag), "rb") as a, open(run, "rb") as b:
@@ -140,8 +206,17 @@ def test_mcap_schemas_and_passthrough(crossing, tmp_path) -> None:
 
 def test_db3_bag_reads_the_same(crossing, tmp_path) -> None:
     text, bag, n = crossing
-    db3 = bag_from_text(text, "kitti", tmp_path / "db3bag", first=0, last=n - 1, fps=10.0,
-                        image_size=(1242, 375), class_name="car", storage="sqlite3")
+    db3 = bag_from_text(
+        text,
+        "kitti",
+        tmp_path / "db3bag",
+        first=0,
+        last=n - 1,
+        fps=10.0,
+        image_size=(1242, 375),
+        class_name="car",
+        storage="sqlite3",
+    )
     assert list(db3.glob("*.db3"))
     a, b = tmp_path / "a.txt", tmp_path / "b.txt"
     assert main(["-q", "track", "--detections", str(bag), "--output", str(a)]) == 0
@@ -182,13 +257,21 @@ def test_class_table(tmp_path, capsys) -> None:
 
 
 def test_numbered_classes_need_the_table(tmp_path, capsys) -> None:
-    from sensemaking.ros.convert import write_detection_bag
-
     # a COCO-numbered detector: class_id "2" (car) and "0" (person)
     import sensemaking.ros.convert as convert
+    from sensemaking.ros.convert import write_detection_bag
 
-    frames = [(f, Detections(np.array([[10.0 + f, 10.0, 60.0 + f, 90.0], [300, 20, 340, 120]]),
-                             0.9, np.array([2, 0]))) for f in range(8)]
+    frames = [
+        (
+            f,
+            Detections(
+                np.array([[10.0 + f, 10.0, 60.0 + f, 90.0], [300, 20, 340, 120]]),
+                0.9,
+                np.array([2, 0]),
+            ),
+        )
+        for f in range(8)
+    ]
     names = {2: "2", 0: "0"}
     original = convert.class_name
     convert.class_name = lambda c: names[int(c)]  # noqa: E731 - the detector's own names
@@ -199,8 +282,21 @@ def test_numbered_classes_need_the_table(tmp_path, capsys) -> None:
     out = tmp_path / "o.txt"
     err = one_line_error(capsys, main(["track", "--detections", str(bag), "--output", str(out)]))
     assert "class_id '" in err and "--classes" in err
-    assert main(["-q", "track", "--detections", str(bag), "--output", str(out),
-                 "--classes", "2=car,0=ignore"]) == 0
+    assert (
+        main(
+            [
+                "-q",
+                "track",
+                "--detections",
+                str(bag),
+                "--output",
+                str(out),
+                "--classes",
+                "2=car,0=ignore",
+            ]
+        )
+        == 0
+    )
     res = read_kitti_labels(out)
     assert len(res) and set(res.class_id.tolist()) == {3}
 
@@ -208,12 +304,17 @@ def test_numbered_classes_need_the_table(tmp_path, capsys) -> None:
 def test_bad_input_is_one_line(crossing, tmp_path, capsys) -> None:
     _, bag, n = crossing
     out = str(tmp_path / "o.mcap")
-    err = one_line_error(capsys, main(["track", "--detections", str(bag), "--topic", "/nope",
-                                       "--output", out]))
+    err = one_line_error(
+        capsys, main(["track", "--detections", str(bag), "--topic", "/nope", "--output", out])
+    )
     assert "/nope" in err and "/detections (vision_msgs/msg/Detection2DArray)" in err
     assert "/camera/camera_info (sensor_msgs/msg/CameraInfo)" in err
-    err = one_line_error(capsys, main(["track", "--detections", str(bag), "--topic",
-                                       "/camera/camera_info", "--output", out]))
+    err = one_line_error(
+        capsys,
+        main(
+            ["track", "--detections", str(bag), "--topic", "/camera/camera_info", "--output", out]
+        ),
+    )
     assert "sensor_msgs/msg/CameraInfo messages" in err
     # a truncated file: the recorder died
     cut = tmp_path / "cut.mcap"
@@ -222,14 +323,41 @@ def test_bad_input_is_one_line(crossing, tmp_path, capsys) -> None:
     err = one_line_error(capsys, main(["track", "--detections", str(cut), "--output", out]))
     assert str(cut) in err
     # the output would overwrite the input
-    err = one_line_error(capsys, main(["track", "--detections", str(mcap_file(bag)),
-                                       "--output", str(mcap_file(bag))]))
+    err = one_line_error(
+        capsys,
+        main(["track", "--detections", str(mcap_file(bag)), "--output", str(mcap_file(bag))]),
+    )
     assert "overwrite the input" in err
-    err = one_line_error(capsys, main(["track", "--detections", str(bag), "--passthrough",
-                                       "--output", str(tmp_path / "o.txt")]))
+    err = one_line_error(
+        capsys,
+        main(
+            [
+                "track",
+                "--detections",
+                str(bag),
+                "--passthrough",
+                "--output",
+                str(tmp_path / "o.txt"),
+            ]
+        ),
+    )
     assert "--passthrough" in err
-    err = one_line_error(capsys, main(["track", "--detections", str(tmp_path / "x.txt"),
-                                       "--format", "mot", "--topic", "/d", "--output", out]))
+    err = one_line_error(
+        capsys,
+        main(
+            [
+                "track",
+                "--detections",
+                str(tmp_path / "x.txt"),
+                "--format",
+                "mot",
+                "--topic",
+                "/d",
+                "--output",
+                out,
+            ]
+        ),
+    )
     assert "--topic reads a ROS 2 bag" in err
     assert not (tmp_path / "o.mcap").exists()
 
@@ -249,8 +377,9 @@ def test_unsorted_stamps_are_refused(tmp_path, capsys) -> None:
         for k, stamp in enumerate([0, 200, 100, 300]):
             msg = _array(store, box, _time(store, 10**9 + stamp * 10**6), "camera")
             w.write(conn, 10**9 + k, store.serialize_cdr(msg, DETECTION_ARRAY))
-    err = one_line_error(capsys, main(["track", "--detections", str(bag), "--output",
-                                       str(tmp_path / "o.txt")]))
+    err = one_line_error(
+        capsys, main(["track", "--detections", str(bag), "--output", str(tmp_path / "o.txt")])
+    )
     assert "message 3" in err and "stamps must increase" in err
 
 
@@ -263,31 +392,61 @@ def test_wrong_message_layout_is_refused(tmp_path, capsys) -> None:
     with Writer(tmp_path / "b", version=9, storage_plugin=StoragePlugin.MCAP) as w:
         conn = w.add_connection("/detections", DETECTION_ARRAY, typestore=typestore())
         w.write(conn, 1, b"\x00\x01\x00\x00garbage")
-    err = one_line_error(capsys, main(["track", "--detections", str(tmp_path / "b"),
-                                       "--output", str(tmp_path / "o.txt")]))
+    err = one_line_error(
+        capsys,
+        main(["track", "--detections", str(tmp_path / "b"), "--output", str(tmp_path / "o.txt")]),
+    )
     assert "message 1" in err and "cannot decode" in err
 
 
 def test_missing_extra_names_it(crossing, tmp_path, capsys, monkeypatch) -> None:
     _, bag, _ = crossing
     monkeypatch.setitem(sys.modules, "rosbags.highlevel", None)  # as if not installed
-    err = one_line_error(capsys, main(["track", "--detections", str(bag), "--output",
-                                       str(tmp_path / "o.txt")]))
+    err = one_line_error(
+        capsys, main(["track", "--detections", str(bag), "--output", str(tmp_path / "o.txt")])
+    )
     assert "sensemaking[ros]" in err
 
 
-def _round_trip(text: Path, fmt: str, seqlen: int, fps: float, size, tmp_path: Path,
-                cls: str | None) -> None:
+def _round_trip(
+    text: Path, fmt: str, seqlen: int, fps: float, size, tmp_path: Path, cls: str | None
+) -> None:
     first = 1 if fmt == "mot" else 0
-    bag = bag_from_text(text, fmt, tmp_path / "bag", first=first, last=first + seqlen - 1,
-                        fps=fps, image_size=size, class_name=cls)
+    bag = bag_from_text(
+        text,
+        fmt,
+        tmp_path / "bag",
+        first=first,
+        last=first + seqlen - 1,
+        fps=fps,
+        image_size=size,
+        class_name=cls,
+    )
     ref = tmp_path / "ref.txt"
     args = ["--class", cls] if cls else []
-    assert main(["-q", "track", "--detections", str(text), "--format", fmt, "--output", str(ref),
-                 *args]) == 0
+    assert (
+        main(
+            [
+                "-q",
+                "track",
+                "--detections",
+                str(text),
+                "--format",
+                fmt,
+                "--output",
+                str(ref),
+                *args,
+            ]
+        )
+        == 0
+    )
     out, run = tmp_path / "bag.txt", tmp_path / "run.mcap"
-    assert main(["-q", "track", "--detections", str(bag), "--format", fmt, "--output", str(out)]) == 0
-    assert main(["-q", "track", "--detections", str(bag), "--format", fmt, "--output", str(run)]) == 0
+    assert (
+        main(["-q", "track", "--detections", str(bag), "--format", fmt, "--output", str(out)]) == 0
+    )
+    assert (
+        main(["-q", "track", "--detections", str(bag), "--format", fmt, "--output", str(run)]) == 0
+    )
     read = read_kitti_labels if fmt == "kitti" else (lambda p: read_mot(p, kind="results"))
     expected = result_rows(read(ref))
     if fmt == "kitti":  # corners with 6 decimals come back as the file's very numbers
@@ -315,8 +474,6 @@ def test_mot17_05_round_trip(tmp_path) -> None:
     _round_trip(MOT17_05, "mot", 418, 14.0, (640, 480), tmp_path, None)
 
 
-
-
 def test_direct_reading_equals_the_generic_decoder(crossing) -> None:
     """The vision_msgs 4 layout read directly gives what rosbags' decoder gives, and a
     definition that differs is left to the decoder."""
@@ -328,8 +485,11 @@ def test_direct_reading_equals_the_generic_decoder(crossing) -> None:
     _, bag, _ = crossing
     with open(mcap_file(bag), "rb") as f:
         reader = make_reader(f)
-        schema = next(s for s in reader.get_summary().schemas.values()
-                      if s.name == "vision_msgs/msg/Detection2DArray")
+        schema = next(
+            s
+            for s in reader.get_summary().schemas.values()
+            if s.name == "vision_msgs/msg/Detection2DArray"
+        )
         text = schema.data.decode()
         store = get_typestore(Stores.EMPTY)
         store.register(get_types_from_msg(text, schema.name))
@@ -343,7 +503,9 @@ def test_direct_reading_equals_the_generic_decoder(crossing) -> None:
     assert has_layout(text)
     # as ROS 2 writes its own .msg files: comments, same-package types unqualified, defaults
     ros_style = (
-        text.replace("vision_msgs/Detection2D[] detections", "# proposals\nDetection2D[] detections")
+        text.replace(
+            "vision_msgs/Detection2D[] detections", "# proposals\nDetection2D[] detections"
+        )
         .replace("vision_msgs/Pose2D center", "Pose2D center  # the box's center")
         .replace("float64 w", "float64 w 1")
         .replace("float64 theta", "float64 theta\nuint8 NONE=0")
@@ -399,9 +561,17 @@ def test_damaged_bags_never_give_a_traceback(tmp_path, capsys) -> None:
 
     from sensemaking.ros.convert import write_detection_bag
 
-    frames = [(f, Detections(np.array([[10.0 + f, 20.0, 60.0 + f, 90.0],
-                                        [200.0, 30.0, 260.0, 140.0]]), 0.9, np.array([3, 1])))
-              for f in range(12)]
+    frames = [
+        (
+            f,
+            Detections(
+                np.array([[10.0 + f, 20.0, 60.0 + f, 90.0], [200.0, 30.0, 260.0, 140.0]]),
+                0.9,
+                np.array([3, 1]),
+            ),
+        )
+        for f in range(12)
+    ]
     bag = write_detection_bag(tmp_path / "b", frames, fps=10.0, image_size=(640, 480))
     data = bytearray(mcap_file(bag).read_bytes())
     rng = random.Random(25)
@@ -418,8 +588,17 @@ def test_damaged_bags_never_give_a_traceback(tmp_path, capsys) -> None:
             bad[at:at] = bad[at : at + rng.randint(1, 64)]
         path = tmp_path / f"bad{k}.mcap"
         path.write_bytes(bytes(bad))
-        code = main(["-q", "track", "--detections", str(path), "--output",
-                     str(tmp_path / f"o{k}.mcap"), "--passthrough"])
+        code = main(
+            [
+                "-q",
+                "track",
+                "--detections",
+                str(path),
+                "--output",
+                str(tmp_path / f"o{k}.mcap"),
+                "--passthrough",
+            ]
+        )
         err = capsys.readouterr().err
         assert code in (0, 2), (k, how, err)
         assert "Traceback" not in err and "internal error" not in err, (k, how, err)

@@ -57,22 +57,42 @@ def test_server_publishes_to_subscriptions_only() -> None:
             assert ws.subprotocol == SUBPROTOCOL
             ids = _hello(ws)
             assert {"/sensemaking/tracks", "/sensemaking/annotations"} <= set(ids)
-            ws.send(json.dumps({"op": "subscribe",
-                                "subscriptions": [{"id": 7, "channelId": ids["/sensemaking/tracks"]}]}))
+            ws.send(
+                json.dumps(
+                    {
+                        "op": "subscribe",
+                        "subscriptions": [{"id": 7, "channelId": ids["/sensemaking/tracks"]}],
+                    }
+                )
+            )
             assert server.wait_for_subscriber(10)
             from sensemaking.results import FrameResult
 
-            dets = Detections(np.array([[1.0, 2.0, 30.0, 40.0]]), 0.9, 3, tracker_id=5,
-                              data={"state": np.array([0]), "occluder": np.array([-1]),
-                                    "hidden_frames": np.array([0])})
+            dets = Detections(
+                np.array([[1.0, 2.0, 30.0, 40.0]]),
+                0.9,
+                3,
+                tracker_id=5,
+                data={
+                    "state": np.array([0]),
+                    "occluder": np.array([-1]),
+                    "hidden_frames": np.array([0]),
+                },
+            )
             sink = LiveSink(server, lambda f: 1000 + f)
             sink.frame(FrameResult(frame=3, tracks=dets, events=[]), [])
             sub, t, msg = _binary(ws.recv(timeout=10))  # annotations were not subscribed to
             assert (sub, t, msg["frame"]) == (7, 1003, 3)
             assert msg["tracks"][0]["id"] == 5 and msg["tracks"][0]["x2"] == 30.0
             ws.send(json.dumps({"op": "unsubscribe", "subscriptionIds": [7]}))
-            ws.send(json.dumps({"op": "subscribe",
-                                "subscriptions": [{"id": 8, "channelId": ids["/sensemaking/annotations"]}]}))
+            ws.send(
+                json.dumps(
+                    {
+                        "op": "subscribe",
+                        "subscriptions": [{"id": 8, "channelId": ids["/sensemaking/annotations"]}],
+                    }
+                )
+            )
             ws.send("not json")  # ignored
             import time
 
@@ -87,14 +107,33 @@ def test_server_publishes_to_subscriptions_only() -> None:
 def test_live_cli_run_is_received(tmp_path: Path) -> None:
     from sensemaking.ros.convert import write_detection_bag
 
-    frames = [(f, Detections(np.array([[10.0 + 3 * f, 20.0, 60.0 + 3 * f, 90.0]]), 0.9, 3))
-              for f in range(30)]
+    frames = [
+        (f, Detections(np.array([[10.0 + 3 * f, 20.0, 60.0 + 3 * f, 90.0]]), 0.9, 3))
+        for f in range(30)
+    ]
     bag = write_detection_bag(tmp_path / "b", frames, fps=10.0)
     port = _free_port()
     codes: list[int] = []
-    run = threading.Thread(target=lambda: codes.append(main(
-        ["-q", "track", "--detections", str(bag), "--output", str(tmp_path / "o.mcap"),
-         "--passthrough", "--live", "--live-port", str(port), "--live-wait", "20"])))
+    run = threading.Thread(
+        target=lambda: codes.append(
+            main(
+                [
+                    "-q",
+                    "track",
+                    "--detections",
+                    str(bag),
+                    "--output",
+                    str(tmp_path / "o.mcap"),
+                    "--passthrough",
+                    "--live",
+                    "--live-port",
+                    str(port),
+                    "--live-wait",
+                    "20",
+                ]
+            )
+        )
+    )
     run.start()
     got: list[dict] = []
     raw_detections = 0
@@ -110,9 +149,17 @@ def test_live_cli_run_is_received(tmp_path: Path) -> None:
         with ws:
             ids = _hello(ws)
             # the input's topics are advertised before the run too, as CDR
-            ws.send(json.dumps({"op": "subscribe", "subscriptions": [
-                {"id": 1, "channelId": ids["/sensemaking/tracks"]},
-                {"id": 2, "channelId": ids["/detections"]}]}))
+            ws.send(
+                json.dumps(
+                    {
+                        "op": "subscribe",
+                        "subscriptions": [
+                            {"id": 1, "channelId": ids["/sensemaking/tracks"]},
+                            {"id": 2, "channelId": ids["/detections"]},
+                        ],
+                    }
+                )
+            )
             for message in ws:  # until the server closes at the end of the run
                 if isinstance(message, str):
                     continue

@@ -105,9 +105,7 @@ def test_captions_and_event_sentences():
     assert st.track_caption(5, CLASS_IDS["car"], 2) == "#5 car missing"
     assert st.track_caption(5, 0, 0) == "#5"
     classes = {5: CLASS_IDS["cyclist"], 2: CLASS_IDS["car"]}
-    assert (
-        st.event_sentence("hides_behind", (5, 2), classes) == "#5 cyclist hides behind #2 car"
-    )
+    assert st.event_sentence("hides_behind", (5, 2), classes) == "#5 cyclist hides behind #2 car"
     assert st.event_sentence("made_up", (1, 2)) == "made_up(1, 2)"
     # a constant of a user's encoding is no track id: shown as it is
     assert st.event_sentence("near", (5, "left")) == "near(5, left)"

@@ -92,7 +92,10 @@ def test_fallback_story_tells_the_occlusion():
     )
     assert "Frame 15: #2 cyclist hides behind #1 car (for 8 frames, 0.8 s)." in story
     assert "Frame 23: #2 cyclist reappears from behind #1 car." in story
-    assert any("#3 car is not detected (missing detections) (for 3 frames" in s for s in fallback_story(run, 3))
+    assert any(
+        "#3 car is not detected (missing detections) (for 3 frames" in s
+        for s in fallback_story(run, 3)
+    )
     assert fallback_story(run, 99) == []
 
 

@@ -15,11 +15,10 @@ import pytest
 pytest.importorskip("PIL")
 pytest.importorskip("imageio_ffmpeg")
 
+from conftest import SHARED_DATA  # noqa: E402
 from test_render import occlusion_run  # noqa: E402
 
 from sensemaking.viz.report import write_report  # noqa: E402
-
-from conftest import SHARED_DATA  # noqa: E402
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]  # each test starts a browser
 
