@@ -29,8 +29,8 @@ demo: $(DEMO_STAMP)
 
 # the package and benchmarks/ are ruff-clean, the package mypy-clean (pyproject.toml), then every test
 test: $(STAMP)
-	$(BIN)/ruff check src benchmarks
-	$(BIN)/ruff format --check src benchmarks
+	$(BIN)/ruff check src benchmarks tests
+	$(BIN)/ruff format --check src benchmarks tests
 	$(BIN)/mypy
 	$(BIN)/python -m pytest -q
 

@@ -78,8 +78,11 @@ def cost_of(problem: FrameProblem, answer) -> int:
     forced += [f":- not resume({local[t]},d({d}))." for t, d in answer.resume.items()]
     forced += [f":- not start(d({d}))." for d in answer.start]
     forced += [f":- not {n}({local[t]})." for n in ("end", "halt") for t in getattr(answer, n)]
+
+    def term(a) -> str:
+        return str(local[a]) if isinstance(a, int) else f"d({a.row})"
+
     forced += [
-        f":- not occurs({n}({','.join(str(local[a]) if isinstance(a, int) else f'd({a.row})' for a in args)}))."
-        for n, args in answer.events
+        f":- not occurs({n}({','.join(term(a) for a in args)}))." for n, args in answer.events
     ]
     return cost(facts_text(problem) + "\n".join(forced))

@@ -1,4 +1,7 @@
-"""Adapters from other libraries' detector outputs (duck-typed fakes; the real ones when installed)."""
+"""Adapters from other libraries' detector outputs.
+
+Duck-typed fakes, and the real libraries when installed.
+"""
 
 from __future__ import annotations
 

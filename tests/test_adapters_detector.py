@@ -49,7 +49,8 @@ NAMES = "{0: 'person', 1: 'car'}"
 
 
 def _onnx_model(path: Path, output: np.ndarray, size: int = 64, names: str | None = NAMES) -> Path:
-    """A model whose output is the constant ``output`` (plus 0 x mean(image), so it uses its input)."""
+    """A model whose output is the constant ``output`` (plus 0 x mean(image), so it uses its
+    input)."""
     onnx = pytest.importorskip("onnx")
     from onnx import TensorProto, helper, numpy_helper
 
@@ -200,7 +201,8 @@ def test_layout_guessing():
 
 
 def test_track_verb_runs_a_local_onnx_model_on_a_video(tmp_path: Path, image: np.ndarray):
-    """`sensemaking track --source VIDEO --detector MODEL`: same boxes every frame -> 2 stable tracks."""
+    """`sensemaking track --source VIDEO --detector MODEL`: same boxes every frame -> 2 stable
+    tracks."""
     iio = pytest.importorskip("imageio.v3")
     from sensemaking.cli import main
     from sensemaking.io.mot import read_mot

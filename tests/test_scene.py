@@ -129,12 +129,13 @@ def test_frame_results_replay(scene):
         ('{"format": "other"}', "not a scene file"),
         ('{"format": "sensemaking.scene", "version": 99}', "newer"),
         (
-            '{"format": "sensemaking.scene", "tracks": [{"id": 1, "frames": [0, 1], "boxes": [[0,0,1,1]]}]}',
+            '{"format": "sensemaking.scene", '
+            '"tracks": [{"id": 1, "frames": [0, 1], "boxes": [[0,0,1,1]]}]}',
             "'boxes' has 1 entries for 2 frames",
         ),
         (
-            '{"format": "sensemaking.scene", "tracks": [{"id": 1, "frames": [0], "boxes": [[0,0,1,1]], '
-            '"state": ["flying"]}]}',
+            '{"format": "sensemaking.scene", '
+            '"tracks": [{"id": 1, "frames": [0], "boxes": [[0,0,1,1]], "state": ["flying"]}]}',
             "unknown state 'flying'",
         ),
         ('{"format": "sensemaking.scene", "tracks": [{"frames": [0]}]}', "malformed scene"),

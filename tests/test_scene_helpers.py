@@ -1,4 +1,5 @@
-"""Hand-built frame-result sequences for the reasoning tests (a geometric oracle plays the tracker).
+"""Hand-built frame-result sequences for the reasoning tests (a geometric oracle plays the
+tracker).
 
 Objects move along scripted boxes; per frame the oracle decides what a perfect tracker would
 report: an object whose box is covered at least ``hide_cover`` by a single nearer object (larger
@@ -185,7 +186,7 @@ def build_scene(
     return rec.scene()
 
 
-# -- a few standard scenes --------------------------------------------------------------------------
+# -- a few standard scenes ------------------------------------------------------------------------
 def cyclist_behind_turning_car(n: int = 45) -> list[Obj]:
     """A cyclist (id 1) crossing to the right passes behind a car (id 2) turning left across
     the road ahead; the cyclist reappears in front of the ego vehicle."""
@@ -200,7 +201,7 @@ def hidden_interval(results: Sequence[FrameResult], track: int) -> tuple[int, in
     return fs[0], fs[-1]
 
 
-# -- tests of the oracle itself ----------------------------------------------------------------------
+# -- tests of the oracle itself -------------------------------------------------------------------
 def test_oracle_hides_and_unhides_the_cyclist():
     results = build_results(cyclist_behind_turning_car())
     a, b = hidden_interval(results, 1)

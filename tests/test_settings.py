@@ -217,8 +217,8 @@ def det_file(tmp_path: Path) -> Path:
     ]
     (seq / "det" / "det.txt").write_text("\n".join(lines) + "\n")
     (seq / "seqinfo.ini").write_text(
-        "[Sequence]\nname=CROSS-01\nframeRate=10\nseqLength=%d\n"
-        "imWidth=1242\nimHeight=375\n" % scene.n_frames
+        f"[Sequence]\nname=CROSS-01\nframeRate=10\nseqLength={scene.n_frames}\n"
+        "imWidth=1242\nimHeight=375\n"
     )
     return seq / "det" / "det.txt"
 

@@ -200,7 +200,8 @@ def test_nested_objects_born_together_keep_their_ids():
     t = Tracker()
     for f in range(4):
         r = t.update(frame(NEAR, FAR), frame=f)
-        assert dict(zip(ids(r), map(tuple, r.tracks.xyxy.tolist()), strict=False)) == {1: NEAR, 2: FAR}, f
+        boxes = dict(zip(ids(r), map(tuple, r.tracks.xyxy.tolist()), strict=False))
+        assert boxes == {1: NEAR, 2: FAR}, f
 
 
 # ---- confirmation -------------------------------------------------------------------------
@@ -658,8 +659,10 @@ def test_a_young_track_does_not_run_away_on_the_jitter_of_its_second_box(abducti
 
     def same_id(config: TrackerConfig) -> bool:
         t = Tracker(config)
+
         def small(x):
             return (x, 200.0, x + 16.0, 240.0)
+
         first = ids(t.update(frame(small(400.0)), frame=0))
         t.update(frame(small(404.0)), frame=1)  # detector jitter, not motion
         for f in (2, 3):
@@ -689,7 +692,8 @@ def test_velocity_prior_is_per_second_and_validated():
 
 
 def test_output_without_tracks_has_the_columns_of_the_general_output():
-    """Tracker._output's shortcut for no tracks: the dtypes, shapes and keys of the general path."""
+    """Tracker._output's shortcut for no tracks: the dtypes, shapes and keys of the general
+    path."""
     t = Tracker(image_size=(400, 400))
     general = t.update(frame((10, 10, 50, 100)), frame=0).tracks
     assert len(general) == 1

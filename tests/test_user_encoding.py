@@ -1,4 +1,5 @@
-"""A user's own rules change the tracker's behaviour on every frame, with nothing changed in Python."""
+"""A user's own rules change the tracker's behaviour on every frame, with nothing changed in
+Python."""
 
 from __future__ import annotations
 
@@ -89,7 +90,10 @@ def test_a_replaced_encoding_is_used_and_rules_may_come_from_a_file(tmp_path):
 
 
 def test_events_with_constants_and_without_arguments_are_reported():
-    rules = "occurs(lane_change(T,left)) :- track(T), speed(T,S), S > 100. occurs(busy) :- 2 #count{ T : track(T) }."
+    rules = (
+        "occurs(lane_change(T,left)) :- track(T), speed(T,S), S > 100. "
+        "occurs(busy) :- 2 #count{ T : track(T) }."
+    )
     tracker = Tracker(TrackerConfig(fps=10, image_size=(1000, 500)), rules=rules)
     seen = []
     for f, dets in _frames(20):

@@ -34,7 +34,8 @@ def track(
     vis: str = "fully_visible",
     flags: tuple[str, ...] = (),
 ) -> str:
-    """A live (non-tentative) track of class ``cls``, in the field of view, with visibility ``vis``."""
+    """A live (non-tentative) track of class ``cls``, in the field of view, with visibility
+    ``vis``."""
     out = [
         f"track({t}).",
         f"ttype({t},{cls}).",
@@ -212,7 +213,8 @@ def test_expired_track_must_end_even_with_a_good_candidate():
         "value(in_fov(d(0)),true)",
         "value(visibility(d(0)),fully_visible)",
     ]
-    # an expired track ends at (almost) no event cost: 1, so that at the border leaving is preferred
+    # an expired track ends at (almost) no event cost: 1, so that at the border leaving is
+    # preferred
     assert cost(track(1, halted=True, flags=("expired",))) == 1001
     assert solve(track(1, halted=True, flags=("expired", "at_border"))) == [
         "end(1)",
@@ -293,7 +295,7 @@ def test_a_young_track_does_not_take_the_detection_of_the_confirmed_track_it_ove
     assert "occurs(hides_behind(1,2))" in solve(facts, consts={"cost_dropped": 600})
 
 
-def test_a_halted_track_does_not_take_the_detection_of_a_visible_track_for_the_price_of_hiding_it():
+def test_halted_track_does_not_take_the_detection_of_a_visible_track_for_the_price_of_hiding_it():
     # track 1 is visible and its prediction fits d(0) (550); track 2 was unseen and its widened
     # prediction fits d(0) a little better (610); track 3 in front covers track 1, so track 1
     # could hide behind it (cost_hides 50). Seeing track 2 again is a change too (cost_resumes):

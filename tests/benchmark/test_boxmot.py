@@ -51,7 +51,10 @@ def test_boxmot_peer_keeps_ids_and_reports_input_rows(key: str) -> None:
     assert (
         len(late) == 2 and (late.tracker_id >= 1).all() and len(set(late.tracker_id.tolist())) == 2
     )
-    ids_late = {tuple(b): t for b, t in zip(late.xyxy.round(1).tolist(), late.tracker_id.tolist(), strict=False)}
+    ids_late = {
+        tuple(b): t
+        for b, t in zip(late.xyxy.round(1).tolist(), late.tracker_id.tolist(), strict=False)
+    }
     assert all(tuple(b) in {tuple(x) for x in frames[-1].xyxy.tolist()} for b in ids_late)
     # the same two ids over the last four frames: identities are kept
     assert {int(t) for o in outs[-4:] for t in o.tracker_id} == set(late.tracker_id.tolist())

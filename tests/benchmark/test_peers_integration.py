@@ -1,4 +1,7 @@
-"""Integration: the peers on one real KITTI sequence (needs ../shared/data and the 'benchmark' extra)."""
+"""Integration: the peers on one real KITTI sequence.
+
+Needs ../shared/data and the 'benchmark' extra.
+"""
 
 from __future__ import annotations
 

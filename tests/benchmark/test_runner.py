@@ -46,7 +46,8 @@ def _objects(
 
 
 def make_fake_data(root: Path) -> Path:
-    """KITTI (RRC car + pedestrian, no PointRCNN), one MOT17 YOLOX half-val and one MOT15 sequence."""
+    """KITTI (RRC car + pedestrian, no PointRCNN), one MOT17 YOLOX half-val and one MOT15
+    sequence."""
     # -- KITTI: 2 cars, 1 pedestrian, one DontCare region, a van (distractor) ---------------------
     kitti = root / "kitti"
     (kitti / "training" / "label_02").mkdir(parents=True)
@@ -298,7 +299,7 @@ def test_run_end_to_end_writes_tables(fake_data: Path, tmp_path: Path) -> None:
     assert data["command"] == "sensemaking benchmark --data fake" and data["machine"]["cores"] >= 1
     bench = data["benchmarks"][0]
     assert bench["name"] == "kitti-rrc-car" and set(bench["trackers"]) == set(names)
-    for name, entry in bench["trackers"].items():
+    for entry in bench["trackers"].values():
         chosen = entry["variants"][entry["chosen_variant"]]
         for key in (
             "HOTA",

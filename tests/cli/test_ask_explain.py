@@ -20,7 +20,8 @@ def scene_file(tmp_path_factory):
 def test_ask_named_question(scene_file, capsys):
     assert main(["ask", str(scene_file), "reappeared", "1"]) == 0
     assert capsys.readouterr().out == (
-        "track 1 (cyclist) reappeared at frame 34 from behind track 2 (car), unseen since frame 21: 13 frames (1.3 s)\n"
+        "track 1 (cyclist) reappeared at frame 34 from behind track 2 (car), "
+        "unseen since frame 21: 13 frames (1.3 s)\n"
     )
 
 

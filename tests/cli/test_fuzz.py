@@ -407,7 +407,8 @@ def test_fuzz_every_verb(tmp_path: Path, reals: dict[str, bytes], capsys) -> Non
                 problem = "a .part file left"
             if problem is not None:
                 failures.append(
-                    f"{name} case {k}: {problem}: {captured.err.strip()[:300]!r} input {data[:120]!r}"
+                    f"{name} case {k}: {problem}: {captured.err.strip()[:300]!r} "
+                    f"input {data[:120]!r}"
                 )
             for p in out.iterdir():
                 p.unlink() if p.is_file() else None

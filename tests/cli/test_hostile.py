@@ -98,7 +98,7 @@ def test_outputs_naming_the_same_file_are_refused(tmp_path: Path, capsys) -> Non
     assert not same.exists() and not (tmp_path / "s.json").exists()
 
 
-# 2. ask runs what it is given ----------------------------------------------------------------------
+# 2. ask runs what it is given --------------------------------------------------------------------
 @pytest.mark.parametrize(
     "query",
     [
@@ -167,7 +167,7 @@ def test_ask_streams_models_as_they_are_found(scene_file: Path, capsys) -> None:
     assert len(out) == 8 and out[0].startswith("answer 1:") and out[-1].startswith("answer 8:")
 
 
-# 3. tiny inputs, huge work ------------------------------------------------------------------------
+# 3. tiny inputs, huge work -----------------------------------------------------------------------
 def test_a_frame_number_beyond_the_plausibility_bound_is_an_error(tmp_path: Path, capsys) -> None:
     det = tmp_path / "d" / "det.txt"
     det.parent.mkdir()
@@ -265,7 +265,7 @@ def test_a_scene_asking_for_a_billion_frames_is_refused(
         assert "malformed scene" in one_line_error(capsys)
 
 
-# 4. memory grows with the input; warnings only at the end -----------------------------------------
+# 4. memory grows with the input; warnings only at the end ----------------------------------------
 def test_warnings_are_written_while_the_run_goes_on_and_kept_on_interruption(
     tmp_path: Path, monkeypatch, capsys
 ) -> None:
@@ -312,7 +312,7 @@ def test_warnings_are_written_while_the_run_goes_on_and_kept_on_interruption(
     assert "interrupted after frame 29" in capsys.readouterr().err
 
 
-# 5. tracebacks instead of errors ------------------------------------------------------------------
+# 5. tracebacks instead of errors -----------------------------------------------------------------
 @pytest.mark.parametrize(
     "case",
     [
@@ -521,7 +521,7 @@ def test_the_api_validates_like_the_cli_and_a_refused_frame_changes_nothing(dets
     assert again.result.frame == 2 and len(again.result.visible) == 1
 
 
-# 8. SIGTERM ------------------------------------------------------------------------------------------
+# 8. SIGTERM --------------------------------------------------------------------------------------
 @pytest.mark.slow
 def test_sigterm_leaves_no_part_files_and_says_so(tmp_path: Path) -> None:
     det = write_det(tmp_path / "d" / "det.txt", n_frames=20000)
@@ -572,7 +572,9 @@ def test_same_run_same_bytes_with_the_streaming_pipeline(tmp_path: Path) -> None
     lines = [
         f"{d.frame[i] + 1},-1,{x:.2f},{y:.2f},{w:.2f},{h:.2f},{d.confidence[i]:.3f},-1,-1,-1"
         for i, (x, y, w, h) in zip(
-            np.argsort(d.frame, kind="stable"), d.xywh[np.argsort(d.frame, kind="stable")], strict=False
+            np.argsort(d.frame, kind="stable"),
+            d.xywh[np.argsort(d.frame, kind="stable")],
+            strict=False,
         )
     ]
     (seq / "det" / "det.txt").write_text("\n".join(lines) + "\n")
@@ -611,7 +613,7 @@ def test_same_run_same_bytes_with_the_streaming_pipeline(tmp_path: Path) -> None
     assert (tmp_path / "stream.txt").read_bytes() == (tmp_path / "whole.txt").read_bytes()
 
 
-# 9. a wall-clock budget makes results depend on load, and nothing said so -------------------------
+# 9. a wall-clock budget makes results depend on load, and nothing said so ------------------------
 def test_the_wall_clock_budget_says_results_depend_on_load(capsys) -> None:
     with pytest.raises(SystemExit):
         main(["track", "--help"])

@@ -33,8 +33,8 @@ def crossing_det(tmp_path: Path) -> Path:
     scene = crossing_scene(0, gap=12, far_speed=8.0)
     write_mot_det(seq / "det" / "det.txt", scene)
     (seq / "seqinfo.ini").write_text(
-        "[Sequence]\nname=CROSS-01\nframeRate=10\nseqLength=%d\nimWidth=1242\nimHeight=375\n"
-        % scene.n_frames
+        f"[Sequence]\nname=CROSS-01\nframeRate=10\nseqLength={scene.n_frames}\n"
+        "imWidth=1242\nimHeight=375\n"
     )
     return seq / "det" / "det.txt"
 
@@ -64,7 +64,10 @@ def test_track_mot_writes_results_events_and_scene(
     # visible tracks are written with their detection's box: each one is an input box
     det = read_mot(crossing_det, kind="det")
     inputs = {(int(f), tuple(np.round(b, 2))) for f, b in zip(det.frame, det.xyxy, strict=False)}
-    assert all((int(f), tuple(np.round(b, 2))) in inputs for f, b in zip(res.frame, res.xyxy, strict=False))
+    assert all(
+        (int(f), tuple(np.round(b, 2))) in inputs
+        for f, b in zip(res.frame, res.xyxy, strict=False)
+    )
     records = [json.loads(line) for line in events.read_text().splitlines()]
     assert {"frame", "event", "args"} <= set(records[0])
     names = [r["event"] for r in records]
@@ -179,7 +182,8 @@ def test_unknown_parameter_is_a_clear_error(tmp_path: Path, crossing_det: Path, 
 
 
 def test_seconds_not_frames(tmp_path: Path, crossing_det: Path) -> None:
-    """Halving max_hidden_s below the occlusion length loses the track; the gap is 12 frames at 10 fps."""
+    """Halving max_hidden_s below the occlusion length loses the track; the gap is 12 frames
+    at 10 fps."""
     out = tmp_path / "r.txt"
     main(
         [

@@ -148,7 +148,8 @@ def pointrcnn_lines(dets) -> list[tuple[int, str]]:
             (
                 int(dets.frame[i]),
                 f"{dets.frame[i]},{code[int(dets.class_id[i])]},{x1:.2f},"
-                f"{y1:.2f},{x2:.2f},{y2:.2f},{logit:.4f},1.5,0.6,1.7,2.0,1.6,{4000 / y2:.2f},0.1,0.2\n",
+                f"{y1:.2f},{x2:.2f},{y2:.2f},{logit:.4f},1.5,0.6,1.7,2.0,1.6,"
+                f"{4000 / y2:.2f},0.1,0.2\n",
             )
         )
     return out

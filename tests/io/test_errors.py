@@ -111,8 +111,8 @@ CASES: list[tuple[Callable, str, str, int | None, str]] = [
         "0000.txt",
         LABEL + LABEL.replace("Car", "Bus") + LABEL.replace("Car", "Ape"),
         2,
-        "unknown object type 'Bus' (KITTI types: Car, Van, Truck, Pedestrian, Person, Cyclist, Tram, Misc, "
-        "DontCare)",
+        "unknown object type 'Bus' (KITTI types: Car, Van, Truck, Pedestrian, Person, Cyclist, "
+        "Tram, Misc, DontCare)",
     ),
     (
         read_kitti_labels,
@@ -221,7 +221,8 @@ CASES: list[tuple[Callable, str, str, int | None, str]] = [
         "\n1,2,3,4\n",
         2,
         "cannot tell the KITTI file kind: expected 17 or 18 space-separated fields "
-        "(labels or tracking results), 6 comma-separated (RRC detections) or 15 comma-separated (PointRCNN detections), "
+        "(labels or tracking results), 6 comma-separated (RRC detections) or 15 comma-separated "
+        "(PointRCNN detections), "
         "got 4 comma-separated",
     ),
     (
@@ -230,7 +231,8 @@ CASES: list[tuple[Callable, str, str, int | None, str]] = [
         "1 2 3\n",
         1,
         "cannot tell the KITTI file kind: expected 17 or 18 space-separated fields "
-        "(labels or tracking results), 6 comma-separated (RRC detections) or 15 comma-separated (PointRCNN detections), "
+        "(labels or tracking results), 6 comma-separated (RRC detections) or 15 comma-separated "
+        "(PointRCNN detections), "
         "got 3 space-separated",
     ),
     # --- empty input
@@ -266,8 +268,8 @@ CASES: list[tuple[Callable, str, str, int | None, str]] = [
         "seqinfo.csv",
         "seq,frames\n0000,1\n",
         1,
-        "header must name columns seq, num_frames, im_width, im_height, frame_rate; missing num_frames, im_width, "
-        "im_height, frame_rate",
+        "header must name columns seq, num_frames, im_width, im_height, frame_rate; "
+        "missing num_frames, im_width, im_height, frame_rate",
     ),
     (
         read_kitti_seqinfo,

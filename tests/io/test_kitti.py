@@ -1,4 +1,5 @@
-"""KITTI readers and writer: labels, RRC and PointRCNN detections, seqinfo.csv, exact round trips."""
+"""KITTI readers and writer: labels, RRC and PointRCNN detections, seqinfo.csv, exact round
+trips."""
 
 from __future__ import annotations
 
@@ -28,10 +29,10 @@ CAR, PED, CYC, VAN, DONTCARE = (
 )
 
 LABELS = (
-    "0 -1 DontCare -1 -1 -10.000000 219.310000 188.490000 245.500000 218.560000 -1000.000000 -1000.000000 "
-    "-1000.000000 -10.000000 -1.000000 -1.000000 -1.000000\n"
-    "0 0 Van 0 0 -1.793451 296.744956 161.752147 455.226042 292.372804 2.000000 1.823255 4.433886 -4.552284 "
-    "1.858523 13.410495 -2.115488\n"
+    "0 -1 DontCare -1 -1 -10.000000 219.310000 188.490000 245.500000 218.560000 -1000.000000 "
+    "-1000.000000 -1000.000000 -10.000000 -1.000000 -1.000000 -1.000000\n"
+    "0 0 Van 0 0 -1.793451 296.744956 161.752147 455.226042 292.372804 2.000000 1.823255 "
+    "4.433886 -4.552284 1.858523 13.410495 -2.115488\n"
     "1 1 Pedestrian 1 2 0.5 10 20 30 60 1.7 0.6 0.8 1 2 3 0.25\n"
 )
 
@@ -63,7 +64,10 @@ def test_read_labels(tmp_path: Path) -> None:
 
 
 def test_read_results_with_score_sorted_by_frame_then_id(tmp_path: Path) -> None:
-    text = "1 4 Car -1 -1 -10 1 2 3 4 -1 -1 -1 -1000 -1000 -1000 -10 -2.5\n0 9 car 0 0 0 1 2 3 4 1 1 1 1 1 1 0 0.5\n"
+    text = (
+        "1 4 Car -1 -1 -10 1 2 3 4 -1 -1 -1 -1000 -1000 -1000 -10 -2.5\n"
+        "0 9 car 0 0 0 1 2 3 4 1 1 1 1 1 1 0 0.5\n"
+    )
     d = read_kitti_labels(write(tmp_path / "r.txt", text))
     assert d.frame.tolist() == [0, 1] and d.source_row.tolist() == [2, 1]
     assert d.confidence.tolist() == [0.5, -2.5]
@@ -271,7 +275,8 @@ def test_known_label_rows(parsed: tuple[dict[str, Detections], float]) -> None:
         1,
     )
     np.testing.assert_array_equal(gt.xyxy[0], [219.31, 188.49, 245.5, 218.56])
-    # line 3: 0 0 Van 0 0 -1.793451 296.744956 161.752147 455.226042 292.372804 2 1.823255 4.433886 ...
+    # line 3: 0 0 Van 0 0 -1.793451 296.744956 161.752147 455.226042 292.372804 2 1.823255
+    # 4.433886 ...
     assert (gt.tracker_id[2], gt.class_id[2], gt.source_row[2], gt.data["occluded"][2]) == (
         0,
         VAN,
@@ -317,7 +322,8 @@ def test_round_trip_every_kitti_file(
         second = read_kitti_labels(out)
         if "label_02" in name:
             assert_same(first, second, where=name)
-        else:  # detections: boxes, scores, classes, frames and 3D fields survive the results format
+        else:
+            # detections: boxes, scores, classes, frames and 3D fields survive the results format
             assert_same(first, second, skip=("source_row", "data"), where=name)
             for key, value in first.data.items():
                 same_array(value, second.data[key], f"{name} data[{key!r}]")

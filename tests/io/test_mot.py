@@ -254,7 +254,8 @@ def test_read_seqinfo_file_and_folder(tmp_path: Path) -> None:
 
 @pytest.fixture(scope="module")
 def parsed(shared_data: Path) -> tuple[dict[str, Detections], float]:
-    """Every MOT file of the shared data, read once: (relative path -> Detections, seconds taken)."""
+    """Every MOT file of the shared data, read once: (relative path -> Detections, seconds
+    taken)."""
     start = time.perf_counter()
     out: dict[str, Detections] = {}
     for path in sorted(shared_data.glob("mot*/*/det/det.txt")):

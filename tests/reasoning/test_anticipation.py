@@ -213,7 +213,8 @@ def _project(
 def test_pinhole_model_is_exact_for_constant_velocity_in_3d():
     """A pedestrian 22 m ahead walks slowly; a car 14 m ahead comes closer and crosses in front
     of it from left to right. Seen through a pinhole camera the car accelerates across the image
-    and grows: the pinhole model predicts the reappearance exactly, the linear one 9 frames late."""
+    and grows: the pinhole model predicts the reappearance exactly, the linear one 9 frames
+    late."""
     frames = np.arange(40)
     ped = np.array([_project(1.0 - 0.02 * t, 1.65, 22.0 - 0.2 * t, 0.6, 1.7) for t in frames])
     car = np.array([_project(-2.0 + 0.12 * t, 1.65, 14.0 - 0.3 * t, 1.8, 1.5) for t in frames])

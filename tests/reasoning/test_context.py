@@ -1,4 +1,7 @@
-"""Scene context files: corridor, lanes JSON, segmentation label maps (sensemaking.reasoning.context)."""
+"""Scene context files: corridor, lanes JSON, segmentation label maps.
+
+The readers of sensemaking.reasoning.context.
+"""
 
 from __future__ import annotations
 

@@ -50,7 +50,7 @@ def parked_row(frames: range, ego_speed: float, first_id: int = 10) -> list[Obj]
     return out
 
 
-# -- geometry --------------------------------------------------------------------------------------
+# -- geometry -------------------------------------------------------------------------------------
 def test_ground_position_inverts_the_projection():
     boxes = np.array([car_box(z, x) for z, x in [(8.0, -3.0), (20.0, 0.0), (35.0, 4.5)]])
     z, x = CAM.ground_position(boxes, SIZE[1])
@@ -69,7 +69,7 @@ def test_camera_parse_and_bad_values():
         CameraModel.parse("700,-1,180,600")
 
 
-# -- the ego-speed estimate -------------------------------------------------------------------------
+# -- the ego-speed estimate -----------------------------------------------------------------------
 def test_ego_speed_recovered_from_static_objects_within_0_4_metres_per_second():
     rng = np.random.default_rng(3)
     for speed in (0.0, 4.0, 8.3, 14.0, 25.0):
@@ -133,7 +133,7 @@ def test_ego_estimate_follows_the_reachable_mode():
     assert ego is not None and ego.source == "held" and ego.speed == pytest.approx(8.0, abs=0.3)
 
 
-# -- the situations over the road -------------------------------------------------------------------
+# -- the situations over the road -----------------------------------------------------------------
 def monitor(ego_speed: float | None, situations=("EXITING_VEHICLE", "SUDDEN_STOP", "OVERTAKING")):
     file = (
         None
@@ -191,7 +191,7 @@ def test_a_parked_car_passed_by_the_ego_car_is_stopped_not_approaching():
     assert m.speed < 0.5 and m.closing == pytest.approx(8.0, abs=0.5)
 
 
-# -- the rules on facts -------------------------------------------------------------------------------
+# -- the rules on facts ---------------------------------------------------------------------------
 HEAD = (
     "camera. now(0). frame_ms(100). vehicle(1). vehicle(2). "
     + " ".join(f"ego_speed({g},1000)." for g in range(-10, 1))
@@ -259,7 +259,8 @@ def test_overtaking_in_the_world_needs_a_moving_overtaken_vehicle():
         rows = []
         for g, (za, zb) in zip(
             range(-5, 1),
-            [(800, 1500), (1000, 1500), (1200, 1500), (1500, 1500), (1700, 1500), (1900, 1500)], strict=False,
+            [(800, 1500), (1000, 1500), (1200, 1500), (1500, 1500), (1700, 1500), (1900, 1500)],
+            strict=False,
         ):
             rows.append(
                 f"position(1,{g},{za},-300). position(2,{g},{zb},200). "

@@ -133,7 +133,7 @@ def test_questions():
     ]
 
 
-# -- situations.lp ---------------------------------------------------------------------------------
+# -- situations.lp --------------------------------------------------------------------------------
 HEAD = "now(10). frame_ms(100). seq_start(0). "
 
 
@@ -199,7 +199,10 @@ def test_overtaking_rule():
 
 
 def test_hidden_entity_rule():
-    prog = "person(1). vehicle(2). hidden_by(1,2,10). anticipated(1,2,18,600,250). anticipated_in_corridor(1,2,18)."
+    prog = (
+        "person(1). vehicle(2). hidden_by(1,2,10). anticipated(1,2,18,600,250). "
+        "anticipated_in_corridor(1,2,18)."
+    )
     assert sit(prog, "hidden_entity") == [
         "info(hidden_entity,(1,2),reappear_frame,frame(18))",
         "warn(hidden_entity,(1,2))",

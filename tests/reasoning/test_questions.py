@@ -32,8 +32,8 @@ def lines(scene: Scene, q: str) -> list[str]:
 
 def test_hidden(scene):
     assert lines(scene, "hidden") == [
-        "track 1 (cyclist) was hidden by track 2 (car) from frame 21 to frame 33, 13 frames (1.3 s); "
-        "it reappeared at frame 34"
+        "track 1 (cyclist) was hidden by track 2 (car) from frame 21 to frame 33, "
+        "13 frames (1.3 s); it reappeared at frame 34"
     ]
     assert ask(scene, "hidden").atoms == ("hidden_episode(1,2,21,33)",)
     assert lines(scene, "hidden 3") == ["track 3 (pedestrian) was never hidden"]
@@ -41,10 +41,12 @@ def test_hidden(scene):
 
 def test_reappeared(scene):
     assert lines(scene, "reappeared 1") == [
-        "track 1 (cyclist) reappeared at frame 34 from behind track 2 (car), unseen since frame 21: 13 frames (1.3 s)"
+        "track 1 (cyclist) reappeared at frame 34 from behind track 2 (car), "
+        "unseen since frame 21: 13 frames (1.3 s)"
     ]
     assert lines(scene, "reappeared 3") == [
-        "track 3 (pedestrian) reappeared at frame 15 after missing detections, unseen since frame 12: 3 frames (0.3 s)"
+        "track 3 (pedestrian) reappeared at frame 15 after missing detections, "
+        "unseen since frame 12: 3 frames (0.3 s)"
     ]
     assert lines(scene, "reappeared 2") == [
         "track 2 (car) never disappeared: visible whenever tracked (frames 0-44)"
@@ -70,11 +72,12 @@ def test_why_ended(scene):
         "(event at frame 40; last tracked at frame 39)"
     ]
     assert lines(scene, "why-ended 4") == [
-        "track 4 (car) was lost at frame 20: its detections had been missing for 5 frames (0.5 s) since "
-        "frame 15, and the tracker could no longer explain its absence"
+        "track 4 (car) was lost at frame 20: its detections had been missing for 5 frames "
+        "(0.5 s) since frame 15, and the tracker could no longer explain its absence"
     ]
     assert lines(scene, "why-ended 1") == [
-        "track 1 (cyclist) did not end: it was still tracked (visible) at the last frame of the scene (44)"
+        "track 1 (cyclist) did not end: it was still tracked (visible) at the last frame "
+        "of the scene (44)"
     ]
 
 
@@ -101,7 +104,8 @@ def test_tracks_and_events(scene):
 
 def test_story_sentences(scene):
     assert explain(scene, 1) == [
-        "Track 1 (cyclist) is in view from the first frame (0), in front of the ego vehicle (x=454, y=254 px).",
+        "Track 1 (cyclist) is in view from the first frame (0), in front of the ego vehicle "
+        "(x=454, y=254 px).",
         "It moves right at about 60 px/s.",
         "At frame 21 it hides behind track 2 (car).",
         "At frame 34 it comes out from behind track 2 (car) after 13 frames (1.3 s).",
