@@ -27,7 +27,7 @@ setup: $(STAMP)
 demo: $(DEMO_STAMP)
 	$(BIN)/sensemaking demo --output-dir demo-output
 
-# the package and benchmarks/ are ruff-clean, the package mypy-clean (pyproject.toml), then every test
+# the package, benchmarks/ and tests/ are ruff-clean, the package mypy-clean (pyproject.toml), then every test
 test: $(STAMP)
 	$(BIN)/ruff check src benchmarks tests
 	$(BIN)/ruff format --check src benchmarks tests
