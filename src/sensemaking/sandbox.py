@@ -160,7 +160,8 @@ def check_program(
     except RuntimeError:
         first = " ".join((messages[0] if messages else "syntax error").split())
         loc = _LOC.search(first)
-        line = col = None
+        line: int | None = None
+        col: int | None = None
         if loc:
             line, col = int(loc.group(1)), int(loc.group(2))
             first = _LOC.sub("", first, count=1)

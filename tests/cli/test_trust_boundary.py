@@ -38,3 +38,97 @@ def test_a_query_that_does_not_parse_is_refused_with_its_position(scene_file: Pa
     assert main(["ask", str(scene_file), 'q("abc\n).']) == 2
     line = one_line_error(capsys)
     assert "invalid query: query:1:" in line
+
+
+# 1. query: DuckDB reads the archive and nothing else -----------------------------------------------
+def make_archive(root: Path, n_frames: int = 10) -> Path:
+    """A one-sequence archive written without Ray (the worker's own functions)."""
+    pytest.importorskip("pyarrow")
+    pytest.importorskip("duckdb")
+    from sensemaking.fleet.archive import Archive, archive_sequence
+    from sensemaking.fleet.run import RunParams
+    from sensemaking.fleet.specs import read_manifest
+    from sensemaking.fleet.synthetic import write_synthetic_fleet
+
+    manifest = write_synthetic_fleet(root.parent / f"{root.name}-fleet", 1, n_frames=n_frames)
+    with Archive(root):
+        archive_sequence(read_manifest(manifest)[0], str(root), RunParams(), "k1", {}, "r1")
+    return root
+
+
+@pytest.fixture(scope="module")
+def archive(tmp_path_factory) -> Path:
+    return make_archive(tmp_path_factory.mktemp("arc") / "archive")
+
+
+def _query(archive: Path, sql: str, capsys) -> tuple[int, str, str]:
+    code = main(["query", str(archive), sql])
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_query_answers_over_the_views(archive: Path, capsys) -> None:
+    code, out, _ = _query(archive, "SELECT count(*) AS n FROM tracks", capsys)
+    assert code == 0 and int(out.splitlines()[2]) > 0
+
+
+@pytest.mark.parametrize(
+    "sql",
+    [
+        "SELECT * FROM read_csv('/etc/passwd', header=false, sep=':')",
+        "SELECT * FROM read_text('/etc/hostname')",
+        "COPY (SELECT 1) TO '{tmp}/x.csv'",
+        "ATTACH '{tmp}/new.db'",
+        "INSTALL httpfs",
+        "SET enable_external_access = true",
+        "SELECT 1; COPY (SELECT 1) TO '{tmp}/y.csv'",
+        "COPY (SELECT 2 AS a) TO '{tracks}' (FORMAT parquet, USE_TMP_FILE false)",
+    ],
+)
+def test_query_reaches_nothing_outside_the_archive(
+    archive: Path, tmp_path: Path, capsys, sql: str
+) -> None:
+    tracks = next(archive.glob("dataset=*/sequence=*/key=*/tracks.parquet"))
+    before = tracks.read_bytes()
+    code, out, err = _query(archive, sql.format(tmp=tmp_path, tracks=tracks), capsys)
+    assert code == 2 and "root:" not in out and "Traceback" not in err
+    assert len([x for x in err.splitlines() if x.strip()]) == 1
+    assert not list(tmp_path.iterdir())  # nothing written
+    assert tracks.read_bytes() == before
+
+
+def test_query_rows_are_bounded(archive: Path, capsys) -> None:
+    assert main(["query", str(archive), "--max-rows", "1000", "SELECT * FROM range(30000000)"]) == 2
+    assert "more than 1000 rows" in one_line_error(capsys)
+
+
+@pytest.mark.slow
+def test_sigterm_stops_a_long_query(archive: Path) -> None:
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    sql = "SELECT sum(a.range * b.range) FROM range(100000000) a, range(100000) b"
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).parents[2] / "src")}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "sensemaking", "query", str(archive), sql],
+        env=env,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    time.sleep(3.0)
+    t0 = time.monotonic()
+    proc.send_signal(signal.SIGTERM)
+    proc.wait(timeout=30)
+    assert time.monotonic() - t0 < 5.0 and proc.returncode == 143, proc.stderr.read()
+
+
+# 8. an archive path with '[' is that archive, not a glob ------------------------------------------
+def test_an_archive_path_with_a_bracket_is_not_a_glob(tmp_path: Path, capsys) -> None:
+    mine = make_archive(tmp_path / "a[1]" / "archive", n_frames=8)
+    make_archive(tmp_path / "a1" / "archive", n_frames=20)  # what the glob a[1] would match
+    frames = "SELECT max(frame) FROM tracks"
+    assert main(["query", str(mine), frames]) == 0
+    got = int(capsys.readouterr().out.splitlines()[2])
+    assert got <= 8
