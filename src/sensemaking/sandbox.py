@@ -126,9 +126,9 @@ def check_program(
 
     for m in _HASH.finditer(text):
         name = m.group(1).lower()
-        bad = (name not in allowed) if allowed is not None else (name in forbidden or not name)
+        bad = (name not in allowed) if allowed is not None else name in forbidden
         if bad:
-            line = _line_of(text, m.start())
+            at_line = _line_of(text, m.start())
             what = f"#{m.group(1)}" if name else "a '#' without a directive name"
             scope = "a query" if allowed is not None else "a user encoding"
             hint = (
@@ -137,18 +137,18 @@ def check_program(
                 else " (it would read files or run code)"
             )
             raise fail(
-                f"{where}:{line}: {what} is not allowed in {scope}{hint}; this holds in "
+                f"{where}:{at_line}: {what} is not allowed in {scope}{hint}; this holds in "
                 "comments and strings too",
-                line,
+                at_line,
                 None,
             )
     at = text.find("@")
     if not allow_at and at >= 0:
-        line = _line_of(text, at)
+        at_line = _line_of(text, at)
         raise fail(
-            f"{where}:{line}: @-terms (script functions) are not allowed, in comments and "
+            f"{where}:{at_line}: @-terms (script functions) are not allowed, in comments and "
             "strings too",
-            line,
+            at_line,
             None,
         )
     messages: list[str] = []
