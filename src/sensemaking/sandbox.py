@@ -22,7 +22,7 @@ import os
 import re
 import signal
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -38,6 +38,8 @@ __all__ = [
     "check_program",
     "check_atoms",
     "run_limited",
+    "probe_program",
+    "relocate",
 ]
 
 #: limits of an ASP program from outside: wall-clock seconds for grounding + solving, ground
@@ -166,10 +168,33 @@ def check_program(
             line, col = int(loc.group(1)), int(loc.group(2))
             first = _LOC.sub("", first, count=1)
         first = first.removeprefix("error: ")
+        if allowed is None:
+            first = "the encoding does not parse: " + first
         raise fail(
             f"{where}:{line}:{col}: {first}" if line else f"{where}: {first}", line, col
         ) from None
     return stmts
+
+
+#: size of a program file read (bytes): an encoding is text, not data
+MAX_PROGRAM_BYTES = 16 * 2**20
+
+
+def read_program_file(path: str | os.PathLike[str]) -> str:
+    """The text of a user's ``.lp`` file: a regular file of at most ``MAX_PROGRAM_BYTES``
+    (a FIFO or a device would block or never end). Raises OSError / UnicodeDecodeError as
+    reading does, InputError for the rest."""
+    import stat
+
+    st = os.stat(path)
+    if not stat.S_ISREG(st.st_mode):
+        raise InputError("not a regular file (an encoding is read whole before any work)", path)
+    if st.st_size > MAX_PROGRAM_BYTES:
+        raise InputError(
+            f"{st.st_size} bytes, more than an encoding may have ({MAX_PROGRAM_BYTES})", path
+        )
+    with open(path, encoding="utf-8") as fh:
+        return fh.read(MAX_PROGRAM_BYTES + 1)
 
 
 def check_atoms(n_atoms: int, max_atoms: int | None, what: str) -> None:
@@ -286,3 +311,87 @@ def first_messages(messages: Iterable[str], default: str) -> str:
     for m in messages:
         return " ".join(m.split())
     return default
+
+
+_AT = re.compile(r"<(?:string|block)>:(\d+):(\d+)(?:-(\d+:)?\d+)?")
+
+
+def relocate(message: str, parts: Sequence[tuple[str, str]]) -> str:
+    """``message`` with ``<string>:LINE:COL`` of a program made of ``parts`` (name, text; joined
+    by newlines) written ``name:line:col`` of the part that holds the line; on one line."""
+    starts: list[tuple[int, str]] = []
+    line = 1
+    for name, text in parts:
+        starts.append((line, name))
+        line += text.count("\n") + 1
+
+    def sub(m: re.Match[str]) -> str:
+        at = int(m.group(1))
+        first, name = max((s for s in starts if s[0] <= at), default=(1, "program"))
+        return f"{name}:{at - first + 1}:{m.group(2)}"
+
+    return " ".join(_AT.sub(sub, message).split())
+
+
+def probe_program(
+    build: Callable[[Any], None],
+    args: Sequence[str],
+    *,
+    where: str,
+    parts: Sequence[tuple[str, Sequence[Any]]] = (("base", ()),),
+    limits: Limits | None = None,
+    locate: Callable[[str], str] = lambda m: " ".join(m.split()),
+) -> None:
+    """Ground and solve a user's program once, without facts, in a limited child
+    (:func:`run_limited`), before any work: a syntax or grounding error (unsafe variables, an
+    unknown ``@``-function ...), a program past a limit (``p(1..100000000).``) or one without
+    an answer set is an :class:`~sensemaking.errors.InputError` naming ``where``, on one line.
+
+    ``build(ctl)`` adds the program to a fresh ``clingo.Control(args)``; ``parts`` are grounded;
+    ``locate`` rewrites clingo's message (locations in the user's files).
+    """
+    import clingo
+
+    lim = limits if limits is not None else Limits()
+
+    def work(_send: Callable[[Any], None]) -> bool:
+        messages: list[str] = []
+        ctl = clingo.Control(
+            [*args, "--models=1"], logger=lambda _c, m: messages.append(m), message_limit=5
+        )
+        try:
+            build(ctl)
+            ctl.ground(list(parts))
+        except RuntimeError as exc:
+            first = ([m for m in messages if "error" in m] or messages or [str(exc)])[0]
+            located = locate(first).replace(": error: ", ": ")
+            # a message located in the user's file names it already
+            named = located.split(":", 1)[0] in where.split(", ")
+            raise InputError(located if named else f"{where}: {located}") from None
+        check_atoms(len(ctl.symbolic_atoms), lim.max_atoms, where)
+        return bool(ctl.solve().satisfiable)
+
+    satisfiable = run_limited(work, lim, what=where, fail=lambda m: InputError(m))
+    if not satisfiable:
+        raise InputError(
+            f"{where}: the program has no answer set even without detections (UNSATISFIABLE): "
+            "a constraint that always fires?"
+        )
+
+
+def check_user_encoding(
+    program: str,
+    options: Sequence[str],
+    parts: Sequence[tuple[str, str]],
+    limits: Limits | None = None,
+) -> None:
+    """:func:`probe_program` of a text ``program`` made of ``parts`` (name, text; joined by
+    newlines), e.g. the tracker's encoding plus ``--rules``; messages name the part's file."""
+    names = [n for n, _ in parts if n != "tracking.lp"] or [n for n, _ in parts]
+    probe_program(
+        lambda ctl: ctl.add("base", [], program),
+        options,
+        where=", ".join(names),
+        limits=limits,
+        locate=lambda m: relocate(m, parts),
+    )

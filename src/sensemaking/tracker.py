@@ -35,6 +35,7 @@ from sensemaking.geometry import (
 )
 from sensemaking.motion import KalmanConfig
 from sensemaking.results import Event, FrameAbduction, FrameResult, TrackState
+from sensemaking.sandbox import Limits, check_user_encoding
 from sensemaking.track_table import TrackTable
 
 __all__ = ["TrackerConfig", "Tracker", "FrameResult", "Event", "TrackState"]
@@ -138,9 +139,10 @@ class TrackerConfig:
         max_conflicts: deterministic per-component work budget of the solver, in conflicts:
             past it the best answer found so far is used and counted. The same input gives the
             same output on any machine. None: no limit.
-        max_solve_ms: per-frame wall-clock budget for grounding + solving (milliseconds). Past
-            it the best answer found so far is used (or Hungarian matching if none) and counted;
-            results then depend on the machine's load. None: no limit.
+        max_solve_ms: per-frame wall-clock budget for solving (milliseconds). Grounding is not
+            interrupted but counts against it; past it the best answer found so far is used (or
+            Hungarian matching if none) and counted; results then depend on the machine's load.
+            None: no limit. A user's rules are bounded per frame by their atom limit.
         velocity_prior: std of a new track's velocity before its detections show it, in box sizes
             per second (width for x, height for y); sets ``kalman.init_velocity_std`` to
             ``velocity_prior / fps``, so one value fits every frame rate. The velocity after the
@@ -261,6 +263,7 @@ class Tracker:
         *,
         encoding: str | Path | None = None,
         rules: str | Path | Sequence[str | Path] = (),
+        limits: Limits | None = None,
         **overrides: Any,
     ):
         """Args:
@@ -270,6 +273,10 @@ class Tracker:
         rules: more rules (``.lp`` paths or text) added to the encoding, e.g. your own
             events: ``occurs(stops(T)) :- track(T), speed(T,S), S < 5.`` is reported as an
             event ``stops`` on every frame where it holds (see ``tracking.lp``'s facts).
+        limits: time, memory and atom limits of a user's encoding or rules: checked once
+            before any frame (grounded and solved without facts in a limited child process,
+            :mod:`sensemaking.sandbox`); the atom limit holds for every frame too. Default:
+            ``ask``'s limits.
         """
         self.config = (
             replace(config or TrackerConfig(), **overrides)
@@ -297,6 +304,8 @@ class Tracker:
             max_conflicts=c.max_conflicts,
         )
         packaged = encoding is None and not extra
+        if not packaged:  # the user's code, under ask's limits (issue 24)
+            _check_user_program(solver, [encoding, *extra], limits or Limits())
         decompose = packaged if c.decompose is None else c.decompose
         grid = self._quantize(np.linspace(0.0, 1.0, c.likelihood_levels + 1)).tolist()
         self._solver = ComponentSolver(solver, decompose=decompose, numbers=grid)
@@ -841,6 +850,28 @@ class Tracker:
             self._tracks.vis[keep],
             self._tracks.unseen[keep],
         )
+
+
+def _check_user_program(
+    solver: AbductionSolver, sources: Sequence[str | Path | None], limits: Limits
+) -> None:
+    """Ground and solve the user's program once without facts under ``limits`` and keep the
+    atom limit for every frame. ``sources``: the encoding (None: packaged), then the rules.
+    Raises InputError naming the user's file."""
+
+    def name(src: str | Path | None, i: int) -> str:
+        if src is None:
+            return "tracking.lp"
+        if isinstance(src, Path) or str(src).endswith(".lp"):
+            return str(src)
+        return "rules" if i else "encoding"
+
+    parts = [
+        (name(src, i), text)
+        for i, (src, text) in enumerate(zip(sources, solver.texts, strict=True))
+    ]
+    check_user_encoding(solver.program, solver.options, parts, limits)
+    solver.max_atoms = limits.max_atoms
 
 
 def _track_output(

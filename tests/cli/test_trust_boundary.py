@@ -132,3 +132,48 @@ def test_an_archive_path_with_a_bracket_is_not_a_glob(tmp_path: Path, capsys) ->
     assert main(["query", str(mine), frames]) == 0
     got = int(capsys.readouterr().out.splitlines()[2])
     assert got <= 8
+
+
+# 3. the user's encodings: no files read, no code run, limits, one-line errors ---------------------
+@pytest.mark.parametrize(
+    "option,text,expected",
+    [
+        ("--rules", '#include "other.lp".\n', "#include is not allowed"),
+        ("--rules", "% a comment\n#script (python)\nimport os\n#end.\n", "rules.lp:2: #script"),
+        ("--encoding", "q(X) :- not track(X).\n", "unsafe variables"),
+        ("--rules", "q(X) :- not track(X).\n", "rules.lp:1:1"),
+        ("--rules", "occurs(stops(T)) :- track(T)\n", "does not parse"),
+        ("--rules", ":- not nope.\n", "UNSATISFIABLE"),
+        ("--rules", ":- track(T).\n", "UNSATISFIABLE"),
+        ("--situations", '#include "other.lp".\n', "#include is not allowed"),
+        ("--situations", "warn(x,(T,)) :- not track(T).\n", "unsafe variables"),
+        ("--situations", "p(1..100000000).\n", "limit"),
+        ("--rules", "p(1..100000000).\n", "limit"),
+    ],
+)
+def test_user_encodings_get_one_line_errors_and_limits(
+    tmp_path: Path, capsys, option: str, text: str, expected: str
+) -> None:
+    det = write_det(tmp_path / "det.txt")
+    (tmp_path / "other.lp").write_text("secret(42).\n")
+    rules = tmp_path / "rules.lp"
+    rules.write_text(text)
+    out = tmp_path / "out.txt"
+    argv = ["track", "--detections", str(det), "--format", "mot", "--output", str(out)]
+    argv += [option, str(rules), "--timeout", "5", "--max-memory", "300"]
+    if option == "--situations":
+        argv += ["--warnings", str(tmp_path / "w.jsonl")]
+    assert main(argv) == 2
+    line = one_line_error(capsys)
+    assert expected in line and "42" not in line
+    assert not out.exists() and not list(tmp_path.glob("*.part"))
+
+
+def test_the_api_checks_user_rules_too() -> None:
+    from sensemaking.errors import InputError
+    from sensemaking.tracker import Tracker
+
+    with pytest.raises(InputError, match="#include is not allowed"):
+        Tracker(rules='#include "x.lp".')
+    with pytest.raises(InputError, match="UNSATISFIABLE"):
+        Tracker(rules=":- not nope.")

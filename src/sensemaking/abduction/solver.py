@@ -22,6 +22,8 @@ from clingo import Function, Number, Symbol, SymbolType
 from clingo.ast import ASTType, ProgramBuilder, parse_string
 
 from sensemaking.abduction.problem import FrameProblem
+from sensemaking.errors import InputError
+from sensemaking.sandbox import check_atoms, check_program
 
 __all__ = [
     "Alternative",
@@ -97,24 +99,18 @@ def read_encoding(source: str | Path) -> str:
     """An encoding's text from a path (``.lp`` file) or the text itself. Raises a
     :class:`~sensemaking.errors.InputError` naming the file and clingo's message when it does
     not parse."""
-    from sensemaking.errors import InputError
-
     path = Path(source) if isinstance(source, Path) or str(source).endswith(".lp") else None
     if path is not None:
+        from sensemaking.sandbox import read_program_file
+
         try:
-            text = path.read_text(encoding="utf-8")
+            text = read_program_file(path)
         except (OSError, UnicodeDecodeError) as exc:
             raise InputError(f"cannot read the encoding: {exc}", path) from None
     else:
         text = str(source)
-    messages: list[str] = []
-    try:
-        parse_string(text, lambda _: None, logger=lambda _c, m: messages.append(m.strip()))
-    except RuntimeError:
-        where = f"{path}: " if path is not None else ""
-        raise InputError(
-            f"{where}the encoding does not parse: {'; '.join(messages) or 'syntax error'}"
-        ) from None
+    # no #include / #script (reading files, running code); a syntax error is one line
+    check_program(text, str(path) if path is not None else "rules")
     return text
 
 
@@ -234,7 +230,12 @@ class AbductionSolver:
         if max_conflicts is not None:
             self.options.append(f"--solve-limit={int(max_conflicts)}")
         base = encoding if encoding is not None else load_encoding()
-        self.program = "\n".join([base, *rules])
+        rules = list(rules)
+        #: the program's texts: the encoding, then each of ``rules``
+        self.texts = (base, *rules)
+        self.program = "\n".join(self.texts)
+        #: ground atoms a frame's program may have (set for a user's encoding or rules)
+        self.max_atoms: int | None = None
         #: names the program mentions: optional facts are only given when read
         self.uses = _mentioned(self.program)
 
@@ -252,12 +253,13 @@ class AbductionSolver:
     ) -> Answer | None:
         """Abduce the optimal hypothesis for the facts; None if no model was found in budget.
 
-        ``budget_ms`` bounds grounding plus solving in wall-clock time; past it the best model
-        so far is used (``Answer.timed_out``). None means not even one model was found within
-        the budgets (the caller falls back) -- or the problem is unsatisfiable, which the
-        packaged encoding rules out. ``forbid``: conjunctions of shown atoms (e.g.
-        ``occurs(hides_behind(0,1))``) that no answer may hold together: integrity constraints
-        added to the ground program (for :meth:`alternatives`; none in the normal path).
+        ``budget_ms`` bounds solving in wall-clock time (grounding, not interrupted, counts
+        against it); past it the best model so far is used (``Answer.timed_out``). None means
+        not even one model was found within the budgets (the caller falls back). An
+        unsatisfiable program (only a user's rules can be) raises InputError. ``forbid``:
+        conjunctions of shown atoms (e.g. ``occurs(hides_behind(0,1))``) that no answer may
+        hold together: integrity constraints added to the ground program (for
+        :meth:`alternatives`; none in the normal path).
         """
         found = self._run(facts, budget_ms, forbid)
         return None if found is None else found[1]
@@ -343,6 +345,7 @@ class AbductionSolver:
     ) -> tuple[list[Symbol], Answer] | None:
         """The shown atoms of the optimal model and their :class:`Answer` (see solve_facts)."""
         t0 = time.perf_counter()
+        forbid = [list(f) for f in forbid]
         ctl = clingo.Control(self.options, logger=_quiet_logger)
         with ProgramBuilder(ctl) as builder:
             for statement in _parsed(self.program):
@@ -350,7 +353,13 @@ class AbductionSolver:
         with ctl.backend() as backend:
             for fact in facts:
                 backend.add_rule([backend.add_atom(fact)])
-        ctl.ground([("base", [])])
+        try:
+            ctl.ground([("base", [])])
+        except RuntimeError as exc:  # only a user's rules fail to ground on some facts
+            msg = " ".join(str(exc).split())
+            raise InputError(f"the encoding failed to ground: {msg}") from None
+        if self.max_atoms is not None:
+            check_atoms(len(ctl.symbolic_atoms), self.max_atoms, "the encoding (one frame)")
         _add_forbidden(ctl, forbid)
         best: list[Symbol] = []
         info: dict[str, int] = {}
@@ -373,6 +382,11 @@ class AbductionSolver:
                 result = handle.get()
         ms = (time.perf_counter() - t0) * 1000.0
         if "cost" not in info:
+            if result.unsatisfiable and not timed_out and not forbid:  # not packaged encoding
+                raise InputError(
+                    "the encoding has no answer set for a frame's facts (UNSATISFIABLE): a "
+                    "constraint of your rules rules out every explanation"
+                )
             log.debug("no model within the budget (%.1f ms, timed out: %s)", ms, timed_out)
             return None
         answer = _decode(best)

@@ -165,6 +165,34 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="your own situations (.lp) added to situations.lp for --warnings, e.g. "
         "`warn(stopped_ahead,(T,)) :- ...` (repeatable)",
     )
+    from sensemaking.sandbox import DEFAULT_MAX_ATOMS, DEFAULT_MAX_MEMORY_MB, DEFAULT_TIMEOUT_S
+
+    lim = p.add_argument_group(
+        "limits of your own encodings (--rules, --encoding, --situations; as in ask)",
+        "checked once before any frame: the program is grounded and solved without facts in a "
+        "child process under all three; the atom limit holds for every frame too",
+    )
+    lim.add_argument(
+        "--timeout",
+        type=float,
+        default=DEFAULT_TIMEOUT_S,
+        metavar="S",
+        help=f"seconds for that check (default {DEFAULT_TIMEOUT_S:g})",
+    )
+    lim.add_argument(
+        "--max-atoms",
+        type=int,
+        default=DEFAULT_MAX_ATOMS,
+        metavar="N",
+        help=f"ground atoms (default {DEFAULT_MAX_ATOMS})",
+    )
+    lim.add_argument(
+        "--max-memory",
+        type=int,
+        default=DEFAULT_MAX_MEMORY_MB,
+        metavar="MB",
+        help=f"memory for that check, MB (default {DEFAULT_MAX_MEMORY_MB})",
+    )
     p.add_argument(
         "--lanes",
         type=Path,
@@ -644,7 +672,10 @@ def run(args: argparse.Namespace) -> int:
                 },
                 inputs,
             )
-    tracker = Tracker(config, encoding=args.encoding, rules=args.rules)
+    from sensemaking.sandbox import Limits
+
+    limits = Limits(args.timeout, args.max_atoms, args.max_memory)
+    tracker = Tracker(config, encoding=args.encoding, rules=args.rules, limits=limits)
     recorder = monitor = None
     if (args.ego_motion or args.camera) and not (args.warnings or args.scene):
         raise InputError("--ego-motion and --camera need --warnings or --scene (they serve those)")
@@ -657,6 +688,7 @@ def run(args: argparse.Namespace) -> int:
             fps=config.fps,
             image_size=config.image_size,
             extra_encodings=args.situations,
+            limits=limits,
             profile=profile,
             **world,
         )
