@@ -177,3 +177,133 @@ def test_the_api_checks_user_rules_too() -> None:
         Tracker(rules='#include "x.lp".')
     with pytest.raises(InputError, match="UNSATISFIABLE"):
         Tracker(rules=":- not nope.")
+
+
+def _track(tmp_path: Path, det: Path, *extra: str) -> int:
+    return main(["-q", "track", "--detections", str(det), "--format", "mot", *extra])
+
+
+# 4. outputs to anything but a regular file are written through, never replaced --------------------
+def test_an_output_symlink_to_a_device_stays_a_symlink(tmp_path: Path) -> None:
+    det = write_det(tmp_path / "det.txt")
+    link = tmp_path / "out.txt"
+    link.symlink_to("/dev/null")
+    assert _track(tmp_path, det, "--output", str(link), "--events", str(link) + ".ev") == 0
+    assert link.is_symlink() and os.readlink(link) == "/dev/null"
+
+
+def test_an_output_symlink_to_a_file_keeps_the_link_and_fills_its_target(tmp_path: Path) -> None:
+    det = write_det(tmp_path / "det.txt")
+    target = tmp_path / "real.txt"
+    target.write_text("old\n")
+    link = tmp_path / "out.txt"
+    link.symlink_to(target)
+    assert _track(tmp_path, det, "--output", str(link)) == 0
+    assert link.is_symlink() and len(target.read_text().splitlines()) == 30
+
+
+def test_an_output_fifo_is_written_through(tmp_path: Path) -> None:
+    import stat
+    import threading
+
+    det = write_det(tmp_path / "det.txt")
+    fifo = tmp_path / "out.fifo"
+    os.mkfifo(fifo)
+    got: list[bytes] = []
+    reader = threading.Thread(target=lambda: got.append(fifo.read_bytes()), daemon=True)
+    reader.start()
+    assert _track(tmp_path, det, "--output", str(fifo)) == 0
+    reader.join(10)
+    assert stat.S_ISFIFO(os.stat(fifo).st_mode)
+    assert len(got[0].decode().splitlines()) == 30
+    assert not [p for p in tmp_path.iterdir() if p.name.endswith(".part")]
+
+
+def test_an_output_to_a_full_device_names_it(tmp_path: Path, capsys) -> None:
+    if not os.path.exists("/dev/full"):
+        pytest.skip("no /dev/full here")
+    det = write_det(tmp_path / "det.txt")
+    assert _track(tmp_path, det, "--output", "/dev/full") == 2
+    assert "/dev/full" in one_line_error(capsys)
+    assert os.path.exists("/dev/full") and not Path("/dev/full").is_file()
+
+
+# 5. stdin and pipes as --detections are read once ---------------------------------------------------
+def test_detections_from_stdin_and_a_pipe_give_the_tracks_of_the_file(
+    tmp_path: Path, monkeypatch
+) -> None:
+    import io
+    import sys
+    import threading
+
+    det = write_det(tmp_path / "det.txt")
+    assert _track(tmp_path, det, "--output", str(tmp_path / "file.txt")) == 0
+    expected = (tmp_path / "file.txt").read_text()
+    assert len(expected.splitlines()) == 30
+
+    stdin = io.TextIOWrapper(io.BytesIO(det.read_bytes()))
+    monkeypatch.setattr(sys, "stdin", stdin)
+    assert main(["-q", "track", "--detections", "-", "--format", "mot",
+                 "--output", str(tmp_path / "stdin.txt")]) == 0
+    assert (tmp_path / "stdin.txt").read_text() == expected
+
+    fifo = tmp_path / "det.fifo"
+    os.mkfifo(fifo)
+    writer = threading.Thread(target=lambda: fifo.write_bytes(det.read_bytes()), daemon=True)
+    writer.start()
+    assert _track(tmp_path, fifo, "--output", str(tmp_path / "fifo.txt")) == 0
+    writer.join(10)
+    assert (tmp_path / "fifo.txt").read_text() == expected
+
+
+# 6. an output never overwrites an input or another output's .part; write errors name the file ----
+def test_output_over_params_or_seqinfo_is_refused(tmp_path: Path, capsys) -> None:
+    det = write_det(tmp_path / "seq" / "det" / "det.txt")
+    seqinfo = tmp_path / "seq" / "seqinfo.ini"
+    seqinfo.write_text(
+        "[Sequence]\nname=seq\nframeRate=10\nseqLength=30\nimWidth=1000\nimHeight=500\n"
+    )
+    params = tmp_path / "params.json"
+    params.write_text("{}\n")
+    before = seqinfo.read_bytes(), params.read_bytes()
+    assert _track(tmp_path, det, "--output", str(seqinfo)) == 2
+    assert "seqinfo" in one_line_error(capsys)
+    assert _track(tmp_path, det, "--output", str(params), "--params", str(params)) == 2
+    assert "--params" in one_line_error(capsys)
+    assert (seqinfo.read_bytes(), params.read_bytes()) == before
+
+
+def test_an_output_named_like_the_warnings_part_is_refused(tmp_path: Path, capsys) -> None:
+    det = write_det(tmp_path / "det.txt")
+    w = tmp_path / "w.jsonl"
+    assert _track(tmp_path, det, "--output", f"{w}.part", "--warnings", str(w)) == 2
+    assert "--warnings is written" in one_line_error(capsys)
+
+
+def test_a_write_error_names_the_file_and_leaves_no_part(tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    det = tmp_path / "det.txt"
+    det.write_text(
+        "".join(f"{f},-1,{100 + f % 300},100,40,80,0.9,-1,-1,-1\n" for f in range(1, 601))
+    )
+    script = (
+        "import resource, sys; resource.setrlimit(resource.RLIMIT_FSIZE, (8192, 8192)); "
+        "from sensemaking.cli import main; sys.exit(main(sys.argv[1:]))"
+    )
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).parents[2] / "src")}
+    out = tmp_path / "out"
+    out.mkdir()
+    proc = subprocess.run(
+        [sys.executable, "-c", script, "-q", "track", "--detections", str(det), "--format",
+         "mot", "--output", str(out / "t.txt"), "--events", str(out / "e.jsonl"),
+         "--scene", str(out / "s.json")],
+        env=env, capture_output=True, text=True, timeout=300,
+    )
+    assert proc.returncode == 2, proc.stderr
+    lines = [x for x in proc.stderr.splitlines() if x.strip()]
+    assert len(lines) == 1 and "File too large" in lines[0]
+    assert any(str(out / n) in lines[0] or f"'{n}'" in lines[0] or n in lines[0]
+               for n in ("t.txt", "e.jsonl", "s.json"))
+    assert list(out.iterdir()) == []
