@@ -307,3 +307,15 @@ def test_a_write_error_names_the_file_and_leaves_no_part(tmp_path: Path) -> None
     assert any(str(out / n) in lines[0] or f"'{n}'" in lines[0] or n in lines[0]
                for n in ("t.txt", "e.jsonl", "s.json"))
     assert list(out.iterdir()) == []
+
+
+# 10. benchmark on a folder without benchmarks exits 2 and writes nothing --------------------------
+def test_benchmark_on_an_empty_folder_writes_nothing(tmp_path: Path, capsys, monkeypatch) -> None:
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    assert main(["benchmark", "--data", str(empty)]) == 2
+    assert "no benchmark found" in one_line_error(capsys)
+    assert list(work.rglob("*")) == [] and list(empty.iterdir()) == []
