@@ -319,3 +319,46 @@ def test_benchmark_on_an_empty_folder_writes_nothing(tmp_path: Path, capsys, mon
     assert main(["benchmark", "--data", str(empty)]) == 2
     assert "no benchmark found" in one_line_error(capsys)
     assert list(work.rglob("*")) == [] and list(empty.iterdir()) == []
+
+
+# 8. damaged archives: one-line errors, segments rebuilt, foreign versions refused -----------------
+def _truncate(path: Path) -> None:
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])
+
+
+def test_a_truncated_segment_is_one_line_and_rebuilt(tmp_path: Path, capsys) -> None:
+    from sensemaking.fleet.archive import compact
+
+    root = make_archive(tmp_path / "archive")
+    assert compact(root) == 1
+    seg = next((root / "_segments").glob("seg-*"))
+    _truncate(seg / "tracks.parquet")
+    code, _, err = _query(root, "SELECT count(*) FROM tracks", capsys)
+    assert code == 2 and "damaged archive segment" in err and len(err.strip().splitlines()) == 1
+    assert compact(root) == 1  # what batch runs at its end: the segment is made again
+    code, out, _ = _query(root, "SELECT count(*) FROM tracks", capsys)
+    assert code == 0 and int(out.splitlines()[2]) > 0
+
+
+def test_a_truncated_sequence_file_is_one_line_and_run_again(tmp_path: Path, capsys) -> None:
+    from sensemaking.fleet.archive import Archive
+    from sensemaking.fleet.specs import read_manifest
+
+    root = make_archive(tmp_path / "archive")
+    tracks = next(root.glob("dataset=*/sequence=*/key=*/tracks.parquet"))
+    _truncate(tracks)
+    code, _, err = _query(root, "SELECT count(*) FROM tracks", capsys)
+    assert code == 2 and "Traceback" not in err and len(err.strip().splitlines()) == 1
+    spec = read_manifest(tmp_path / "archive-fleet" / "manifest.csv")[0]
+    with Archive(root) as arc:
+        assert arc.status(spec, "k1") is None  # the batch runs it again
+    assert not tracks.exists()
+
+
+def test_an_archive_of_an_unknown_version_is_refused(tmp_path: Path, capsys) -> None:
+    root = make_archive(tmp_path / "archive")
+    marker = root / "_fleet.json"
+    marker.write_text(json.dumps({**json.loads(marker.read_text()), "version": 99}))
+    code, _, err = _query(root, "SELECT count(*) FROM tracks", capsys)
+    assert code == 2 and "archive version 99" in err

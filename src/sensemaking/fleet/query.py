@@ -246,7 +246,7 @@ def connect(root: str | Path, *, memory_mb: int = DEFAULT_MEMORY_MB) -> Any:
     Raises:
         InputError: ``root`` is not an archive.
     """
-    from sensemaking.fleet.archive import _folder_id, published, segment_members
+    from sensemaking.fleet.archive import _folder_id, check_marker, published, segment_members
 
     duckdb = require("duckdb", "fleet")
     pa = require("pyarrow", "fleet")
@@ -257,6 +257,7 @@ def connect(root: str | Path, *, memory_mb: int = DEFAULT_MEMORY_MB) -> Any:
             "`sensemaking batch --archive DIR`)",
             root,
         )
+    check_marker(root)
     current = {}
     for dataset, sequence, key, folder in published(root):
         current[(dataset, sequence, key, *_folder_id(folder))] = folder
@@ -306,7 +307,15 @@ def connect(root: str | Path, *, memory_mb: int = DEFAULT_MEMORY_MB) -> Any:
         files = [f / f"{table}.parquet" for f in loose if (f / f"{table}.parquet").is_file()]
         if files:
             parts.append(f"SELECT * FROM read_parquet({_sql_list(files)})")
-        con.execute(f"CREATE VIEW {table} AS " + " UNION ALL ".join(parts))
+        try:
+            con.execute(f"CREATE VIEW {table} AS " + " UNION ALL ".join(parts))
+        except duckdb.Error as exc:  # a truncated or foreign file: the view reads its footer
+            first = " ".join(str(exc).split("LINE 1:")[0].split())
+            raise InputError(
+                f"damaged archive ({first}); the next `sensemaking batch` on it runs the "
+                "sequence again",
+                root,
+            ) from None
         readable += [seg / f"{table}.parquet" for seg, _ in segments] + files
     # the views read these files and nothing else can be read, written, installed or changed
     # DuckDB checks the path as written (escaped) and each file it expands to
