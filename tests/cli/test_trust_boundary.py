@@ -362,3 +362,20 @@ def test_an_archive_of_an_unknown_version_is_refused(tmp_path: Path, capsys) -> 
     marker.write_text(json.dumps({**json.loads(marker.read_text()), "version": 99}))
     code, _, err = _query(root, "SELECT count(*) FROM tracks", capsys)
     assert code == 2 and "archive version 99" in err
+
+
+# 7. batch finds MOT sequences by their layout and names what it skips -----------------------------
+def test_mot_sequences_are_found_by_layout_and_skips_are_named(tmp_path: Path) -> None:
+    from sensemaking.fleet.specs import find_sequences
+
+    info = "[Sequence]\nname={}\nframeRate=30\nseqLength=30\nimWidth=1920\nimHeight=1080\n"
+    for name in ("MOT17-09-SDP", "MOT17-09-DPM", "MOT17-10-FRCNN"):
+        write_det(tmp_path / "mot17" / name / "det" / "det.txt")
+        (tmp_path / "mot17" / name / "seqinfo.ini").write_text(info.format(name))
+    (tmp_path / "mot17" / "MOT17-11-SDP").mkdir()
+    (tmp_path / "mot17" / "MOT17-11-SDP" / "seqinfo.ini").write_text(info.format("x"))
+    specs, skipped = find_sequences([tmp_path])
+    names = {s.sequence for s in specs}
+    assert {"MOT17-09-SDP", "MOT17-09-DPM", "MOT17-10-FRCNN"} <= names
+    assert len(specs) == len({(s.dataset, s.sequence) for s in specs})  # none twice
+    assert any("MOT17-11-SDP" in m and "det/det.txt" in m for m in skipped)
