@@ -34,7 +34,9 @@ def test_a_hidden_include_is_refused_before_clingo_opens_the_file(
     assert "#include is not allowed" in line and "42" not in line
 
 
-def test_a_query_that_does_not_parse_is_refused_with_its_position(scene_file: Path, capsys) -> None:
+def test_a_query_that_does_not_parse_is_refused_with_its_position(
+    scene_file: Path, capsys
+) -> None:
     assert main(["ask", str(scene_file), 'q("abc\n).']) == 2
     line = one_line_error(capsys)
     assert "invalid query: query:1:" in line
@@ -98,7 +100,9 @@ def test_query_reaches_nothing_outside_the_archive(
 
 
 def test_query_rows_are_bounded(archive: Path, capsys) -> None:
-    assert main(["query", str(archive), "--max-rows", "1000", "SELECT * FROM range(30000000)"]) == 2
+    assert (
+        main(["query", str(archive), "--max-rows", "1000", "SELECT * FROM range(30000000)"]) == 2
+    )
     assert "more than 1000 rows" in one_line_error(capsys)
 
 
@@ -243,8 +247,21 @@ def test_detections_from_stdin_and_a_pipe_give_the_tracks_of_the_file(
 
     stdin = io.TextIOWrapper(io.BytesIO(det.read_bytes()))
     monkeypatch.setattr(sys, "stdin", stdin)
-    assert main(["-q", "track", "--detections", "-", "--format", "mot",
-                 "--output", str(tmp_path / "stdin.txt")]) == 0
+    assert (
+        main(
+            [
+                "-q",
+                "track",
+                "--detections",
+                "-",
+                "--format",
+                "mot",
+                "--output",
+                str(tmp_path / "stdin.txt"),
+            ]
+        )
+        == 0
+    )
     assert (tmp_path / "stdin.txt").read_text() == expected
 
     fifo = tmp_path / "det.fifo"
@@ -296,16 +313,35 @@ def test_a_write_error_names_the_file_and_leaves_no_part(tmp_path: Path) -> None
     out = tmp_path / "out"
     out.mkdir()
     proc = subprocess.run(
-        [sys.executable, "-c", script, "-q", "track", "--detections", str(det), "--format",
-         "mot", "--output", str(out / "t.txt"), "--events", str(out / "e.jsonl"),
-         "--scene", str(out / "s.json")],
-        env=env, capture_output=True, text=True, timeout=300,
+        [
+            sys.executable,
+            "-c",
+            script,
+            "-q",
+            "track",
+            "--detections",
+            str(det),
+            "--format",
+            "mot",
+            "--output",
+            str(out / "t.txt"),
+            "--events",
+            str(out / "e.jsonl"),
+            "--scene",
+            str(out / "s.json"),
+        ],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
     )
     assert proc.returncode == 2, proc.stderr
     lines = [x for x in proc.stderr.splitlines() if x.strip()]
     assert len(lines) == 1 and "File too large" in lines[0]
-    assert any(str(out / n) in lines[0] or f"'{n}'" in lines[0] or n in lines[0]
-               for n in ("t.txt", "e.jsonl", "s.json"))
+    assert any(
+        str(out / n) in lines[0] or f"'{n}'" in lines[0] or n in lines[0]
+        for n in ("t.txt", "e.jsonl", "s.json")
+    )
     assert list(out.iterdir()) == []
 
 
