@@ -415,3 +415,65 @@ def test_mot_sequences_are_found_by_layout_and_skips_are_named(tmp_path: Path) -
     assert {"MOT17-09-SDP", "MOT17-09-DPM", "MOT17-10-FRCNN"} <= names
     assert len(specs) == len({(s.dataset, s.sequence) for s in specs})  # none twice
     assert any("MOT17-11-SDP" in m and "det/det.txt" in m for m in skipped)
+
+
+# 11. user mistakes that were "internal error (a bug)" are one-line errors --------------------------
+def _make(tmp_path: Path, case: str) -> list[str]:
+    det = write_det(tmp_path / "det.txt")
+    base = ["track", "--detections", str(det), "--format", "mot", "--output",
+            str(tmp_path / "out" / "o.txt")]
+    warn = ["--warnings", str(tmp_path / "out" / "w.jsonl")]
+    if case.startswith("lanes"):
+        width = {"lanes-string": '"x"', "lanes-null": "null"}[case]
+        lanes = tmp_path / "lanes.json"
+        lanes.write_text(f'{{"lanes":[{{"id":1,"points":[[0,0],[10,10]],"width":{width}}}]}}')
+        return base + warn + ["--lanes", str(lanes)]
+    if case == "deep-params":
+        params = tmp_path / "p.json"
+        params.write_text("[" * 100_000 + "]" * 100_000)
+        return base + ["--params", str(params)]
+    if case == "empty-npy":
+        import numpy as np
+
+        np.save(tmp_path / "z.npy", np.zeros((0, 0), np.uint8))
+        return base + warn + ["--segmentation", str(tmp_path / "z.npy")]
+    if case == "symlink-loop":
+        (tmp_path / "a.txt").symlink_to(tmp_path / "b.txt")
+        (tmp_path / "b.txt").symlink_to(tmp_path / "a.txt")
+        return ["track", "--detections", str(tmp_path / "a.txt"), "--format", "mot",
+                "--output", str(tmp_path / "out" / "o.txt")]
+    if case == "corrupt-onnx":
+        pytest.importorskip("onnxruntime")
+        (tmp_path / "m.onnx").write_bytes(bytes(range(256)) * 4)
+        return ["track", "--source", str(det), "--detector", str(tmp_path / "m.onnx"),
+                "--output", str(tmp_path / "out" / "o.txt")]
+    if case == "events-1e400":
+        gt = tmp_path / "gt.txt"
+        gt.write_text("1,1,100,100,40,80,1,1,1.0\n")
+        ev = tmp_path / "ev.jsonl"
+        ev.write_text('{"frame": 1e400, "event": "starts", "args": [1]}\n')
+        return ["evaluate", "--explanations", "--gt", str(gt), "--results", str(det),
+                "--format", "mot", "--events", str(ev)]
+    raise AssertionError(case)
+
+
+@pytest.mark.parametrize(
+    "case",
+    ["lanes-string", "lanes-null", "deep-params", "empty-npy", "symlink-loop", "corrupt-onnx",
+     "events-1e400"],
+)
+def test_user_mistakes_are_one_line_errors(tmp_path: Path, capsys, case: str) -> None:
+    argv = _make(tmp_path, case)
+    assert main(argv) == 2
+    line = one_line_error(capsys)
+    assert "internal error" not in line
+    out = tmp_path / "out"
+    assert not out.exists() or not list(out.iterdir())
+
+
+def test_a_scene_with_a_vanishing_frame_rate_is_refused(scene_file: Path, capsys) -> None:
+    record = json.loads(scene_file.read_text())
+    record["fps"] = 1e-300
+    scene_file.write_text(json.dumps(record))
+    assert main(["explain", str(scene_file)]) == 2
+    assert "fps" in one_line_error(capsys)

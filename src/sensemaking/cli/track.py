@@ -333,7 +333,7 @@ def _check_input_files(args: argparse.Namespace) -> None:
     files = args.detection_files
     seen: dict[str, Path] = {}
     for f in files:
-        key = str(f.resolve())
+        key = os.path.realpath(f)  # no error on a symlink loop: the reader names it
         if key in seen:
             raise InputError(f"detection file given twice (also as {seen[key]})", f)
         seen[key] = f

@@ -998,7 +998,7 @@ def read_events(path: str | Path) -> list[Event]:
     for r in _json_lines(path):
         try:
             ev = Event.from_json(r)
-        except (KeyError, TypeError, ValueError):
+        except (KeyError, TypeError, ValueError, OverflowError):  # 1e400 reads as inf
             raise InputError(
                 'expected {"frame": int, "event": name, "args": [track ids]}', path, r["_line"]
             ) from None
