@@ -23,7 +23,12 @@ from sensemaking import settings
 from sensemaking.abduction.components import ComponentSolver
 from sensemaking.abduction.problem import VISIBILITY_VALUES, FrameProblem
 from sensemaking.abduction.solver import AbductionSolver, Answer, Det, read_encoding
-from sensemaking.detections import Detections, check_frame_number, validate_detections
+from sensemaking.detections import (
+    Detections,
+    check_frame_number,
+    check_frame_size,
+    validate_detections,
+)
 from sensemaking.geometry import (
     box_area,
     cut_by_border,
@@ -341,6 +346,7 @@ class Tracker:
         """
         # checked before any state changes: a refused frame leaves the tracker as it was
         dets = validate_detections(_coerce(detections), self.config.image_size)
+        check_frame_size(len(dets), frame)  # per-frame work is (tracks x detections)
         if frame is not None:
             frame = check_frame_number(frame)
         if frame is None:

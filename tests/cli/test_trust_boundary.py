@@ -477,3 +477,39 @@ def test_a_scene_with_a_vanishing_frame_rate_is_refused(scene_file: Path, capsys
     scene_file.write_text(json.dumps(record))
     assert main(["explain", str(scene_file)]) == 2
     assert "fps" in one_line_error(capsys)
+
+
+# 9. dense frames: a documented per-frame limit, refused before any square-sized array ----------
+def test_a_dense_frame_is_refused_with_its_line(tmp_path: Path, capsys) -> None:
+    from sensemaking.detections import MAX_DETECTIONS_PER_FRAME as LIMIT
+
+    det = tmp_path / "dense.txt"
+    n = LIMIT + 500
+    det.write_text(
+        "".join(
+            f"{f},-1,{(i % 100) * 10},{(i // 100) * 10},40,80,0.9,-1,-1,-1\n"
+            for f in (1, 2)
+            for i in range(n)
+        )
+    )
+    out = tmp_path / "out.txt"
+    assert main(["track", "--detections", str(det), "--format", "mot", "--output", str(out)]) == 2
+    line = one_line_error(capsys)
+    assert f"dense.txt:{LIMIT + 1}:" in line and "per-frame limit" in line
+    assert not out.exists()
+
+
+def test_the_api_refuses_a_dense_frame_too() -> None:
+    import numpy as np
+
+    from sensemaking.detections import MAX_DETECTIONS_PER_FRAME as LIMIT
+    from sensemaking.errors import InputError
+    from sensemaking.tracker import Tracker
+
+    n = LIMIT + 1
+    boxes = np.column_stack([np.arange(n) % 100 * 10.0, np.arange(n) // 100 * 10.0])
+    xyxy = np.hstack([boxes, boxes + 40.0])
+    tracker = Tracker()
+    with pytest.raises(InputError, match="per-frame limit"):
+        tracker.update(np.column_stack([xyxy, np.full(n, 0.9)]), frame=1)
+    assert tracker.n_tracks == 0
