@@ -22,7 +22,7 @@ import os
 import re
 import signal
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -304,13 +304,6 @@ def run_limited(
         if proc.is_alive():
             proc.kill()
         proc.join()
-
-
-def first_messages(messages: Iterable[str], default: str) -> str:
-    """clingo's first message on one line (``<string>`` locations dropped)."""
-    for m in messages:
-        return " ".join(m.split())
-    return default
 
 
 _AT = re.compile(r"<(?:string|block)>:(\d+):(\d+)(?:-(\d+:)?\d+)?")
