@@ -171,6 +171,10 @@ def forbid(ctl: clingo.Control, conjunctions: Iterable[Iterable[Symbol]]) -> Non
                 backend.add_rule([], lits)
 
 
+class Unsatisfiable(Exception):
+    """A program with no answer set at all (proved, not cut by a budget)."""
+
+
 @dataclass
 class Solved:
     """What one solve found: the shown atoms of its last (best) model, that model's cost on the
@@ -191,12 +195,14 @@ def solve(
     *,
     assumptions: Sequence[int] = (),
     started: float | None = None,
+    refuse_unsat: bool = False,
 ) -> Solved | None:
     """Solve a ground ``Control`` and keep its last model; None if it found none (within the
     budget, or the program is unsatisfiable). ``budget_ms`` is wall-clock milliseconds counted
     from ``started`` (a ``time.perf_counter()`` value; default: now), so that grounding spent
     before the call counts as well; past it the search is cancelled and the best model so far
-    is kept. ``assumptions``: program literals that must hold."""
+    is kept. ``assumptions``: program literals that must hold. ``refuse_unsat``: raise
+    :class:`Unsatisfiable` when the program is proved to have no answer set."""
     t0 = time.perf_counter() if started is None else started
     best: list[Symbol] = []
     info: dict[str, int] = {}
@@ -218,6 +224,8 @@ def solve(
             result = handle.get()
     ms = (time.perf_counter() - t0) * 1000.0
     if "cost" not in info:
+        if refuse_unsat and result.unsatisfiable and not timed_out:
+            raise Unsatisfiable()
         log.debug("no model within the budget (%.1f ms, timed out: %s)", ms, timed_out)
         return None
     return Solved(best, info["cost"], bool(result.exhausted), timed_out, ms)

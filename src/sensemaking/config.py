@@ -342,9 +342,10 @@ class TrackerConfig:
         max_conflicts: deterministic per-component work budget of the solver, in conflicts:
             past it the best answer found so far is used and counted. The same input gives the
             same output on any machine. None: no limit.
-        max_solve_ms: per-frame wall-clock budget for grounding + solving (milliseconds). Past
-            it the best answer found so far is used (or Hungarian matching if none) and counted;
-            results then depend on the machine's load. None: no limit.
+        max_solve_ms: per-frame wall-clock budget for solving (milliseconds). Grounding is not
+            interrupted but counts against it; past it the best answer found so far is used (or
+            Hungarian matching if none) and counted; results then depend on the machine's load.
+            None: no limit. A user's rules are bounded per frame by their atom limit.
         velocity_prior: std of a new track's velocity before its detections show it, in box sizes
             per second (width for x, height for y); sets ``kalman.init_velocity_std`` to
             ``velocity_prior / fps``, so one value fits every frame rate. The velocity after the

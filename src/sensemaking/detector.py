@@ -209,9 +209,15 @@ class OnnxDetector(Detector):
             layout,
             drop_unknown,
         )
-        self.session = ort.InferenceSession(
-            str(self.path), providers=providers or ["CPUExecutionProvider"]
-        )
+        try:
+            self.session = ort.InferenceSession(
+                str(self.path), providers=providers or ["CPUExecutionProvider"]
+            )
+        except Exception as exc:  # noqa: BLE001 - onnxruntime's errors (a corrupt model) vary
+            from sensemaking.errors import InputError
+
+            why = " ".join(str(exc).split())[:300]
+            raise InputError(f"not a usable ONNX model: {why}", self.path) from None
         inp = self.session.get_inputs()[0]
         self.input_name = inp.name
         shape = list(inp.shape)

@@ -195,7 +195,7 @@ def read_events(path: str | PathLike[str]) -> list[Event]:
     for r in read_json_lines(path):
         try:
             ev = event_from_record(r)
-        except (KeyError, TypeError, ValueError):
+        except (KeyError, TypeError, ValueError, OverflowError):  # 1e400 reads as inf
             raise InputError(
                 'expected {"frame": int, "event": name, "args": [track ids]}', path, r["_line"]
             ) from None

@@ -342,7 +342,7 @@ class Scene:
     def from_json(cls, record: Any, path: str | PathLike[str] | None = None) -> Scene:
         """Build from :meth:`to_json` output. Raises InputError naming ``path`` on bad input.
 
-        Checked before anything is built: the format and version, a finite fps in (0, 1000],
+        Checked before anything is built: the format and version, a finite fps in [0.01, 1000],
         the image size, every number finite and every id an integer, track frames increasing
         and inside the scene's frames, the ids that events and occluders name present in the
         scene, and the frame span: at most ``MAX_FRAME`` frames and at most
@@ -387,9 +387,9 @@ class Scene:
         if (
             isinstance(fps, bool)
             or not isinstance(fps, (int, float))
-            or not (math.isfinite(fps) and 0 < fps <= 1000)
+            or not (math.isfinite(fps) and 0.01 <= fps <= 1000)  # track's --fps range
         ):
-            raise bad(f"fps must be a number in (0, 1000], got {fps!r}")
+            raise bad(f"fps must be a number in [0.01, 1000], got {fps!r}")
         size = record.get("image_size")
         if size is not None and not (
             isinstance(size, list)

@@ -28,7 +28,7 @@ import numpy as np
 
 from sensemaking.detections import Detections
 from sensemaking.errors import InputError
-from sensemaking.io.atomic import PartFile
+from sensemaking.io.atomic import NamedIO, PartFile
 from sensemaking.io.kitti import format_kitti
 from sensemaking.io.mot import format_mot
 from sensemaking.records import (
@@ -85,6 +85,11 @@ def check_output_paths(
     """
     seen: dict[str, str] = {}
     ins = {name: Path(p) for name, p in inputs.items() if p is not None}
+    keys = {
+        os.path.normcase(os.path.realpath(raw)): name
+        for name, raw in outputs.items()
+        if raw is not None
+    }
     for name, raw in outputs.items():
         if raw is None:
             continue
@@ -95,6 +100,12 @@ def check_output_paths(
                 f"{name} and {seen[key]} name the same file: each output needs its own", path
             )
         seen[key] = name
+        if key.endswith(".part") and key[: -len(".part")] in keys:  # written there meanwhile
+            raise InputError(
+                f"{name} is where {keys[key[: -len('.part')]]} is written while the run goes "
+                "on: choose another name",
+                path,
+            )
         for in_name, in_path in ins.items():
             same = key == os.path.normcase(os.path.realpath(in_path))
             if not same and path.exists() and in_path.exists():
@@ -361,10 +372,15 @@ class SceneSink:
             int, list[tuple[int, int]]
         ] = {}  # track id -> (offset, length) of its parts
         self._file = PartFile(self.path)
-        folder = self.path.absolute().parent
-        self._tracks: IO[bytes] = tempfile.TemporaryFile(dir=folder)
-        self._events: IO[bytes] = tempfile.TemporaryFile(dir=folder)
-        self._problems: IO[bytes] = tempfile.TemporaryFile(dir=folder)
+        # spill files beside the scene (its file system), in the temp folder for a device
+        folder = None if self._file.through else self.path.absolute().parent
+
+        def spill() -> Any:  # its write errors (a full disk) name the scene
+            return NamedIO(tempfile.TemporaryFile(dir=folder), self.path)
+
+        self._tracks: IO[bytes] = spill()
+        self._events: IO[bytes] = spill()
+        self._problems: IO[bytes] = spill()
         self.n_events = 0
         self._pending: list[_EventKey] = []  # a heap of events to write
         self._last_event: _EventKey | None = None

@@ -24,8 +24,14 @@ from sensemaking.abduction.problem import VISIBILITY_VALUES, FrameProblem
 from sensemaking.abduction.solver import AbductionSolver, Answer, Det, read_encoding
 from sensemaking.adapters import as_detections
 from sensemaking.config import AbductionCosts, KalmanConfig, TrackerConfig
-from sensemaking.detections import Detections, check_frame_number, validate_detections
+from sensemaking.detections import (
+    Detections,
+    check_frame_number,
+    check_frame_size,
+    validate_detections,
+)
 from sensemaking.results import Event, FrameAbduction, FrameResult, TrackState
+from sensemaking.sandbox import Limits, check_user_encoding
 from sensemaking.track_table import TrackTable
 
 # the configuration lives in sensemaking.config; re-exported here, where users import it from
@@ -60,6 +66,7 @@ class Tracker:
         encoding: str | Path | None = None,
         rules: str | Path | Sequence[str | Path] = (),
         solver_cache: SolverCache | None = None,
+        limits: Limits | None = None,
         **overrides: Any,
     ):
         """Args:
@@ -74,6 +81,10 @@ class Tracker:
             of the process not given its own). Where optimal answers tie, which one a frame
             gets may depend on what the cache's trackers solved before: give a tracker a
             ``SolverCache()`` of its own for an output that depends on its input only.
+        limits: time, memory and atom limits of a user's encoding or rules: checked once
+            before any frame (grounded and solved without facts in a limited child process,
+            :mod:`sensemaking.sandbox`); the atom limit holds for every frame too. Default:
+            ``ask``'s limits.
         """
         self.config = (
             replace(config or TrackerConfig(), **overrides)
@@ -101,6 +112,8 @@ class Tracker:
             max_conflicts=c.max_conflicts,
         )
         packaged = encoding is None and not extra
+        if not packaged:  # the user's code, under ask's limits (issue 24)
+            _check_user_program(solver, [encoding, *extra], limits or Limits())
         decompose = packaged if c.decompose is None else c.decompose
         self._solver = ComponentSolver(
             solver, decompose=decompose, numbers=likelihood_grid(c), cache=solver_cache
@@ -168,6 +181,7 @@ class Tracker:
         """The frame's checked detections and its number; checked before any state changes,
         so a refused frame leaves the tracker as it was."""
         dets = validate_detections(_coerce(detections), self.config.image_size)
+        check_frame_size(len(dets), frame)  # per-frame work is (tracks x detections)
         if frame is not None:
             frame = check_frame_number(frame)
         if frame is None:
@@ -450,6 +464,28 @@ class Tracker:
             self._tracks.vis[keep],
             self._tracks.unseen[keep],
         )
+
+
+def _check_user_program(
+    solver: AbductionSolver, sources: Sequence[str | Path | None], limits: Limits
+) -> None:
+    """Ground and solve the user's program once without facts under ``limits`` and keep the
+    atom limit for every frame. ``sources``: the encoding (None: packaged), then the rules.
+    Raises InputError naming the user's file."""
+
+    def name(src: str | Path | None, i: int) -> str:
+        if src is None:
+            return "tracking.lp"
+        if isinstance(src, Path) or str(src).endswith(".lp"):
+            return str(src)
+        return "rules" if i else "encoding"
+
+    parts = [
+        (name(src, i), text)
+        for i, (src, text) in enumerate(zip(sources, solver.texts, strict=True))
+    ]
+    check_user_encoding(solver.program, solver.options, parts, limits)
+    solver.max_atoms = limits.max_atoms
 
 
 def _track_output(

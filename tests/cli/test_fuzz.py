@@ -422,3 +422,148 @@ def test_the_corpus_covers_its_classes(reals: dict[str, bytes]) -> None:
     assert len(truncated) == 100 and len({len(c) for c in truncated}) > 50
     assert sum(c != reals["det"] for c in cases[2::3]) >= 95
     assert np.mean([len(c) for c in cases[0::3]]) > 10
+
+
+# -- the trust boundary (issue 24): query SQL, user encodings, manifests, archives ----------------
+_SQL = [
+    b"SELECT situation, count(*) FROM warnings GROUP BY ALL",
+    b"SELECT * FROM tracks WHERE frame < 5 ORDER BY frame, track_id",
+    b"SELECT * FROM read_csv('/etc/passwd', header=false, sep=':')",
+    b"COPY (SELECT * FROM tracks) TO 'x.csv'",
+]
+_RULES = b"occurs(stops(T)) :- track(T), speed(T,S), S < 5.\n#show occurs/1.\n"
+_SITUATIONS = b"warn(stopped_ahead,(T,)) :- track(T), not track(T+1000).\n"
+_MANIFEST = (
+    "path,format,class,fps,width,height,frames,gt,rules\n"
+    "{det},mot,pedestrian,10,1000,500,30,{gt},mot17\n"
+)
+
+
+def _one_line_or_answer(code: Any, err: str, allowed: set[int]) -> str | None:
+    lines = [x for x in err.splitlines() if x.strip()]
+    if code not in allowed:
+        return f"exit {code}"
+    if "Traceback" in err or "internal error" in err:
+        return "traceback"
+    if code == 2 and len(lines) != 1:
+        return f"{len(lines)} error lines"
+    return None
+
+
+@pytest.mark.slow
+def test_fuzz_the_trust_boundary(tmp_path: Path, reals: dict[str, bytes], capsys) -> None:
+    """``query`` SQL, ``--rules`` / ``--encoding`` / ``--situations`` text, batch manifests and
+    damaged archives: every case exits 0 or 2 with one line, writes nothing outside its output
+    folder and leaves the archive as it was."""
+    pytest.importorskip("duckdb")
+    import shutil
+
+    from sensemaking.errors import InputError
+    from sensemaking.fleet.specs import find_sequences, read_manifest
+    from test_trust_boundary import make_archive
+
+    rng = random.Random(SEED + 24)
+    failures: list[str] = []
+    total = 0
+    archive = make_archive(tmp_path / "archive")
+    snapshot = {p: p.read_bytes() for p in archive.rglob("*.parquet")}
+    cwd_files = set(Path.cwd().iterdir())
+
+    def check(name: str, k: int, code: Any, err: str, data: bytes, allowed=frozenset({0, 2})):
+        nonlocal total
+        total += 1
+        problem = _one_line_or_answer(code, err, set(allowed))
+        if problem is not None:
+            failures.append(
+                f"{name} case {k}: {problem}: {err.strip()[:300]!r} input {data[:120]!r}"
+            )
+
+    # (1) query: mutated and random SQL over the archive
+    for k in range(600):
+        data = corpus(rng, rng.choice(_SQL), 1)[0] if k % 3 else rng.choice(_SQL)
+        sql = data.decode("utf-8", "replace").replace("\x00", " ")
+        capsys.readouterr()
+        code = main(["-q", "query", str(archive), "--max-rows", "1000", sql])
+        check("query", k, code, capsys.readouterr().err, data)
+    assert {p: p.read_bytes() for p in archive.rglob("*.parquet")} == snapshot
+
+    # (2) user encodings: mutated rules, encodings and situations
+    det = tmp_path / "det.txt"
+    det.write_bytes(reals["det"])
+    work = tmp_path / "enc"
+    work.mkdir()
+    for option, real, n in (
+        ("--rules", _RULES, 90),
+        ("--encoding", _RULES, 30),
+        ("--situations", _SITUATIONS, 60),
+    ):
+        for k, data in enumerate(corpus(rng, real, n)):
+            lp = work / "user.lp"
+            lp.write_bytes(data)
+            out = work / "out"
+            out.mkdir(exist_ok=True)
+            argv = [
+                "-q",
+                "track",
+                "--detections",
+                str(det),
+                "--format",
+                "mot",
+                "--output",
+                str(out / "t.txt"),
+                option,
+                str(lp),
+                "--timeout",
+                "10",
+                "--max-memory",
+                "500",
+                "--max-atoms",
+                "200000",
+            ]
+            if option == "--situations":
+                argv += ["--warnings", str(out / "w.jsonl")]
+            capsys.readouterr()
+            code = main(argv)
+            err = capsys.readouterr().err
+            check(option, k, code, err, data)
+            if code == 2 and list(out.iterdir()):
+                failures.append(f"{option} case {k}: left {[p.name for p in out.iterdir()]}")
+            for p in out.iterdir():
+                p.unlink()
+
+    # (3) batch manifests: read as batch reads them
+    gt = tmp_path / "gt.txt"
+    gt.write_bytes(reals["gt"])
+    real = _MANIFEST.format(det=det, gt=gt).encode()
+    for k, data in enumerate(corpus(rng, real, 400)):
+        m = tmp_path / "manifest.csv"
+        m.write_bytes(data)
+        total += 1
+        try:
+            read_manifest(m)
+            find_sequences([m])
+        except InputError:
+            pass
+        except Exception as exc:  # noqa: BLE001 - the failure being looked for
+            failures.append(f"manifest case {k}: {type(exc).__name__}: {exc} input {data[:120]!r}")
+
+    # (4) damaged archives: one file of a copy truncated, mutated or replaced
+    files = sorted(p for p in archive.rglob("*") if p.is_file() and p.name != ".lock")
+    for k in range(150):
+        copy = tmp_path / "arc-copy"
+        shutil.rmtree(copy, ignore_errors=True)
+        shutil.copytree(archive, copy)
+        victim = copy / rng.choice(files).relative_to(archive)
+        raw = victim.read_bytes()
+        if victim.suffix == ".json" and rng.random() < 0.5:
+            data = mutate_json(raw, rng)
+        else:
+            data = corpus(rng, raw, 3)[k % 3]
+        victim.write_bytes(data)
+        capsys.readouterr()
+        code = main(["-q", "query", str(copy), "SELECT count(*) FROM tracks"])
+        check(f"archive {victim.name}", k, code, capsys.readouterr().err, data)
+
+    assert set(Path.cwd().iterdir()) == cwd_files  # nothing written where the tests run
+    assert total >= 1_300
+    assert not failures, f"{len(failures)} of {total} cases failed:\n" + "\n".join(failures[:15])

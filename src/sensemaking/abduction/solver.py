@@ -20,6 +20,7 @@ from clingo import Function, Number, Symbol, SymbolType
 from sensemaking import asp
 from sensemaking.abduction.problem import FrameProblem
 from sensemaking.errors import InputError
+from sensemaking.sandbox import check_atoms, check_program
 
 __all__ = [
     "Alternative",
@@ -62,18 +63,16 @@ def read_encoding(source: str | Path) -> str:
     not parse."""
     path = Path(source) if isinstance(source, Path) or str(source).endswith(".lp") else None
     if path is not None:
+        from sensemaking.sandbox import read_program_file
+
         try:
-            text = path.read_text(encoding="utf-8")
+            text = read_program_file(path)
         except (OSError, UnicodeDecodeError) as exc:
             raise InputError(f"cannot read the encoding: {exc}", path) from None
     else:
         text = str(source)
-    messages = asp.parse_messages(text)
-    if messages is not None:
-        where = f"{path}: " if path is not None else ""
-        raise InputError(
-            f"{where}the encoding does not parse: {'; '.join(messages) or 'syntax error'}"
-        )
+    # no #include / #script (reading files, running code); a syntax error is one line
+    check_program(text, str(path) if path is not None else "rules")
     return text
 
 
@@ -183,7 +182,12 @@ class AbductionSolver:
         self.options = list(options) + [f"-c{k}={v}" for k, v in sorted(self.constants.items())]
         self.options += asp.limits(max_conflicts=max_conflicts)
         base = encoding if encoding is not None else load_encoding()
-        self.program = "\n".join([base, *rules])
+        rules = list(rules)
+        #: the program's texts: the encoding, then each of ``rules``
+        self.texts = (base, *rules)
+        self.program = "\n".join(self.texts)
+        #: ground atoms a frame's program may have (set for a user's encoding or rules)
+        self.max_atoms: int | None = None
         #: names the program mentions: optional facts are only given when read
         self.uses = asp.mentioned(self.program)
 
@@ -201,12 +205,13 @@ class AbductionSolver:
     ) -> Answer | None:
         """Abduce the optimal hypothesis for the facts; None if no model was found in budget.
 
-        ``budget_ms`` bounds grounding plus solving in wall-clock time; past it the best model
-        so far is used (``Answer.timed_out``). None means not even one model was found within
-        the budgets (the caller falls back) -- or the problem is unsatisfiable, which the
-        packaged encoding rules out. ``forbid``: conjunctions of shown atoms (e.g.
-        ``occurs(hides_behind(0,1))``) that no answer may hold together: integrity constraints
-        added to the ground program (for :meth:`alternatives`; none in the normal path).
+        ``budget_ms`` bounds solving in wall-clock time (grounding, not interrupted, counts
+        against it); past it the best model so far is used (``Answer.timed_out``). None means
+        not even one model was found within the budgets (the caller falls back). An
+        unsatisfiable program (only a user's rules can be) raises InputError. ``forbid``:
+        conjunctions of shown atoms (e.g. ``occurs(hides_behind(0,1))``) that no answer may
+        hold together: integrity constraints added to the ground program (for
+        :meth:`alternatives`; none in the normal path).
         """
         found = self._run(facts, budget_ms, forbid)
         return None if found is None else found[1]
@@ -292,10 +297,24 @@ class AbductionSolver:
     ) -> tuple[list[Symbol], Answer] | None:
         """The shown atoms of the optimal model and their :class:`Answer` (see solve_facts)."""
         t0 = time.perf_counter()
+        forbid = [list(f) for f in forbid]
         ctl = asp.control(self.options, asp.parsed(self.program), facts)
-        ctl.ground([("base", [])])
+        try:
+            ctl.ground([("base", [])])
+        except RuntimeError as exc:  # only a user's rules fail to ground on some facts
+            msg = " ".join(str(exc).split())
+            raise InputError(f"the encoding failed to ground: {msg}") from None
+        if self.max_atoms is not None:
+            check_atoms(len(ctl.symbolic_atoms), self.max_atoms, "the encoding (one frame)")
         asp.forbid(ctl, forbid)
-        solved = asp.solve(ctl, budget_ms, started=t0)
+        try:
+            # only a user's encoding or rules can rule out every explanation of a frame
+            solved = asp.solve(ctl, budget_ms, started=t0, refuse_unsat=not forbid)
+        except asp.Unsatisfiable:
+            raise InputError(
+                "the encoding has no answer set for a frame's facts (UNSATISFIABLE): a "
+                "constraint of your rules rules out every explanation"
+            ) from None
         return None if solved is None else (solved.symbols, answer_of(solved))
 
 

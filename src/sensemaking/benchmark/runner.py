@@ -759,6 +759,13 @@ def run(
     if repeat < 1:
         raise InputError(f"repeat must be at least 1, got {repeat}")
     found = discover(data, only)
+    if not found.found:  # before any output is written (the report would be empty)
+        skipped = "; ".join(found.all_skipped())
+        raise InputError(
+            "no benchmark found"
+            + (f" ({skipped})" if skipped else ": give the data folder with --data"),
+            data,
+        )
     out_dir = Path(output)
     out_dir.mkdir(parents=True, exist_ok=True)
     summary = RunSummary(

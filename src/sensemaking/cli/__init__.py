@@ -111,7 +111,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (OSError, MemoryError) as exc:
         print(f"sensemaking {args.verb}: error: {_one_line(exc)}", file=sys.stderr)
         return 2
+    except RecursionError:  # JSON (parameters, scenes, lanes) nested deeper than Python reads
+        print(
+            f"sensemaking {args.verb}: error: an input is nested too deeply to read",
+            file=sys.stderr,
+        )
+        return 2
     except Exception as exc:  # noqa: BLE001 - a bug: one line, the traceback only when asked
+        if type(exc).__name__ == "DecompressionBombError":  # Pillow: an image past its bound
+            print(f"sensemaking {args.verb}: error: {_one_line(exc)}", file=sys.stderr)
+            return 2
         logging.getLogger(__name__).debug("internal error", exc_info=True)
         print(
             f"sensemaking {args.verb}: internal error (a bug; -vv shows where): "

@@ -8,7 +8,7 @@ from pathlib import Path
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    from sensemaking.fleet.query import NAMED_QUERIES
+    from sensemaking.fleet.query import DEFAULT_MAX_ROWS, DEFAULT_MEMORY_MB, NAMED_QUERIES
 
     named = "\n".join(f"  {q.usage}\n      {q.help}" for q in NAMED_QUERIES.values())
     p = sub.add_parser(
@@ -18,7 +18,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         "metrics "
         "and runs (columns in docs/FLEET.md), e.g.\n"
         '  sensemaking query archive "SELECT situation, count(*) FROM warnings GROUP BY ALL"\n\n'
-        "or a named query with its arguments:\n" + named + "\n\nNeeds the 'fleet' extra.",
+        "or a named query with its arguments:\n" + named + "\n\nThe SQL is one SELECT (or "
+        "EXPLAIN) that reads the archive's tables and nothing else (docs/SECURITY.md). Ctrl-C "
+        "stops it. Needs the 'fleet' extra.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument(
@@ -32,12 +34,32 @@ def register(sub: argparse._SubParsersAction) -> None:
         default="table",
         help="output format (default: an aligned table)",
     )
+    p.add_argument(
+        "--max-rows",
+        type=int,
+        default=DEFAULT_MAX_ROWS,
+        metavar="N",
+        help=f"rows the answer may have (default {DEFAULT_MAX_ROWS}); more is an error",
+    )
+    p.add_argument(
+        "--max-memory",
+        type=int,
+        default=DEFAULT_MEMORY_MB,
+        metavar="MB",
+        help=f"memory DuckDB may use for the query, MB (default {DEFAULT_MEMORY_MB})",
+    )
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    from sensemaking.errors import InputError
     from sensemaking.fleet.query import run_query
 
-    result = run_query(args.archive, args.query, args.args)
+    for name, value in (("--max-rows", args.max_rows), ("--max-memory", args.max_memory)):
+        if value <= 0:
+            raise InputError(f"{name} must be a positive integer, got {value}")
+    result = run_query(
+        args.archive, args.query, args.args, max_rows=args.max_rows, memory_mb=args.max_memory
+    )
     sys.stdout.write(result.format(args.format))
     return 0

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import logging
 import math
+import os
 import sys
 from pathlib import Path
 from typing import Any
@@ -50,7 +51,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         action="extend",
         metavar="FILE",
         help="detections file (MOT det.txt or a KITTI file; a PointRCNN or KITTI label file may "
-        "hold several classes). Several files of one sequence, e.g. one per class "
+        "hold several classes; - reads stdin, and stdin or a pipe is read once, up to 4 GiB). "
+        "Several files of one sequence, e.g. one per class "
         "(car/0001.txt pedestrian/0001.txt cyclist/0001.txt), are tracked jointly in one "
         "tracker: a track matches detections of its class only, may hide behind an object of "
         "any class, and ids are shared (repeatable)",
@@ -164,6 +166,34 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="FILE",
         help="your own situations (.lp) added to situations.lp for --warnings, e.g. "
         "`warn(stopped_ahead,(T,)) :- ...` (repeatable)",
+    )
+    from sensemaking.sandbox import DEFAULT_MAX_ATOMS, DEFAULT_MAX_MEMORY_MB, DEFAULT_TIMEOUT_S
+
+    lim = p.add_argument_group(
+        "limits of your own encodings (--rules, --encoding, --situations; as in ask)",
+        "checked once before any frame: the program is grounded and solved without facts in a "
+        "child process under all three; the atom limit holds for every frame too",
+    )
+    lim.add_argument(
+        "--timeout",
+        type=float,
+        default=DEFAULT_TIMEOUT_S,
+        metavar="S",
+        help=f"seconds for that check (default {DEFAULT_TIMEOUT_S:g})",
+    )
+    lim.add_argument(
+        "--max-atoms",
+        type=int,
+        default=DEFAULT_MAX_ATOMS,
+        metavar="N",
+        help=f"ground atoms (default {DEFAULT_MAX_ATOMS})",
+    )
+    lim.add_argument(
+        "--max-memory",
+        type=int,
+        default=DEFAULT_MAX_MEMORY_MB,
+        metavar="MB",
+        help=f"memory for that check, MB (default {DEFAULT_MAX_MEMORY_MB})",
     )
     p.add_argument(
         "--lanes",
@@ -306,7 +336,7 @@ def _check_input_files(args: argparse.Namespace) -> None:
     files = args.detection_files
     seen: dict[str, Path] = {}
     for f in files:
-        key = str(f.resolve())
+        key = os.path.realpath(f)  # no error on a symlink loop: the reader names it
         if key in seen:
             raise InputError(f"detection file given twice (also as {seen[key]})", f)
         seen[key] = f
@@ -335,25 +365,14 @@ def _sequence_info(
     if args.format == "mot":
         from sensemaking.io.mot import read_seqinfo
 
-        candidates = (
-            [args.seqinfo]
-            if args.seqinfo
-            else [det.parent.parent / "seqinfo.ini", det.parent / "seqinfo.ini"]
-        )
-        for c in candidates:
+        for c in _seqinfo_candidates(args):
             if c.is_file():
                 info = read_seqinfo(c)
                 return check_fps(info.fps, "frameRate", c), _checked_size(info, c), info.length
         return None, None, None
     from sensemaking.io.kitti import read_kitti_seqinfo
 
-    candidates = (
-        [args.seqinfo]
-        if args.seqinfo
-        else [p / "seqinfo.csv" for p in det.parents[:4]]
-        + [p / "training" / "seqinfo.csv" for p in det.parents[:5]]
-    )
-    for c in candidates:
+    for c in _seqinfo_candidates(args):
         if c.is_file():
             found = read_kitti_seqinfo(c).get(det.stem)
             if found is not None:
@@ -363,6 +382,18 @@ def _sequence_info(
             f"sequence {det.stem!r} (the detection file's name) is not in seqinfo", args.seqinfo
         )
     return None, None, None
+
+
+def _seqinfo_candidates(args: argparse.Namespace) -> list[Path]:
+    """Where the sequence's seqinfo is looked for, in order (``--seqinfo`` alone if given)."""
+    if args.seqinfo:
+        return [args.seqinfo]
+    det = Path(args.detections)
+    if args.format == "mot":
+        return [det.parent.parent / "seqinfo.ini", det.parent / "seqinfo.ini"]
+    return [p / "seqinfo.csv" for p in det.parents[:4]] + [
+        p / "training" / "seqinfo.csv" for p in det.parents[:5]
+    ]
 
 
 def _checked_size(info: Any, path: Path) -> tuple[int, int]:
@@ -573,7 +604,74 @@ def _world_motion(args: argparse.Namespace) -> dict[str, Any]:
     return {"camera": camera, "ego_motion": ego}
 
 
+#: bytes read from stdin or a pipe given as --detections (spooled to a temporary file)
+MAX_PIPED_BYTES = 4 * 2**30
+
+
+def _spool(path: Path, folder: Path) -> Path:
+    """``path`` itself if it is a regular file (or absent: the reader says so); else (``-``:
+    stdin, a FIFO, a character device) its bytes, read once into a file in ``folder``, so that
+    the checking pass and the tracking pass read the same bytes. At most ``MAX_PIPED_BYTES``."""
+    import shutil
+    import stat
+
+    if str(path) == "-":
+        src: Any = sys.stdin.buffer
+        name = "stdin.txt"
+    else:
+        try:
+            st = os.stat(path)
+        except OSError:
+            return path
+        if stat.S_ISREG(st.st_mode) or stat.S_ISDIR(st.st_mode):
+            return path
+        src = open(path, "rb")  # noqa: SIM115 - closed below
+        name = path.name or "stdin.txt"
+    out = folder / name
+    try:
+        with open(out, "wb") as dst:
+            shutil.copyfileobj(_Bounded(src, MAX_PIPED_BYTES, path), dst)
+    finally:
+        if src is not sys.stdin.buffer:
+            src.close()
+    return out
+
+
+class _Bounded:
+    """A binary stream that refuses to give more than ``limit`` bytes."""
+
+    def __init__(self, raw: Any, limit: int, path: Path):
+        self.raw, self.left, self.path = raw, limit, path
+
+    def read(self, n: int = -1) -> bytes:
+        data = self.raw.read(min(n if n >= 0 else self.left + 1, self.left + 1))
+        self.left -= len(data)
+        if self.left < 0:
+            raise InputError(
+                f"more than {MAX_PIPED_BYTES} bytes from a pipe or stdin: give a file", self.path
+            )
+        return data
+
+
 def run(args: argparse.Namespace) -> int:
+    """Track (see :func:`_run`); detections from stdin (``-``) or a pipe are read once first."""
+    import shutil
+    import tempfile
+
+    given = list(args.detections or [])
+    if not any(str(f) == "-" or (f.exists() and not f.is_file()) for f in given):
+        return _run(args)
+    if sum(str(f) == "-" for f in given) > 1:
+        raise InputError("--detections - (stdin) can be given once")
+    folder = Path(tempfile.mkdtemp(prefix="sensemaking-stdin-"))
+    try:
+        args.detections = [_spool(f, folder) for f in given]
+        return _run(args)
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def _run(args: argparse.Namespace) -> int:
     from sensemaking.pipeline import Pipeline
     from sensemaking.sinks import (
         CLASS_FIELD,
@@ -622,7 +720,10 @@ def run(args: argparse.Namespace) -> int:
         "--segmentation": args.segmentation,
         "--labels": args.labels,
         "--ego-motion": args.ego_motion,
+        "--params": getattr(args, "params_file", None),
     }
+    if args.detections is not None:  # the seqinfo found beside the detections is an input too
+        inputs.update({f"seqinfo {c}": c for c in _seqinfo_candidates(args) if os.path.isfile(c)})
     check_output_paths(outputs, inputs)
     context, profile = _situation_context(args)
     fps = size = length = None
@@ -652,7 +753,10 @@ def run(args: argparse.Namespace) -> int:
                 },
                 inputs,
             )
-    tracker = Tracker(config, encoding=args.encoding, rules=args.rules)
+    from sensemaking.sandbox import Limits
+
+    limits = Limits(args.timeout, args.max_atoms, args.max_memory)
+    tracker = Tracker(config, encoding=args.encoding, rules=args.rules, limits=limits)
     recorder = monitor = None
     if (args.ego_motion or args.camera) and not (args.warnings or args.scene):
         raise InputError("--ego-motion and --camera need --warnings or --scene (they serve those)")
@@ -665,6 +769,7 @@ def run(args: argparse.Namespace) -> int:
             fps=config.fps,
             image_size=config.image_size,
             extra_encodings=args.situations,
+            limits=limits,
             profile=profile,
             **world,
         )

@@ -29,7 +29,7 @@ import shutil
 import socket
 import time
 import uuid
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import asdict
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -207,6 +207,26 @@ def sequence_dirs(root: str | Path, dataset: str, sequence: str) -> Path:
     return Path(root) / f"dataset={dataset}" / f"sequence={sequence}"
 
 
+def check_marker(root: Path) -> None:
+    """Refuse a folder whose ``_fleet.json`` is not this format and version (a newer or a
+    foreign archive would be misread)."""
+    marker = root / "_fleet.json"
+    try:
+        info = json.loads(marker.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise InputError(
+            f"unreadable archive marker: {' '.join(str(exc).split())}", marker
+        ) from None
+    if not isinstance(info, dict) or info.get("format") != ARCHIVE_FORMAT:
+        raise InputError(f"not a sensemaking archive marker (format {ARCHIVE_FORMAT!r})", marker)
+    if info.get("version") != ARCHIVE_VERSION:
+        raise InputError(
+            f"archive version {info.get('version')!r}; this sensemaking reads version "
+            f"{ARCHIVE_VERSION}",
+            marker,
+        )
+
+
 def _done(path: Path) -> dict[str, Any] | None:
     try:
         return json.loads((path / DONE).read_text(encoding="utf-8"))
@@ -238,6 +258,8 @@ class Archive:
             raise InputError(
                 "folder exists and is not a sensemaking archive (no _fleet.json)", root
             )
+        if marker.is_file():
+            check_marker(root)
         root.mkdir(parents=True, exist_ok=True)
         if not marker.is_file():
             from sensemaking.io.atomic import atomic_write
@@ -265,8 +287,16 @@ class Archive:
 
     def status(self, spec: SequenceSpec, key: str) -> str | None:
         """``ok`` / ``failed`` when this sequence is archived under ``key``, else None."""
-        done = _done(sequence_dirs(self.root, spec.dataset, spec.sequence) / f"key={key}")
-        return None if done is None else str(done.get("status"))
+        folder = sequence_dirs(self.root, spec.dataset, spec.sequence) / f"key={key}"
+        done = _done(folder)
+        if done is None:
+            return None
+        damaged = _damaged(folder, [t for t in TABLES if (folder / f"{t}.parquet").exists()])
+        if damaged is not None:  # a truncated file: run the sequence again
+            log.warning("archived %s is damaged (%s): it is run again", folder, damaged)
+            shutil.rmtree(folder, ignore_errors=True)
+            return None
+        return str(done.get("status"))
 
 
 # -- writing one sequence ------------------------------------------------------------------------
@@ -550,6 +580,7 @@ def load_scene(root: str | Path, dataset: str, sequence: str, key: str | None = 
     root = Path(root)
     if not (root / "_fleet.json").is_file():
         raise InputError("not a sensemaking archive (no _fleet.json)", root)
+    check_marker(root)
     found = [
         (d, done)
         for d, done in _archived(root, dataset, sequence)
@@ -657,10 +688,47 @@ def published(root: str | Path) -> Iterator[tuple[str, str, str, Path]]:
 
 
 def segment_members(root: str | Path) -> Iterator[tuple[Path, dict[str, list]]]:
-    """Each segment folder with its members' columns (dataset, sequence, key, ino, mtime_ns)."""
+    """Each segment folder with its members' columns (dataset, sequence, key, ino, mtime_ns).
+
+    Raises:
+        InputError: a segment is damaged (truncated, not Parquet); the next batch rebuilds it
+            (:func:`drop_damaged_segments`).
+    """
     pq = require("pyarrow.parquet", "fleet")
     for seg in sorted((Path(root) / SEGMENTS).glob("seg-*")):
+        damaged = _damaged(seg)
+        if damaged is not None:
+            raise InputError(
+                f"damaged archive segment ({damaged}): the next `sensemaking batch` on this "
+                "archive rebuilds it (segments are derived from the sequence folders)",
+                seg,
+            )
         yield seg, pq.read_table(seg / "members.parquet", partitioning=None).to_pydict()
+
+
+def _damaged(seg: Path, names: Sequence[str] = ("members", *TABLES)) -> str | None:
+    """Why a segment (or a sequence folder, with its ``names``) cannot be read (a file
+    missing, truncated, not Parquet), or None."""
+    pq = require("pyarrow.parquet", "fleet")
+    for name in names:
+        try:
+            pq.ParquetFile(seg / f"{name}.parquet").metadata  # noqa: B018 - reads the footer
+        except Exception as exc:  # noqa: BLE001 - pyarrow raises several kinds
+            return f"{name}.parquet: {' '.join(str(exc).split())[:200]}"
+    return None
+
+
+def drop_damaged_segments(root: str | Path) -> list[Path]:
+    """Delete the segments that cannot be read (derived data: their members are read from the
+    sequence folders again and compacted anew). Returns the segments dropped."""
+    dropped = []
+    for seg in sorted((Path(root) / SEGMENTS).glob("seg-*")):
+        why = _damaged(seg)
+        if why is not None:
+            log.warning("dropping damaged segment %s (%s); it is rebuilt", seg, why)
+            shutil.rmtree(seg, ignore_errors=True)
+            dropped.append(seg)
+    return dropped
 
 
 def compact(root: str | Path) -> int:
@@ -673,6 +741,7 @@ def compact(root: str | Path) -> int:
     pa = _pa()
     pq = require("pyarrow.parquet", "fleet")
     root = Path(root)
+    drop_damaged_segments(root)
     known: set[tuple[str, str, str, int, int]] = set()
     for _, m in segment_members(root):
         known.update(
@@ -683,6 +752,15 @@ def compact(root: str | Path) -> int:
         ino, mtime = _folder_id(folder)
         if (dataset, sequence, key, ino, mtime) not in known:
             loose.append((dataset, sequence, key, ino, mtime, folder))
+    readable = []
+    for row in loose:  # a damaged folder stays out (the batch that has it runs it again)
+        folder = row[-1]
+        why = _damaged(folder, [t for t in TABLES if (folder / f"{t}.parquet").exists()])
+        if why is None:
+            readable.append(row)
+        else:
+            log.warning("not compacting the damaged %s (%s)", folder, why)
+    loose = readable
     if not loose:
         return 0
     name = (

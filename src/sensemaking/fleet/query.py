@@ -13,6 +13,12 @@ A named query is a name and its arguments instead of SQL (``NAMED_QUERIES``)::
 
 A *run* in ``compare`` and ``metrics-across-runs`` is a parameter set: it is named by its
 ``label`` (``batch --label``), its ``params_id`` (or a prefix) or the ``run_id`` of a batch.
+
+The SQL is untrusted (``docs/SECURITY.md``): one ``SELECT`` (or ``EXPLAIN``) statement, on a
+connection that reads only the archive's Parquet files (DuckDB's ``allowed_paths``, external
+access off, no extension installed or loaded, no spilling to disk, a memory limit, the
+configuration locked), with at most ``max_rows`` rows fetched (in chunks, as they stream) and
+Ctrl-C / SIGTERM interrupting DuckDB at once.
 """
 
 from __future__ import annotations
@@ -21,6 +27,7 @@ import csv
 import io
 import json
 import math
+import threading
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,7 +36,23 @@ from typing import Any
 from sensemaking.errors import InputError, SensemakingError, require
 from sensemaking.fleet.archive import TABLES, schemas
 
-__all__ = ["NamedQuery", "NAMED_QUERIES", "QueryResult", "connect", "run_query"]
+__all__ = [
+    "NamedQuery",
+    "NAMED_QUERIES",
+    "QueryResult",
+    "connect",
+    "run_query",
+    "DEFAULT_MAX_ROWS",
+    "DEFAULT_MEMORY_MB",
+]
+
+#: rows an answer may have (more: an error that says to narrow the query)
+DEFAULT_MAX_ROWS = 200_000
+#: DuckDB's memory limit for one query (MB); nothing spills to disk
+DEFAULT_MEMORY_MB = 1024
+#: statements a query may be: reading only
+_READ_STATEMENTS = ("SELECT", "EXPLAIN")
+_FETCH = 10_000
 
 _RUN = "coalesce(r.label, r.params_id)"
 
@@ -204,11 +227,18 @@ def _cell(v: Any) -> str:
     return str(v)
 
 
-def _sql_list(paths: Sequence[Path]) -> str:
-    return "[" + ", ".join("'" + str(p).replace("'", "''") + "'" for p in paths) + "]"
+def _glob_escape(path: Path) -> str:
+    """``path`` as a DuckDB glob that matches only itself (``[``, ``*``, ``?`` as classes)."""
+    return "".join(f"[{c}]" if c in "[*?" else c for c in str(path))
 
 
-def connect(root: str | Path) -> Any:
+def _sql_list(paths: Sequence[Path], *, glob: bool = True) -> str:
+    """A SQL list of file paths; read literally (``glob`` escaped) unless ``glob`` is False."""
+    text = [_glob_escape(p) if glob else str(p) for p in paths]
+    return "[" + ", ".join("'" + t.replace("'", "''") + "'" for t in text) + "]"
+
+
+def connect(root: str | Path, *, memory_mb: int = DEFAULT_MEMORY_MB) -> Any:
     """A DuckDB connection with one view per table of the archive at ``root``: the segments
     (:func:`~sensemaking.fleet.archive.compact`), less their members replaced since, plus the
     folders not in a segment yet.
@@ -216,7 +246,7 @@ def connect(root: str | Path) -> Any:
     Raises:
         InputError: ``root`` is not an archive.
     """
-    from sensemaking.fleet.archive import _folder_id, published, segment_members
+    from sensemaking.fleet.archive import _folder_id, check_marker, published, segment_members
 
     duckdb = require("duckdb", "fleet")
     pa = require("pyarrow", "fleet")
@@ -227,6 +257,7 @@ def connect(root: str | Path) -> Any:
             "`sensemaking batch --archive DIR`)",
             root,
         )
+    check_marker(root)
     current = {}
     for dataset, sequence, key, folder in published(root):
         current[(dataset, sequence, key, *_folder_id(folder))] = folder
@@ -239,7 +270,16 @@ def connect(root: str | Path) -> Any:
             (in_segment.add if member in current else stale.append)(member)
         segments.append((seg, stale))
     loose = [folder for member, folder in current.items() if member not in in_segment]
-    con = duckdb.connect(":memory:")
+    con = duckdb.connect(
+        ":memory:",
+        config={
+            "autoinstall_known_extensions": False,
+            "autoload_known_extensions": False,
+            "temp_directory": "",  # no spilling: the memory limit is the bound
+            "memory_limit": f"{int(memory_mb)}MB",
+        },
+    )
+    readable: list[Path] = []
     for i, (_, stale) in enumerate(segments):
         if stale:
             con.register(
@@ -267,16 +307,106 @@ def connect(root: str | Path) -> Any:
         files = [f / f"{table}.parquet" for f in loose if (f / f"{table}.parquet").is_file()]
         if files:
             parts.append(f"SELECT * FROM read_parquet({_sql_list(files)})")
-        con.execute(f"CREATE VIEW {table} AS " + " UNION ALL ".join(parts))
+        try:
+            con.execute(f"CREATE VIEW {table} AS " + " UNION ALL ".join(parts))
+        except duckdb.Error as exc:  # a truncated or foreign file: the view reads its footer
+            first = " ".join(str(exc).split("LINE 1:")[0].split())
+            raise InputError(
+                f"damaged archive ({first}); the next `sensemaking batch` on it runs the "
+                "sequence again",
+                root,
+            ) from None
+        readable += [seg / f"{table}.parquet" for seg, _ in segments] + files
+    # the views read these files and nothing else can be read, written, installed or changed
+    # DuckDB checks the path as written (escaped) and each file it expands to
+    allowed = _sql_list(readable, glob=False)[:-1] + ", " + _sql_list(readable)[1:]
+    con.execute(f"SET allowed_paths = {allowed if readable else '[]'}")
+    con.execute("SET enable_external_access = false")
+    con.execute("SET lock_configuration = true")
     return con
 
 
-def run_query(root: str | Path, query: str, args: Sequence[str] = ()) -> QueryResult:
-    """Answer SQL, or a named query with its arguments, over the archive at ``root``.
+def _statement_check(con: Any, sql: str) -> None:
+    """Refuse SQL that is not one reading statement (COPY, ATTACH, SET, INSTALL, CREATE ...)."""
+    duckdb = require("duckdb", "fleet")
+    try:
+        statements = con.extract_statements(sql)
+    except duckdb.Error as exc:
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise InputError(f"query failed: {first}") from None
+    if len(statements) != 1:
+        raise InputError(f"give one SQL statement, not {len(statements)}")
+    kind = str(statements[0].type).rsplit(".", 1)[-1]
+    if kind not in _READ_STATEMENTS:
+        raise InputError(
+            f"only reading SQL is answered (SELECT, WITH ... SELECT, EXPLAIN), not {kind}"
+        )
+
+
+def _fetch(con: Any, sql: str, params: list[str], max_rows: int) -> tuple[list[str], list]:
+    """Run ``sql`` in a worker thread, fetching in chunks up to ``max_rows`` rows; Ctrl-C or
+    SIGTERM (KeyboardInterrupt in the main thread) interrupts DuckDB and is raised again."""
+    out: dict[str, Any] = {}
+
+    def work() -> None:
+        cur = None
+        try:
+            cur = con.execute(sql, params) if params else con.execute(sql)
+            columns = [d[0] for d in cur.description] if cur.description else []
+            rows: list[tuple[Any, ...]] = []
+            while columns:
+                chunk = cur.fetchmany(_FETCH)
+                if not chunk:
+                    break
+                rows.extend(chunk)
+                if len(rows) > max_rows:
+                    out["over"] = True
+                    break
+            out["result"] = (columns, rows[:max_rows])
+        except BaseException as exc:  # noqa: BLE001 - handed to the main thread
+            # without its traceback: the frames would keep the streaming result (and so the
+            # connection) busy
+            out["error"] = exc.with_traceback(None)
+        finally:
+            if cur is not None:
+                cur.close()
+
+    worker = threading.Thread(target=work, name="sensemaking-query", daemon=True)
+    worker.start()
+    try:
+        while worker.is_alive():
+            worker.join(0.1)
+    except KeyboardInterrupt:
+        # DuckDB checks for an interrupt between its tasks: ask until the worker stops
+        while worker.is_alive():
+            con.interrupt()
+            worker.join(0.2)
+        raise
+    if "error" in out:
+        raise out["error"]
+    if out.get("over"):
+        raise InputError(
+            f"the answer has more than {max_rows} rows (--max-rows); narrow it with WHERE, "
+            "GROUP BY or LIMIT"
+        )
+    return out["result"]
+
+
+def run_query(
+    root: str | Path,
+    query: str,
+    args: Sequence[str] = (),
+    *,
+    max_rows: int = DEFAULT_MAX_ROWS,
+    memory_mb: int = DEFAULT_MEMORY_MB,
+) -> QueryResult:
+    """Answer SQL, or a named query with its arguments, over the archive at ``root``: at most
+    ``max_rows`` rows, DuckDB within ``memory_mb`` MB.
 
     Raises:
-        InputError: not an archive, wrong arguments for a named query, or DuckDB rejects the SQL
-            (its message, one line).
+        InputError: not an archive, wrong arguments for a named query, SQL that is not one
+            reading statement, more rows than ``max_rows``, or DuckDB rejects the SQL (its
+            message, one line: a file outside the archive, the memory limit ...).
     """
     duckdb = require("duckdb", "fleet")
     named = NAMED_QUERIES.get(query.strip())
@@ -293,16 +423,18 @@ def run_query(root: str | Path, query: str, args: Sequence[str] = ()) -> QueryRe
                 f"({', '.join(NAMED_QUERIES)}); give SQL as one argument"
             )
         sql = query
-    con = connect(root)
+    con = connect(root, memory_mb=memory_mb)
     try:
-        cur = con.execute(sql, params) if params else con.execute(sql)
-        columns = [d[0] for d in cur.description] if cur.description else []
-        rows = cur.fetchall() if columns else []
+        _statement_check(con, sql)
+        columns, rows = _fetch(con, sql, params, max_rows)
     except duckdb.Error as exc:
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise InputError(f"query failed: {first}") from None
     except SensemakingError:
         raise
     finally:
-        con.close()
+        try:
+            con.close()
+        except duckdb.Error:  # still busy after an interrupt: the process is ending anyway
+            pass
     return QueryResult(columns, rows)

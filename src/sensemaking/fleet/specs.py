@@ -174,6 +174,68 @@ def _from_layout(root: Path) -> tuple[list[SequenceSpec], list[str]]:
                     logit_scores=bench.logit_scores,
                 )
             )
+    more, why = _mot_folders(root, {Path(s.det_path).resolve() for s in specs})
+    return specs + more, skipped + why
+
+
+#: folders searched for MOT sequences below a data root (root/dataset/split/sequence)
+_MOT_DEPTH = 4
+
+
+def _mot_folders(root: Path, known: set[Path]) -> tuple[list[SequenceSpec], list[str]]:
+    """MOTChallenge sequences by their layout (``seqinfo.ini`` beside ``det/det.txt``) that the
+    benchmarks' own discovery did not take (e.g. MOT17's DPM and SDP detections), and the
+    folders with a ``seqinfo.ini`` that are skipped, with the reason."""
+    from sensemaking.io.mot import read_seqinfo
+
+    specs: list[SequenceSpec] = []
+    skipped: list[str] = []
+    found: list[Path] = []
+    level = [root]
+    for _ in range(_MOT_DEPTH):  # breadth first, bounded: no walk of a whole disk
+        nxt: list[Path] = []
+        for d in level:
+            try:
+                children = sorted(c for c in d.iterdir() if c.is_dir() and not c.is_symlink())
+            except OSError:
+                continue
+            for c in children:
+                (found if (c / "seqinfo.ini").is_file() else nxt).append(c)
+        level = nxt
+    for folder in found:
+        det = folder / "det" / "det.txt"
+        if not det.is_file():
+            skipped.append(f"{folder}: has seqinfo.ini but no det/det.txt")
+            continue
+        if det.resolve() in known:
+            continue
+        try:
+            info = read_seqinfo(folder / "seqinfo.ini")
+        except InputError as exc:
+            skipped.append(f"{folder}: {exc}")
+            continue
+        rel = folder.parent.relative_to(root)
+        dataset = "-".join(rel.parts) if rel.parts else root.name
+        dataset = re.sub(r"[^A-Za-z0-9._+-]", "_", dataset.lower()) or "mot"
+        gt = folder / "gt" / "gt.txt"
+        name = folder.name.upper()
+        rules = next(
+            (r for r in ("mot20", "mot16", "mot15") if name.startswith(r.upper())), "mot17"
+        )
+        specs.append(
+            SequenceSpec(
+                dataset=dataset,
+                sequence=re.sub(r"[^A-Za-z0-9._+-]", "_", folder.name),
+                det_path=str(det),
+                fmt="mot",
+                class_name="pedestrian",
+                fps=float(info.fps),
+                image_size=(int(info.width), int(info.height)),
+                n_frames=int(info.length),
+                gt_path=str(gt) if gt.is_file() else None,
+                rules=rules if gt.is_file() else None,
+            )
+        )
     return specs, skipped
 
 

@@ -17,7 +17,13 @@ from pathlib import Path
 
 import numpy as np
 
-from sensemaking.detections import MAX_FRAME, Detections, validate_detections
+from sensemaking.detections import (
+    MAX_DETECTIONS_PER_FRAME,
+    MAX_FRAME,
+    Detections,
+    check_frame_size,
+    validate_detections,
+)
 from sensemaking.errors import InputError
 from sensemaking.io.formats import Format
 from sensemaking.io.kitti import (
@@ -194,6 +200,10 @@ def iter_detection_frames(
                 parts[0] = (parts[0][0], Detections.concatenate([pending, parts[0][1]]))
             else:
                 parts.insert(0, (int(pending.frame[0]), pending))
+        for f, d in parts:  # a frame grows over chunks: bounded as it grows
+            if len(d) > MAX_DETECTIONS_PER_FRAME:
+                assert d.source_row is not None  # set by __post_init__
+                check_frame_size(len(d), f, str(path), int(d.source_row[MAX_DETECTIONS_PER_FRAME]))
         *complete, (_, pending) = parts
         for f, d in complete:
             n_frames += 1

@@ -291,14 +291,17 @@ def _lane(record: Any, where: str, path: str | None) -> Lane:
         right = _sorted_by_y(_polyline(record.get("right"), f"{where} (right)", path))
         return Lane(lid, left, right)
     pts = _polyline(record.get("points"), where, path)
-    if "widths" in record:
-        widths = np.asarray(record["widths"], dtype=np.float64).reshape(-1)
-        if widths.shape[0] != pts.shape[0]:
-            raise InputError(f"{where}: 'widths' needs one value per point ({pts.shape[0]})", path)
-    elif "width" in record:
-        widths = np.full(pts.shape[0], float(record["width"]))
-    else:
+    if "widths" not in record and "width" not in record:
         raise InputError(f"{where}: a centre-line lane needs 'width' or 'widths' (pixels)", path)
+    try:
+        if "widths" in record:
+            widths = np.asarray(record["widths"], dtype=np.float64).reshape(-1)
+        else:
+            widths = np.full(pts.shape[0], float(record["width"]))
+    except (TypeError, ValueError):
+        raise InputError(f"{where}: lane widths must be numbers (pixels)", path) from None
+    if widths.shape[0] != pts.shape[0]:
+        raise InputError(f"{where}: 'widths' needs one value per point ({pts.shape[0]})", path)
     if np.any(widths < 1) or not np.isfinite(widths).all():
         raise InputError(f"{where}: lane widths must be >= 1 pixel", path)
     order = np.argsort(pts[:, 1], kind="stable")
@@ -467,13 +470,14 @@ def _read_label_map(path: Path) -> np.ndarray:
         try:
             with Image.open(path) as im:
                 arr = np.asarray(im)
-        except OSError as exc:
+        except (OSError, Image.DecompressionBombError) as exc:
             raise InputError(f"cannot read label map: {exc}", path) from None
     if arr.ndim == 3:
         arr = arr[..., 0]
-    if arr.ndim != 2 or not np.issubdtype(arr.dtype, np.integer):
+    if arr.ndim != 2 or not np.issubdtype(arr.dtype, np.integer) or 0 in arr.shape:
         raise InputError(
-            f"a label map must be a 2-D integer array, got {arr.dtype} {arr.shape}", path
+            f"a label map must be a non-empty 2-D integer array, got {arr.dtype} {arr.shape}",
+            path,
         )
     return arr
 

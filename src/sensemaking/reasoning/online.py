@@ -87,6 +87,7 @@ from sensemaking.reasoning.situations import (
 )
 from sensemaking.records import end_record
 from sensemaking.results import Event, FrameResult, TrackState
+from sensemaking.sandbox import Limits
 from sensemaking.settings import SCENE_PROFILES
 
 __all__ = [
@@ -226,6 +227,8 @@ class SituationMonitor:
             (:func:`sensemaking.io.egomotion.read_ego_motion`), used where it has the frame
             (needs ``camera``).
         ego_config: :class:`~sensemaking.reasoning.egomotion.EgoMotionConfig`.
+        limits: time, memory and atom limits of ``extra_encodings`` (the user's code), checked
+            once before any frame (:mod:`sensemaking.sandbox`); default: ``ask``'s.
 
     ``update(result)`` once per frame in order, ``reset()`` before another sequence.
     ``stats`` counts frames, clingo calls, answers from the cache of clingo's answers and the
@@ -243,6 +246,7 @@ class SituationMonitor:
         camera: CameraModel | None = None,
         ego_motion: EgoMotion | None = None,
         ego_config: EgoMotionConfig | None = None,
+        limits: Limits | None = None,
     ):
         if profile not in PROFILES:
             raise ValueError(f"unknown scene profile {profile!r} (one of {', '.join(PROFILES)})")
@@ -272,7 +276,9 @@ class SituationMonitor:
                 if s in enabled:
                     self._skipped[s] = "needs the image size (for the ego corridor)"
         checked = [s.value for s in enabled if s not in self._skipped]
-        self._solver = SituationSolver(checked, self.config.constants, extra_encodings)
+        self._solver = SituationSolver(
+            checked, self.config.constants, extra_encodings, limits=limits
+        )
         # box area (px²) -> permille of the image
         self._permille = (
             0.0 if self.image_size is None else 1000.0 / (self.image_size[0] * self.image_size[1])

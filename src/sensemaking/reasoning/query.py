@@ -4,7 +4,9 @@ ASP queries are untrusted text, so they are checked (:func:`check_query`) and ru
 
 * Allowed: rules, constraints, choice rules, aggregates (``#count``, ``#sum``, ``#sum+``,
   ``#min``, ``#max``), ``#show``, ``#minimize`` / ``#maximize``, comments, and the constants
-  ``#inf``, ``#sup``, ``#true``, ``#false``. Refused before clingo sees the text: every other
+  ``#inf``, ``#sup``, ``#true``, ``#false``. Refused before clingo sees the text (anywhere in it,
+  comments and strings included: clingo's parser opens an ``#include`` while parsing), and so is a
+  query that does not parse (:func:`sensemaking.sandbox.check_program`): every other
   directive (``#include``, which would read files; ``#script``, which runs code; ``#external``,
   ``#const``, ``#program``, ``#project``, ``#heuristic``, ``#edge``, ``#theory``, ``#defined``)
   and ``@``-terms (calls into script functions).
@@ -17,10 +19,7 @@ ASP queries are untrusted text, so they are checked (:func:`check_query`) and ru
 
 from __future__ import annotations
 
-import os
 import re
-import signal
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -30,6 +29,17 @@ from clingo import ast as clingo_ast
 
 from sensemaking.errors import SensemakingError
 from sensemaking.reasoning.facts import scene_facts_text
+from sensemaking.sandbox import (
+    DEFAULT_MAX_ATOMS,
+    DEFAULT_MAX_MEMORY_MB,
+    DEFAULT_TIMEOUT_S,
+    QUERY_DIRECTIVES,
+    LimitError,
+    Limits,
+    check_atoms,
+    check_program,
+    run_limited,
+)
 
 if TYPE_CHECKING:  # pragma: no cover
     from sensemaking.reasoning.context import SceneContext
@@ -45,31 +55,8 @@ __all__ = [
     "DEFAULT_MAX_MEMORY_MB",
 ]
 
-#: limits of an ASP query: wall-clock seconds for grounding + solving, ground atoms, memory (MB)
-DEFAULT_TIMEOUT_S = 60.0
-DEFAULT_MAX_ATOMS = 5_000_000
-DEFAULT_MAX_MEMORY_MB = 2048
-
 #: the directives a query may use (see the module docstring)
-ALLOWED_DIRECTIVES = frozenset(
-    {
-        "show",
-        "count",
-        "sum",
-        "sum+",
-        "min",
-        "max",
-        "minimize",
-        "maximize",
-        "minimise",
-        "maximise",
-        "inf",
-        "sup",
-        "true",
-        "false",
-    }
-)
-_DIRECTIVE = re.compile(r"#([A-Za-z_]+\+?)")
+ALLOWED_DIRECTIVES = QUERY_DIRECTIVES
 _FORBIDDEN_NODES = frozenset(
     {
         "Script",
@@ -105,6 +92,9 @@ class QueryError(SensemakingError):
         self.messages = list(messages or [])
         self.line = line
         self.column = column
+
+    def __reduce__(self) -> tuple[Any, ...]:  # crosses the pipe from the limited child
+        return (QueryError, (self.args[0], self.messages, self.line, self.column))
 
 
 @dataclass(frozen=True)
@@ -184,54 +174,19 @@ def _show_signatures(stmts: list[Any]) -> tuple[bool, set[tuple[str, int]]]:
     return has_show, {h for h in heads if h[0]}
 
 
-def _strip_comments_and_strings(text: str) -> str:
-    """``text`` with comments and string contents blanked (same length, lines kept), so that
-    directives are found only where clingo would read them."""
-    out = []
-    i, n = 0, len(text)
-    while i < n:
-        c = text[i]
-        if c == "%":
-            if text.startswith("%*", i):
-                j = text.find("*%", i + 2)
-                j = n if j < 0 else j + 2
-            else:
-                j = text.find("\n", i)
-                j = n if j < 0 else j
-            out.append("".join(ch if ch == "\n" else " " for ch in text[i:j]))
-            i = j
-        elif c == '"':
-            j = i + 1
-            while j < n and text[j] != '"':
-                j += 2 if text[j] == "\\" else 1
-            j = min(j + 1, n)
-            out.append('"' + " " * max(j - i - 2, 0) + ('"' if j - i >= 2 else ""))
-            i = j
-        else:
-            out.append(c)
-            i += 1
-    return "".join(out)
-
-
 def check_query(query: str) -> None:
-    """Refuse a query that reaches outside the scene (see the module docstring): raises
-    :class:`QueryError` naming the first forbidden directive or term and its line."""
-    plain = _strip_comments_and_strings(query)
-    for m in _DIRECTIVE.finditer(plain):
-        name = m.group(1).lower()
-        if name not in ALLOWED_DIRECTIVES:
-            line = plain.count("\n", 0, m.start()) + 1
-            raise QueryError(
-                f"query:{line}: #{m.group(1)} is not allowed in a query (allowed: rules, "
-                "constraints, aggregates, #show, #minimize/#maximize)",
-                line=line,
-            )
-    at = plain.find("@")
-    if at >= 0:
-        line = plain.count("\n", 0, at) + 1
-        raise QueryError(
-            f"query:{line}: @-terms (script functions) are not allowed in a query", line=line
-        )
+    """Refuse a query that reaches outside the scene or does not parse (see the module
+    docstring): raises :class:`QueryError` naming the first forbidden directive or term, or
+    clingo's syntax error, with its line. Runs before clingo grounds anything."""
+
+    stmts = check_program(
+        query, "query", allowed=QUERY_DIRECTIVES, allow_at=False, error=_query_error
+    )
+    _check_ast(stmts)
+
+
+def _query_error(msg: str, line: int | None, col: int | None) -> QueryError:
+    return QueryError(msg if "not allowed" in msg else "invalid query: " + msg, [msg], line, col)
 
 
 def _check_ast(stmts: list[Any]) -> None:
@@ -307,11 +262,10 @@ def solve(
         ctl.ground([("base", [])])
     except RuntimeError:
         raise fail("grounding failed") from None
-    if max_atoms is not None and len(ctl.symbolic_atoms) > max_atoms:
-        raise QueryError(
-            f"the query grounds to {len(ctl.symbolic_atoms)} atoms, more than the limit "
-            f"of {max_atoms} (--max-atoms)"
-        )
+    try:
+        check_atoms(len(ctl.symbolic_atoms), max_atoms, "the query")
+    except LimitError as exc:
+        raise QueryError(str(exc)) from None
     models: list[list[clingo.Symbol]] = []
 
     def found(m: clingo.Model) -> None:
@@ -325,47 +279,6 @@ def solve(
     return models, bool(res.satisfiable), notes, shows
 
 
-def _limited_child(
-    conn: Any,
-    program: str,
-    query: str,
-    max_models: int,
-    max_atoms: int | None,
-    max_memory_mb: int | None,
-) -> None:  # pragma: no cover - runs in the child
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C and stops the child
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    try:
-        if max_memory_mb is not None:
-            import resource
-
-            with open("/proc/self/statm") as fh:
-                now = int(fh.read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
-            cap = now + int(max_memory_mb) * 2**20
-            resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
-        _, sat, notes, shows = solve(
-            program,
-            query,
-            max_models,
-            max_atoms=max_atoms,
-            on_model=lambda atoms: conn.send(("model", [str(a) for a in atoms])),
-        )
-        conn.send(("done", sat, notes, shows))
-    except QueryError as exc:
-        conn.send(("error", exc.args[0], exc.messages, exc.line, exc.column))
-    except MemoryError:
-        conn.send(("memory",))
-    except RuntimeError as exc:
-        conn.send(
-            ("memory",)
-            if "bad_alloc" in str(exc) or "memory" in str(exc).lower()
-            else ("error", f"clingo failed: {' '.join(str(exc).split())}", [], None, None)
-        )
-    finally:
-        conn.close()
-        os._exit(0)
-
-
 def _solve_limited(
     program: str,
     query: str,
@@ -376,10 +289,9 @@ def _solve_limited(
     max_memory_mb: int | None,
     on_model: Callable[[tuple[str, ...]], None] | None = None,
 ) -> tuple[list[tuple[str, ...]], bool, list[str], bool]:
-    """:func:`solve` of an untrusted query in a child process under the limits; models as
-    tuples of atom strings, passed to ``on_model`` as they arrive."""
-    import multiprocessing
-
+    """:func:`_solve` of an untrusted query in a child process under the limits
+    (:func:`sensemaking.sandbox.run_limited`); models as tuples of atom strings, passed to
+    ``on_model`` as they arrive."""
     models: list[tuple[str, ...]] = []
 
     def got(atoms: Any) -> None:
@@ -388,56 +300,24 @@ def _solve_limited(
         if on_model is not None:
             on_model(t)
 
-    if "fork" not in multiprocessing.get_all_start_methods():  # pragma: no cover - not on Linux
-        if timeout is not None:
-            log_limits = "the time and memory limits need fork (not available here)"
-            import logging
+    def work(send: Callable[[Any], None]) -> tuple[bool, list[str], bool]:
+        _, sat, notes, shows = solve(
+            program,
+            query,
+            max_models,
+            max_atoms=max_atoms,
+            on_model=lambda atoms: send([str(a) for a in atoms]),
+        )
+        return sat, notes, shows
 
-            logging.getLogger(__name__).warning(log_limits)
-        _, sat, notes, shows = solve(program, query, max_models, max_atoms=max_atoms, on_model=got)
-        return models, sat, notes, shows
-    ctx = multiprocessing.get_context("fork")
-    receive, send = ctx.Pipe(duplex=False)
-    proc = ctx.Process(
-        target=_limited_child,
-        args=(send, program, query, max_models, max_atoms, max_memory_mb),
-        daemon=True,
+    sat, notes, shows = run_limited(
+        work,
+        Limits(timeout, max_atoms, max_memory_mb),
+        what="the query",
+        on_item=got,
+        fail=QueryError,
     )
-    proc.start()
-    send.close()
-    deadline = None if timeout is None else time.monotonic() + timeout
-    memory = (
-        f"the query needs more memory than the limit of {max_memory_mb} MB (--max-memory); "
-        "narrow it (fewer variables joined, smaller ranges)"
-    )
-    try:
-        while True:
-            wait = 0.5 if deadline is None else min(0.5, deadline - time.monotonic())
-            if wait <= 0:
-                raise QueryError(
-                    f"the query took longer than the time limit of {timeout:g} s (--timeout)"
-                )
-            if not receive.poll(wait):
-                if not proc.is_alive() and not receive.poll(0):
-                    raise QueryError(memory)
-                continue
-            try:
-                msg = receive.recv()
-            except EOFError:
-                raise QueryError(memory) from None
-            if msg[0] == "model":
-                got(msg[1])
-            elif msg[0] == "done":
-                return models, bool(msg[1]), list(msg[2]), bool(msg[3])
-            elif msg[0] == "memory":
-                raise QueryError(memory)
-            else:
-                raise QueryError(msg[1], list(msg[2]), msg[3], msg[4])
-    finally:
-        receive.close()
-        if proc.is_alive():
-            proc.kill()
-        proc.join()
+    return models, bool(sat), list(notes), bool(shows)
 
 
 def program_facts(scene: Scene, context: SceneContext | None, **kw: Any) -> str:

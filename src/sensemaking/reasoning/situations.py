@@ -39,6 +39,7 @@ from sensemaking.reasoning.anticipation import AnticipationConfig
 from sensemaking.reasoning.facts import Fact, symbol
 from sensemaking.reasoning.relations import MotionThresholds, RelationConfig
 from sensemaking.records import warning_fields, warning_record
+from sensemaking.sandbox import Limits
 
 __all__ = [
     "Situation",
@@ -146,6 +147,12 @@ def _parse_user_encoding(path: str | PathLike[str]) -> tuple[Any, ...]:
     stmts: list[Any] = []
     if not Path(path).is_file():
         raise InputError("no such situation encoding file", path)
+    from sensemaking.sandbox import check_program, read_program_file
+
+    try:  # no #include / #script anywhere (clingo's parser would open the file): issue 24
+        check_program(read_program_file(path), str(path))
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read the situation encoding: {exc}", path) from None
     try:
         # a user's rules go to base unless the file opens its own parts
         clingo_ast.parse_string("#program base.", stmts.append)
@@ -245,6 +252,8 @@ class SituationSolver:
             unless they open their own ``#program`` part: add a new situation with a rule for
             ``warn/2``, and its details with ``info/4``).
         cache_size: answers kept, by their facts (least recently used dropped first).
+        limits: time, memory and atom limits of ``extra_encodings``, checked once (default:
+            ``ask``'s; :func:`sensemaking.sandbox.probe_program`).
 
     :meth:`answer` takes the facts of a frame as tuples (see :mod:`~sensemaking.reasoning.facts`)
     and returns the ``warn/2`` and ``info/4`` atoms of the first answer set (none when there is
@@ -260,6 +269,7 @@ class SituationSolver:
         constants: Mapping[str, int] | None = None,
         extra_encodings: Sequence[str | PathLike[str]] = (),
         cache_size: int = 256,
+        limits: Limits | None = None,
     ):
         situation_constants(constants)  # validates
         self._args = ["--warn=none"] + [f"-c{k}={int(v)}" for k, v in (constants or {}).items()]
@@ -273,6 +283,16 @@ class SituationSolver:
         # window indices), and making a clingo symbol costs more than grounding it
         self._symbols: dict[Fact, clingo.Symbol] = {}
         self.calls = self.hits = 0
+        if self._extra:  # the user's code: grounded and solved once under ask's limits
+            from sensemaking.sandbox import probe_program
+
+            probe_program(
+                self._build,
+                self._args,
+                where=", ".join(self._extra),
+                parts=self._parts,
+                limits=limits,
+            )
         try:  # surface the user's grounding errors (unsafe variables, ...) now, as InputError
             self._solve(())
         except RuntimeError as exc:
@@ -280,6 +300,11 @@ class SituationSolver:
                 f"situation encodings: {' '.join(str(exc).split())}",
                 extra_encodings[0] if len(extra_encodings) == 1 else None,
             ) from None
+
+    def _build(self, ctl: clingo.Control) -> None:
+        with clingo_ast.ProgramBuilder(ctl) as builder:
+            for stmt in self._stmts:
+                builder.add(stmt)
 
     def _program(self) -> tuple[Any, ...]:
         return _shipped()[0] + tuple(s for p in self._extra for s in _parse_user_encoding(p))
