@@ -458,9 +458,10 @@ def test_fuzz_the_trust_boundary(tmp_path: Path, reals: dict[str, bytes], capsys
     pytest.importorskip("duckdb")
     import shutil
 
+    from test_trust_boundary import make_archive
+
     from sensemaking.errors import InputError
     from sensemaking.fleet.specs import find_sequences, read_manifest
-    from test_trust_boundary import make_archive
 
     rng = random.Random(SEED + 24)
     failures: list[str] = []

@@ -34,13 +34,6 @@ def write_det(path: Path, n_frames: int = 30, frame_offset: int = 1) -> Path:
     return path
 
 
-@pytest.fixture()
-def scene_file(tmp_path: Path) -> Path:
-    from sensemaking.demo import run_demo
-
-    return run_demo(tmp_path / "demo", render=False).files["scene"]
-
-
 def one_line_error(capsys) -> str:
     err = capsys.readouterr().err.strip()
     assert "Traceback" not in err

@@ -9,13 +9,12 @@ import os
 from pathlib import Path
 
 import pytest
+from test_hostile import one_line_error, write_det
 
 from sensemaking.cli import main
 
-from test_hostile import one_line_error, scene_file, write_det  # noqa: F401 (fixture)
 
-
-# 2. a query that does not parse is refused before clingo sees it ----------------------------------
+# 2. a query that does not parse is refused before clingo sees it
 @pytest.mark.parametrize(
     "query",
     [
@@ -42,7 +41,7 @@ def test_a_query_that_does_not_parse_is_refused_with_its_position(
     assert "invalid query: query:1:" in line
 
 
-# 1. query: DuckDB reads the archive and nothing else -----------------------------------------------
+# 1. query: DuckDB reads the archive and nothing else
 def make_archive(root: Path, n_frames: int = 10) -> Path:
     """A one-sequence archive written without Ray (the worker's own functions)."""
     pytest.importorskip("pyarrow")
@@ -128,7 +127,7 @@ def test_sigterm_stops_a_long_query(archive: Path) -> None:
     assert time.monotonic() - t0 < 5.0 and proc.returncode == 143, proc.stderr.read()
 
 
-# 8. an archive path with '[' is that archive, not a glob ------------------------------------------
+# 8. an archive path with '[' is that archive, not a glob
 def test_an_archive_path_with_a_bracket_is_not_a_glob(tmp_path: Path, capsys) -> None:
     mine = make_archive(tmp_path / "a[1]" / "archive", n_frames=8)
     make_archive(tmp_path / "a1" / "archive", n_frames=20)  # what the glob a[1] would match
@@ -138,7 +137,7 @@ def test_an_archive_path_with_a_bracket_is_not_a_glob(tmp_path: Path, capsys) ->
     assert got <= 8
 
 
-# 3. the user's encodings: no files read, no code run, limits, one-line errors ---------------------
+# 3. the user's encodings: no files read, no code run, limits, one-line errors
 @pytest.mark.parametrize(
     "option,text,expected",
     [
@@ -187,7 +186,7 @@ def _track(tmp_path: Path, det: Path, *extra: str) -> int:
     return main(["-q", "track", "--detections", str(det), "--format", "mot", *extra])
 
 
-# 4. outputs to anything but a regular file are written through, never replaced --------------------
+# 4. outputs to anything but a regular file are written through, never replaced
 def test_an_output_symlink_to_a_device_stays_a_symlink(tmp_path: Path) -> None:
     det = write_det(tmp_path / "det.txt")
     link = tmp_path / "out.txt"
@@ -236,7 +235,7 @@ def test_an_output_to_a_full_device_names_it(tmp_path: Path, capsys) -> None:
     assert link.is_symlink() and stat.S_ISCHR(os.stat("/dev/full").st_mode)
 
 
-# 5. stdin and pipes as --detections are read once ---------------------------------------------------
+# 5. stdin and pipes as --detections are read once
 def test_detections_from_stdin_and_a_pipe_give_the_tracks_of_the_file(
     tmp_path: Path, monkeypatch
 ) -> None:
@@ -277,7 +276,7 @@ def test_detections_from_stdin_and_a_pipe_give_the_tracks_of_the_file(
     assert (tmp_path / "fifo.txt").read_text() == expected
 
 
-# 6. an output never overwrites an input or another output's .part; write errors name the file ----
+# 6. an output never overwrites an input or another output's .part; write errors name the file
 def test_output_over_params_or_seqinfo_is_refused(tmp_path: Path, capsys) -> None:
     det = write_det(tmp_path / "seq" / "det" / "det.txt")
     seqinfo = tmp_path / "seq" / "seqinfo.ini"
@@ -349,7 +348,7 @@ def test_a_write_error_names_the_file_and_leaves_no_part(tmp_path: Path) -> None
     assert list(out.iterdir()) == []
 
 
-# 10. benchmark on a folder without benchmarks exits 2 and writes nothing --------------------------
+# 10. benchmark on a folder without benchmarks exits 2 and writes nothing
 def test_benchmark_on_an_empty_folder_writes_nothing(tmp_path: Path, capsys, monkeypatch) -> None:
     empty = tmp_path / "empty"
     empty.mkdir()
@@ -361,7 +360,7 @@ def test_benchmark_on_an_empty_folder_writes_nothing(tmp_path: Path, capsys, mon
     assert list(work.rglob("*")) == [] and list(empty.iterdir()) == []
 
 
-# 8. damaged archives: one-line errors, segments rebuilt, foreign versions refused -----------------
+# 8. damaged archives: one-line errors, segments rebuilt, foreign versions refused
 def _truncate(path: Path) -> None:
     data = path.read_bytes()
     path.write_bytes(data[: len(data) // 2])
@@ -404,7 +403,7 @@ def test_an_archive_of_an_unknown_version_is_refused(tmp_path: Path, capsys) -> 
     assert code == 2 and "archive version 99" in err
 
 
-# 7. batch finds MOT sequences by their layout and names what it skips -----------------------------
+# 7. batch finds MOT sequences by their layout and names what it skips
 def test_mot_sequences_are_found_by_layout_and_skips_are_named(tmp_path: Path) -> None:
     from sensemaking.fleet.specs import find_sequences
 
@@ -421,7 +420,7 @@ def test_mot_sequences_are_found_by_layout_and_skips_are_named(tmp_path: Path) -
     assert any("MOT17-11-SDP" in m and "det/det.txt" in m for m in skipped)
 
 
-# 11. user mistakes that were "internal error (a bug)" are one-line errors --------------------------
+# 11. user mistakes that were "internal error (a bug)" are one-line errors
 def _make(tmp_path: Path, case: str) -> list[str]:
     det = write_det(tmp_path / "det.txt")
     base = [
@@ -521,7 +520,7 @@ def test_a_scene_with_a_vanishing_frame_rate_is_refused(scene_file: Path, capsys
     assert "fps" in one_line_error(capsys)
 
 
-# 9. dense frames: a documented per-frame limit, refused before any square-sized array ----------
+# 9. dense frames: a documented per-frame limit, refused before any square-sized array
 def test_a_dense_frame_is_refused_with_its_line(tmp_path: Path, capsys) -> None:
     from sensemaking.detections import MAX_DETECTIONS_PER_FRAME as LIMIT
 
