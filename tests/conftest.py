@@ -35,3 +35,11 @@ def load_benchmarks_script(name: str):
     sys.modules[name] = module  # dataclasses look their module up while the class is made
     spec.loader.exec_module(module)
     return module
+
+
+@pytest.fixture()
+def scene_file(tmp_path: Path) -> Path:
+    """The demo's scene file (``track --scene`` of the paper's Figure 1), written fresh."""
+    from sensemaking.demo import run_demo
+
+    return run_demo(tmp_path / "demo", render=False).files["scene"]
