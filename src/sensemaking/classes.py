@@ -71,3 +71,15 @@ def class_id(name: str) -> int:
 def class_name(cid: int) -> str:
     """Canonical name of a class id, or ``"class<id>"`` for ids outside the vocabulary."""
     return CLASS_NAMES.get(int(cid), f"class{int(cid)}")
+
+
+def check_kitti_class(fmt: str | None, cid: int, where: str) -> None:
+    """KITTI results name every class by a KITTI type: refuse (InputError) a class without one
+    when ``fmt`` is ``"kitti"``."""
+    from sensemaking.errors import InputError
+
+    if fmt == "kitti" and cid not in KITTI_NAMES:
+        raise InputError(
+            f"{where}: KITTI results have no type for it (KITTI types: "
+            f"{', '.join(KITTI_NAMES.values())})"
+        )

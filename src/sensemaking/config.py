@@ -24,6 +24,7 @@ import re
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, replace
 from importlib import resources
+from os import PathLike
 from typing import Any
 
 import numpy as np
@@ -64,6 +65,29 @@ MIN_FPS, MAX_FPS = 0.01, 1000.0  # frames per second: a frame a 100 s .. a frame
 MAX_IMAGE_SIDE = 100_000  # pixels, each side of the field of view
 #: metadata key of a field's :class:`Param`
 _PARAM = "sensemaking.param"
+
+
+def parse_size(text: str, where: str = "--image-size") -> tuple[int, int]:
+    """``WIDTHxHEIGHT`` in pixels, each side in [1, MAX_IMAGE_SIDE]."""
+    try:
+        w, h = text.lower().split("x")
+        size = int(w), int(h)
+    except ValueError:
+        raise InputError(f"{where} must look like 1242x375, got {text!r}") from None
+    if not all(1 <= v <= MAX_IMAGE_SIDE for v in size):
+        raise InputError(f"{where}: each side must be 1..{MAX_IMAGE_SIDE} pixels, got {text!r}")
+    return size
+
+
+def check_fps(fps: float, where: str, path: str | PathLike[str] | None = None) -> float:
+    """A frame rate in [MIN_FPS, MAX_FPS] frames per second."""
+    if not (math.isfinite(fps) and MIN_FPS <= fps <= MAX_FPS):
+        raise InputError(
+            f"{where} must be a frame rate in [{MIN_FPS:g}, {MAX_FPS:g}] frames per second, "
+            f"got {fps!r}",
+            path,
+        )
+    return float(fps)
 
 
 class ParameterError(InputError):

@@ -268,7 +268,7 @@ def _explanations(
 ) -> int:
     import json
 
-    from sensemaking.cli.track import parse_size
+    from sensemaking.config import parse_size
     from sensemaking.evaluation.explanations import (
         ExplanationResult,
         GroundTruth,

@@ -10,11 +10,11 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from sensemaking.cli._progress import Progress
-
 # option ranges: the ranges of the parameters fps and image_size (a frame rate or an image side
 # beyond these is a typo, not a camera)
-from sensemaking.config import MAX_FPS, MAX_IMAGE_SIDE, MIN_FPS
+from sensemaking.classes import check_kitti_class
+from sensemaking.cli._progress import Progress
+from sensemaking.config import MAX_FPS, MAX_IMAGE_SIDE, MIN_FPS, check_fps, parse_size
 from sensemaking.errors import InputError
 
 log = logging.getLogger(__name__)
@@ -259,28 +259,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def parse_size(text: str, where: str = "--image-size") -> tuple[int, int]:
-    try:
-        w, h = text.lower().split("x")
-        size = int(w), int(h)
-    except ValueError:
-        raise InputError(f"{where} must look like 1242x375, got {text!r}") from None
-    if not all(1 <= v <= MAX_IMAGE_SIDE for v in size):
-        raise InputError(f"{where}: each side must be 1..{MAX_IMAGE_SIDE} pixels, got {text!r}")
-    return size
-
-
-def check_fps(fps: float, where: str, path: Path | None = None) -> float:
-    """A frame rate in [MIN_FPS, MAX_FPS] frames per second."""
-    if not (math.isfinite(fps) and MIN_FPS <= fps <= MAX_FPS):
-        raise InputError(
-            f"{where} must be a frame rate in [{MIN_FPS:g}, {MAX_FPS:g}] frames per second, "
-            f"got {fps!r}",
-            path,
-        )
-    return float(fps)
-
-
 def _check_options(args: argparse.Namespace) -> None:
     """Every option's unit and range, before any file is read."""
     from sensemaking.io.tables import class_id_of
@@ -298,18 +276,7 @@ def _check_options(args: argparse.Namespace) -> None:
         parse_size(args.image_size)
     for name in _class_names(args):
         if name is not None:
-            _check_kitti_class(args, class_id_of(name), f"--class {name}")
-
-
-def _check_kitti_class(args: argparse.Namespace, cid: int, where: str) -> None:
-    """KITTI results name every class by a KITTI type: refuse a class without one."""
-    from sensemaking.classes import KITTI_NAMES
-
-    if args.format == "kitti" and cid not in KITTI_NAMES:
-        raise InputError(
-            f"{where}: KITTI results have no type for it (KITTI types: "
-            f"{', '.join(KITTI_NAMES.values())})"
-        )
+            check_kitti_class(args.format, class_id_of(name), f"--class {name}")
 
 
 def _class_names(args: argparse.Namespace) -> list[str | None]:
@@ -458,7 +425,7 @@ def _file_frames(args: argparse.Namespace, config: Any, length: int | None):
                     path,
                 )
             owner[c] = path
-            _check_kitti_class(args, c, f"{path}: class {c}")
+            check_kitti_class(args.format, c, f"{path}: class {c}")
         classes |= mine
         if summary.detections:
             keys = set(summary.data_keys) if keys is None else keys & set(summary.data_keys)

@@ -93,7 +93,7 @@ class RosInput:
     def info(self) -> tuple[float | None, tuple[int, int] | None, int | None]:
         """Open and check the bag; (fps, image size, number of frames) as ``_sequence_info``
         gives them for files (the size is set as ``--image-size`` from the CameraInfo)."""
-        from sensemaking.cli.track import MAX_IMAGE_SIDE, parse_size
+        from sensemaking.config import MAX_IMAGE_SIDE, parse_size
         from sensemaking.ros.reader import BagReader
 
         args, path = self.args, self.path
@@ -134,12 +134,12 @@ class RosInput:
 
     def frames(self, args: argparse.Namespace, config: Any) -> tuple[Any, int, Any, list[int]]:
         """(frames, first frame, last frame, class ids) as ``_file_frames`` gives them."""
-        from sensemaking.cli.track import _check_kitti_class
+        from sensemaking.classes import check_kitti_class
 
         s = self.summary
         if not is_mcap_output(args.output):
             for c in s.classes:
-                _check_kitti_class(args, c, f"{self.reader.path}: class {c}")
+                check_kitti_class(args.format, c, f"{self.reader.path}: class {c}")
 
         def stream() -> Any:
             # the sinks that take the bag's messages are made after this: asked at the start

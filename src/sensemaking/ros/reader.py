@@ -802,7 +802,7 @@ class BagReader:
 
     def _nominal_period(self, stamps: list[int]) -> float:
         """The median interval of ``stamps`` (ns), as a rate rounded to 0.001 fps."""
-        from sensemaking.cli.track import check_fps
+        from sensemaking.config import check_fps
 
         if len(stamps) < 2:
             fps = 10.0  # one message: any rate numbers it as the first frame
