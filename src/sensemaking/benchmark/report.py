@@ -115,7 +115,19 @@ PAPER_TABLE2: dict[str, dict[str, Any]] = {
 }
 
 #: the table's columns: (header, how to get the value from a run)
-COLUMNS = ("MOTA", "MOTP", "ML", "MT", "FP", "FN", "ID sw.", "Frag.", "IDF1", "HOTA")
+COLUMNS = (
+    "MOTA",
+    "MOTP",
+    "ML",
+    "MT",
+    "FP",
+    "FN",
+    "ID sw.",
+    "Frag.",
+    "IDF1",
+    "HOTA",
+    "occl. kept",
+)
 LEGACY_COLUMNS = ("MOTA (devkit)", "ID sw. (devkit)", "Frag. (devkit)")
 TIME_COLUMNS = ("ms/frame", "time ÷ ours")
 
@@ -175,11 +187,21 @@ def _row_cells(run: TrackerRun, legacy: bool) -> list[str]:
         _int(_get(m, "Frag")),
         _pct(_get(m, "IDF1")),
         _pct(_get(m, "HOTA")),
+        _occluded(m),
     ]
     if legacy:
         lm = run.legacy
         cells += [_pct(_get(lm, "MOTA")), _int(_get(lm, "IDSW")), _int(_get(lm, "Frag"))]
     return cells
+
+
+def _occluded(m: Mapping[str, float] | None) -> str:
+    """Identity through occlusion: kept % of the episodes tracked before, and of how many."""
+    kept = _get(m, "OCC_kept")
+    n = kept + _get(m, "OCC_switched") + _get(m, "OCC_lost")
+    if math.isnan(n) or not n:
+        return "–"
+    return f"{_pct(kept / n)} ({_int(n)})"
 
 
 def _variant_text(run: TrackerRun) -> str:
@@ -684,6 +706,13 @@ def render_markdown(summary: RunSummary, json_name: str = "benchmarks.json") -> 
         "boxes "
         "≤ 25 px tall are ignored; IoU 0.5). MOTA, MOTP, IDF1, HOTA in %; ML and MT in % of "
         "ground-truth tracks, as in the paper; FP, FN, ID sw., Frag. are counts."
+    )
+    add(
+        "- **occl. kept**: identity through occlusion, the % of occlusion episodes (a "
+        "ground-truth object visible, hidden for a while, visible again) where the id on the "
+        "object before is the id on it when it is found again, of the episodes the tracker had "
+        "the object before (their number in brackets); `sensemaking.evaluation.occlusion`, the "
+        "definition of `../shared/verify/occlusion_recovery.py`. Not for MOT15 (no visibility)."
     )
     add(
         "- **ID sw.** uses TrackEval's rule: a switch counts also when the object was lost in "
