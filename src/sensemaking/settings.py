@@ -171,6 +171,14 @@ def _table() -> dict[str, Param]:
         Param("weak_iou", "float", "IoU", 0.0, 1.0),
         Param("resume_reupdate", "bool", "-"),
         Param("scene_shift", "bool", "-"),
+        Param(
+            "unseen_damping",
+            "float",
+            "fraction of velocity kept per unseen frame",
+            0.0,
+            1.0,
+            low_open=True,
+        ),
     ]
     for name in (
         "enters",

@@ -173,6 +173,12 @@ class TrackerConfig:
             object in the image; an unseen track otherwise keeps the image motion it had when
             last seen. Translation only: the image scaling of forward motion depends on each
             object's depth. Switch (no unit).
+        unseen_damping: the fraction of its image velocity (centre and size, pixels / frame)
+            that a hidden or missing track keeps per unseen frame, from its second unseen
+            frame on, so its prediction slows down and stays near where the object went out of
+            sight instead of drifting on a velocity measured from boxes that were shrinking
+            behind the occluder (issue 27). In (0, 1]; 1: constant velocity (off), 0.8: after
+            10 unseen frames 11 % is left.
         costs: :class:`AbductionCosts`.
         kalman: :class:`~sensemaking.motion.KalmanConfig`.
     """
@@ -207,6 +213,7 @@ class TrackerConfig:
     weak_iou: float = 0.5
     resume_reupdate: bool = False
     scene_shift: bool = False
+    unseen_damping: float = 1.0
     costs: AbductionCosts = field(default_factory=AbductionCosts)
     kalman: KalmanConfig = field(default_factory=KalmanConfig)
 
@@ -347,6 +354,9 @@ class Tracker:
         self._frames_seen += 1
         self.stats["frames"] += 1
 
+        if self.config.unseen_damping < 1.0 and (self._tracks.unseen > 0).any():
+            # issue 27: an unseen track's image velocity fades (unseen_damping)
+            self._tracks.kf.damp(self._tracks.unseen > 0, self.config.unseen_damping)
         pred = self._tracks.kf.predict(1) if len(self._tracks) else np.zeros((0, 4))
         t0 = time.perf_counter()
         self._frame_problem: FrameProblem | None = None

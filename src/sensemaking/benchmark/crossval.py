@@ -118,6 +118,8 @@ ORIGINS: dict[str, str] = {
     "(docs/DESIGN-NOTES.md).",
     "scene_shift": "switch: off; a technique measured across folds, not kept "
     "(docs/DESIGN-NOTES.md).",
+    "unseen_damping": "1 (off); a technique of issue 27, measured across folds "
+    "(docs/DESIGN-NOTES.md).",
     "weak_confidence": "off (None); ByteTrack's 0.1 when on, a technique measured across "
     "folds, not kept (docs/DESIGN-NOTES.md).",
     "weak_iou": "ByteTrack's second-round 0.5, used only with weak_confidence; not tuned.",
