@@ -22,11 +22,16 @@ classifies every occlusion episode that was not kept:
     nice -n 10 python benchmarks/occlusion_errors.py run OUT [--no-abduction] [--set K=V ...]
     python benchmarks/occlusion_errors.py measure OUT [OUT2 ...] [--json FILE]
     python benchmarks/occlusion_errors.py taxonomy OUT [--json FILE] [--list]
+    python benchmarks/occlusion_errors.py select BASE VARIANT [VARIANT ...]
 
 ``run`` writes ``OUT/<benchmark>/<seq>.txt`` (+ ``.events.jsonl``, ``.scene.json``: the scene
 holds every track's predicted box while hidden or missing); ``--only`` restricts benchmarks.
 ``measure`` prints per sequence HOTA / IDF1 / kept of tracked-before for each output folder, and
-per folder the pooled figure. ``taxonomy`` prints the counts of each cause.
+per folder the pooled figure. ``taxonomy`` prints the counts of each cause. ``select`` chooses
+among output folders (the variants of a setting) leave one video out (:func:`choose`) and
+applies the keep rule of issue 27: the pooled kept share rises, and still rises without the
+video that gained most, and HOTA is lower on at most half of each family's sequences.
+``--only BENCHMARK`` (before the subcommand, repeatable) restricts any of them.
 """
 
 from __future__ import annotations
