@@ -134,15 +134,19 @@ def run(args: argparse.Namespace) -> None:
     extra = (["--no-abduction"] if args.no_abduction else []) + [
         a for s in args.set for a in ("--set", s)
     ]
-    procs: list[subprocess.Popen[bytes]] = []
+    running: list[subprocess.Popen[bytes]] = []
+
+    def finish(p: subprocess.Popen[bytes]) -> None:
+        if p.wait() != 0:
+            raise SystemExit(f"track failed: {p.args!r}")
+
     for item in items(args.only):
         (args.out / item.bench).mkdir(parents=True, exist_ok=True)
-        procs.append(subprocess.Popen(track_command(item, args.out, args.data, extra)))
-        while len([p for p in procs if p.poll() is None]) >= args.jobs:
-            procs[0].wait() if procs[0].poll() is None else procs.pop(0)
-    for p in procs:
-        if p.wait() != 0:
-            raise SystemExit(f"track failed: {p.args}")
+        while len(running) >= args.jobs:
+            finish(running.pop(0))
+        running.append(subprocess.Popen(track_command(item, args.out, args.data, extra)))
+    for p in running:
+        finish(p)
 
 
 # -- measure ----------------------------------------------------------------------------------
@@ -385,12 +389,12 @@ def classify(item: Item, out: Path, data: Path, preset: dict[str, Any]) -> list[
                         other = None
                 to = "the occluder's track" if other is not None else "another existing track"
             at = e.frame_after if e.frame_after is not None else e.b
-            fate = _fate(old, at, endings.get(e.id_before))
+            fate = _fate(old, at, endings.get(e.id_before, ""))
             row.update(cause=f"switched to {to}", old_track=fate, **_drift(old, obj, at, dets))
         else:  # lost
-            old = scene.get(e.id_before)
             assert e.id_before is not None
-            fate = _fate(old, e.b, endings.get(e.id_before))
+            old = scene.get(e.id_before)
+            fate = _fate(old, e.b, endings.get(e.id_before, ""))
             found = [
                 (f, *_best_det(dets.get(f, []), obj[f]))
                 for f in range(e.b, e.b + window + 1)
