@@ -131,7 +131,19 @@ PAPER_TABLE2: dict[str, dict[str, Any]] = {
 }
 
 #: the table's columns: (header, how to get the value from a run)
-COLUMNS = ("MOTA", "MOTP", "ML", "MT", "FP", "FN", "ID sw.", "Frag.", "IDF1", "HOTA")
+COLUMNS = (
+    "MOTA",
+    "MOTP",
+    "ML",
+    "MT",
+    "FP",
+    "FN",
+    "ID sw.",
+    "Frag.",
+    "IDF1",
+    "HOTA",
+    "occl. kept",
+)
 LEGACY_COLUMNS = ("MOTA (devkit)", "ID sw. (devkit)", "Frag. (devkit)")
 TIME_COLUMNS = ("ms/frame", "time ÷ ours")
 
@@ -159,11 +171,21 @@ def _row_cells(run: TrackerRun, legacy: bool) -> list[str]:
         count(metric(m, "Frag")),
         pct(metric(m, "IDF1")),
         pct(metric(m, "HOTA")),
+        _occluded(m),
     ]
     if legacy:
         lm = run.legacy
         cells += [pct(metric(lm, "MOTA")), count(metric(lm, "IDSW")), count(metric(lm, "Frag"))]
     return cells
+
+
+def _occluded(m: Mapping[str, float] | None) -> str:
+    """Identity through occlusion: kept % of the episodes tracked before, and of how many."""
+    kept = metric(m, "OCC_kept")
+    n = kept + metric(m, "OCC_switched") + metric(m, "OCC_lost")
+    if math.isnan(n) or not n:
+        return "–"
+    return f"{pct(kept / n)} ({count(n)})"
 
 
 def _variant_text(run: TrackerRun) -> str:
@@ -645,6 +667,13 @@ def render_markdown(summary: RunSummary, json_name: str = "benchmarks.json") -> 
         "boxes "
         "≤ 25 px tall are ignored; IoU 0.5). MOTA, MOTP, IDF1, HOTA in %; ML and MT in % of "
         "ground-truth tracks, as in the paper; FP, FN, ID sw., Frag. are counts."
+    )
+    add(
+        "- **occl. kept**: identity through occlusion, the % of occlusion episodes (a "
+        "ground-truth object visible, hidden for a while, visible again) where the id on the "
+        "object before is the id on it when it is found again, of the episodes the tracker had "
+        "the object before (their number in brackets); `sensemaking.evaluation.occlusion`, the "
+        "definition of `../shared/verify/occlusion_recovery.py`. Not for MOT15 (no visibility)."
     )
     add(
         "- **ID sw.** uses TrackEval's rule: a switch counts also when the object was lost in "

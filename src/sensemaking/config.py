@@ -402,6 +402,12 @@ class TrackerConfig:
             object in the image; an unseen track otherwise keeps the image motion it had when
             last seen. Translation only: the image scaling of forward motion depends on each
             object's depth. Switch (no unit).
+        unseen_damping: the fraction of its image velocity (centre and size, pixels / frame)
+            that a hidden or missing track keeps per unseen frame, from its second unseen
+            frame on, so its prediction slows down and stays near where the object went out of
+            sight instead of drifting on a velocity measured from boxes that were shrinking
+            behind the occluder (issue 27). In (0, 1]; 1: constant velocity (off), 0.8: after
+            10 unseen frames 11 % is left.
         costs: :class:`AbductionCosts`.
         kalman: :class:`~sensemaking.motion.KalmanConfig`.
     """
@@ -446,6 +452,9 @@ class TrackerConfig:
     weak_iou: float = param(0.5, "float", "IoU", 0.0, 1.0)
     resume_reupdate: bool = param(False, "bool", "-")
     scene_shift: bool = param(False, "bool", "-")
+    unseen_damping: float = param(
+        1.0, "float", "fraction of velocity kept per unseen frame", 0.0, 1.0, low_open=True
+    )
     costs: AbductionCosts = nested(AbductionCosts)
     kalman: KalmanConfig = nested(KalmanConfig)
 

@@ -306,6 +306,15 @@ class KalmanBank:
         ):
             self._s[idx, start : start + 2] += offset
 
+    def damp(self, index: np.ndarray, factor: float) -> None:
+        """Scale the velocities (centre and size) of rows ``index`` (K,) by ``factor`` in
+        [0, 1]: an unseen object's image motion is less certain the longer it is unseen
+        (issue 27). Covariances are unchanged."""
+        idx = self._rows(index)
+        if not 0.0 <= factor <= 1.0:
+            raise ValueError(f"damp: factor must be in [0, 1], got {factor}")
+        self._v[idx] *= factor
+
     def remove(self, index: np.ndarray) -> None:
         """Drop rows ``index`` (int array or (T,) bool mask); the others keep their order."""
         idx = self._rows(index)

@@ -37,13 +37,16 @@ def test_evaluate_mot_folder_table_and_json(mot, capsys):
     assert rc == 0
     text = capsys.readouterr().out
     assert "mot17 / pedestrian" in text and "idsw_mode: trackeval" in text
-    assert [line.split()[0] for line in text.splitlines()[2:] if not line.startswith("-")] == [
+    scores, occlusion = text.split("\n\n", 1)  # the score table, then identity through occlusion
+    assert [line.split()[0] for line in scores.splitlines()[2:] if not line.startswith("-")] == [
         "A",
         "B",
         "COMBINED",
     ]
+    assert occlusion.startswith("Identity through occlusion (mot17 / pedestrian)")
     data = json.loads(out.read_text())
     assert data["idsw_mode"] == "trackeval" and data["benchmark"] == "mot17"
+    assert data["occlusion"]["pedestrian"]["pooled"]["episodes"] == 0  # nobody is hidden
     a = data["classes"]["pedestrian"]["sequences"]["A"]
     assert (a["CLR_TP"], a["CLR_FN"], a["IDSW"]) == (2, 1, 1)
     assert a["MOTA"] == pytest.approx(1 / 3)

@@ -127,6 +127,8 @@ ORIGINS: dict[str, str] = {
     "(docs/DESIGN-NOTES.md).",
     "scene_shift": "switch: off; a technique measured across folds, not kept "
     "(docs/DESIGN-NOTES.md).",
+    "unseen_damping": "1 (off); a technique of issue 27, measured across folds "
+    "(docs/DESIGN-NOTES.md).",
     "weak_confidence": "off (None); ByteTrack's 0.1 when on, a technique measured across "
     "folds, not kept (docs/DESIGN-NOTES.md).",
     "weak_iou": "ByteTrack's second-round 0.5, used only with weak_confidence; not tuned.",
@@ -139,8 +141,9 @@ ORIGINS: dict[str, str] = {
     "costs.enters": "default; calibrate estimates it as −100 ln P(begins at the border).",
     "costs.appears": "default (a first grid axis, flat: docs/DESIGN-NOTES.md); calibrate "
     "estimates it as −100 ln P(begins inside).",
-    "costs.leaves": f"default (MOT 300, {_HAND}); calibrate estimates it as −100 ln P(ends "
-    "at the border).",
+    "costs.leaves": "KITTI 300: issue 27, chosen leave-one-video-out for identity through "
+    f"occlusion (docs/DESIGN-NOTES.md); MOT 300, {_HAND}; calibrate estimates it as −100 ln "
+    "P(ends at the border).",
     "costs.lost": "default; calibrate estimates it as −100 ln P(ends inside).",
     "costs.dropped": "0: dropping an unconfirmed hypothesis is free by design.",
     "costs.hides": "default, hand-chosen, not tuned.",

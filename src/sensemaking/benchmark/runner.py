@@ -430,7 +430,46 @@ def _evaluate(
             s.name: _metrics_dict(report[s.name], PER_SEQUENCE_FIELDS) for s in bench.sequences
         }
         out[mode] = (_metrics_dict(report.combined()), per_seq)
+    occ = _occlusion(bench, inputs)
+    if occ is not None:
+        for combined, per_seq in out.values():
+            combined.update(occ[0])
+            for name, fields in occ[1].items():
+                per_seq[name].update(fields)
     return out
+
+
+def _occlusion(
+    bench: Benchmark, inputs: dict[str, Any]
+) -> tuple[dict[str, float], dict[str, dict[str, float]]] | None:
+    """Identity through occlusion (``sensemaking.evaluation.occlusion``) as metric fields
+    ``OCC_kept``, ``OCC_switched``, ``OCC_lost``, ``OCC_not_tracked`` (counts) and
+    ``OCC_kept_share`` (kept of tracked-before, a fraction): pooled, and per sequence. None
+    where the ground truth has no visibility (MOT15)."""
+    from sensemaking.evaluation.occlusion import OcclusionCounts, benchmark_occlusion
+
+    spec = bench.spec
+    if spec.rules == "mot15":
+        return None
+    fps = {s.name: float(s.info.fps) for s in bench.sequences}
+    fmt = "kitti" if spec.rules == "kitti" else "mot"
+    (per_seq,) = benchmark_occlusion(inputs, fmt, (spec.class_name or "car",), fps).values()
+
+    def fields(c: OcclusionCounts) -> dict[str, float]:
+        f: dict[str, float] = {
+            "OCC_kept": c.counts["kept"],
+            "OCC_switched": c.counts["switched"],
+            "OCC_lost": c.counts["lost"],
+            "OCC_not_tracked": c.counts["not tracked before"],
+        }
+        if c.tracked_before:
+            f["OCC_kept_share"] = c.kept_share
+        return f
+
+    counts = {n: OcclusionCounts.of(e) for n, e in per_seq.items()}
+    return fields(sum(counts.values(), OcclusionCounts())), {
+        n: fields(c) for n, c in counts.items()
+    }
 
 
 def _metrics_dict(m: Any, fields: SequenceABC[str] | None = None) -> dict[str, float]:

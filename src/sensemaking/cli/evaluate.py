@@ -14,6 +14,7 @@ Examples::
 from __future__ import annotations
 
 import argparse
+import json
 import logging
 from pathlib import Path
 
@@ -35,8 +36,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "rules (MOTChallenge, KITTI). --gt and --results are files (one sequence) or folders: "
             "MOTChallenge <gt>/<seq>/gt/gt.txt + <results>/<seq>.txt; "
             "KITTI <gt>/label_02/<seq>.txt (+ seqinfo.csv) + <results>/<seq>.txt. "
-            "Prints a table (percentages); --json writes "
-            "every field as fractions in [0, 1]."
+            "Prints a table (percentages) and identity through occlusion (KITTI, MOT17/16/20: "
+            "episodes where a ground-truth object is hidden and seen again; kept / switched / "
+            "lost / not tracked before, by gap length; sensemaking.evaluation.occlusion); "
+            "--json writes every field as fractions in [0, 1], the occlusion counts under "
+            '"occlusion".'
         ),
         epilog=(
             "ID switches: 'trackeval' counts a switch whenever a gt object's track id changes, "
@@ -197,11 +201,38 @@ def run(args: argparse.Namespace) -> int:
     )
     report = evaluate(sequences, rules, idsw_mode=args.idsw_mode)
     print(report.table(), end="")
+    occlusion = _occlusion(sequences, fmt, benchmark, classes)
     if args.json is not None:
+        doc = report.to_dict()
+        if occlusion is not None:
+            doc["occlusion"] = occlusion
         with atomic_write(args.json) as handle:
-            handle.write(report.to_json() + "\n")
+            handle.write(json.dumps(doc, indent=2, allow_nan=False) + "\n")
         log.info("wrote %s", args.json)
     return 0
+
+
+def _occlusion(
+    sequences: dict, fmt: str, benchmark: str, classes: list[str] | None
+) -> dict | None:
+    """Identity through occlusion (sensemaking.evaluation.occlusion): printed, and returned
+    for --json; None for ground truth without visibility (MOT15)."""
+    from sensemaking.evaluation.occlusion import (
+        OcclusionCounts,
+        benchmark_occlusion,
+        occlusion_json,
+        occlusion_table,
+    )
+
+    if fmt != "kitti" and benchmark == "mot15":
+        return None
+    fps = {n: _sequence_facts(fmt, Path(s.gt_path), n)[1] or 30.0 for n, s in sequences.items()}
+    episodes = benchmark_occlusion(sequences, fmt, classes or ("car", "pedestrian"), fps)
+    for label, per_seq in episodes.items():
+        counts = {n: OcclusionCounts.of(e) for n, e in per_seq.items()}
+        print()
+        print(occlusion_table(counts, f"{benchmark} / {label}"), end="")
+    return occlusion_json(episodes)
 
 
 def _kitti_types(classes: list[str] | None) -> bool:
@@ -266,7 +297,6 @@ def _sequence_facts(
 def _explanations(
     args: argparse.Namespace, fmt: str, benchmark: str, classes: list[str] | None, load
 ) -> int:
-    import json
 
     from sensemaking.config import parse_size
     from sensemaking.evaluation.explanations import (
