@@ -26,6 +26,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from sensemaking import asp
 from sensemaking.errors import InputError, SensemakingError
 
 __all__ = [
@@ -343,14 +344,14 @@ def probe_program(
     ``build(ctl)`` adds the program to a fresh ``clingo.Control(args)``; ``parts`` are grounded;
     ``locate`` rewrites clingo's message (locations in the user's files).
     """
-    import clingo
-
     lim = limits if limits is not None else Limits()
 
     def work(_send: Callable[[Any], None]) -> bool:
         messages: list[str] = []
-        ctl = clingo.Control(
-            [*args, "--models=1"], logger=lambda _c, m: messages.append(m), message_limit=5
+        ctl = asp.control(
+            [*args, *asp.limits(max_models=1)],
+            logger=lambda _c, m: messages.append(m),
+            message_limit=5,
         )
         try:
             build(ctl)

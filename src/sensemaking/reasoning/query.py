@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 import clingo
 from clingo import ast as clingo_ast
 
+from sensemaking import asp
 from sensemaking.errors import SensemakingError
 from sensemaking.reasoning.facts import scene_facts_text
 from sensemaking.sandbox import (
@@ -238,7 +239,7 @@ def solve(
         line, col = (int(first.group(1)), int(first.group(2))) if first else (None, None)
         return QueryError("invalid query: " + "\n".join(errs), errs, line, col)
 
-    ctl = clingo.Control([f"--models={max(0, int(max_models))}"], logger=logger, message_limit=20)
+    ctl = asp.control(asp.limits(max_models=max_models), logger=logger)
     ctl.add("base", [], program)
     shows = True
     if query is not None:
@@ -266,17 +267,9 @@ def solve(
         check_atoms(len(ctl.symbolic_atoms), max_atoms, "the query")
     except LimitError as exc:
         raise QueryError(str(exc)) from None
-    models: list[list[clingo.Symbol]] = []
-
-    def found(m: clingo.Model) -> None:
-        atoms = sorted(m.symbols(shown=True))
-        models.append(atoms)
-        if on_model is not None:
-            on_model(atoms)
-
-    res = ctl.solve(on_model=found)
+    models, satisfiable = asp.models(ctl, on_model=on_model)
     notes = [m for c, m in messages if "query:" in m]
-    return models, bool(res.satisfiable), notes, shows
+    return models, satisfiable, notes, shows
 
 
 def _solve_limited(
