@@ -83,6 +83,7 @@ from sensemaking.reasoning.situations import (
     SituationConfig,
     SituationMatch,
     SituationSolver,
+    StreamSolver,
     Warning,
 )
 from sensemaking.results import Event, FrameResult, TrackState
@@ -122,6 +123,11 @@ _SEVERITY: dict[str, int] = {
 #: situations whose severity rises to 3 when their object is on the ego lane
 _EGO_LANE_RAISES = frozenset({"HIDDEN_ENTITY", "BLOCKED_LANE", "EXITING_VEHICLE"})
 _USER_SEVERITY = 2
+#: monitors reason on a long-lived Control (StreamSolver) unless told ``stream=False``
+STREAM = True
+#: answers a StreamSolver gives before it starts a new Control (clasp keeps every atom it was
+#: given, and each solve costs more as they add up; a restart grounds the window once)
+STREAM_RESTART_FRAMES = 40
 
 
 @dataclass(frozen=True)
@@ -250,6 +256,10 @@ class SituationMonitor:
             (:func:`sensemaking.io.egomotion.read_ego_motion`), used where it has the frame
             (needs ``camera``).
         ego_config: :class:`~sensemaking.reasoning.egomotion.EgoMotionConfig`.
+        stream: reason on a long-lived clingo Control that takes each frame's facts once
+            (:class:`~sensemaking.reasoning.situations.StreamSolver`); False: the reference,
+            a fresh Control grounding the whole window every frame (same warnings, slower);
+            None: :data:`STREAM`.
 
     ``update(result)`` once per frame in order, ``reset()`` before another sequence.
     ``stats`` counts frames, clingo calls, answers from the cache of clingo's answers and the
@@ -267,6 +277,7 @@ class SituationMonitor:
         camera: CameraModel | None = None,
         ego_motion: EgoMotion | None = None,
         ego_config: EgoMotionConfig | None = None,
+        stream: bool | None = None,
     ):
         if profile not in PROFILES:
             raise ValueError(f"unknown scene profile {profile!r} (one of {', '.join(PROFILES)})")
@@ -296,7 +307,10 @@ class SituationMonitor:
                 if s in enabled:
                     self._skipped[s] = "needs the image size (for the ego corridor)"
         checked = [s.value for s in enabled if s not in self._skipped]
+        self._checked = checked
+        self._extra = tuple(extra_encodings)
         self._solver = SituationSolver(checked, self.config.constants, extra_encodings)
+        self.stream = STREAM if stream is None else bool(stream)
         # box area (px²) -> permille of the image
         self._permille = (
             0.0 if self.image_size is None else 1000.0 / (self.image_size[0] * self.image_size[1])
@@ -311,6 +325,7 @@ class SituationMonitor:
             if camera is None
             else WorldMotion(camera, self.fps, self.image_size, ego_motion, ego_config)
         )
+        self._stream: StreamSolver | None = None
         self.reset()
 
     # -- state ----------------------------------------------------------------------------------
@@ -335,6 +350,18 @@ class SituationMonitor:
         if self._world is not None:
             self._world.reset()
         self._calls0, self._hits0 = self._solver.calls, self._solver.hits
+        if self.stream:
+            static: list[Fact] = [("frame_ms", self._frame_ms), ("profile", self.profile)]
+            if self._world is not None:
+                static.append(("camera",))
+            self._stream = StreamSolver(
+                self._checked,
+                self.config.constants,
+                self._extra,
+                static_facts=static,
+                restart_frames=STREAM_RESTART_FRAMES,
+            )
+            self._calls0 = 0
 
     @property
     def skipped(self) -> dict[str, str]:
@@ -366,8 +393,11 @@ class SituationMonitor:
                 )
         self._last_frame = f
         self._observe(result)
-        facts, tracks = self._facts()
-        found = self._read(self._solver.answer(facts), tracks, f)
+        if self._stream is not None:
+            found = self._stream_answer()
+        else:
+            facts, tracks = self._facts()
+            found = self._read(self._solver.answer(facts), tracks, f)
         self._found, self._active = found, None
         self._ended = [
             self._end(key, min(f, ep.last + self._rearm + 1), "cleared")
@@ -384,8 +414,11 @@ class SituationMonitor:
             ep.last = f
         self._forget(f)
         self.stats["frames"] += 1
-        self.stats["solver_calls"] = self._solver.calls - self._calls0
-        self.stats["cache_hits"] = self._solver.hits - self._hits0
+        if self._stream is not None:
+            self.stats["solver_calls"] = self._stream.calls
+        else:
+            self.stats["solver_calls"] = self._solver.calls - self._calls0
+            self.stats["cache_hits"] = self._solver.hits - self._hits0
         self.stats["ms"] += (time.perf_counter() - t0) * 1000.0
         return new
 
@@ -659,15 +692,73 @@ class SituationMonitor:
                 out.append(("anticipated_in_corridor", t, o, r))
         return tuple(out), tracks
 
+    def _stream_answer(self) -> list[SituationMatch]:
+        """The matches of the current frame from the stream solver: the new frame's facts go
+        in, the frame that left the window goes out (frames and tracks as they are)."""
+        solver = self._stream
+        assert solver is not None
+        frames = self._frames
+        fr = frames[-1]
+        n = fr.frame
+        first = frames[0].frame
+        for g in solver.frames:
+            if g < first:
+                solver.drop_frame(g)
+        solver.add_frame(n, self._frame_facts(fr))
+        seen = {t for x in frames for t in x.ids}
+        window: list[Fact] = []
+        if self._seq_start is not None and self._seq_start >= first:
+            window.append(("seq_start", self._seq_start))
+        for t in seen:
+            c = self._class.get(t, 0)
+            window.append(("track", t, asp_name(class_name(c))))
+            if c in VEHICLES:
+                window.append(("vehicle", t))
+            elif c in PEOPLE:
+                window.append(("person", t))
+        window += [("lane", term) for term in fr.lanes]
+        for a in self._anticip.values():
+            r = a.reappear_frame
+            x, y = int(round(a.position[0])), int(round(a.position[1]))
+            window.append(("anticipated", a.track, a.occluder, r, x, y))
+            if a.in_corridor:
+                window.append(("anticipated_in_corridor", a.track, a.occluder, r))
+        solver.set_window(window)
+        current: list[Fact] = [("now", n)]
+        current += [("area", t, n, a) for t, a in fr.area.items()]
+        return self._read(solver.answer(n, current), None, 0)
+
+    def _frame_facts(self, fr: _Frame) -> list[Fact]:
+        """The facts of one frame of the window at its own frame number, tracks by id."""
+        g = fr.frame
+        out: list[Fact] = [("state", t, g, s) for t, s in fr.state.items()]
+        out += [("hidden_by", t, o, g) for t, o in fr.hidden_by.items()]
+        out += [("in_corridor", t, g) for t in fr.in_corr]
+        out += [("motion", t, g, k) for t, kinds in fr.motion.items() for k in kinds]
+        out += [("ra", a, b, g, rx, ry) for a, b, rx, ry in fr.ra]
+        out += [("front", a, b, g) for a, b in fr.front]
+        out += [("occurs_at", (e.name, *e.args), e.frame) for e in fr.events]
+        out += [("on_lane", t, term, g) for t, terms in fr.on_lane.items() for term in terms]
+        out += [("surface", t, g, s) for t, s in fr.surface.items()]
+        if self._world is not None:
+            ids = {t: t for t in fr.world}
+            out += [x for x in world_facts(fr.ego, fr.world, ids, g) if x[0] != "camera"]
+        return out
+
     @staticmethod
-    def _read(atoms: Iterable[clingo.Symbol], tracks: list[int], now: int) -> list[SituationMatch]:
-        """``warn/2`` and ``info/4`` atoms as matches: track indices back to ids, ``frame(F)``
-        back to frame numbers; sorted by situation (the built-in ones first) and objects."""
+    def _read(
+        atoms: Iterable[clingo.Symbol], tracks: list[int] | None, now: int
+    ) -> list[SituationMatch]:
+        """``warn/2`` and ``info/4`` atoms as matches: track indices back to ids (``tracks``;
+        None: the atoms name ids), ``frame(F)`` back to frame numbers (``now`` is frame 0);
+        sorted by situation (the built-in ones first) and objects."""
 
         def track(sym: clingo.Symbol) -> int:
-            if sym.type != clingo.SymbolType.Number or not 0 <= sym.number < len(tracks):
+            if sym.type != clingo.SymbolType.Number or (
+                tracks is not None and not 0 <= sym.number < len(tracks)
+            ):
                 raise InputError(f"situation encodings: {sym} is not a track of the window")
-            return tracks[sym.number]
+            return sym.number if tracks is None else tracks[sym.number]
 
         def objects(sym: clingo.Symbol) -> tuple[int, ...]:
             return (
