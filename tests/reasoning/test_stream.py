@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 
 import pytest
+from conftest import SHARED_DATA
 from test_scene_helpers import build_results, cyclist_behind_turning_car
 from test_situations import (
     LANES,
@@ -22,8 +23,6 @@ from sensemaking.reasoning import online
 from sensemaking.reasoning.context import SceneContext
 from sensemaking.reasoning.online import SituationMonitor
 from sensemaking.reasoning.situations import StreamSolver
-
-from conftest import SHARED_DATA
 
 
 def _records(mon: SituationMonitor, results) -> list:
@@ -145,16 +144,19 @@ def _track_warnings(argv: list[str], out, stream: bool, monkeypatch) -> list[dic
 
     monkeypatch.setattr(online, "STREAM", stream)
     path = out / f"warnings-{stream}.jsonl"
-    code = main(["--quiet", "track", *argv, "--output", str(out / "t.txt"), "--warnings", str(path)])
-    assert code == 0
+    argv = [*argv, "--output", str(out / "t.txt"), "--warnings", str(path)]
+    assert main(["--quiet", "track", *argv]) == 0
     return [json.loads(line) for line in path.read_text().splitlines()]
 
 
+KITTI_0001 = SHARED_DATA / "kitti/detections/rrc/car/0001.txt"
+MOT17_09 = SHARED_DATA / "mot17/MOT17-09-YOLOX-half/det/det.txt"
 SEQUENCES = {
-    "kitti-rrc-car-0001": ["--detections", str(SHARED_DATA / "kitti/detections/rrc/car/0001.txt"),
-                           "--format", "kitti"],
-    "mot17-09-yolox-half": ["--detections", str(SHARED_DATA / "mot17/MOT17-09-YOLOX-half/det/det.txt"),
-                            "--format", "mot", "--profile", "driving"],
+    "kitti-rrc-car-0001": ["--detections", str(KITTI_0001), "--format", "kitti"],
+    "mot17-09-yolox-half": [
+        *("--detections", str(MOT17_09), "--format", "mot"),
+        *("--profile", "driving"),
+    ],
 }
 
 

@@ -360,6 +360,7 @@ class SituationMonitor:
                 self._extra,
                 static_facts=static,
                 restart_frames=STREAM_RESTART_FRAMES,
+                window=self._window,
             )
             self._calls0 = 0
 

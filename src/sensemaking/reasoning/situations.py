@@ -370,6 +370,7 @@ FRAME_ARGUMENT: dict[tuple[str, int], int] = {
     ("closing", 4): 1,
     ("world_speed", 4): 1,
     ("world_long", 3): 1,
+    ("occurs_at", 2): 1,
 }
 #: inputs fixed for the life of a monitor: base facts of the stream solver, so that the rules
 #: they decide (the scene profile's ego_vehicle, image) are simplified once, at grounding
@@ -587,9 +588,99 @@ def _used(stmts: list[Any]) -> list[Any]:
     return [s for s in stmts if id(s) not in drop]
 
 
+def _in_window(literals: list[Any], position: Mapping[Any, int]) -> list[Any] | None:
+    """Comparisons ``F > n - sm_window`` for the frame argument F of every atom of
+    ``literals`` about one frame (``position``), anonymous ones named first: so that facts of
+    frames that left the window are never joined. ``literals`` are changed in place where an
+    anonymous variable is named. None when a frame argument cannot be bound so (it is not a
+    variable, or an anonymous one of a negative literal)."""
+    out: list[Any] = []
+    for i, lit in enumerate(literals):
+        if lit.ast_type != clingo_ast.ASTType.Literal:
+            continue
+        atom = lit.atom
+        if atom.ast_type != clingo_ast.ASTType.SymbolicAtom:
+            continue
+        sig = _signature(atom)
+        if sig not in position:
+            continue
+        term = atom.symbol
+        if term.ast_type != clingo_ast.ASTType.Function:
+            return None
+        p = position[sig]
+        arg = term.arguments[p]
+        if arg.ast_type != clingo_ast.ASTType.Variable:
+            return None
+        if arg.name == "_":
+            if lit.sign != clingo_ast.Sign.NoSign:
+                return None
+            _in_window.fresh += 1  # type: ignore[attr-defined]
+            name = f"SmF{_in_window.fresh}"  # type: ignore[attr-defined]
+            args = list(term.arguments)
+            args[p] = arg.update(name=name)
+            literals[i] = lit.update(atom=atom.update(symbol=term.update(arguments=args)))
+        else:
+            name = arg.name
+        out.append(_window_literal(name))
+    return out
+
+
+_in_window.fresh = 0  # type: ignore[attr-defined]
+
+
+@cache
+def _window_template() -> Any:
+    found: list[Any] = []
+    clingo_ast.parse_string(
+        "sm :- SmX > n - sm_window.",
+        lambda st: found.append(st) if st.ast_type == clingo_ast.ASTType.Rule else None,
+    )
+    return found[0].body[0]
+
+
+def _window_literal(var: str) -> Any:
+    class Rename(clingo_ast.Transformer):
+        def visit_Variable(self, v: Any) -> Any:  # noqa: N802
+            return v.update(name=var) if v.name == "SmX" else v
+
+    return Rename()(_window_template())
+
+
+def _windowed(rule: Any, position: Mapping[Any, int]) -> Any | None:
+    """``rule`` with its frames kept to the window (see :func:`_in_window`), or None."""
+    body = list(rule.body)
+    extra = _in_window(body, position)
+    if extra is None:
+        return None
+    for i, lit in enumerate(body):
+        if lit.ast_type == clingo_ast.ASTType.Literal and (
+            lit.atom.ast_type == clingo_ast.ASTType.BodyAggregate
+        ):
+            elems = []
+            for e in lit.atom.elements:
+                cond = list(e.condition)
+                more = _in_window(cond, position)
+                if more is None:
+                    return None
+                elems.append(e.update(condition=cond + more))
+            body[i] = lit.update(atom=lit.atom.update(elements=elems))
+        elif lit.ast_type == clingo_ast.ASTType.ConditionalLiteral or (
+            lit.ast_type == clingo_ast.ASTType.Literal
+            and lit.atom.ast_type
+            not in (
+                clingo_ast.ASTType.SymbolicAtom,
+                clingo_ast.ASTType.Comparison,
+                clingo_ast.ASTType.BooleanConstant,
+            )
+        ):
+            return None  # conditions and other aggregates: not rewritten
+    unique = list({str(x): x for x in extra}.values())  # one comparison per variable
+    return rule.update(body=body + unique)
+
+
 def _stream_program(
     stmts: Sequence[Any], parts: Sequence[str], inputs: Mapping[tuple[str, int], int]
-) -> tuple[list[Any], _Layers]:
+) -> tuple[list[Any], _Layers, bool]:
     """The statements of ``base`` and the ``parts`` asked for, rewritten into the three parts
     of the stream solver: ``base``, ``frame(f)`` and ``now(n)`` (see :class:`_Layers`)."""
     keep: list[Any] = []
@@ -652,6 +743,7 @@ def _stream_program(
             f"{name}({xs}{',' if xs else ''}n) :- {name}{f'({xs})' if xs else ''}, {_STEP}(n).",
             lambda st: now.append(st) if st.ast_type == clingo_ast.ASTType.Rule else None,
         )
+    windowed = True  # every now-rule keeps its frames to the window
     for s in keep:
         t = s.ast_type
         if t == clingo_ast.ASTType.Rule:
@@ -664,7 +756,12 @@ def _stream_program(
                 var = _frame_variable(head, layers.position[sig])  # type: ignore[index]
                 frame.append(Bind(var or "")(s))
             else:
-                now.append(Tag()(s).update(body=[*Tag()(s).body, guard]))
+                w = _windowed(s, layers.position)
+                if w is None:
+                    windowed = False
+                    w = s
+                tagged = Tag()(w)
+                now.append(tagged.update(body=[*tagged.body, guard]))
         elif t in (clingo_ast.ASTType.ShowSignature, clingo_ast.ASTType.Defined):
             sig = (s.name, s.arity)
             if sig in now_preds:
@@ -675,7 +772,7 @@ def _stream_program(
             base.append(s)
         else:  # #show terms, #external, #minimize ...: about the answered frame
             now.append(Tag()(s))
-    return base + frame + now, layers
+    return base + frame + now, layers, windowed
 
 
 def _fact(sym: clingo.Symbol) -> Fact:
@@ -721,6 +818,7 @@ class StreamSolver:
         extra_encodings: Sequence[str | PathLike[str]] = (),
         static_facts: Sequence[Fact] = (),
         restart_frames: int = 40,
+        window: int | None = None,
     ):
         situation_constants(constants)  # validates
         self._init = (
@@ -729,10 +827,16 @@ class StreamSolver:
             tuple(str(p) for p in extra_encodings),
             tuple(static_facts),
             int(restart_frames),
+            window,
         )
         self._args = ["--warn=none"] + [f"-c{k}={int(v)}" for k, v in (constants or {}).items()]
         stmts = _shipped()[0] + tuple(s for p in extra_encodings for s in _parse_user_encoding(p))
-        self._program, self.layers = _stream_program(stmts, tuple(parts), FRAME_ARGUMENT)
+        self._program, self.layers, windowed = _stream_program(stmts, tuple(parts), FRAME_ARGUMENT)
+        # frames as facts (the grounder decides the rules about them once, clasp never sees
+        # them) when every rule that joins frames keeps them to the window; else externals,
+        # released as frames leave
+        self.plain = window is not None and windowed
+        self._args.append(f"-csm_window={int(window) if window is not None else 2**30}")
         self._static = tuple(static_facts)
         self._restart = max(1, int(restart_frames))
         self._frames: OrderedDict[int, tuple[clingo.Symbol, ...]] = OrderedDict()
@@ -779,9 +883,10 @@ class StreamSolver:
         self._parts: list[tuple[str, Sequence[clingo.Symbol]]] = [("base", [])]
         self._add: list[clingo.Symbol] = [symbol(f) for f in self._static]
         self._facts = len(self._add)  # the static facts are facts, the rest externals
+        self._frame_adds: list[clingo.Symbol] = []
         self._release: list[clingo.Symbol] = []
         for f, syms in self._frames.items():
-            self._add += syms
+            self._frame_adds += syms
             self._parts.append(("frame", [clingo.Number(f)]))
         self._shown = self._window
         self._window = set()
@@ -790,12 +895,15 @@ class StreamSolver:
         """The facts of a frame entering the window (each holding at ``frame``)."""
         syms = tuple(symbol(f) for f in facts)
         self._frames[frame] = syms
-        self._add += syms
+        self._frame_adds += syms
         self._parts.append(("frame", [clingo.Number(frame)]))
 
     def drop_frame(self, frame: int) -> None:
-        """Retract the facts of a frame leaving the window."""
-        self._release += self._frames.pop(frame, ())
+        """Retract the facts of a frame leaving the window (facts: the rules do not join them
+        any more; externals: released)."""
+        syms = self._frames.pop(frame, ())
+        if not self.plain:
+            self._release += syms
 
     @property
     def frames(self) -> list[int]:
@@ -828,8 +936,12 @@ class StreamSolver:
                 backend.add_external(atom(s), clingo.TruthValue.Release)
             for s in self._add[: self._facts]:
                 backend.add_rule([atom(s)])
-            for s in self._add[self._facts :]:
-                backend.add_external(atom(s), true_)
+            if self.plain:
+                for s in self._frame_adds:
+                    backend.add_rule([atom(s)])
+            else:
+                for s in self._frame_adds:
+                    backend.add_external(atom(s), true_)
             for s in self._current:
                 backend.add_external(atom(s), true_)
             for s in new:
@@ -841,6 +953,7 @@ class StreamSolver:
         ctl.ground([*self._parts, ("now", [n])])
         self._current.append(guard)
         self._add, self._facts, self._release, self._parts = [], 0, [], []
+        self._frame_adds = []
         ctl.assign_external(guard, True)
         found: list[clingo.Symbol] = []
 
