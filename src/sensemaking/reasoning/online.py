@@ -4,10 +4,12 @@ Per frame the monitor condenses the tracker's :class:`~sensemaking.results.Frame
 numbers the rules need -- states and occluders, which boxes stand in the ego corridor and how
 much of the image they take, the qualitative motion of visible boxes, the rectangle relations
 of near pairs involving a vehicle, events, lanes and ground labels, the anticipated
-reappearance of hidden tracks -- and keeps them for the last ``window`` frames. Every frame it
-gives the whole window to clingo as facts (frames relative to now, tracks by their index in the
-window: see situations.lp) and reads ``warn/2`` and ``info/4`` off the answer: every situation,
-built in or added in a user's encoding, is decided by situations.lp, never in Python.
+reappearance of hidden tracks -- and keeps them for the last ``window`` frames. Each frame's
+facts go once to a long-lived clingo Control
+(:class:`~sensemaking.reasoning.situations.StreamSolver`: frames by number, tracks by id), which
+grounds what is new and answers ``warn/2`` and ``info/4`` for the window; ``stream=False`` is
+the reference, the whole window on a fresh Control every frame. Every situation, built in or
+added in a user's encoding, is decided by situations.lp, never in Python.
 
 Warnings are episodes. A warning is returned when its situation starts to hold (the start of
 an episode); the situation holding on over the next frames is the same episode, not a new
@@ -350,6 +352,9 @@ class SituationMonitor:
         if self._world is not None:
             self._world.reset()
         self._calls0, self._hits0 = self._solver.calls, self._solver.hits
+        self._base = 0  # the stream solver's frame 0
+        self._slot: dict[int, int] = {}  # track id -> slot in the stream solver's facts
+        self._slots: list[int] | None = None  # slot -> track id; None: not started
         if self.stream:
             static: list[Fact] = [("frame_ms", self._frame_ms), ("profile", self.profile)]
             if self._world is not None:
@@ -695,55 +700,100 @@ class SituationMonitor:
 
     def _stream_answer(self) -> list[SituationMatch]:
         """The matches of the current frame from the stream solver: the new frame's facts go
-        in, the frame that left the window goes out (frames and tracks as they are)."""
+        in, the frame that left the window goes out. Frames are given relative to the frame of
+        the solver's last restart and tracks by a slot (the window's tracks in the order of
+        their ids at a restart, then new tracks in turn): clingo keeps every symbol it made for
+        good, and so the symbols of a long run stay a bounded set."""
         solver = self._stream
         assert solver is not None
         frames = self._frames
         fr = frames[-1]
         n = fr.frame
         first = frames[0].frame
-        for g in solver.frames:
-            if g < first:
-                solver.drop_frame(g)
-        solver.add_frame(n, self._frame_facts(fr))
+        if self._slots is None or solver.due:
+            if self._slots is not None:
+                solver.restart(keep=False)
+            self._base, self._slot, self._slots = n, {}, []
+            for t in sorted(self._mentioned()):
+                self._local(t)
+            for x in frames:
+                solver.add_frame(x.frame - n, self._frame_facts(x))
+        else:
+            for g in solver.frames:
+                if g + self._base < first:
+                    solver.drop_frame(g)
+            solver.add_frame(n - self._base, self._frame_facts(fr))
+        base, local = self._base, self._local
         seen = {t for x in frames for t in x.ids}
         window: list[Fact] = []
         if self._seq_start is not None and self._seq_start >= first:
-            window.append(("seq_start", self._seq_start))
+            window.append(("seq_start", self._seq_start - base))
         for t in seen:
             c = self._class.get(t, 0)
-            window.append(("track", t, asp_name(class_name(c))))
+            k = local(t)
+            window.append(("track", k, asp_name(class_name(c))))
             if c in VEHICLES:
-                window.append(("vehicle", t))
+                window.append(("vehicle", k))
             elif c in PEOPLE:
-                window.append(("person", t))
+                window.append(("person", k))
         window += [("lane", term) for term in fr.lanes]
         for a in self._anticip.values():
-            r = a.reappear_frame
-            x, y = int(round(a.position[0])), int(round(a.position[1]))
-            window.append(("anticipated", a.track, a.occluder, r, x, y))
+            t, o, r = local(a.track), local(a.occluder), a.reappear_frame - base
+            px, py = int(round(a.position[0])), int(round(a.position[1]))
+            window.append(("anticipated", t, o, r, px, py))
             if a.in_corridor:
-                window.append(("anticipated_in_corridor", a.track, a.occluder, r))
+                window.append(("anticipated_in_corridor", t, o, r))
         solver.set_window(window)
-        current: list[Fact] = [("now", n)]
-        current += [("area", t, n, a) for t, a in fr.area.items()]
-        return self._read(solver.answer(n, current), None, 0)
+        g = n - base
+        current: list[Fact] = [("now", g)]
+        current += [("area", local(t), g, a) for t, a in fr.area.items()]
+        return self._read(solver.answer(g, current), self._slots, base)
+
+    def _mentioned(self) -> set[int]:
+        """The tracks the window's facts name: seen, occluders, events' arguments."""
+        out: set[int] = set()
+        for fr in self._frames:
+            out.update(fr.ids)
+            out.update(fr.hidden_by.values())
+            for e in fr.events:
+                out.update(a for a in e.args if isinstance(a, int))
+        return out
+
+    def _local(self, t: int) -> int:
+        """The slot of track ``t`` in the stream solver's facts (a new one if it has none)."""
+        k = self._slot.get(t)
+        if k is None:
+            assert self._slots is not None
+            k = self._slot[t] = len(self._slots)
+            self._slots.append(t)
+        return k
 
     def _frame_facts(self, fr: _Frame) -> list[Fact]:
-        """The facts of one frame of the window at its own frame number, tracks by id."""
-        g = fr.frame
-        out: list[Fact] = [("state", t, g, s) for t, s in fr.state.items()]
-        out += [("hidden_by", t, o, g) for t, o in fr.hidden_by.items()]
-        out += [("in_corridor", t, g) for t in fr.in_corr]
-        out += [("motion", t, g, k) for t, kinds in fr.motion.items() for k in kinds]
-        out += [("ra", a, b, g, rx, ry) for a, b, rx, ry in fr.ra]
-        out += [("front", a, b, g) for a, b in fr.front]
-        out += [("occurs_at", (e.name, *e.args), e.frame) for e in fr.events]
-        out += [("on_lane", t, term, g) for t, terms in fr.on_lane.items() for term in terms]
-        out += [("surface", t, g, s) for t, s in fr.surface.items()]
+        """The facts of one frame of the window (frame relative to the solver's base, tracks
+        by slot)."""
+        g, local = fr.frame - self._base, self._local
+        out: list[Fact] = [("state", local(t), g, s) for t, s in fr.state.items()]
+        out += [("hidden_by", local(t), local(o), g) for t, o in fr.hidden_by.items()]
+        out += [("in_corridor", local(t), g) for t in fr.in_corr]
+        out += [("motion", local(t), g, k) for t, kinds in fr.motion.items() for k in kinds]
+        out += [("ra", local(a), local(b), g, rx, ry) for a, b, rx, ry in fr.ra]
+        out += [("front", local(a), local(b), g) for a, b in fr.front]
+        out += [
+            # constants in the events of a user's encoding stay as they are
+            (
+                "occurs_at",
+                (e.name, *(local(a) if isinstance(a, int) else a for a in e.args)),
+                e.frame - self._base,
+            )
+            for e in fr.events
+        ]
+        out += [
+            ("on_lane", local(t), term, g) for t, terms in fr.on_lane.items() for term in terms
+        ]
+        out += [("surface", local(t), g, s) for t, s in fr.surface.items()]
         if self._world is not None:
-            ids = {t: t for t in fr.world}
-            out += [x for x in world_facts(fr.ego, fr.world, ids, g) if x[0] != "camera"]
+            slots = {t: local(t) for t in fr.world}
+            out += [x for x in world_facts(fr.ego, fr.world, slots, g) if x[0] != "camera"]
         return out
 
     @staticmethod

@@ -805,10 +805,10 @@ class StreamSolver:
     a frame go to clingo at once, in ``answer``: one backend session, one ground call.
 
     ``answer(n)`` returns the ``warn/2`` and ``info/4`` atoms of the first answer set, as the
-    fresh :class:`SituationSolver` would for the same facts. Released atoms leave the
-    grounder's domains (``Control.cleanup``), but clasp keeps every atom it was given and each
-    solve costs more as they add up: every ``restart_frames`` answers the solver starts a new
-    Control and grounds the window on it in one call.
+    fresh :class:`SituationSolver` would for the same facts. What a Control holds grows with
+    the frames it was given (frames as facts stay in the domains, kept out of the answers by
+    the window; clasp keeps every atom): after ``restart_frames`` answers :attr:`due` says so,
+    and :meth:`restart` starts a new Control that grounds the window in one call.
     """
 
     def __init__(
@@ -968,7 +968,19 @@ class StreamSolver:
 
         ctl.solve(on_model=first)
         self._age += 1
-        if self._age >= self._restart or len(self._known) > _SYMBOLS_KEPT:
-            self.restarts += 1
-            self._start()
         return tuple(found)
+
+    @property
+    def due(self) -> bool:
+        """Whether the Control has answered ``restart_frames`` times (or declared many window
+        facts) and should be replaced (:meth:`restart`)."""
+        return self._age >= self._restart or len(self._known) > _SYMBOLS_KEPT
+
+    def restart(self, keep: bool = True) -> None:
+        """A new Control; the frames of the window are given again with the next answer
+        (``keep``), or forgotten, for the caller to add them again (e.g. renumbered)."""
+        self.restarts += 1
+        if not keep:
+            self._frames.clear()
+            self._shown = set()
+        self._start()
