@@ -800,9 +800,11 @@ class StreamSolver:
     frame over what the window holds. Facts are externals: a frame's facts are added when it
     enters (``add_frame``) and released when it leaves (``drop_frame``); facts about the whole
     window (a track's class, the first frame, the anticipations) are switched on and off
-    (``set_window``); facts of one answer (``now``) are released after it. Frames are absolute
-    frame numbers and tracks their ids, so a fact keeps its atom while it holds. All changes of
-    a frame go to clingo at once, in ``answer``: one backend session, one ground call.
+    (``set_window``); facts of one answer (``now``) are released after it. Frames and tracks are
+    numbers the caller chooses, increasing frames (the monitor: frames relative to the last
+    restart, tracks by slot, so that a long run makes a bounded set of clingo symbols). All
+    changes of a frame go to clingo at once, in ``answer``: one backend session, one ground
+    call.
 
     ``answer(n)`` returns the ``warn/2`` and ``info/4`` atoms of the first answer set, as the
     fresh :class:`SituationSolver` would for the same facts. What a Control holds grows with
