@@ -4,10 +4,12 @@ Per frame the monitor condenses the tracker's :class:`~sensemaking.results.Frame
 numbers the rules need -- states and occluders, which boxes stand in the ego corridor and how
 much of the image they take, the qualitative motion of visible boxes, the rectangle relations
 of near pairs involving a vehicle, events, lanes and ground labels, the anticipated
-reappearance of hidden tracks -- and keeps them for the last ``window`` frames. Every frame it
-gives the whole window to clingo as facts (frames relative to now, tracks by their index in the
-window: see situations.lp) and reads ``warn/2`` and ``info/4`` off the answer: every situation,
-built in or added in a user's encoding, is decided by situations.lp, never in Python.
+reappearance of hidden tracks -- and keeps them for the last ``window`` frames. Each frame's
+facts go once to a long-lived clingo Control
+(:class:`~sensemaking.reasoning.situations.StreamSolver`: frames by number, tracks by id), which
+grounds what is new and answers ``warn/2`` and ``info/4`` for the window; ``stream=False`` is
+the reference, the whole window on a fresh Control every frame. Every situation, built in or
+added in a user's encoding, is decided by situations.lp, never in Python.
 
 Warnings are episodes. A warning is returned when its situation starts to hold (the start of
 an episode); the situation holding on over the next frames is the same episode, not a new
@@ -84,6 +86,7 @@ from sensemaking.reasoning.situations import (
     SituationMatch,
     SituationSolver,
     SituationWarning,
+    StreamSolver,
 )
 from sensemaking.records import end_record
 from sensemaking.results import Event, FrameResult, TrackState
@@ -123,6 +126,11 @@ _SEVERITY: dict[str, int] = {
 #: situations whose severity rises to 3 when their object is on the ego lane
 _EGO_LANE_RAISES = frozenset({"HIDDEN_ENTITY", "BLOCKED_LANE", "EXITING_VEHICLE"})
 _USER_SEVERITY = 2
+#: monitors reason on a long-lived Control (StreamSolver) unless told ``stream=False``
+STREAM = True
+#: answers a StreamSolver gives before it starts a new Control (clasp keeps every atom it was
+#: given, and each solve costs more as they add up; a restart grounds the window once)
+STREAM_RESTART_FRAMES = 40
 
 
 @dataclass(frozen=True)
@@ -229,6 +237,10 @@ class SituationMonitor:
         ego_config: :class:`~sensemaking.reasoning.egomotion.EgoMotionConfig`.
         limits: time, memory and atom limits of ``extra_encodings`` (the user's code), checked
             once before any frame (:mod:`sensemaking.sandbox`); default: ``ask``'s.
+        stream: reason on a long-lived clingo Control that takes each frame's facts once
+            (:class:`~sensemaking.reasoning.situations.StreamSolver`); False: the reference,
+            a fresh Control grounding the whole window every frame (same warnings, slower);
+            None: :data:`STREAM`.
 
     ``update(result)`` once per frame in order, ``reset()`` before another sequence.
     ``stats`` counts frames, clingo calls, answers from the cache of clingo's answers and the
@@ -247,6 +259,7 @@ class SituationMonitor:
         ego_motion: EgoMotion | None = None,
         ego_config: EgoMotionConfig | None = None,
         limits: Limits | None = None,
+        stream: bool | None = None,
     ):
         if profile not in PROFILES:
             raise ValueError(f"unknown scene profile {profile!r} (one of {', '.join(PROFILES)})")
@@ -276,9 +289,12 @@ class SituationMonitor:
                 if s in enabled:
                     self._skipped[s] = "needs the image size (for the ego corridor)"
         checked = [s.value for s in enabled if s not in self._skipped]
+        self._checked = checked
+        self._extra = tuple(extra_encodings)
         self._solver = SituationSolver(
             checked, self.config.constants, extra_encodings, limits=limits
         )
+        self.stream = STREAM if stream is None else bool(stream)
         # box area (px²) -> permille of the image
         self._permille = (
             0.0 if self.image_size is None else 1000.0 / (self.image_size[0] * self.image_size[1])
@@ -293,6 +309,7 @@ class SituationMonitor:
             if camera is None
             else WorldMotion(camera, self.fps, self.image_size, ego_motion, ego_config)
         )
+        self._stream: StreamSolver | None = None
         self.reset()
 
     # -- state ----------------------------------------------------------------------------------
@@ -318,6 +335,22 @@ class SituationMonitor:
         if self._world is not None:
             self._world.reset()
         self._calls0, self._hits0 = self._solver.calls, self._solver.hits
+        self._base = 0  # the stream solver's frame 0
+        self._slot: dict[int, int] = {}  # track id -> slot in the stream solver's facts
+        self._slots: list[int] | None = None  # slot -> track id; None: not started
+        if self.stream:
+            static: list[Fact] = [("frame_ms", self._frame_ms), ("profile", self.profile)]
+            if self._world is not None:
+                static.append(("camera",))
+            self._stream = StreamSolver(
+                self._checked,
+                self.config.constants,
+                self._extra,
+                static_facts=static,
+                restart_frames=STREAM_RESTART_FRAMES,
+                window=self._window,
+            )
+            self._calls0 = 0
 
     @property
     def skipped(self) -> dict[str, str]:
@@ -348,8 +381,11 @@ class SituationMonitor:
                 new.append(SituationWarning(f, s.name, (), note, {"skipped": why}))
         self._last_frame = f
         self._observe(result)
-        facts, tracks = self._facts()
-        found = self._read(self._solver.answer(facts), tracks, f)
+        if self._stream is not None:
+            found = self._stream_answer()
+        else:
+            facts, tracks = self._facts()
+            found = self._read(self._solver.answer(facts), tracks, f)
         self._found, self._active = found, None
         self._ended = [
             self._end(key, min(f, ep.last + self._rearm + 1), "cleared")
@@ -366,8 +402,11 @@ class SituationMonitor:
             ep.last = f
         self._forget(f)
         self.stats["frames"] += 1
-        self.stats["solver_calls"] = self._solver.calls - self._calls0
-        self.stats["cache_hits"] = self._solver.hits - self._hits0
+        if self._stream is not None:
+            self.stats["solver_calls"] = self._stream.calls
+        else:
+            self.stats["solver_calls"] = self._solver.calls - self._calls0
+            self.stats["cache_hits"] = self._solver.hits - self._hits0
         self.stats["ms"] += (time.perf_counter() - t0) * 1000.0
         return new
 
@@ -641,15 +680,118 @@ class SituationMonitor:
                 out.append(("anticipated_in_corridor", t, o, r))
         return tuple(out), tracks
 
+    def _stream_answer(self) -> list[SituationMatch]:
+        """The matches of the current frame from the stream solver: the new frame's facts go
+        in, the frame that left the window goes out. Frames are given relative to the frame of
+        the solver's last restart and tracks by a slot (the window's tracks in the order of
+        their ids at a restart, then new tracks in turn): clingo keeps every symbol it made for
+        good, and so the symbols of a long run stay a bounded set."""
+        solver = self._stream
+        assert solver is not None
+        frames = self._frames
+        fr = frames[-1]
+        n = fr.frame
+        first = frames[0].frame
+        if self._slots is None or solver.due:
+            if self._slots is not None:
+                solver.restart(keep=False)
+            self._base, self._slot, self._slots = n, {}, []
+            for t in sorted(self._mentioned()):
+                self._local(t)
+            for x in frames:
+                solver.add_frame(x.frame - n, self._frame_facts(x))
+        else:
+            for g in solver.frames:
+                if g + self._base < first:
+                    solver.drop_frame(g)
+            solver.add_frame(n - self._base, self._frame_facts(fr))
+        base, local = self._base, self._local
+        seen = {t for x in frames for t in x.ids}
+        window: list[Fact] = []
+        if self._seq_start is not None and self._seq_start >= first:
+            window.append(("seq_start", self._seq_start - base))
+        for t in seen:
+            c = self._class.get(t, 0)
+            k = local(t)
+            window.append(("track", k, asp_name(class_name(c))))
+            if c in VEHICLES:
+                window.append(("vehicle", k))
+            elif c in PEOPLE:
+                window.append(("person", k))
+        window += [("lane", term) for term in fr.lanes]
+        for a in self._anticip.values():
+            t, o, r = local(a.track), local(a.occluder), a.reappear_frame - base
+            px, py = int(round(a.position[0])), int(round(a.position[1]))
+            window.append(("anticipated", t, o, r, px, py))
+            if a.in_corridor:
+                window.append(("anticipated_in_corridor", t, o, r))
+        solver.set_window(window)
+        g = n - base
+        current: list[Fact] = [("now", g)]
+        current += [("area", local(t), g, a) for t, a in fr.area.items()]
+        return self._read(solver.answer(g, current), self._slots, base)
+
+    def _mentioned(self) -> set[int]:
+        """The tracks the window's facts name: seen, occluders, events' arguments."""
+        out: set[int] = set()
+        for fr in self._frames:
+            out.update(fr.ids)
+            out.update(fr.hidden_by.values())
+            for e in fr.events:
+                out.update(a for a in e.args if isinstance(a, int))
+        return out
+
+    def _local(self, t: int) -> int:
+        """The slot of track ``t`` in the stream solver's facts (a new one if it has none)."""
+        k = self._slot.get(t)
+        if k is None:
+            assert self._slots is not None
+            k = self._slot[t] = len(self._slots)
+            self._slots.append(t)
+        return k
+
+    def _frame_facts(self, fr: _Frame) -> list[Fact]:
+        """The facts of one frame of the window (frame relative to the solver's base, tracks
+        by slot)."""
+        g, local = fr.frame - self._base, self._local
+        out: list[Fact] = [("state", local(t), g, s) for t, s in fr.state.items()]
+        out += [("hidden_by", local(t), local(o), g) for t, o in fr.hidden_by.items()]
+        out += [("in_corridor", local(t), g) for t in fr.in_corr]
+        out += [("motion", local(t), g, k) for t, kinds in fr.motion.items() for k in kinds]
+        out += [("ra", local(a), local(b), g, rx, ry) for a, b, rx, ry in fr.ra]
+        out += [("front", local(a), local(b), g) for a, b in fr.front]
+        out += [
+            # constants in the events of a user's encoding stay as they are
+            (
+                "occurs_at",
+                (e.name, *(local(a) if isinstance(a, int) else a for a in e.args)),
+                e.frame - self._base,
+            )
+            for e in fr.events
+        ]
+        out += [
+            ("on_lane", local(t), term, g) for t, terms in fr.on_lane.items() for term in terms
+        ]
+        out += [("surface", local(t), g, s) for t, s in fr.surface.items()]
+        if self._world is not None:
+            slots = {t: local(t) for t in fr.world}
+            out += [x for x in world_facts(fr.ego, fr.world, slots, g) if x[0] != "camera"]
+        return out
+
     @staticmethod
-    def _read(atoms: Iterable[clingo.Symbol], tracks: list[int], now: int) -> list[SituationMatch]:
-        """``warn/2`` and ``info/4`` atoms as matches: track indices back to ids, ``frame(F)``
-        back to frame numbers; sorted by situation (the built-in ones first) and objects."""
+    def _read(
+        atoms: Iterable[clingo.Symbol], tracks: list[int] | None, now: int
+    ) -> list[SituationMatch]:
+        """``warn/2`` and ``info/4`` atoms as matches: track indices back to ids (``tracks``;
+        None: the atoms name ids), ``frame(F)`` back to frame numbers (``now`` is frame 0);
+        sorted by situation (the built-in ones first) and objects."""
 
         def track(sym: clingo.Symbol) -> int:
-            if sym.type != clingo.SymbolType.Number or not 0 <= sym.number < len(tracks):
+            if sym.type != clingo.SymbolType.Number or (
+                tracks is not None and not 0 <= sym.number < len(tracks)
+            ):
                 raise InputError(f"situation encodings: {sym} is not a track of the window")
-            return tracks[sym.number]
+            return sym.number if tracks is None else tracks[sym.number]
 
         def objects(sym: clingo.Symbol) -> tuple[int, ...]:
             return (

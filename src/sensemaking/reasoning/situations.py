@@ -34,9 +34,10 @@ from typing import Any
 import clingo
 from clingo import ast as clingo_ast
 
+from sensemaking import asp
 from sensemaking.errors import InputError
 from sensemaking.reasoning.anticipation import AnticipationConfig
-from sensemaking.reasoning.facts import Fact, symbol
+from sensemaking.reasoning.facts import AspString, Fact, symbol
 from sensemaking.reasoning.relations import MotionThresholds, RelationConfig
 from sensemaking.records import warning_fields, warning_record
 from sensemaking.sandbox import Limits
@@ -333,19 +334,17 @@ class SituationSolver:
         return atoms
 
     def _solve(self, facts: Iterable[Fact]) -> tuple[clingo.Symbol, ...]:
-        ctl = clingo.Control(self._args)
-        with clingo_ast.ProgramBuilder(ctl) as builder:  # parsed once: cheaper than text per call
-            for stmt in self._stmts:
-                builder.add(stmt)
+        ctl = asp.control(self._args, self._stmts)  # parsed once: cheaper than text per call
         if len(self._symbols) > _SYMBOLS_KEPT:
             self._symbols.clear()
         memo = self._symbols
-        with ctl.backend() as backend:
-            for fact in facts:
-                sym = memo.get(fact)
-                if sym is None:
-                    sym = memo[fact] = symbol(fact)
-                backend.add_rule([backend.add_atom(sym)])
+        syms = []
+        for fact in facts:
+            sym = memo.get(fact)
+            if sym is None:
+                sym = memo[fact] = symbol(fact)
+            syms.append(sym)
+        asp.add_facts(ctl, syms)
         ctl.ground(self._parts)
         found: list[clingo.Symbol] = []
 
@@ -359,3 +358,637 @@ class SituationSolver:
 
         ctl.solve(on_model=first)
         return tuple(found)
+
+
+# -- stream reasoning ---------------------------------------------------------------------------
+#: input predicates of situations.lp that hold at one frame, and the index of that frame among
+#: their arguments: their facts enter the stream solver with their frame and leave with it
+FRAME_ARGUMENT: dict[tuple[str, int], int] = {
+    ("state", 3): 1,
+    ("hidden_by", 3): 2,
+    ("in_corridor", 2): 1,
+    ("area", 3): 1,
+    ("motion", 3): 1,
+    ("ra", 5): 2,
+    ("front", 3): 2,
+    ("on_lane", 3): 2,
+    ("surface", 3): 1,
+    ("ego_speed", 2): 0,
+    ("position", 4): 1,
+    ("position_sd", 3): 1,
+    ("closing", 4): 1,
+    ("world_speed", 4): 1,
+    ("world_long", 3): 1,
+    ("occurs_at", 2): 1,
+}
+#: inputs fixed for the life of a monitor: base facts of the stream solver, so that the rules
+#: they decide (the scene profile's ego_vehicle, image) are simplified once, at grounding
+STATIC_INPUTS: frozenset[tuple[str, int]] = frozenset(
+    {("profile", 1), ("camera", 0), ("frame_ms", 1)}
+)
+#: every input predicate of situations.lp
+INPUTS: frozenset[tuple[str, int]] = (
+    frozenset(FRAME_ARGUMENT)
+    | STATIC_INPUTS
+    | {
+        ("now", 1),
+        ("seq_start", 1),
+        ("track", 2),
+        ("vehicle", 1),
+        ("person", 1),
+        ("occurs_at", 2),
+        ("anticipated", 5),
+        ("anticipated_in_corridor", 3),
+        ("lane", 1),
+    }
+)
+_STEP = "sm_step"  # the external that guards the rules of one frame's answer
+_ATOM_TYPES = (clingo_ast.ASTType.SymbolicAtom,)
+
+
+def _signature(atom: Any) -> tuple[str, int] | None:
+    """(name, arity) of a symbolic atom's term (a pool's, when all its terms agree), None for
+    anything else."""
+    term = atom.symbol
+    if term.ast_type == clingo_ast.ASTType.Pool:
+        sigs = {_signature(clingo_ast.SymbolicAtom(t)) for t in term.arguments}
+        return sigs.pop() if len(sigs) == 1 else None
+    if term.ast_type == clingo_ast.ASTType.Function and not term.external:
+        return term.name, len(term.arguments)
+    if term.ast_type == clingo_ast.ASTType.SymbolicTerm:
+        sym = term.symbol
+        if sym.type == clingo.SymbolType.Function:
+            return sym.name, len(sym.arguments)
+    return None
+
+
+def _atoms(node: Any) -> list[Any]:
+    """Every symbolic atom inside ``node`` (literals, aggregates, conditions)."""
+    found: list[Any] = []
+
+    class Visit(clingo_ast.Transformer):
+        def visit_SymbolicAtom(self, atom: Any) -> Any:  # noqa: N802 (clingo's visitor name)
+            found.append(atom)
+            return atom
+
+    visit = Visit()
+    for n in node if isinstance(node, clingo_ast.ASTSequence) else (node,):
+        visit(n)
+    return found
+
+
+def _plain_body(rule: Any) -> list[Any] | None:
+    """The body's literals that are atoms (sign kept), or None when the body has aggregates,
+    conditions or anything but atoms and comparisons."""
+    out = []
+    for lit in rule.body:
+        if lit.ast_type != clingo_ast.ASTType.Literal:
+            return None
+        if lit.atom.ast_type == clingo_ast.ASTType.SymbolicAtom:
+            out.append(lit.atom)
+        elif lit.atom.ast_type not in (
+            clingo_ast.ASTType.Comparison,
+            clingo_ast.ASTType.BooleanConstant,
+        ):
+            return None
+    return out
+
+
+def _frame_variable(atom: Any, position: int) -> str | None:
+    term = atom.symbol
+    if term.ast_type != clingo_ast.ASTType.Function or position >= len(term.arguments):
+        return None
+    arg = term.arguments[position]
+    return arg.name if arg.ast_type == clingo_ast.ASTType.Variable else None
+
+
+class _Layers:
+    """The rules of a window program split for the stream solver.
+
+    * static: rules over static predicates only (program facts, the inputs fixed for a
+      monitor): grounded once, in ``base``;
+    * frame: rules whose atoms all hold at one frame, the same variable F in every atom's frame
+      argument (a rectangle relation's converse, "moving at F"): grounded once per frame, in
+      ``frame(f)`` with F bound to f;
+    * now: the rest (they join frames of the window, or read the current frame): grounded once
+      per answered frame in ``now(n)``; the predicates they define get ``n`` as one more
+      argument (an atom is defined in one grounding step only) and each rule the guard
+      ``sm_step(n)``, an external released once the frame is answered.
+    """
+
+    def __init__(self, stmts: Sequence[Any], inputs: Mapping[tuple[str, int], int]) -> None:
+        rules = [s for s in stmts if s.ast_type == clingo_ast.ASTType.Rule]
+        heads: dict[tuple[str, int], list[Any]] = {}
+        for r in rules:
+            for a in _atoms(r.head):
+                sig = _signature(a)
+                if sig is not None:
+                    heads.setdefault(sig, []).append(r)
+        self.derived = set(heads)
+        # static: every rule of the predicate has only static atoms
+        static: set[tuple[str, int]] = set(STATIC_INPUTS)
+        changed = True
+        while changed:
+            changed = False
+            for sig, rs in heads.items():
+                if sig in static or sig in inputs:
+                    continue
+                if all(
+                    all(_signature(a) in static for a in _atoms(r.body) if _signature(a) != sig)
+                    for r in rs
+                ):
+                    static.add(sig)
+                    changed = True
+        self.static = static
+        # frame-local: position of the frame argument of each predicate
+        pos: dict[tuple[str, int], int] = {k: v for k, v in inputs.items()}
+        local: set[tuple[str, int]] = set()
+        changed = True
+        while changed:
+            changed = False
+            for sig, rs in heads.items():
+                if sig in local or sig in static:
+                    continue
+                p = self._frame_position(sig, rs, pos, static)
+                if p is not None:
+                    pos[sig] = p
+                    local.add(sig)
+                    changed = True
+        self.position = pos
+        self.frame_preds = local
+        self.now_preds = self.derived - static - local
+
+    @staticmethod
+    def _frame_position(
+        sig: tuple[str, int],
+        rules: list[Any],
+        pos: Mapping[tuple[str, int], int],
+        static: set[tuple[str, int]],
+    ) -> int | None:
+        """The frame argument of ``sig`` when every rule defining it is frame-local, else None."""
+        found: set[int] = set()
+        for r in rules:
+            body = _plain_body(r)
+            head = _atoms(r.head)
+            if body is None or len(head) != 1 or r.head.ast_type != clingo_ast.ASTType.Literal:
+                return None
+            var: str | None = None
+            for a in body:
+                s = _signature(a)
+                if s in static:
+                    continue
+                if s not in pos:
+                    return None
+                v = _frame_variable(a, pos[s])  # type: ignore[index]
+                if v is None or var not in (None, v):
+                    return None
+                var = v
+            if var is None:
+                return None
+            term = head[0].symbol
+            if term.ast_type != clingo_ast.ASTType.Function:
+                return None
+            hits = [
+                i
+                for i, arg in enumerate(term.arguments)
+                if arg.ast_type == clingo_ast.ASTType.Variable and arg.name == var
+            ]
+            if len(hits) != 1:
+                return None
+            found.add(hits[0])
+        return found.pop() if len(found) == 1 else None
+
+    def kind(self, rule: Any) -> str:
+        """``static``, ``frame`` or ``now``: where a rule is grounded."""
+        sigs = {_signature(a) for a in _atoms(rule.head)}
+        sigs.discard(None)
+        if not sigs:  # an integrity constraint: about the current frame
+            return "now"
+        if sigs <= self.static:
+            return "static"
+        if sigs <= self.frame_preds:
+            return "frame"
+        return "now"
+
+
+def _used(stmts: list[Any]) -> list[Any]:
+    """``stmts`` without the rules of predicates that no answer depends on: the answer is
+    ``warn/2``, ``info/4`` and what is shown; integrity constraints count too."""
+    rules = [s for s in stmts if s.ast_type == clingo_ast.ASTType.Rule]
+    heads = [{_signature(a) for a in _atoms(r.head)} - {None} for r in rules]
+    needed: set[Any] = {("warn", 2), ("info", 4)}
+    needed |= {(s.name, s.arity) for s in stmts if s.ast_type == clingo_ast.ASTType.ShowSignature}
+    if any(s.ast_type == clingo_ast.ASTType.ShowTerm for s in stmts):
+        return stmts  # a #show term may name anything
+    changed = True
+    while changed:
+        changed = False
+        for r, hs in zip(rules, heads, strict=True):
+            if hs and not hs & needed:
+                continue
+            body = {_signature(a) for a in _atoms(r.body)} | {
+                _signature(a) for a in _atoms(r.head)
+            }
+            new = body - needed - {None}
+            if new:
+                needed |= new
+                changed = True
+    drop = {id(r) for r, hs in zip(rules, heads, strict=True) if hs and not hs & needed}
+    return [s for s in stmts if id(s) not in drop]
+
+
+def _in_window(literals: list[Any], position: Mapping[Any, int]) -> list[Any] | None:
+    """Comparisons ``F > n - sm_window`` for the frame argument F of every atom of
+    ``literals`` about one frame (``position``), anonymous ones named first: so that facts of
+    frames that left the window are never joined. ``literals`` are changed in place where an
+    anonymous variable is named. None when a frame argument cannot be bound so (it is not a
+    variable, or an anonymous one of a negative literal)."""
+    out: list[Any] = []
+    for i, lit in enumerate(literals):
+        if lit.ast_type != clingo_ast.ASTType.Literal:
+            continue
+        atom = lit.atom
+        if atom.ast_type != clingo_ast.ASTType.SymbolicAtom:
+            continue
+        sig = _signature(atom)
+        if sig not in position:
+            continue
+        term = atom.symbol
+        if term.ast_type != clingo_ast.ASTType.Function:
+            return None
+        p = position[sig]
+        arg = term.arguments[p]
+        if arg.ast_type != clingo_ast.ASTType.Variable:
+            return None
+        if arg.name == "_":
+            if lit.sign != clingo_ast.Sign.NoSign:
+                return None
+            _in_window.fresh += 1  # type: ignore[attr-defined]
+            name = f"SmF{_in_window.fresh}"  # type: ignore[attr-defined]
+            args = list(term.arguments)
+            args[p] = arg.update(name=name)
+            literals[i] = lit.update(atom=atom.update(symbol=term.update(arguments=args)))
+        else:
+            name = arg.name
+        out.append(_window_literal(name))
+    return out
+
+
+_in_window.fresh = 0  # type: ignore[attr-defined]
+
+
+@cache
+def _window_template() -> Any:
+    found: list[Any] = []
+    clingo_ast.parse_string(
+        "sm :- SmX > n - sm_window.",
+        lambda st: found.append(st) if st.ast_type == clingo_ast.ASTType.Rule else None,
+    )
+    return found[0].body[0]
+
+
+def _window_literal(var: str) -> Any:
+    class Rename(clingo_ast.Transformer):
+        def visit_Variable(self, v: Any) -> Any:  # noqa: N802
+            return v.update(name=var) if v.name == "SmX" else v
+
+    return Rename()(_window_template())
+
+
+def _windowed(rule: Any, position: Mapping[Any, int]) -> Any | None:
+    """``rule`` with its frames kept to the window (see :func:`_in_window`), or None."""
+    body = list(rule.body)
+    extra = _in_window(body, position)
+    if extra is None:
+        return None
+    for i, lit in enumerate(body):
+        if lit.ast_type == clingo_ast.ASTType.Literal and (
+            lit.atom.ast_type == clingo_ast.ASTType.BodyAggregate
+        ):
+            elems = []
+            for e in lit.atom.elements:
+                cond = list(e.condition)
+                more = _in_window(cond, position)
+                if more is None:
+                    return None
+                elems.append(e.update(condition=cond + more))
+            body[i] = lit.update(atom=lit.atom.update(elements=elems))
+        elif lit.ast_type == clingo_ast.ASTType.ConditionalLiteral or (
+            lit.ast_type == clingo_ast.ASTType.Literal
+            and lit.atom.ast_type
+            not in (
+                clingo_ast.ASTType.SymbolicAtom,
+                clingo_ast.ASTType.Comparison,
+                clingo_ast.ASTType.BooleanConstant,
+            )
+        ):
+            return None  # conditions and other aggregates: not rewritten
+    unique = list({str(x): x for x in extra}.values())  # one comparison per variable
+    return rule.update(body=body + unique)
+
+
+def _stream_program(
+    stmts: Sequence[Any], parts: Sequence[str], inputs: Mapping[tuple[str, int], int]
+) -> tuple[list[Any], _Layers, bool]:
+    """The statements of ``base`` and the ``parts`` asked for, rewritten into the three parts
+    of the stream solver: ``base``, ``frame(f)`` and ``now(n)`` (see :class:`_Layers`)."""
+    keep: list[Any] = []
+    part = "base"
+    for s in stmts:
+        if s.ast_type == clingo_ast.ASTType.Comment:
+            continue
+        if s.ast_type == clingo_ast.ASTType.Program:
+            part = s.name
+            continue
+        if part == "base" or part in parts:
+            keep.append(s)
+    keep = _used(keep)
+    layers = _Layers(keep, inputs)
+    loc = clingo_ast.Location(
+        clingo_ast.Position("<stream>", 1, 1), clingo_ast.Position("<stream>", 1, 1)
+    )
+
+    def const(name: str) -> Any:
+        return clingo_ast.Function(loc, name, [], 0)
+
+    now_preds = layers.now_preds
+
+    class Tag(clingo_ast.Transformer):
+        """Adds the answered frame ``n`` to every atom of a now-layer predicate."""
+
+        def visit_SymbolicAtom(self, atom: Any) -> Any:  # noqa: N802
+            sig = _signature(atom)
+            if sig not in now_preds:
+                return atom
+            term = atom.symbol
+            args = list(term.arguments) if term.ast_type == clingo_ast.ASTType.Function else []
+            return atom.update(symbol=clingo_ast.Function(loc, sig[0], [*args, const("n")], 0))
+
+    class Bind(clingo_ast.Transformer):
+        def __init__(self, var: str) -> None:
+            self.var = var
+
+        def visit_Variable(self, v: Any) -> Any:  # noqa: N802
+            return const("f") if v.name == self.var else v
+
+    guard = clingo_ast.Literal(
+        loc,
+        clingo_ast.Sign.NoSign,
+        clingo_ast.SymbolicAtom(clingo_ast.Function(loc, _STEP, [const("n")], 0)),
+    )
+    base: list[Any] = [clingo_ast.Program(loc, "base", [])]
+    frame: list[Any] = [clingo_ast.Program(loc, "frame", [clingo_ast.Id(loc, "f")])]
+    now: list[Any] = [
+        clingo_ast.Program(loc, "now", [clingo_ast.Id(loc, "n")]),
+        clingo_ast.External(
+            loc, guard.atom, [], clingo_ast.SymbolicTerm(loc, clingo.Function("false"))
+        ),
+    ]
+    # a now-layer predicate that is an input too (a user's rule adds vehicles): its facts
+    # count in every answer
+    for name, arity in sorted(now_preds & INPUTS):
+        xs = ",".join(f"X{i}" for i in range(arity))
+        clingo_ast.parse_string(
+            f"{name}({xs}{',' if xs else ''}n) :- {name}{f'({xs})' if xs else ''}, {_STEP}(n).",
+            lambda st: now.append(st) if st.ast_type == clingo_ast.ASTType.Rule else None,
+        )
+    windowed = True  # every now-rule keeps its frames to the window
+    for s in keep:
+        t = s.ast_type
+        if t == clingo_ast.ASTType.Rule:
+            k = layers.kind(s)
+            if k == "static":
+                base.append(s)
+            elif k == "frame":
+                head = _atoms(s.head)[0]
+                sig = _signature(head)
+                var = _frame_variable(head, layers.position[sig])  # type: ignore[index]
+                frame.append(Bind(var or "")(s))
+            else:
+                w = _windowed(s, layers.position)
+                if w is None:
+                    windowed = False
+                    w = s
+                tagged = Tag()(w)
+                now.append(tagged.update(body=[*tagged.body, guard]))
+        elif t in (clingo_ast.ASTType.ShowSignature, clingo_ast.ASTType.Defined):
+            sig = (s.name, s.arity)
+            if sig in now_preds:
+                now.append(s.update(arity=s.arity + 1))
+            elif t == clingo_ast.ASTType.Defined:
+                base.append(s)
+        elif t == clingo_ast.ASTType.Definition:
+            base.append(s)
+        else:  # #show terms, #external, #minimize ...: about the answered frame
+            now.append(Tag()(s))
+    return base + frame + now, layers, windowed
+
+
+def _fact(sym: clingo.Symbol) -> Fact:
+    """A fact tuple of a symbol (``symbol(_fact(s)) == s``)."""
+    return (sym.name, *(_term(a) for a in sym.arguments))
+
+
+def _term(sym: clingo.Symbol) -> Any:
+    if sym.type == clingo.SymbolType.Number:
+        return sym.number
+    if sym.type == clingo.SymbolType.String:
+        return AspString(sym.string)
+    if sym.arguments or not sym.name:  # a function term or a tuple
+        return (sym.name, *(_term(a) for a in sym.arguments))
+    return sym.name
+
+
+class StreamSolver:
+    """situations.lp (with relations.lp and the user's encodings) on one long-lived clingo
+    Control, a window of frames at a time.
+
+    The program is split (:class:`_Layers`): rules over static facts are grounded once; rules
+    about one frame are grounded once per frame, when it enters the window; the rules that
+    join the frames of the window (or read the current one) are grounded once per answered
+    frame over what the window holds. Facts are externals: a frame's facts are added when it
+    enters (``add_frame``) and released when it leaves (``drop_frame``); facts about the whole
+    window (a track's class, the first frame, the anticipations) are switched on and off
+    (``set_window``); facts of one answer (``now``) are released after it. Frames and tracks are
+    numbers the caller chooses, increasing frames (the monitor: frames relative to the last
+    restart, tracks by slot, so that a long run makes a bounded set of clingo symbols). All
+    changes of a frame go to clingo at once, in ``answer``: one backend session, one ground
+    call.
+
+    ``answer(n)`` returns the ``warn/2`` and ``info/4`` atoms of the first answer set, as the
+    fresh :class:`SituationSolver` would for the same facts. What a Control holds grows with
+    the frames it was given (frames as facts stay in the domains, kept out of the answers by
+    the window; clasp keeps every atom): after ``restart_frames`` answers :attr:`due` says so,
+    and :meth:`restart` starts a new Control that grounds the window in one call.
+    """
+
+    def __init__(
+        self,
+        parts: Sequence[str] = _ALL_PARTS,
+        constants: Mapping[str, int] | None = None,
+        extra_encodings: Sequence[str | PathLike[str]] = (),
+        static_facts: Sequence[Fact] = (),
+        restart_frames: int = 40,
+        window: int | None = None,
+    ):
+        situation_constants(constants)  # validates
+        self._init = (
+            tuple(parts),
+            dict(constants or {}),
+            tuple(str(p) for p in extra_encodings),
+            tuple(static_facts),
+            int(restart_frames),
+            window,
+        )
+        self._args = ["--warn=none"] + [f"-c{k}={int(v)}" for k, v in (constants or {}).items()]
+        stmts = _shipped()[0] + tuple(s for p in extra_encodings for s in _parse_user_encoding(p))
+        self._program, self.layers, windowed = _stream_program(stmts, tuple(parts), FRAME_ARGUMENT)
+        # frames as facts (the grounder decides the rules about them once, clasp never sees
+        # them) when every rule that joins frames keeps them to the window; else externals,
+        # released as frames leave
+        self.plain = window is not None and windowed
+        self._args.append(f"-csm_window={int(window) if window is not None else 2**30}")
+        self._static = tuple(static_facts)
+        self._restart = max(1, int(restart_frames))
+        self._frames: OrderedDict[int, tuple[clingo.Symbol, ...]] = OrderedDict()
+        self._window: set[clingo.Symbol] = set()  # window facts switched on
+        self.calls = self.restarts = 0
+        try:
+            self._start()
+            self.answer(0)  # surface the user's grounding errors now
+            self._start()
+        except RuntimeError as exc:
+            raise InputError(
+                f"situation encodings: {' '.join(str(exc).split())}",
+                extra_encodings[0] if len(extra_encodings) == 1 else None,
+            ) from None
+        self.calls = 0
+
+    def __getstate__(self) -> dict[str, Any]:
+        # clingo's Controls, ASTs and symbols do not pickle: the window goes as fact tuples
+        return {
+            "init": self._init,
+            "frames": {f: [_fact(x) for x in syms] for f, syms in self._frames.items()},
+            "window": [_fact(x) for x in self._shown],
+            "calls": self.calls,
+            "restarts": self.restarts,
+        }
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__init__(*state["init"])  # type: ignore[misc]
+        for f, facts in state["frames"].items():
+            self.add_frame(f, facts)
+        self.set_window(state["window"])
+        self.calls, self.restarts = state["calls"], state["restarts"]
+
+    def _start(self) -> None:
+        """A new Control with the program and its static facts; the frames of the window and
+        the window facts are given to it again with the next answer."""
+        self._ctl = asp.control(self._args, self._program)
+        self._age = 0
+        self._known: set[clingo.Symbol] = set()  # window facts declared (on or off)
+        self._current: list[clingo.Symbol] = []  # released before the next answer
+        self._parts: list[tuple[str, Sequence[clingo.Symbol]]] = [("base", [])]
+        self._add: list[clingo.Symbol] = [symbol(f) for f in self._static]
+        self._facts = len(self._add)  # the static facts are facts, the rest externals
+        self._frame_adds: list[clingo.Symbol] = []
+        self._release: list[clingo.Symbol] = []
+        for f, syms in self._frames.items():
+            self._frame_adds += syms
+            self._parts.append(("frame", [clingo.Number(f)]))
+        self._shown = self._window
+        self._window = set()
+
+    def add_frame(self, frame: int, facts: Iterable[Fact]) -> None:
+        """The facts of a frame entering the window (each holding at ``frame``)."""
+        syms = tuple(symbol(f) for f in facts)
+        self._frames[frame] = syms
+        self._frame_adds += syms
+        self._parts.append(("frame", [clingo.Number(frame)]))
+
+    def drop_frame(self, frame: int) -> None:
+        """Retract the facts of a frame leaving the window (facts: the rules do not join them
+        any more; externals: released)."""
+        syms = self._frames.pop(frame, ())
+        if not self.plain:
+            self._release += syms
+
+    @property
+    def frames(self) -> list[int]:
+        """The frames in the window, oldest first."""
+        return list(self._frames)
+
+    def set_window(self, facts: Iterable[Fact]) -> None:
+        """The facts about the whole window (not tied to one of its frames) that hold now."""
+        self._shown = {symbol(f) for f in facts}
+
+    def answer(self, now: int, current: Iterable[Fact] = ()) -> tuple[clingo.Symbol, ...]:
+        """The ``warn/2`` and ``info/4`` atoms for the window's facts, ``now`` the current frame;
+        ``current``: facts that hold for this answer only (``now(N)``, the boxes' areas now)."""
+        self.calls += 1
+        ctl = self._ctl
+        n = clingo.Number(now)
+        guard = clingo.Function(_STEP, [n])
+        on = self._shown
+        new = on - self._known
+        self._known |= new
+        flip = [(s, clingo.TruthValue.True_) for s in on - self._window - new]
+        flip += [(s, clingo.TruthValue.False_) for s in self._window - on]
+        self._window = set(on)
+        release = self._release + self._current
+        self._current = [symbol(f) for f in current]
+        true_ = clingo.TruthValue.True_
+        with ctl.backend() as backend:
+            atom = backend.add_atom
+            for s in release:
+                backend.add_external(atom(s), clingo.TruthValue.Release)
+            for s in self._add[: self._facts]:
+                backend.add_rule([atom(s)])
+            if self.plain:
+                for s in self._frame_adds:
+                    backend.add_rule([atom(s)])
+            else:
+                for s in self._frame_adds:
+                    backend.add_external(atom(s), true_)
+            for s in self._current:
+                backend.add_external(atom(s), true_)
+            for s in new:
+                backend.add_external(atom(s), true_)
+            for s, v in flip:
+                backend.add_external(atom(s), v)
+        if release:
+            ctl.cleanup()  # drops released atoms (and what only they derived) from the domains
+        ctl.ground([*self._parts, ("now", [n])])
+        self._current.append(guard)
+        self._add, self._facts, self._release, self._parts = [], 0, [], []
+        self._frame_adds = []
+        ctl.assign_external(guard, True)
+        found: list[clingo.Symbol] = []
+
+        def first(model: clingo.Model) -> bool:
+            for s in model.symbols(shown=True):
+                args = s.arguments
+                if s.name == "warn" and len(args) == 3 and args[2] == n:
+                    found.append(clingo.Function("warn", args[:2]))
+                elif s.name == "info" and len(args) == 5 and args[4] == n:
+                    found.append(clingo.Function("info", args[:4]))
+            return False
+
+        ctl.solve(on_model=first)
+        self._age += 1
+        return tuple(found)
+
+    @property
+    def due(self) -> bool:
+        """Whether the Control has answered ``restart_frames`` times (or declared many window
+        facts) and should be replaced (:meth:`restart`)."""
+        return self._age >= self._restart or len(self._known) > _SYMBOLS_KEPT
+
+    def restart(self, keep: bool = True) -> None:
+        """A new Control; the frames of the window are given again with the next answer
+        (``keep``), or forgotten, for the caller to add them again (e.g. renumbered)."""
+        self.restarts += 1
+        if not keep:
+            self._frames.clear()
+            self._shown = set()
+        self._start()

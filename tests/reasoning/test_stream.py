@@ -1,0 +1,175 @@
+"""Stream reasoning (StreamSolver: one long-lived Control, each frame's facts once) gives the
+warnings of the reference (a fresh Control grounding the whole window every frame)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from conftest import SHARED_DATA
+from test_scene_helpers import build_results, cyclist_behind_turning_car
+from test_situations import (
+    LANES,
+    SIZE,
+    STOPPED_AHEAD,
+    hidden_behind_a_long_bus,
+    looming_car,
+    overtaking,
+    parked_car_and_person,
+    stopping_car,
+)
+
+from sensemaking.reasoning import online
+from sensemaking.reasoning.context import SceneContext
+from sensemaking.reasoning.online import SituationMonitor
+from sensemaking.reasoning.situations import StreamSolver
+
+
+def _records(mon: SituationMonitor, results) -> list:
+    """Every start, end and active warning of a run, as JSON."""
+    out: list = []
+    mon.reset()
+    for r in results:
+        out += [("start", w.to_json()) for w in mon.update(r)]
+        out += [("end", e.to_json()) for e in mon.ended]
+        out += [("active", w.to_json()) for w in mon.active]
+    out += [("end", e.to_json()) for e in mon.finish()]
+    return out
+
+
+def _same(results, **kw) -> list:
+    stream = _records(SituationMonitor(stream=True, **kw), results)
+    fresh = _records(SituationMonitor(stream=False, **kw), results)
+    assert stream == fresh
+    return stream
+
+
+def _lanes() -> SceneContext:
+    return SceneContext(lanes=LANES)
+
+
+SCENES = {
+    "overtaking": (overtaking(), {}),
+    "hidden": (cyclist_behind_turning_car(), {}),
+    "bus": (hidden_behind_a_long_bus(), {}),
+    "stopping": (stopping_car(2), {}),
+    "looming": (looming_car(True), {}),
+    "exiting": (parked_car_and_person((860, 190, 900, 300)), {}),
+    "blocked": (stopping_car(2), {"context": _lanes()}),
+}
+
+
+@pytest.mark.parametrize("restart", [1, 40])
+@pytest.mark.parametrize("name", sorted(SCENES))
+def test_stream_gives_the_references_warnings_on_each_scripted_scene(name, restart, monkeypatch):
+    monkeypatch.setattr(online, "STREAM_RESTART_FRAMES", restart)
+    objs, kw = SCENES[name]
+    for profile in ("driving", "fixed"):
+        _same(build_results(objs), fps=10.0, image_size=SIZE, profile=profile, **kw)
+
+
+def test_the_scripted_scenes_raise_warnings_at_all():
+    """The comparison above is not vacuous: the scenes warn."""
+    kinds = set()
+    for objs, kw in SCENES.values():
+        mon = SituationMonitor(fps=10.0, image_size=SIZE, **kw)
+        kinds |= {w.situation for w in mon.run(build_results(objs))}
+    assert {"OVERTAKING", "HIDDEN_ENTITY", "SUDDEN_STOP", "EXITING_VEHICLE"} <= kinds
+
+
+def test_a_users_situation_is_warned_in_the_stream_as_in_the_reference(tmp_path):
+    rule = tmp_path / "stopped_ahead.lp"
+    rule.write_text(STOPPED_AHEAD)
+    records = _same(
+        build_results(stopping_car(2) + overtaking(ids=(3, 4))),
+        fps=10.0,
+        image_size=SIZE,
+        extra_encodings=[rule],
+    )
+    assert any(kind == "start" and w["situation"] == "STOPPED_AHEAD" for kind, w in records)
+
+
+def test_a_users_rule_that_adds_vehicles_counts_with_the_given_ones(tmp_path):
+    """A user's rule for an input predicate (vehicle/1) keeps the facts of that predicate."""
+    rule = tmp_path / "more_vehicles.lp"
+    rule.write_text("vehicle(T) :- track(T,pedestrian).\n")
+    _same(build_results(overtaking()), fps=10.0, image_size=SIZE, extra_encodings=[rule])
+
+
+def _atoms_named(mon: SituationMonitor, names: set[str]) -> int:
+    solver = mon._stream
+    assert solver is not None
+    return sum(1 for a in solver._ctl.symbolic_atoms if a.symbol.name in names)
+
+
+def test_profile_fixed_grounds_no_ego_vehicle_rule():
+    """With no ego vehicle the helpers of SUDDEN_STOP are not grounded at all (they are with
+    one, on the same frames)."""
+    results = build_results(looming_car(True))
+    ego = {"kept_distance", "moved", "braked", "contact_soon"}
+    counts = {}
+    for profile in ("driving", "fixed"):
+        mon = SituationMonitor(fps=10.0, image_size=SIZE, profile=profile, stream=True)
+        n = 0
+        for r in results:
+            mon.update(r)
+            n += _atoms_named(mon, ego)
+        counts[profile] = n
+    assert counts["driving"] > 0 and counts["fixed"] == 0
+
+
+def test_rules_about_one_frame_are_grounded_per_frame():
+    layers = StreamSolver().layers
+    assert {("ra", 5), ("touching", 3), ("still", 2), ("nearer_world", 3)} <= layers.frame_preds
+    assert {("warn", 2), ("info", 4), ("world", 0)} <= layers.now_preds
+    assert {("ego_vehicle", 0), ("inverse", 2)} <= layers.static
+
+
+def test_a_stream_monitor_pickles_mid_sequence():
+    import pickle
+
+    results = build_results(cyclist_behind_turning_car() + overtaking(ids=(3, 4)))
+    whole = [w.to_json() for w in SituationMonitor(fps=10.0, image_size=SIZE).run(results)]
+    mon = SituationMonitor(fps=10.0, image_size=SIZE)
+    half = len(results) // 2
+    got = [w.to_json() for r in results[:half] for w in mon.update(r)]
+    copy = pickle.loads(pickle.dumps(mon))
+    got += [w.to_json() for r in results[half:] for w in copy.update(r)]
+    assert got == whole and whole
+
+
+# -- shared sequences, as a user runs them -------------------------------------------------------
+def _track_warnings(argv: list[str], out, stream: bool, monkeypatch) -> list[dict]:
+    from sensemaking.cli import main
+
+    monkeypatch.setattr(online, "STREAM", stream)
+    path = out / f"warnings-{stream}.jsonl"
+    argv = [*argv, "--output", str(out / "t.txt"), "--warnings", str(path)]
+    assert main(["--quiet", "track", *argv]) == 0
+    return [json.loads(line) for line in path.read_text().splitlines()]
+
+
+KITTI_0001 = SHARED_DATA / "kitti/detections/rrc/car/0001.txt"
+MOT17_09 = SHARED_DATA / "mot17/MOT17-09-YOLOX-half/det/det.txt"
+SEQUENCES = {
+    "kitti-rrc-car-0001": ["--detections", str(KITTI_0001), "--format", "kitti"],
+    "mot17-09-yolox-half": [
+        *("--detections", str(MOT17_09), "--format", "mot"),
+        *("--profile", "driving"),
+    ],
+}
+
+
+@pytest.mark.slow
+@pytest.mark.integration
+@pytest.mark.parametrize("name", sorted(SEQUENCES))
+def test_same_warnings_on_shared_sequences(name, tmp_path, monkeypatch):
+    """`sensemaking track --warnings` writes the same records with the stream solver as with
+    the reference, on KITTI RRC car 0001 (a camera model: motion over the road) and MOT17-09
+    (pedestrians, profile driving)."""
+    if not SHARED_DATA.is_dir():
+        pytest.skip("../shared/data is absent")
+    argv = SEQUENCES[name]
+    stream = _track_warnings(argv, tmp_path, True, monkeypatch)
+    fresh = _track_warnings(argv, tmp_path, False, monkeypatch)
+    assert stream == fresh
