@@ -36,6 +36,7 @@ CHANNELS = {
     "/sensemaking/events": "sensemaking.Event",
     "/sensemaking/warnings": "sensemaking.Warning",
     "/sensemaking/log": "foxglove.Log",
+    "/sensemaking/stories": "sensemaking.Story",
 }
 
 
@@ -132,11 +133,14 @@ def test_bag_tracks_like_its_text_file_and_mcap_holds_the_run(crossing, tmp_path
                 str(run),
                 "--warnings",
                 str(tmp_path / "w.jsonl"),
+                "--scene",
+                str(tmp_path / "scene.json"),
             ]
         )
         == 0
     )
     channels = read_channels(run)
+    _check_stories(channels, tmp_path / "scene.json", capsys)
     # the warnings, start and end records, as the --warnings file of the same run has them
     said = [json.loads(s) for s in (tmp_path / "w.jsonl").read_text().splitlines()]
     got = [
@@ -175,6 +179,33 @@ def test_bag_tracks_like_its_text_file_and_mcap_holds_the_run(crossing, tmp_path
     assert any("(hidden)" in s for s in labels) and any(
         s.startswith("hides_behind(") for s in labels
     )
+
+
+def _check_stories(channels: dict, scene: Path, capsys) -> None:
+    """One story per output track, at its last frame's time, its text what `sensemaking
+    explain --track ID` prints for the --scene file of the same run."""
+    tracks = {t["id"]: t for _, m in channels["/sensemaking/tracks"] for t in m["tracks"]}
+    frames = {}
+    for _, m in channels["/sensemaking/tracks"]:
+        for t in m["tracks"]:
+            frames.setdefault(t["id"], []).append(m["frame"])
+    stories = channels["/sensemaking/stories"]
+    assert sorted(m["track"] for _, m in stories) == sorted(tracks) and len(tracks) >= 2
+    told = {}
+    for log_time, m in stories:
+        tid = m["track"]
+        assert (m["first_frame"], m["last_frame"]) == (min(frames[tid]), max(frames[tid]))
+        assert log_time == 1_700_000_000_000_000_000 + m["last_frame"] * 100_000_000
+        assert m["class"] == tracks[tid]["class"] and m["class_id"] == tracks[tid]["class_id"]
+        assert m["text"] == " ".join(m["sentences"])
+        told[tid] = m["text"]
+    capsys.readouterr()
+    for tid, text in told.items():
+        main(["explain", str(scene), "--track", str(tid)])
+        assert text == capsys.readouterr().out.strip()
+    assert any("hides behind" in t for t in told.values())  # a story with the occlusion
+    logged = [m["message"] for _, m in channels["/sensemaking/log"] if m["name"].endswith("ies")]
+    assert sorted(logged) == sorted(told.values())
 
 
 def test_mcap_schemas_and_passthrough(crossing, tmp_path) -> None:

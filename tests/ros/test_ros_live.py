@@ -136,6 +136,7 @@ def test_live_cli_run_is_received(tmp_path: Path) -> None:
     )
     run.start()
     got: list[dict] = []
+    stories: list[tuple[int, dict]] = []
     raw_detections = 0
     try:
         for _ in range(100):  # the server starts with the run
@@ -156,6 +157,7 @@ def test_live_cli_run_is_received(tmp_path: Path) -> None:
                         "subscriptions": [
                             {"id": 1, "channelId": ids["/sensemaking/tracks"]},
                             {"id": 2, "channelId": ids["/detections"]},
+                            {"id": 3, "channelId": ids["/sensemaking/stories"]},
                         ],
                     }
                 )
@@ -166,6 +168,8 @@ def test_live_cli_run_is_received(tmp_path: Path) -> None:
                 sub = struct.unpack_from("<I", message, 1)[0]
                 if sub == 1:
                     got.append(_binary(message)[2])
+                elif sub == 3:
+                    stories.append(_binary(message)[1:])
                 else:
                     raw_detections += 1
     finally:
@@ -174,3 +178,7 @@ def test_live_cli_run_is_received(tmp_path: Path) -> None:
     assert [m["frame"] for m in got] == list(range(30))  # every frame, in order
     assert all(len(m["tracks"]) == 1 and m["tracks"][0]["id"] == 1 for m in got[1:])
     assert raw_detections == 30  # the input's own topic, passed through
+    # the story of the one track, at the end of the run, stamped at its last frame's time
+    assert [(m["track"], m["first_frame"], m["last_frame"]) for _, m in stories] == [(1, 0, 29)]
+    assert stories[0][0] == 1_700_000_000_000_000_000 + 29 * 100_000_000
+    assert stories[0][1]["text"].startswith("Track 1 (car)")

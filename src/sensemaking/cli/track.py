@@ -725,9 +725,16 @@ def _run(args: argparse.Namespace) -> int:
     limits = Limits(args.timeout, args.max_atoms, args.max_memory)
     tracker = Tracker(config, encoding=args.encoding, rules=args.rules, limits=limits)
     recorder = monitor = None
-    if (args.ego_motion or args.camera) and not (args.warnings or args.scene):
-        raise InputError("--ego-motion and --camera need --warnings or --scene (they serve those)")
+    if args.ego_motion and not (args.warnings or args.scene):
+        raise InputError("--ego-motion needs --warnings or --scene (it serves those)")
+    if args.camera and not (args.warnings or args.scene or ros.wants_stories(args)):
+        raise InputError(
+            "--camera needs --warnings, --scene, --output RUN.mcap or --live (it serves those)"
+        )
     world = _world_motion(args)
+    # the stories of --output RUN.mcap and --live, told at the end from the recorded scene
+    stories = ros.run_stories(args, config, world["camera"])
+    recorder = None if stories is None else stories.recorder
     if args.warnings:
         from sensemaking.reasoning.online import SituationMonitor
 
@@ -750,7 +757,7 @@ def _run(args: argparse.Namespace) -> int:
                     ClassTracksSink(class_files, args.format, write_hidden=args.write_hidden)
                 )
             elif ros.is_mcap_output(args.output):
-                sinks.append(ros.tracks_sink(args, config, bag))
+                sinks.append(ros.tracks_sink(args, config, bag, stories))
             else:
                 sinks.append(TracksSink(args.output, args.format, write_hidden=args.write_hidden))
             if args.events:
@@ -774,7 +781,7 @@ def _run(args: argparse.Namespace) -> int:
                         },
                     )
                 )
-            sinks.extend(ros.extra_sinks(args, config, bag))
+            sinks.extend(ros.extra_sinks(args, config, bag, stories))
         except BaseException:
             from sensemaking.sinks import close_all
 

@@ -10,10 +10,14 @@ topic                      schema                     one message per
 /sensemaking/annotations   foxglove.ImageAnnotations  stepped frame: boxes, ids, events, warnings
 /sensemaking/events        sensemaking.Event          event (the ``--events`` JSON-lines record)
 /sensemaking/warnings      sensemaking.Warning        warning start or end (``--warnings`` record)
-/sensemaking/log           foxglove.Log               event (INFO) and warning (WARNING / end)
+/sensemaking/log           foxglove.Log               event (INFO) and warning (WARNING / end);
+                                                      at the end each track's story (INFO)
+/sensemaking/stories       sensemaking.Story          track, at the end of the run: its story
+                                                      (the text of ``sensemaking explain``)
 ========================== ========================== =========================================
 
-Every message is stamped with its frame's time (the input's header stamp).
+Every message is stamped with its frame's time (the input's header stamp); a story with its
+track's last frame's time.
 """
 
 from __future__ import annotations
@@ -31,7 +35,14 @@ from sensemaking.classes import class_name
 from sensemaking.records import end_record, event_record, start_record
 from sensemaking.results import FrameResult, TrackState
 
-__all__ = ["Channel", "CHANNELS", "encode_frame", "encode_ends", "STATE_NAMES"]
+__all__ = [
+    "Channel",
+    "CHANNELS",
+    "encode_frame",
+    "encode_ends",
+    "RunStories",
+    "STATE_NAMES",
+]
 
 STATE_NAMES = {int(s): s.name.lower() for s in TrackState}
 
@@ -101,6 +112,22 @@ WARNING_SCHEMA = {
         "message": _STR,
     },
 }
+STORY_SCHEMA = {
+    "title": "sensemaking.Story",
+    "description": "A track's story at the end of the run: the text `sensemaking explain "
+    "--track ID` prints for the run's scene, and its sentences",
+    "type": "object",
+    "properties": {
+        "timestamp": _TIME,
+        "track": _INT,
+        "class_id": _INT,
+        "class": _STR,
+        "first_frame": _INT,
+        "last_frame": _INT,
+        "text": _STR,
+        "sentences": {"type": "array", "items": _STR},
+    },
+}
 LOG_SCHEMA = {
     "title": "foxglove.Log",
     "type": "object",
@@ -168,7 +195,8 @@ ANNOTATIONS = Channel("/sensemaking/annotations", "foxglove.ImageAnnotations", A
 EVENTS = Channel("/sensemaking/events", "sensemaking.Event", EVENT_SCHEMA)
 WARNINGS = Channel("/sensemaking/warnings", "sensemaking.Warning", WARNING_SCHEMA)
 LOG = Channel("/sensemaking/log", "foxglove.Log", LOG_SCHEMA)
-CHANNELS = (TRACKS, ANNOTATIONS, EVENTS, WARNINGS, LOG)
+STORIES = Channel("/sensemaking/stories", "sensemaking.Story", STORY_SCHEMA)
+CHANNELS = (TRACKS, ANNOTATIONS, EVENTS, WARNINGS, LOG, STORIES)
 
 LOG_INFO, LOG_WARNING = 2, 3
 _LINE_LOOP = 2
@@ -317,3 +345,59 @@ def _log(stamp: dict[str, int], level: int, message: str, name: str) -> bytes:
             "line": 0,
         }
     )
+
+
+class RunStories:
+    """The story of each track of a run, told once at its end with
+    :mod:`sensemaking.reasoning.stories` from the scene its :attr:`recorder` kept (give it to
+    the pipeline as ``recorder``). Shared by the MCAP file and the live view.
+
+    Args:
+        fps: frames per second. image_size: ``(width, height)`` pixels or None.
+        camera: the camera model's JSON as ``--scene`` stores it (the motion over the road).
+
+    Memory: the recorder's columns, about 75 bytes a track box, as a ``--scene`` file read
+    back for ``explain`` holds them.
+    """
+
+    def __init__(
+        self,
+        fps: float,
+        image_size: tuple[int, int] | None = None,
+        camera: dict[str, Any] | None = None,
+    ):
+        from sensemaking.scene import SceneRecorder
+
+        meta = {"camera": camera} if camera is not None else None
+        self.recorder = SceneRecorder(fps, image_size, meta, problems=False)
+        self._told: list[tuple[Any, list[str]]] | None = None
+
+    def told(self) -> list[tuple[Any, list[str]]]:
+        """(track, sentences) of every track, in order of appearance (computed once)."""
+        if self._told is None:
+            from sensemaking.reasoning.stories import stories
+
+            scene = self.recorder.scene()
+            self._told = [(scene.tracks[k], v) for k, v in stories(scene).items()]
+        return self._told
+
+    def encode(self, time_of: Any) -> list[tuple[int, list[tuple[Channel, bytes]]]]:
+        """(time ns of the track's last frame, its story and log line) per track."""
+        out = []
+        for t, sentences in self.told():
+            t_ns = int(time_of(int(t.last)))
+            stamp = _time(t_ns)
+            text = " ".join(sentences)
+            story = {
+                "timestamp": stamp,
+                "track": int(t.id),
+                "class_id": int(t.class_id),
+                "class": class_name(int(t.class_id)),
+                "first_frame": int(t.first),
+                "last_frame": int(t.last),
+                "text": text,
+                "sentences": sentences,
+            }
+            log = _log(stamp, LOG_INFO, text, "sensemaking.stories")
+            out.append((t_ns, [(STORIES, _dump(story)), (LOG, log)]))
+        return out

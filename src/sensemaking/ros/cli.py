@@ -13,7 +13,7 @@ from typing import Any
 from sensemaking.errors import InputError
 from sensemaking.ros import is_bag, is_mcap_output
 
-__all__ = ["add_options", "open_input", "RosInput", "tracks_sink", "extra_sinks"]
+__all__ = ["add_options", "open_input", "RosInput", "run_stories", "tracks_sink", "extra_sinks"]
 
 log = logging.getLogger(__name__)
 
@@ -117,7 +117,7 @@ class RosInput:
                 cam is not None
                 and cam.fx > 0
                 and args.camera is None
-                and (args.warnings or args.scene)
+                and (args.warnings or args.scene or wants_stories(args))
             ):
                 # a level camera: the horizon at the principal point's row; KITTI's height
                 args.camera = f"{cam.fx},1.65,{cam.cy},{cam.cx}"
@@ -200,6 +200,22 @@ def open_input(args: argparse.Namespace) -> RosInput | None:
     return RosInput(args, files[0])
 
 
+def wants_stories(args: argparse.Namespace) -> bool:
+    """True when the run's stories are told at its end: ``--output RUN.mcap`` or ``--live``."""
+    return is_mcap_output(args.output) or bool(args.live)
+
+
+def run_stories(args: argparse.Namespace, config: Any, camera: Any) -> Any:
+    """The :class:`~sensemaking.ros.channels.RunStories` of ``--output RUN.mcap`` and
+    ``--live`` (None for neither); its recorder goes to the pipeline. ``camera``: the
+    :class:`~sensemaking.reasoning.egomotion.CameraModel` the ``--scene`` file would store."""
+    if not wants_stories(args):
+        return None
+    from sensemaking.ros.channels import RunStories
+
+    return RunStories(config.fps, config.image_size, None if camera is None else camera.to_json())
+
+
 def _time_of(config: Any, bag: RosInput | None) -> Any:
     if bag is not None:
         return bag.reader.time_of
@@ -207,7 +223,9 @@ def _time_of(config: Any, bag: RosInput | None) -> Any:
     return lambda frame: int(round(frame * period))
 
 
-def tracks_sink(args: argparse.Namespace, config: Any, bag: RosInput | None) -> Any:
+def tracks_sink(
+    args: argparse.Namespace, config: Any, bag: RosInput | None, stories: Any = None
+) -> Any:
     """The :class:`~sensemaking.ros.writer.McapSink` of ``--output RUN.mcap``."""
     from sensemaking.ros.writer import McapSink
 
@@ -223,13 +241,16 @@ def tracks_sink(args: argparse.Namespace, config: Any, bag: RosInput | None) -> 
         args.output,
         time_of=_time_of(config, bag),
         metadata=meta,
+        stories=stories,
     )
     if bag is not None and args.passthrough:
         bag.targets.append(sink)
     return sink
 
 
-def extra_sinks(args: argparse.Namespace, config: Any, bag: RosInput | None) -> list[Any]:
+def extra_sinks(
+    args: argparse.Namespace, config: Any, bag: RosInput | None, stories: Any = None
+) -> list[Any]:
     """The :class:`~sensemaking.ros.live.LiveSink` of ``--live`` (serving from now on)."""
     if not args.live:
         return []
@@ -238,7 +259,7 @@ def extra_sinks(args: argparse.Namespace, config: Any, bag: RosInput | None) -> 
     server = LiveServer(DEFAULT_PORT if args.live_port is None else args.live_port)
     if not getattr(args, "quiet", False):
         print(f"sensemaking track: serving live at {server.url}", file=sys.stderr, flush=True)
-    sink = LiveSink(server, _time_of(config, bag))
+    sink = LiveSink(server, _time_of(config, bag), stories)
     if bag is not None and args.passthrough:
         bag.targets.append(sink)
         bag.batch = 1  # the viewer sees the input's messages as their frames are tracked

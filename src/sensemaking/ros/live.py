@@ -24,7 +24,7 @@ from typing import Any
 from sensemaking.errors import InputError
 from sensemaking.results import FrameResult
 from sensemaking.ros import require_ros
-from sensemaking.ros.channels import CHANNELS, Channel, encode_ends, encode_frame
+from sensemaking.ros.channels import CHANNELS, Channel, RunStories, encode_ends, encode_frame
 
 __all__ = ["LiveServer", "LiveSink", "SUBPROTOCOL", "DEFAULT_PORT"]
 
@@ -190,11 +190,18 @@ class LiveServer:
 
 class LiveSink:
     """A :class:`~sensemaking.sinks.Sink` publishing each frame's channels on a
-    :class:`LiveServer` (closed when the run ends)."""
+    :class:`LiveServer` and, when the run ends, the ``stories`` of its tracks (then the server
+    closes)."""
 
-    def __init__(self, server: LiveServer, time_of: Callable[[int], int]):
+    def __init__(
+        self,
+        server: LiveServer,
+        time_of: Callable[[int], int],
+        stories: RunStories | None = None,
+    ):
         self.server = server
         self.time_of = time_of
+        self.stories = stories
         self._passthrough: dict[int, int] = {}
 
     def _put(self, items: list[tuple[Channel, bytes]], t_ns: int) -> None:
@@ -229,7 +236,12 @@ class LiveSink:
         pass
 
     def finish(self) -> None:
-        self.server.close()
+        try:
+            if self.stories is not None:
+                for t, items in self.stories.encode(self.time_of):
+                    self._put(items, t)
+        finally:
+            self.server.close()
 
     def abort(self, interrupted: bool = False) -> None:
         self.server.close()

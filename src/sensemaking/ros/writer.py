@@ -1,8 +1,10 @@
 """An MCAP file of a run: a :class:`~sensemaking.sinks.Sink` writing the channels of
 :mod:`sensemaking.ros.channels` frame by frame (and, with ``--passthrough``, the input bag's own
-messages as they are read), into a temporary file renamed into place at the end.
+messages as they are read), into a temporary file renamed into place at the end, where the
+story of each track is written too (from :class:`~sensemaking.ros.channels.RunStories`).
 
-Memory: the writer's current chunk (1 MiB before compression) and its index, not the run.
+Memory: the writer's current chunk (1 MiB before compression) and its index; the stories need
+the run's scene (the recorder of ``RunStories``: about 75 bytes a track box).
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ from typing import Any
 from sensemaking.io.atomic import PartFile
 from sensemaking.results import FrameResult
 from sensemaking.ros import require_ros
-from sensemaking.ros.channels import CHANNELS, Channel, encode_ends, encode_frame
+from sensemaking.ros.channels import CHANNELS, Channel, RunStories, encode_ends, encode_frame
 
 __all__ = ["McapSink"]
 
@@ -27,6 +29,7 @@ class McapSink:
         path: the ``.mcap`` file. time_of: frame -> time in ns (the input's timeline).
         metadata: strings stored as the file's
             ``sensemaking`` metadata record (source, rate, image size).
+        stories: the run's stories, written at the end (None: the channel stays empty).
     """
 
     def __init__(
@@ -35,10 +38,12 @@ class McapSink:
         *,
         time_of: Callable[[int], int],
         metadata: Mapping[str, str] | None = None,
+        stories: RunStories | None = None,
     ):
         writer_mod = require_ros("mcap.writer")
         self.path = Path(path)
         self.time_of = time_of
+        self.stories = stories
         self.boxes = 0
         self.ids: set[int] = set()
         self.messages = 0
@@ -98,7 +103,14 @@ class McapSink:
         self.messages += 1
 
     def finish(self) -> None:
-        self._writer.finish()
+        try:
+            if self.stories is not None:
+                for t, items in self.stories.encode(self.time_of):
+                    self._put(items, t)
+            self._writer.finish()
+        except BaseException:
+            self._file.discard()  # nothing half-written
+            raise
         self._file.commit()
 
     def abort(self, interrupted: bool = False) -> None:
