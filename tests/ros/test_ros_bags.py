@@ -131,6 +131,7 @@ def test_bag_tracks_like_its_text_file_and_mcap_holds_the_run(crossing, tmp_path
                 "/detections",
                 "--output",
                 str(run),
+                "--stories",
                 "--warnings",
                 str(tmp_path / "w.jsonl"),
                 "--scene",
@@ -141,6 +142,13 @@ def test_bag_tracks_like_its_text_file_and_mcap_holds_the_run(crossing, tmp_path
     )
     channels = read_channels(run)
     _check_stories(channels, tmp_path / "scene.json", capsys)
+    # without --stories the run keeps no scene and tells none
+    plain = tmp_path / "plain.mcap"
+    assert main(["-q", "track", "--detections", str(bag), "--output", str(plain)]) == 0
+    assert not read_channels(plain).get("/sensemaking/stories")
+    text_out = str(tmp_path / "t.txt")
+    assert main(["-q", "track", "--detections", str(bag), "--output", text_out, "--stories"]) == 2
+    assert "--stories needs" in capsys.readouterr().err
     # the warnings, start and end records, as the --warnings file of the same run has them
     said = [json.loads(s) for s in (tmp_path / "w.jsonl").read_text().splitlines()]
     got = [

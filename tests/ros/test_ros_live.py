@@ -125,6 +125,7 @@ def test_live_cli_run_is_received(tmp_path: Path) -> None:
                     "--output",
                     str(tmp_path / "o.mcap"),
                     "--passthrough",
+                    "--stories",
                     "--live",
                     "--live-port",
                     str(port),

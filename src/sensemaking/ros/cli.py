@@ -49,6 +49,13 @@ def add_options(p: argparse.ArgumentParser) -> None:
         "drive and its explanation) and into the --live view",
     )
     g.add_argument(
+        "--stories",
+        action="store_true",
+        help="with --output RUN.mcap or --live: when the run ends, each track's story (what "
+        "`explain` says of it) on /sensemaking/stories; keeps the run's scene in memory and "
+        "costs about a third more time on KITTI with a camera model (docs/ROS.md)",
+    )
+    g.add_argument(
         "--live",
         action="store_true",
         help="serve the run on Foxglove's WebSocket protocol at ws://127.0.0.1:PORT while it "
@@ -201,8 +208,13 @@ def open_input(args: argparse.Namespace) -> RosInput | None:
 
 
 def wants_stories(args: argparse.Namespace) -> bool:
-    """True when the run's stories are told at its end: ``--output RUN.mcap`` or ``--live``."""
-    return is_mcap_output(args.output) or bool(args.live)
+    """True when the run's stories are told at its end: ``--stories`` with ``--output RUN.mcap``
+    or ``--live`` (InputError for ``--stories`` without either)."""
+    if not getattr(args, "stories", False):
+        return False
+    if not (is_mcap_output(args.output) or bool(args.live)):
+        raise InputError("--stories needs --output RUN.mcap or --live (where they are written)")
+    return True
 
 
 def run_stories(args: argparse.Namespace, config: Any, camera: Any) -> Any:
