@@ -520,6 +520,57 @@ def test_a_scene_with_a_vanishing_frame_rate_is_refused(scene_file: Path, capsys
     assert "fps" in one_line_error(capsys)
 
 
+def test_a_scene_track_wrote_near_max_frame_loads_in_explain_ask_report(
+    tmp_path: Path, capsys
+) -> None:
+    """A gap past SCENE_SPAN_FRAMES is not recorded as frames: the scene holds the frames
+    stepped, so it loads and costs what its content costs; the recorder agrees with the file."""
+    import tracemalloc
+
+    import numpy as np
+
+    from sensemaking.detections import MAX_FRAME
+    from sensemaking.io.stream import iter_detection_frames
+    from sensemaking.pipeline import Pipeline
+    from sensemaking.scene import SCENE_SPAN_FRAMES, Scene, SceneRecorder
+    from sensemaking.sinks import SceneSink
+    from sensemaking.tracker import Tracker
+
+    last = MAX_FRAME - 1
+    det = tmp_path / "det.txt"
+    det.write_text(f"1,-1,100,100,40,80,0.9,-1,-1,-1\n{last},-1,100,100,40,80,0.9,-1,-1,-1\n")
+    scene = tmp_path / "s.json"
+    out = tmp_path / "o.txt"
+    argv = ["track", "--detections", str(det), "--format", "mot", "--output", str(out)]
+    assert main([*argv, "--scene", str(scene)]) == 0
+    tracemalloc.start()
+    loaded = Scene.load(scene)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert (loaded.first_frame, loaded.last_frame) == (1, last)
+    assert len(loaded) < 1_000 and peak < 10_000_000  # not one entry per frame of the span
+    assert {t.last for t in loaded.tracks.values()} >= {last}
+    capsys.readouterr()
+    assert main(["explain", str(scene)]) == 0
+    assert str(last) in capsys.readouterr().out
+    assert main(["ask", str(scene), "q(F) :- frame(F). #show q/1."]) == 0
+    assert f"q({last})" in capsys.readouterr().out
+    assert main(["report", str(scene), "-o", str(tmp_path / "r.html")]) == 0
+    # the in-memory recorder records the same frames as the file
+    rec = SceneRecorder(fps=30.0)
+    sink = SceneSink(tmp_path / "sink.json", fps=30.0)
+    with Pipeline(Tracker(), recorder=rec, sinks=[sink]) as pipe:
+        pipe.run(iter_detection_frames(det, "mot"), first_frame=1)
+    from_sink = Scene.load(tmp_path / "sink.json")
+    assert np.array_equal(rec.scene().frame_numbers, from_sink.frame_numbers)
+    # within SCENE_SPAN_FRAMES the skipped gap is the scene's frames, as before
+    near = SCENE_SPAN_FRAMES // 2
+    det.write_text(f"1,-1,100,100,40,80,0.9,-1,-1,-1\n{near},-1,100,100,40,80,0.9,-1,-1,-1\n")
+    assert main([*argv, "--scene", str(scene)]) == 0
+    assert len(Scene.load(scene)) == near
+    assert '"frame_numbers"' not in scene.read_text()
+
+
 # 9. dense frames: a documented per-frame limit, refused before any square-sized array
 def test_a_dense_frame_is_refused_with_its_line(tmp_path: Path, capsys) -> None:
     from sensemaking.detections import MAX_DETECTIONS_PER_FRAME as LIMIT
