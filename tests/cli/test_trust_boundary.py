@@ -8,6 +8,7 @@ import json
 import os
 from pathlib import Path
 
+import numpy as np
 import pytest
 from test_hostile import one_line_error, write_det
 
@@ -605,3 +606,58 @@ def test_the_api_refuses_a_dense_frame_too() -> None:
     with pytest.raises(InputError, match="per-frame limit"):
         tracker.update(np.column_stack([xyxy, np.full(n, 0.9)]), frame=1)
     assert tracker.n_tracks == 0
+
+
+def _grid(n: int, x0: float) -> np.ndarray:
+    """(n, 5) boxes on a grid starting at ``x0``, 50 px apart, none overlapping another."""
+    i = np.arange(n)
+    xy = np.column_stack([x0 + i % 20 * 50.0, i // 20 * 50.0])
+    return np.column_stack([xy, xy + 30.0, np.full(n, 0.9)])
+
+
+def test_live_tracks_are_bounded_by_the_detections_of_the_last_frames() -> None:
+    """The rules end a track unseen past its limit: live tracks <= the detections of the last
+    max(max_hidden_frames, max_missing_frames) + 1 frames (what MAX_LIVE_TRACKS caps)."""
+    from sensemaking.config import TrackerConfig
+    from sensemaking.tracker import Tracker
+
+    rng = np.random.default_rng(7)
+    config = TrackerConfig(fps=10.0, max_hidden_s=0.5, max_missing_s=0.3)
+    window = max(config.max_hidden_frames, config.max_missing_frames) + 1
+    tracker = Tracker(config)
+    counts: list[int] = []
+    for f in range(1, 41):
+        n = int(rng.integers(20, 60))
+        xy = rng.uniform(0, 1000, size=(n, 2))
+        boxes = np.column_stack([xy, xy + rng.uniform(20, 60, size=(n, 2)), np.full(n, 0.9)])
+        tracker.update(boxes, frame=f)
+        counts.append(n)
+        assert 0 < tracker.n_tracks <= sum(counts[-window:])
+
+
+def test_a_frame_past_the_live_track_limit_is_refused(tmp_path: Path, capsys, monkeypatch) -> None:
+    import sensemaking.detections as detections
+    from sensemaking.errors import InputError
+    from sensemaking.tracker import Tracker
+
+    monkeypatch.setattr(detections, "MAX_LIVE_TRACKS", 50)
+    tracker = Tracker()
+    tracker.update(_grid(40, 0.0), frame=1)
+    tracker.update(_grid(40, 2000.0), frame=2)  # elsewhere: 40 new tracks, 40 kept unseen
+    live = tracker.n_tracks
+    assert live > 50
+    with pytest.raises(InputError, match=f"frame 3: {live} live tracks.*limit of 50"):
+        tracker.update(_grid(40, 0.0), frame=3)
+    assert tracker.n_tracks == live and tracker.stats["frames"] == 2  # unchanged
+    det = tmp_path / "dense.txt"
+    det.write_text(
+        "".join(
+            f"{f},-1,{b[0]},{b[1]},30,30,0.9,-1,-1,-1\n"
+            for f, x0 in ((1, 0.0), (2, 2000.0), (3, 0.0))
+            for b in _grid(40, x0).tolist()
+        )
+    )
+    out = tmp_path / "out.txt"
+    assert main(["track", "--detections", str(det), "--format", "mot", "--output", str(out)]) == 2
+    assert "live tracks" in one_line_error(capsys)
+    assert not out.exists()
