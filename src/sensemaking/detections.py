@@ -260,12 +260,12 @@ def check_frame_size(
     n: int, frame: int | None = None, path: str | None = None, line: int | None = None
 ) -> None:
     """Refuse a frame with more than :data:`MAX_DETECTIONS_PER_FRAME` detections
-    (:class:`~sensemaking.errors.InputError` naming the file line when known)."""
-    from sensemaking.errors import InputError
+    (:class:`~sensemaking.errors.FrameLimitError` naming the file line when known)."""
+    from sensemaking.errors import FrameLimitError
 
     if n > MAX_DETECTIONS_PER_FRAME:
         which = "a frame" if frame is None else f"frame {frame}"
-        raise InputError(
+        raise FrameLimitError(
             f"{which} has {n} detections or more, more than the per-frame limit of "
             f"{MAX_DETECTIONS_PER_FRAME} (sensemaking.detections.MAX_DETECTIONS_PER_FRAME; "
             "raise the detector's confidence threshold)",
@@ -275,14 +275,14 @@ def check_frame_size(
 
 
 def check_live_tracks(n: int, frame: int | None = None) -> None:
-    """Refuse to track a frame when :data:`MAX_LIVE_TRACKS` or more tracks are live before it
-    (:class:`~sensemaking.errors.InputError`): bounds the frame's (tracks x detections)
+    """Refuse to track a frame when more than :data:`MAX_LIVE_TRACKS` tracks are live before
+    it (:class:`~sensemaking.errors.FrameLimitError`): bounds the frame's (tracks x detections)
     work."""
-    from sensemaking.errors import InputError
+    from sensemaking.errors import FrameLimitError
 
     if n > MAX_LIVE_TRACKS:
         which = "a frame" if frame is None else f"frame {frame}"
-        raise InputError(
+        raise FrameLimitError(
             f"{which}: {n} live tracks, more than the limit of {MAX_LIVE_TRACKS} "
             "(sensemaking.detections.MAX_LIVE_TRACKS); the detections are too dense to track: "
             "raise the detector's confidence threshold, start_confidence or min_hits"

@@ -659,5 +659,5 @@ def test_a_frame_past_the_live_track_limit_is_refused(tmp_path: Path, capsys, mo
     )
     out = tmp_path / "out.txt"
     assert main(["track", "--detections", str(det), "--format", "mot", "--output", str(out)]) == 2
-    assert "live tracks" in one_line_error(capsys)
+    assert "dense.txt: frame 3: " in one_line_error(capsys)
     assert not out.exists()
