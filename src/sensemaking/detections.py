@@ -20,6 +20,8 @@ __all__ = [
     "MAX_FRAME",
     "MAX_DETECTIONS_PER_FRAME",
     "check_frame_size",
+    "MAX_LIVE_TRACKS",
+    "check_live_tracks",
     "MAX_COORD",
     "IMAGE_MARGIN",
 ]
@@ -38,6 +40,12 @@ IMAGE_MARGIN = 10.0
 #: dense frame is refused with a clear error before any square-sized array is made (real
 #: detectors give at most a few hundred: 131 on MOT17-02 with YOLOX)
 MAX_DETECTIONS_PER_FRAME = 2_000
+#: live tracks (confirmed, tentative, unobserved) a frame may start with: the rules end a track
+#: unseen past its time limit, so live tracks <= the detections of the last
+#: max(max_hidden_frames, max_missing_frames) + 1 frames -- but that is 2,000 x 31 = 62,000 at
+#: the 10 fps defaults (and a user's encoding may keep tracks), so dense input could still make
+#: a (tracks x detections) array of 124 M entries; past this limit the frame is refused
+MAX_LIVE_TRACKS = 2_000
 
 
 def _column(value: Any, n: int, dtype: type, default: float | int, name: str) -> np.ndarray:
@@ -252,17 +260,32 @@ def check_frame_size(
     n: int, frame: int | None = None, path: str | None = None, line: int | None = None
 ) -> None:
     """Refuse a frame with more than :data:`MAX_DETECTIONS_PER_FRAME` detections
-    (:class:`~sensemaking.errors.InputError` naming the file line when known)."""
-    from sensemaking.errors import InputError
+    (:class:`~sensemaking.errors.FrameLimitError` naming the file line when known)."""
+    from sensemaking.errors import FrameLimitError
 
     if n > MAX_DETECTIONS_PER_FRAME:
         which = "a frame" if frame is None else f"frame {frame}"
-        raise InputError(
+        raise FrameLimitError(
             f"{which} has {n} detections or more, more than the per-frame limit of "
             f"{MAX_DETECTIONS_PER_FRAME} (sensemaking.detections.MAX_DETECTIONS_PER_FRAME; "
             "raise the detector's confidence threshold)",
             path,
             line,
+        )
+
+
+def check_live_tracks(n: int, frame: int | None = None) -> None:
+    """Refuse to track a frame when more than :data:`MAX_LIVE_TRACKS` tracks are live before
+    it (:class:`~sensemaking.errors.FrameLimitError`): bounds the frame's (tracks x detections)
+    work."""
+    from sensemaking.errors import FrameLimitError
+
+    if n > MAX_LIVE_TRACKS:
+        which = "a frame" if frame is None else f"frame {frame}"
+        raise FrameLimitError(
+            f"{which}: {n} live tracks, more than the limit of {MAX_LIVE_TRACKS} "
+            "(sensemaking.detections.MAX_LIVE_TRACKS); the detections are too dense to track: "
+            "raise the detector's confidence threshold, start_confidence or min_hits"
         )
 
 

@@ -27,6 +27,11 @@ class InputError(SensemakingError, ValueError):
         super().__init__(f"{where}{problem}")
 
 
+class FrameLimitError(InputError):
+    """A frame of the input past a per-frame limit (detections, live tracks): the input's
+    fault, so a caller that knows the input file names it."""
+
+
 class MissingExtraError(SensemakingError, ImportError):
     """An optional dependency is missing; names the extra that provides it."""
 

@@ -21,7 +21,8 @@ finishes every sink (final files appear), on an exception aborts them (nothing h
 on KeyboardInterrupt, which the CLI also raises for SIGTERM, the warnings file is kept).
 Memory is flat in the length of the input when the sinks are (they are: see
 :mod:`sensemaking.sinks`); a :class:`~sensemaking.scene.SceneRecorder` passed as
-``recorder`` keeps the whole scene in memory (and every skipped frame number).
+``recorder`` keeps the whole scene in memory (and the skipped frame numbers a scene records:
+:func:`~sensemaking.scene.records_gap`).
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ from sensemaking.adapters import as_detections
 from sensemaking.detections import Detections, check_frame_number, validate_detections
 from sensemaking.errors import InputError
 from sensemaking.results import FrameResult
+from sensemaking.scene import records_gap
 from sensemaking.sinks import Sink, close_all
 
 __all__ = [
@@ -256,15 +258,18 @@ class Pipeline:
         while f <= last:
             if self._horizon >= 0 and self._quiet > self._horizon:
                 n = last - f + 1
+                s = self.summary
                 self._finish_warnings("cleared")  # nothing holds over the frames skipped
-                if self.recorder is not None:  # it keeps every frame number: add them as empty
+                # the recorder keeps the frame numbers of the gaps a scene records: add them empty
+                if self.recorder is not None and records_gap(
+                    s.first if s.first is not None else f, last
+                ):
                     for g in range(f, last + 1):
                         self.recorder.add(
                             FrameResult(frame=g, tracks=Detections.empty(), events=[])
                         )
                 for sink in self.sinks:
                     sink.skip(f, last)
-                s = self.summary
                 s.frames += n
                 s.skipped += n
                 s.first = f if s.first is None else s.first

@@ -13,7 +13,7 @@ Scene JSON (``"format": "sensemaking.scene"``, ``"version": 1``)::
     {"format": "sensemaking.scene", "version": 1,
      "fps": 10.0, "image_size": [1242, 375],          # image_size may be null
      "frames": [0, 153],                              # first and last frame recorded
-     "frame_numbers": [...],                          # only when frames are not contiguous
+     "frame_numbers": [...],                          # when not contiguous or > 100,000
      "metadata": {...},                               # free-form (source file, tracker config)
      "tracks": [{"id": 3, "class": "car", "class_id": 3,
                  "frames": [0, 1, ...],               # frames the track was live, increasing
@@ -29,6 +29,10 @@ Scene JSON (``"format": "sensemaking.scene"``, ``"version": 1``)::
 ``"abduction"`` (format in :mod:`sensemaking.abduction.record`) keeps the facts of the part of
 each frame an event was abduced from, so that ``sensemaking ask SCENE why TRACK FRAME`` can
 solve it again and name the next-best explanations with their costs.
+
+The frames recorded are those the pipeline stepped and the empty frames of the gaps it skipped
+(nothing live) while the scene spans at most :data:`SCENE_SPAN_FRAMES` frames; a gap past that
+is left out (:func:`records_gap`), so a scene's size follows its content.
 """
 
 from __future__ import annotations
@@ -57,10 +61,22 @@ if TYPE_CHECKING:  # pragma: no cover
     from sensemaking.abduction.record import AbductionRecord, ProblemRecord
     from sensemaking.abduction.solver import AbductionSolver
 
-__all__ = ["Track", "FluentInterval", "Scene", "SceneRecorder", "SCENE_FORMAT", "SCENE_VERSION"]
+__all__ = [
+    "Track",
+    "FluentInterval",
+    "Scene",
+    "SceneRecorder",
+    "SCENE_FORMAT",
+    "SCENE_VERSION",
+    "SCENE_SPAN_FRAMES",
+    "records_gap",
+]
 
 SCENE_FORMAT = "sensemaking.scene"
 SCENE_VERSION = 1
+#: a scene of at most this many frames (first to last) loads whatever it holds; the empty frames
+#: of a gap the pipeline skipped are recorded as frames only within it (:func:`records_gap`)
+SCENE_SPAN_FRAMES = 100_000
 _STATES = STATE_NAMES  # index = TrackState value
 _VISIBILITY = VISIBILITY_VALUES
 
@@ -404,7 +420,7 @@ class Scene:
         content = len(raw_events) + sum(
             len(r.get("frames", ())) if isinstance(r, Mapping) else 1 for r in raw_tracks
         )
-        span_limit = min(MAX_FRAME, max(100_000, 100 * content))
+        span_limit = min(MAX_FRAME, max(SCENE_SPAN_FRAMES, 100 * content))
         frames_given = None
         if "frame_numbers" in record:
             fn = record["frame_numbers"]
@@ -574,13 +590,23 @@ def scene_parts(
     yield "fps", fps
     yield "image_size", None if image_size is None else list(image_size)
     yield "frames", [runs[0][0], runs[-1][1]] if runs else []
-    if len(runs) > 1:
+    # past SCENE_SPAN_FRAMES a span alone is refused as implausible: list the frames instead
+    if len(runs) > 1 or (runs and runs[-1][1] - runs[0][0] >= SCENE_SPAN_FRAMES):
         yield "frame_numbers", JsonArray(chain.from_iterable(range(a, b + 1) for a, b in runs))
     yield "metadata", metadata
     yield "tracks", tracks
     yield "events", events
     if abduction is not None:
         yield "abduction", abduction
+
+
+def records_gap(scene_first: int, last: int) -> bool:
+    """Whether the empty frames of a gap the pipeline skipped, up to frame ``last``, are
+    recorded as frames of a scene whose first frame is ``scene_first``: only while the scene
+    spans at most :data:`SCENE_SPAN_FRAMES` frames, so that what ``track --scene`` writes
+    always loads and a scene's size follows the frames stepped (its content), not the frame
+    numbers."""
+    return last - scene_first < SCENE_SPAN_FRAMES
 
 
 def _dumps(value: Any) -> str:

@@ -43,6 +43,7 @@ from sensemaking.scene import (
     JsonArray,
     RawJson,
     Track,
+    records_gap,
     scene_parts,
     track_json,
     write_scene,
@@ -474,7 +475,8 @@ class SceneSink:
         self._group()
         for t in list(self._live):
             self._spill(t)
-        self._add_frames(first, last)
+        if records_gap(self._runs[0][0] if self._runs else first, last):
+            self._add_frames(first, last)
 
     def _spill(self, track_id: int) -> None:
         parts = self._live.pop(track_id)

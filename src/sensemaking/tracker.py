@@ -28,6 +28,7 @@ from sensemaking.detections import (
     Detections,
     check_frame_number,
     check_frame_size,
+    check_live_tracks,
     validate_detections,
 )
 from sensemaking.results import Event, FrameAbduction, FrameResult, TrackState
@@ -193,6 +194,7 @@ class Tracker:
             dets = dets.with_(frame=np.full(len(dets), frame))
         if self._last_frame is not None and frame <= self._last_frame:
             raise ValueError(f"frames must increase: got frame {frame} after {self._last_frame}")
+        check_live_tracks(len(self._tracks), frame)  # and bounded in tracks too
         self._last_frame = frame
         self._frames_seen += 1
         self.stats["frames"] += 1

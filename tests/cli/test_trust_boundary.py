@@ -8,6 +8,7 @@ import json
 import os
 from pathlib import Path
 
+import numpy as np
 import pytest
 from test_hostile import one_line_error, write_det
 
@@ -520,6 +521,57 @@ def test_a_scene_with_a_vanishing_frame_rate_is_refused(scene_file: Path, capsys
     assert "fps" in one_line_error(capsys)
 
 
+def test_a_scene_track_wrote_near_max_frame_loads_in_explain_ask_report(
+    tmp_path: Path, capsys
+) -> None:
+    """A gap past SCENE_SPAN_FRAMES is not recorded as frames: the scene holds the frames
+    stepped, so it loads and costs what its content costs; the recorder agrees with the file."""
+    import tracemalloc
+
+    import numpy as np
+
+    from sensemaking.detections import MAX_FRAME
+    from sensemaking.io.stream import iter_detection_frames
+    from sensemaking.pipeline import Pipeline
+    from sensemaking.scene import SCENE_SPAN_FRAMES, Scene, SceneRecorder
+    from sensemaking.sinks import SceneSink
+    from sensemaking.tracker import Tracker
+
+    last = MAX_FRAME - 1
+    det = tmp_path / "det.txt"
+    det.write_text(f"1,-1,100,100,40,80,0.9,-1,-1,-1\n{last},-1,100,100,40,80,0.9,-1,-1,-1\n")
+    scene = tmp_path / "s.json"
+    out = tmp_path / "o.txt"
+    argv = ["track", "--detections", str(det), "--format", "mot", "--output", str(out)]
+    assert main([*argv, "--scene", str(scene)]) == 0
+    tracemalloc.start()
+    loaded = Scene.load(scene)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert (loaded.first_frame, loaded.last_frame) == (1, last)
+    assert len(loaded) < 1_000 and peak < 10_000_000  # not one entry per frame of the span
+    assert {t.last for t in loaded.tracks.values()} >= {last}
+    capsys.readouterr()
+    assert main(["explain", str(scene)]) == 0
+    assert str(last) in capsys.readouterr().out
+    assert main(["ask", str(scene), "q(F) :- frame(F). #show q/1."]) == 0
+    assert f"q({last})" in capsys.readouterr().out
+    assert main(["report", str(scene), "-o", str(tmp_path / "r.html")]) == 0
+    # the in-memory recorder records the same frames as the file
+    rec = SceneRecorder(fps=30.0)
+    sink = SceneSink(tmp_path / "sink.json", fps=30.0)
+    with Pipeline(Tracker(), recorder=rec, sinks=[sink]) as pipe:
+        pipe.run(iter_detection_frames(det, "mot"), first_frame=1)
+    from_sink = Scene.load(tmp_path / "sink.json")
+    assert np.array_equal(rec.scene().frame_numbers, from_sink.frame_numbers)
+    # within SCENE_SPAN_FRAMES the skipped gap is the scene's frames, as before
+    near = SCENE_SPAN_FRAMES // 2
+    det.write_text(f"1,-1,100,100,40,80,0.9,-1,-1,-1\n{near},-1,100,100,40,80,0.9,-1,-1,-1\n")
+    assert main([*argv, "--scene", str(scene)]) == 0
+    assert len(Scene.load(scene)) == near
+    assert '"frame_numbers"' not in scene.read_text()
+
+
 # 9. dense frames: a documented per-frame limit, refused before any square-sized array
 def test_a_dense_frame_is_refused_with_its_line(tmp_path: Path, capsys) -> None:
     from sensemaking.detections import MAX_DETECTIONS_PER_FRAME as LIMIT
@@ -554,3 +606,58 @@ def test_the_api_refuses_a_dense_frame_too() -> None:
     with pytest.raises(InputError, match="per-frame limit"):
         tracker.update(np.column_stack([xyxy, np.full(n, 0.9)]), frame=1)
     assert tracker.n_tracks == 0
+
+
+def _grid(n: int, x0: float) -> np.ndarray:
+    """(n, 5) boxes on a grid starting at ``x0``, 50 px apart, none overlapping another."""
+    i = np.arange(n)
+    xy = np.column_stack([x0 + i % 20 * 50.0, i // 20 * 50.0])
+    return np.column_stack([xy, xy + 30.0, np.full(n, 0.9)])
+
+
+def test_live_tracks_are_bounded_by_the_detections_of_the_last_frames() -> None:
+    """The rules end a track unseen past its limit: live tracks <= the detections of the last
+    max(max_hidden_frames, max_missing_frames) + 1 frames (what MAX_LIVE_TRACKS caps)."""
+    from sensemaking.config import TrackerConfig
+    from sensemaking.tracker import Tracker
+
+    rng = np.random.default_rng(7)
+    config = TrackerConfig(fps=10.0, max_hidden_s=0.5, max_missing_s=0.3)
+    window = max(config.max_hidden_frames, config.max_missing_frames) + 1
+    tracker = Tracker(config)
+    counts: list[int] = []
+    for f in range(1, 41):
+        n = int(rng.integers(20, 60))
+        xy = rng.uniform(0, 1000, size=(n, 2))
+        boxes = np.column_stack([xy, xy + rng.uniform(20, 60, size=(n, 2)), np.full(n, 0.9)])
+        tracker.update(boxes, frame=f)
+        counts.append(n)
+        assert 0 < tracker.n_tracks <= sum(counts[-window:])
+
+
+def test_a_frame_past_the_live_track_limit_is_refused(tmp_path: Path, capsys, monkeypatch) -> None:
+    import sensemaking.detections as detections
+    from sensemaking.errors import InputError
+    from sensemaking.tracker import Tracker
+
+    monkeypatch.setattr(detections, "MAX_LIVE_TRACKS", 50)
+    tracker = Tracker()
+    tracker.update(_grid(40, 0.0), frame=1)
+    tracker.update(_grid(40, 2000.0), frame=2)  # elsewhere: 40 new tracks, 40 kept unseen
+    live = tracker.n_tracks
+    assert live > 50
+    with pytest.raises(InputError, match=f"frame 3: {live} live tracks.*limit of 50"):
+        tracker.update(_grid(40, 0.0), frame=3)
+    assert tracker.n_tracks == live and tracker.stats["frames"] == 2  # unchanged
+    det = tmp_path / "dense.txt"
+    det.write_text(
+        "".join(
+            f"{f},-1,{b[0]},{b[1]},30,30,0.9,-1,-1,-1\n"
+            for f, x0 in ((1, 0.0), (2, 2000.0), (3, 0.0))
+            for b in _grid(40, x0).tolist()
+        )
+    )
+    out = tmp_path / "out.txt"
+    assert main(["track", "--detections", str(det), "--format", "mot", "--output", str(out)]) == 2
+    assert "dense.txt: frame 3: " in one_line_error(capsys)
+    assert not out.exists()

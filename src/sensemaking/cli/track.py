@@ -15,7 +15,7 @@ from typing import Any
 from sensemaking.classes import check_kitti_class
 from sensemaking.cli._progress import Progress
 from sensemaking.config import MAX_FPS, MAX_IMAGE_SIDE, MIN_FPS, check_fps, parse_size
-from sensemaking.errors import InputError
+from sensemaking.errors import FrameLimitError, InputError
 
 log = logging.getLogger(__name__)
 
@@ -799,6 +799,11 @@ def _run(args: argparse.Namespace) -> int:
         try:
             with pipe:
                 summary = pipe.run(frames, first_frame=first, last_frame=last)
+        except FrameLimitError as exc:
+            files = getattr(args, "detection_files", None) or []
+            if exc.path is None and len(files) == 1:  # the tracker's limits: name the input
+                raise FrameLimitError(exc.problem, files[0]) from None
+            raise
         except KeyboardInterrupt:
             done = pipe.summary.last
             kept = (
