@@ -141,9 +141,8 @@ ORIGINS: dict[str, str] = {
     "costs.enters": "default; calibrate estimates it as −100 ln P(begins at the border).",
     "costs.appears": "default (a first grid axis, flat: docs/DESIGN-NOTES.md); calibrate "
     "estimates it as −100 ln P(begins inside).",
-    "costs.leaves": "KITTI 300: issue 27, chosen leave-one-video-out for identity through "
-    f"occlusion (docs/DESIGN-NOTES.md); MOT 300, {_HAND}; calibrate estimates it as −100 ln "
-    "P(ends at the border).",
+    "costs.leaves": f"default (MOT 300, {_HAND}); calibrate estimates it as −100 ln P(ends "
+    "at the border).",
     "costs.lost": "default; calibrate estimates it as −100 ln P(ends inside).",
     "costs.dropped": "0: dropping an unconfirmed hypothesis is free by design.",
     "costs.hides": "default, hand-chosen, not tuned.",
