@@ -151,8 +151,8 @@ def test_an_archive_path_with_a_bracket_is_not_a_glob(tmp_path: Path, capsys) ->
         ("--rules", ":- track(T).\n", "UNSATISFIABLE"),
         ("--situations", '#include "other.lp".\n', "#include is not allowed"),
         ("--situations", "warn(x,(T,)) :- not track(T).\n", "unsafe variables"),
-        ("--situations", "p(1..100000000).\n", "limit"),
-        ("--rules", "p(1..100000000).\n", "limit"),
+        pytest.param("--situations", "p(1..100000000).\n", "limit", marks=pytest.mark.slow),
+        pytest.param("--rules", "p(1..100000000).\n", "limit", marks=pytest.mark.slow),
     ],
 )
 def test_user_encodings_get_one_line_errors_and_limits(

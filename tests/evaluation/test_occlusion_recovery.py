@@ -69,7 +69,7 @@ KITTI_CASES = [
     "abduction",
     [
         pytest.param(True, marks=pytest.mark.slow, id="ours"),
-        pytest.param(False, id="no-abduction"),
+        pytest.param(False, marks=pytest.mark.slow, id="no-abduction"),
     ],
 )
 def test_kitti_counts_equal_the_checker(tmp_path, detector, cls, seqs, abduction):
@@ -105,6 +105,7 @@ def test_mot_counts_equal_the_checker(tmp_path, seq):
 
 
 @needs_shared
+@pytest.mark.slow
 def test_evaluate_cli_reports_the_same_counts(tmp_path):
     """`sensemaking evaluate --json` carries the occlusion counts the checker gives, per
     sequence and pooled, and prints them."""

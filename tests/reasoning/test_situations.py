@@ -251,6 +251,7 @@ SCENES = {
 }
 
 
+@pytest.mark.slow
 def test_each_situation_is_found_by_some_scene():
     found = set()
     for objs, ctx in SCENES.values():

@@ -59,6 +59,7 @@ SCENES = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("restart", [1, 40])
 @pytest.mark.parametrize("name", sorted(SCENES))
 def test_stream_gives_the_references_warnings_on_each_scripted_scene(name, restart, monkeypatch):
@@ -68,6 +69,7 @@ def test_stream_gives_the_references_warnings_on_each_scripted_scene(name, resta
         _same(build_results(objs), fps=10.0, image_size=SIZE, profile=profile, **kw)
 
 
+@pytest.mark.slow
 def test_the_scripted_scenes_raise_warnings_at_all():
     """The comparison above is not vacuous: the scenes warn."""
     kinds = set()

@@ -47,6 +47,7 @@ def said(monitor: SituationMonitor, objs: list[Obj]) -> set[str]:
     return {w.situation for w in monitor.run(build_results(objs)) if w.objects}
 
 
+@pytest.mark.slow
 def test_a_fixed_camera_issues_no_ego_vehicle_warnings():
     driving, fixed = set(), set()
     for objs in ego_scenes():
