@@ -202,3 +202,32 @@ def test_readers_of_the_warnings_file_take_the_starts(tmp_path: Path):
     stream(tmp_path, [truck], 30, SituationConfig(situations={"REDUCED_VISIBILITY"}))
     got = read_warnings(tmp_path / "warnings.jsonl")
     assert [(w["frame"], w["record"]) for w in got] == [(0, "start"), (25, "start")]
+
+
+def test_severities_are_stated_in_the_encoding_and_a_users_situation_states_its_own(
+    tmp_path: Path,
+):
+    from sensemaking.reasoning.situations import SituationSolver
+
+    base, ego = SituationSolver().severities()
+    assert base["SUDDEN_STOP"] == 3 and base["OVERTAKING"] == 1 and base["HIDDEN_ENTITY"] == 2
+    assert ego == {"HIDDEN_ENTITY": 3, "BLOCKED_LANE": 3, "EXITING_VEHICLE": 3}
+    # a user's situation: severity 1 by its own fact, 3 when it stands on the ego lane
+    rules = tmp_path / "stopped.lp"
+    rules.write_text(
+        "warn(stopped_ahead,(T,)) :- now(N), vehicle(T), in_corridor(T,N).\n"
+        "severity(stopped_ahead,1). severity_on_ego_lane(stopped_ahead,3).\n"
+    )
+    got = {}
+    for name, cx in (("left", 330), ("ego", 621)):  # in the corridor, left of its middle
+        car = Obj(1, CAR, linear(range(10), box(cx, 330, 120, 80)))
+        mon = SituationMonitor(
+            SituationConfig(situations=set()),
+            fps=10.0,
+            image_size=SIZE,
+            extra_encodings=[str(rules)],
+        )
+        ws = [w for w in mon.run(build_results([car])) if w.situation == "STOPPED_AHEAD"]
+        got[name] = {(w.details["lane_position"], w.details["severity"]) for w in ws}
+    assert got["ego"] == {("ego", 3)}
+    assert got["left"] == {("left", 1)}

@@ -25,8 +25,9 @@ Each warning carries, in its details, its episode number, a **severity** on the 
 * severity 1 *advisory* (be aware: OVERTAKING, REDUCED_VISIBILITY), 2 *caution* (be ready to
   act: HIDDEN_ENTITY, BLOCKED_LANE, EXITING_VEHICLE, a user's situation), 3 *warning* (act now:
   SUDDEN_STOP). HIDDEN_ENTITY, BLOCKED_LANE and EXITING_VEHICLE are raised to 3 when their
-  object is on the ego lane. A user's encoding may set a warning's severity with
-  ``info(S,Objs,severity,N)``, N in 1..3.
+  object is on the ego lane. The scale is stated in ``situations.lp`` (``severity/2``,
+  ``severity_on_ego_lane/2``, read once); a user's encoding may state it for its own situations,
+  or set one warning's severity with ``info(S,Objs,severity,N)``, N in 1..3.
 * lane position: ``ego``, ``left`` or ``right`` of the ego lane, or ``unknown``. The point is
   where the object stands on the road: the bottom centre of its box now (HIDDEN_ENTITY: of the
   anticipated box where it reappears). With lanes, the ego lane is the lane under the bottom
@@ -115,16 +116,7 @@ PROFILES: tuple[str, ...] = SCENE_PROFILES
 SEVERITY_NAMES: dict[int, str] = {1: "advisory", 2: "caution", 3: "warning"}
 #: where a warning's object stands relative to the ego lane
 LANE_POSITIONS: tuple[str, ...] = ("ego", "left", "right", "unknown")
-_SEVERITY: dict[str, int] = {
-    "OVERTAKING": 1,
-    "REDUCED_VISIBILITY": 1,
-    "HIDDEN_ENTITY": 2,
-    "BLOCKED_LANE": 2,
-    "EXITING_VEHICLE": 2,
-    "SUDDEN_STOP": 3,
-}
-#: situations whose severity rises to 3 when their object is on the ego lane
-_EGO_LANE_RAISES = frozenset({"HIDDEN_ENTITY", "BLOCKED_LANE", "EXITING_VEHICLE"})
+#: the severity of a situation whose encoding states none (situations.lp: severity/2)
 _USER_SEVERITY = 2
 #: monitors reason on a long-lived Control (StreamSolver) unless told ``stream=False``
 STREAM = True
@@ -294,6 +286,7 @@ class SituationMonitor:
         self._solver = SituationSolver(
             checked, self.config.constants, extra_encodings, limits=limits
         )
+        self._severity, self._severity_ego = self._solver.severities()
         self.stream = STREAM if stream is None else bool(stream)
         # box area (px²) -> permille of the image
         self._permille = (
@@ -879,9 +872,9 @@ class SituationMonitor:
             point = ((box[0] + box[2]) / 2.0, box[3])
         lane_position = self._lane_position(point)
         details["lane_position"] = lane_position
-        severity = _SEVERITY.get(s, _USER_SEVERITY)
-        if s in _EGO_LANE_RAISES and lane_position == "ego":
-            severity = 3
+        severity = self._severity.get(s, _USER_SEVERITY)  # the encoding's severity/2
+        if lane_position == "ego":
+            severity = self._severity_ego.get(s, severity)
         given = details.get("severity")
         if isinstance(given, int) and given in SEVERITY_NAMES:  # a user's encoding says it
             severity = given

@@ -302,6 +302,19 @@ class SituationSolver:
                 extra_encodings[0] if len(extra_encodings) == 1 else None,
             ) from None
 
+    def severities(self) -> tuple[dict[str, int], dict[str, int]]:
+        """The program's ``severity(S,N)`` and ``severity_on_ego_lane(S,N)`` facts, as
+        ``({SITUATION: N}, {SITUATION: N})`` (names upper-case, as warnings name them)."""
+        ctl = asp.control(self._args, self._stmts)
+        ctl.ground([("base", [])])
+        tables: tuple[dict[str, int], dict[str, int]] = ({}, {})
+        for table, name in zip(tables, ("severity", "severity_on_ego_lane"), strict=True):
+            for atom in ctl.symbolic_atoms.by_signature(name, 2):
+                s, n = atom.symbol.arguments
+                if atom.is_fact and n.type == clingo.SymbolType.Number:
+                    table[str(s).upper()] = n.number
+        return tables
+
     def _build(self, ctl: clingo.Control) -> None:
         with clingo_ast.ProgramBuilder(ctl) as builder:
             for stmt in self._stmts:
