@@ -202,10 +202,10 @@ class Tracker:
 
     def _predict(self) -> np.ndarray:
         """(T, 4) every track's box predicted for this frame (the Kalman bank moves on)."""
-        unseen = self._tracks.unseen > 0
-        if self.config.unseen_damping < 1.0 and unseen.any():
-            # an unseen track's image velocity fades (unseen_damping, issue 27)
-            self._tracks.kf.damp(unseen, self.config.unseen_damping)
+        if self.config.unseen_damping < 1.0:  # an unseen track's image velocity fades (issue 27)
+            unseen = self._tracks.unseen > 0
+            if unseen.any():
+                self._tracks.kf.damp(unseen, self.config.unseen_damping)
         return self._tracks.kf.predict(1) if len(self._tracks) else np.zeros((0, 4))
 
     def _explain(

@@ -295,25 +295,20 @@ class SituationSolver:
                 limits=limits,
             )
         try:  # surface the user's grounding errors (unsafe variables, ...) now, as InputError
-            self._solve(())
+            ctl = asp.control(self._args, self._stmts)
+            ctl.ground(self._parts)
+            ctl.solve()
         except RuntimeError as exc:
             raise InputError(
                 f"situation encodings: {' '.join(str(exc).split())}",
                 extra_encodings[0] if len(extra_encodings) == 1 else None,
             ) from None
+        self._severities = _severity_tables(ctl)  # read from the same grounding
 
     def severities(self) -> tuple[dict[str, int], dict[str, int]]:
         """The program's ``severity(S,N)`` and ``severity_on_ego_lane(S,N)`` facts, as
         ``({SITUATION: N}, {SITUATION: N})`` (names upper-case, as warnings name them)."""
-        ctl = asp.control(self._args, self._stmts)
-        ctl.ground([("base", [])])
-        tables: tuple[dict[str, int], dict[str, int]] = ({}, {})
-        for table, name in zip(tables, ("severity", "severity_on_ego_lane"), strict=True):
-            for atom in ctl.symbolic_atoms.by_signature(name, 2):
-                s, n = atom.symbol.arguments
-                if atom.is_fact and n.type == clingo.SymbolType.Number:
-                    table[str(s).upper()] = n.number
-        return tables
+        return self._severities
 
     def _build(self, ctl: clingo.Control) -> None:
         with clingo_ast.ProgramBuilder(ctl) as builder:
@@ -371,6 +366,17 @@ class SituationSolver:
 
         ctl.solve(on_model=first)
         return tuple(found)
+
+
+def _severity_tables(ctl: clingo.Control) -> tuple[dict[str, int], dict[str, int]]:
+    """The ``severity/2`` and ``severity_on_ego_lane/2`` facts of a ground ``ctl``."""
+    tables: tuple[dict[str, int], dict[str, int]] = ({}, {})
+    for table, name in zip(tables, ("severity", "severity_on_ego_lane"), strict=True):
+        for atom in ctl.symbolic_atoms.by_signature(name, 2):
+            s, n = atom.symbol.arguments
+            if atom.is_fact and n.type == clingo.SymbolType.Number:
+                table[str(s).upper()] = n.number
+    return tables
 
 
 # -- stream reasoning ---------------------------------------------------------------------------
