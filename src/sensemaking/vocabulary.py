@@ -52,6 +52,10 @@ EVENTS: dict[str, EventKind] = {
         EventKind("starts", 1, "is in view"),
         # a track ends without leaving the field of view (lost)
         EventKind("ends", 1, "is lost"),
+        # a track that left the field of view is found again (revive_s): it left and came back
+        EventKind("reenters_fov", 1, "re-enters the field of view"),
+        # a lost track is found again (revive_s)
+        EventKind("returns", 1, "is found again after it was lost"),
     )
 }
 
