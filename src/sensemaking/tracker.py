@@ -20,7 +20,7 @@ import numpy as np
 from sensemaking.abduction.components import ComponentSolver, SolverCache
 from sensemaking.abduction.hungarian import match_hungarian
 from sensemaking.abduction.observe import frame_problem, likelihood, likelihood_grid, quantize
-from sensemaking.abduction.problem import VISIBILITY_VALUES, FrameProblem
+from sensemaking.abduction.problem import GONE_EVENTS, VISIBILITY_VALUES, FrameProblem
 from sensemaking.abduction.solver import AbductionSolver, Answer, Det, read_encoding
 from sensemaking.adapters import as_detections
 from sensemaking.config import AbductionCosts, KalmanConfig, TrackerConfig
@@ -33,7 +33,7 @@ from sensemaking.detections import (
 )
 from sensemaking.results import Event, FrameAbduction, FrameResult, TrackState
 from sensemaking.sandbox import Limits, check_user_encoding
-from sensemaking.track_table import TrackTable
+from sensemaking.track_table import EndedTracks, TrackTable
 
 # the configuration lives in sensemaking.config; re-exported here, where users import it from
 __all__ = [
@@ -125,6 +125,9 @@ class Tracker:
     def reset(self) -> None:
         """Forget every track; the next update is a first frame. Ids start again at 1."""
         self._tracks = TrackTable(self.config.kalman_config)
+        #: tracks ended a moment ago that a detection may revive (``revive_s``)
+        self._ended = EndedTracks(self.config.kalman_config)
+        self._revive = self.config.revive_frames if self.config.abduction else 0
         self._pending: dict[int, Event] = {}  # start events of tentative tracks
         self._next_id = 1
         self._frames_seen = 0
@@ -206,7 +209,20 @@ class Tracker:
             unseen = self._tracks.unseen > 0
             if unseen.any():
                 self._tracks.kf.damp(unseen, self.config.unseen_damping)
+        if len(self._ended):
+            self._age_ended()
         return self._tracks.kf.predict(1) if len(self._tracks) else np.zeros((0, 4))
+
+    def _age_ended(self) -> None:
+        """One more frame for the ended tracks: unseen, older, forgotten past ``revive_s``;
+        without ``revive_hold`` their predictions move on."""
+        ended = self._ended
+        ended.age += 1
+        ended.table.unseen += 1
+        if (ended.age > self._revive).any():
+            ended.keep(ended.age <= self._revive)
+        if len(ended) and not self.config.revive_hold:
+            ended.table.kf.predict(1)
 
     def _explain(
         self, pred: np.ndarray, dets: Detections
@@ -230,6 +246,7 @@ class Tracker:
             self.config,
             first_frame=self._frames_seen == 1,
             speed="speed" in self._solver.solver.uses,
+            gone=self._ended if len(self._ended) else None,
         )
 
     def likelihood(self, pred: np.ndarray, dets: Detections) -> np.ndarray:
@@ -261,6 +278,8 @@ class Tracker:
         ``track id -> detection row`` of every track observed this frame (matched or new)."""
         if len(self._tracks) == 0 and not (ans.start or ans.events or ans.fluents):
             return [], {}  # no track before or after: nothing to update, confirm or report
+        if len(self._ended) and ans.resume:
+            self._revive_tracks(ans)
         index = self._tracks.row_of()
         matched = {**ans.assign, **ans.resume}
         camera = self._correct_matched(matched, index, dets)
@@ -271,9 +290,37 @@ class Tracker:
         self._mark_unobserved(ans.halt + ans.ignore_trk, index, camera)
         events = self._confirm(frame)
         events += self._report_events(ans, new_ids, frame)
+        if self._revive and ans.end:
+            self._keep_ended(ans)
         self._drop_ended(set(ans.end))
         events.sort(key=Event.sort_key)
         return events, observed
+
+    def _revive_tracks(self, ans: Answer) -> None:
+        """Move the ended tracks the answer revives (shown as resumed) back to the live ones,
+        unseen since they were last seen: they are corrected as any resumed track."""
+        gone = set(self._ended.table.id.tolist())
+        revived = [t for t in ans.resume if t in gone]
+        if revived:
+            rows = self._ended.pop(revived)
+            rows.state[:] = TrackState.MISSING
+            rows.occluder[:] = -1
+            self._tracks.extend(rows)
+
+    def _keep_ended(self, ans: Answer) -> None:
+        """Keep the confirmed tracks the answer ends by leaves_fov or ends, to revive."""
+        how = {
+            args[0]: GONE_EVENTS.index(name)
+            for name, args in ans.events
+            if name in GONE_EVENTS and args and isinstance(args[0], int)
+        }
+        t = self._tracks
+        rows = np.array(
+            [i for i, tid in enumerate(t.id.tolist()) if tid in how and t.confirmed[i]],
+            dtype=np.int64,
+        )
+        if len(rows):
+            self._ended.add(t.take(rows), np.array([how[int(t.id[i])] for i in rows]))
 
     def _correct_matched(
         self, matched: dict[int, int], index: dict[int, int], dets: Detections
