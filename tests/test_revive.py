@@ -74,6 +74,25 @@ def test_a_lost_car_returns(hold):
     assert all(ids == [2] for ids, _ in off[10:])
 
 
+def test_the_story_tells_the_leave_with_the_return(tmp_path):
+    from sensemaking.reasoning.questions import explain
+    from sensemaking.scene import Scene, SceneRecorder
+
+    cfg = TrackerConfig(fps=10, image_size=(1242, 375), revive_s=0.5)
+    tracker = Tracker(cfg, solver_cache=SolverCache())
+    rec = SceneRecorder(10.0, (1242, 375))
+    for f, box in enumerate(_border_scene()):
+        rec.add(tracker.update(Detections.empty() if box is None else _car(*box), frame=f))
+    rec.scene().save(tmp_path / "scene.json")
+    story = " ".join(explain(Scene.load(tmp_path / "scene.json"), 1))
+    assert (
+        "At frame 11 it re-enters the field of view at the left border (it left at frame 8)"
+        in (story)
+    )
+    assert "still tracked at the end of the scene (frame 15)" in story
+    assert story.count("leaves the field of view") == 0
+
+
 def test_past_the_grace_time_a_new_track():
     run = _run(_border_scene(missed=6), revive_s=0.3)  # gone 6 frames, 3 allowed
     assert all(ids == [2] for ids, _ in run[14:])

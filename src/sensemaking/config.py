@@ -419,8 +419,8 @@ class TrackerConfig:
             ``costs.returns``) instead of a new track: what was said when it ended stays said.
             It must fit: same class, its prediction (widened with the time unseen, as a
             resumed track's) at least ``iou_resume`` IoU with the detection, heights within
-            ``revive_height_ratio``, and a detection strong enough to start a track. At most
-            ``REVIVE_MAX`` recently ended tracks are kept (issue 27). 0: off.
+            ``revive_height_ratio``, and a detection strong enough to start a track. The 16
+            latest ended tracks are kept (``track_table.REVIVE_MAX``; issue 27). 0: off.
         revive_hold: where an ended track is looked for: True, the box where it was last seen
             (a car missed at the border comes back where it went); False, its Kalman prediction
             continued at constant velocity from where it ended. Switch (no unit).

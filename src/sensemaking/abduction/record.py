@@ -82,8 +82,20 @@ class ProblemRecord:
         return None
 
     def owns(self, track_id: int) -> bool:
-        """The track is one of the component's own tracks or started here."""
-        return track_id in self.tracks[: self.n_tracks] or track_id in self.dets
+        """The track is one of the component's own tracks, started here, or an ended track
+        that may be revived here (``gone/2``)."""
+        return (
+            track_id in self.tracks[: self.n_tracks]
+            or track_id in self.dets
+            or self.revives(track_id)
+        )
+
+    def revives(self, track_id: int) -> bool:
+        """The track is an ended track that may be revived here (a ``gone/2`` fact)."""
+        if track_id not in self.tracks[self.n_tracks :]:
+            return False
+        prefix = f"gone({self.tracks.index(track_id)},"
+        return any(f.startswith(prefix) for f in self.facts)
 
     def global_ref(self, x: Ref) -> Ref:
         """A local name as a track id (a detection that started no track stays ``Det``)."""
@@ -235,7 +247,9 @@ def problems_of_frame(
     for component, track_ids, det_rows in abduction.problem.components():
         own = len(component.tracks)
         dets = tuple(started.get(r, -1) for r in det_rows)
-        if not (any(d >= 0 for d in dets) or subjects.intersection(track_ids[:own])):
+        # its own tracks, and the ended ones it may revive (numbered after the occluders)
+        named = track_ids[:own] + track_ids[component.n_live_refs :]
+        if not (any(d >= 0 for d in dets) or subjects.intersection(named)):
             continue
         out.append(
             ProblemRecord(
@@ -259,13 +273,11 @@ def recorded_constants(solver: AbductionSolver) -> tuple[dict[str, int], int | N
 
 
 def named_here(problem: ProblemRecord, events: Iterable[Event]) -> bool:
-    """One of the problem's own tracks is the subject of one of ``events`` of its frame."""
+    """One of the problem's own tracks (or ended tracks it revives) is the subject of one of
+    ``events`` of its frame."""
     own = set(problem.tracks[: problem.n_tracks])
-    return any(
-        e.frame == problem.frame and e.args and e.args[0] in own
-        for e in events
-        if isinstance(e.args[0] if e.args else None, int)
-    )
+    subjects = {e.args[0] for e in events if e.frame == problem.frame and e.args}
+    return any(isinstance(t, int) and (t in own or problem.revives(t)) for t in subjects)
 
 
 def keep_named(
