@@ -419,11 +419,13 @@ class TrackerConfig:
             ``costs.returns``) instead of a new track: what was said when it ended stays said.
             It must fit: same class, its prediction (widened with the time unseen, as a
             resumed track's) at least ``iou_resume`` IoU with the detection, heights within
-            ``revive_height_ratio``, and a detection strong enough to start a track. The 16
-            latest ended tracks are kept (``track_table.REVIVE_MAX``; issue 27). 0: off.
+            ``revive_height_ratio``, and a detection strong enough to start a track. A revived
+            track is confirmed again as a new one is (``min_hits``), its history counting as one
+            detection; its event is then reported. The 16 latest ended tracks are kept
+            (``track_table.REVIVE_MAX``; issue 27). 0: off.
         revive_hold: where an ended track is looked for: True, the box where it was last seen
-            (a car missed at the border comes back where it went); False, its Kalman prediction
-            continued at constant velocity from where it ended. Switch (no unit).
+            (a car missed at the border comes back where it went); False (measured better), its
+            Kalman prediction continued at constant velocity from where it ended. Switch.
         revive_height_ratio: the smaller of the two heights over the larger, at least: a revived
             track's last seen box and the detection (1: equal heights). Lower: admits objects
             that approached or drew away while unseen, and other objects of the class.
@@ -475,7 +477,7 @@ class TrackerConfig:
         1.0, "float", "fraction of velocity kept per unseen frame", 0.0, 1.0, low_open=True
     )
     revive_s: float = param(0.0, "float", "s", 0.0, 60.0)
-    revive_hold: bool = param(True, "bool", "-")
+    revive_hold: bool = param(False, "bool", "-")
     revive_height_ratio: float = param(0.7, "float", "ratio of box heights", 0.0, 1.0)
     costs: AbductionCosts = nested(AbductionCosts)
     kalman: KalmanConfig = nested(KalmanConfig)

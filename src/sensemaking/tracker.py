@@ -34,6 +34,7 @@ from sensemaking.detections import (
 from sensemaking.results import Event, FrameAbduction, FrameResult, TrackState
 from sensemaking.sandbox import Limits, check_user_encoding
 from sensemaking.track_table import EndedTracks, TrackTable
+from sensemaking.vocabulary import REVIVE_EVENTS, START_EVENTS
 
 # the configuration lives in sensemaking.config; re-exported here, where users import it from
 __all__ = [
@@ -106,7 +107,7 @@ class Tracker:
                 "conf_start": 1,
                 "class_aware": int(c.class_aware),
                 # every event cost is tracking.lp's #const cost_<name>
-                **{f"cost_{name}": value for name, value in asdict(c.costs).items()},
+                **{f"cost_{name}": value for name, value in _costs(c).items()},
             },
             encoding=None if encoding is None else read_encoding(encoding),
             rules=[read_encoding(r) for r in extra],
@@ -298,13 +299,18 @@ class Tracker:
 
     def _revive_tracks(self, ans: Answer) -> None:
         """Move the ended tracks the answer revives (shown as resumed) back to the live ones,
-        unseen since they were last seen: they are corrected as any resumed track."""
+        unseen since they were last seen: they are corrected as any resumed track. A revived
+        track is confirmed again as a new one is, its history counting as one detection (with
+        ``min_hits`` 3 it is reported from its second detection on): a detection that flickers
+        once where a track ended does not bring it back."""
         gone = set(self._ended.table.id.tolist())
         revived = [t for t in ans.resume if t in gone]
         if revived:
             rows = self._ended.pop(revived)
             rows.state[:] = TrackState.MISSING
             rows.occluder[:] = -1
+            rows.confirmed[:] = False
+            rows.hits[:] = 1  # the correction adds this frame's detection
             self._tracks.extend(rows)
 
     def _keep_ended(self, ans: Answer) -> None:
@@ -452,7 +458,7 @@ class Tracker:
             ev = Event(frame, name, ids_)
             if not ids_ or ids_[0] in confirmed or not isinstance(ids_[0], int):
                 events.append(ev)
-            elif name in ("enters_fov", "starts"):
+            elif name in START_EVENTS or name in REVIVE_EVENTS:
                 self._pending[ids_[0]] = ev
         return events
 
@@ -517,6 +523,16 @@ class Tracker:
             self._tracks.vis[keep],
             self._tracks.unseen[keep],
         )
+
+
+def _costs(config: TrackerConfig) -> dict[str, int]:
+    """The event costs the solver is given: ``costs.returns`` only with ``revive_s`` (no ended
+    track is revived without it; left out, the scene files of runs without it stay as they
+    were, their recorded constants included)."""
+    costs = asdict(config.costs)
+    if not config.revive_frames:
+        costs.pop("returns")
+    return costs
 
 
 def _check_user_program(

@@ -14,7 +14,14 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-__all__ = ["EventKind", "EVENTS", "EVENT_NAMES", "START_EVENTS", "event_sentence"]
+__all__ = [
+    "EventKind",
+    "EVENTS",
+    "EVENT_NAMES",
+    "START_EVENTS",
+    "REVIVE_EVENTS",
+    "event_sentence",
+]
 
 
 @dataclass(frozen=True)
@@ -65,6 +72,10 @@ EVENT_NAMES: dict[str, int] = {name: e.arity for name, e in EVENTS.items()}
 #: the events that start a track: a tentative track's is reported when it is confirmed, but was
 #: abduced at the frame its first detection started it
 START_EVENTS: tuple[str, ...] = ("starts", "enters_fov")
+
+#: the events that revive an ended track (``revive_s``): reported, like a start, when the revived
+#: track is confirmed again, abduced at the frame its detection revived it
+REVIVE_EVENTS: tuple[str, ...] = ("reenters_fov", "returns")
 
 
 def event_sentence(name: str, names: Sequence[str]) -> str:

@@ -38,7 +38,7 @@ from sensemaking.abduction.solver import (
 )
 from sensemaking.errors import InputError
 from sensemaking.results import Event, FrameAbduction
-from sensemaking.vocabulary import START_EVENTS
+from sensemaking.vocabulary import REVIVE_EVENTS, START_EVENTS
 
 __all__ = [
     "ProblemRecord",
@@ -155,6 +155,9 @@ class AbductionRecord:
         if event.name in START_EVENTS:
             found = [p for p in self.problems if p.frame <= event.frame and subject in p.dets]
             return found[-1] if found else None
+        if event.name in REVIVE_EVENTS:  # reported when confirmed again, like a start
+            found = [p for p in self.problems if p.frame <= event.frame and p.revives(subject)]
+            return found[-1] if found else None
         return next((p for p in self.problems if p.frame == event.frame and p.owns(subject)), None)
 
     def alternatives(
@@ -236,7 +239,8 @@ def problems_of_frame(
     frame: int, abduction: FrameAbduction, events: Sequence[Event]
 ) -> list[ProblemRecord]:
     """The components of a frame worth recording: those holding the subject of one of
-    ``events`` (this frame's, in track ids) or a detection that started a track. Empty when the
+    ``events`` (this frame's, in track ids), a detection that started a track, or an ended track
+    that may be revived. Empty when the
     frame was not solved by the packaged encoding."""
     solver = abduction.solver
     if solver.program != load_encoding():
@@ -247,9 +251,9 @@ def problems_of_frame(
     for component, track_ids, det_rows in abduction.problem.components():
         own = len(component.tracks)
         dets = tuple(started.get(r, -1) for r in det_rows)
-        # its own tracks, and the ended ones it may revive (numbered after the occluders)
-        named = track_ids[:own] + track_ids[component.n_live_refs :]
-        if not (any(d >= 0 for d in dets) or subjects.intersection(named)):
+        # and those that may revive an ended track (its event may be reported later)
+        revives = len(track_ids) > component.n_live_refs
+        if not (any(d >= 0 for d in dets) or subjects.intersection(track_ids[:own]) or revives):
             continue
         out.append(
             ProblemRecord(
@@ -294,6 +298,7 @@ def keep_named(
         for p in problems
         if any(d in kept_tracks for d in p.dets if d >= 0)
         or named_here(p, by_frame.get(p.frame, ()))
+        or any(p.revives(t) for t in kept_tracks)
     ]
 
 

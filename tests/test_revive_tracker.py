@@ -93,6 +93,18 @@ def test_the_story_tells_the_leave_with_the_return(tmp_path):
     assert story.count("leaves the field of view") == 0
 
 
+def test_a_revived_track_is_confirmed_again_as_a_new_one_is():
+    # min_hits 3: reported from its second detection on, its event dated then
+    run = _run(_border_scene(), revive_s=0.5, min_hits=3)
+    assert run[11][0] == [] and all(ids == [1] for ids, _ in run[12:])
+    assert (12, "reenters_fov", (1,)) in _events(run)
+    # a single detection where it ended does not bring it back
+    flicker = [b if f < 11 or f == 12 else None for f, b in enumerate(_border_scene())]
+    run = _run(flicker, revive_s=0.5, min_hits=3)
+    assert all(ids == [] for ids, _ in run[8:])
+    assert not any(name == "reenters_fov" for _, name, _ in _events(run))
+
+
 def test_past_the_grace_time_a_new_track():
     run = _run(_border_scene(missed=6), revive_s=0.3)  # gone 6 frames, 3 allowed
     assert all(ids == [2] for ids, _ in run[14:])
