@@ -105,6 +105,25 @@ def test_a_revived_track_is_confirmed_again_as_a_new_one_is():
     assert not any(name == "reenters_fov" for _, name, _ in _events(run))
 
 
+def test_the_scene_keeps_the_problem_of_a_revival_for_why_not():
+    from sensemaking.scene import SceneRecorder
+
+    cfg = TrackerConfig(fps=10, image_size=(1242, 375), revive_s=0.5, min_hits=3)
+    tracker = Tracker(cfg, solver_cache=SolverCache())
+    rec = SceneRecorder(10.0, (1242, 375))
+    for f, box in enumerate(_border_scene()):
+        rec.add(tracker.update(Detections.empty() if box is None else _car(*box), frame=f))
+    scene = rec.scene()
+    event = next(e for e in scene.events if e.name == "reenters_fov")
+    assert event.frame == 12  # reported when confirmed again
+    assert scene.abduction is not None
+    found = scene.abduction.alternatives(event)
+    assert found is not None
+    problem, alternatives = found
+    assert problem.frame == 11 and problem.revives(1)  # abduced when its detection revived it
+    assert alternatives.holds  # solved again, the recorded facts give the same explanation
+
+
 def test_past_the_grace_time_a_new_track():
     run = _run(_border_scene(missed=6), revive_s=0.3)  # gone 6 frames, 3 allowed
     assert all(ids == [2] for ids, _ in run[14:])

@@ -171,7 +171,10 @@ class Tracker:
         abduction = None
         if problem is not None:
             started = set(answer.start)
-            new_tracks = {row: tid for tid, row in observed.items() if row in started}
+            revived = set(problem.gone_id.tolist())  # the candidates; those in observed revived
+            new_tracks = {
+                row: tid for tid, row in observed.items() if row in started or tid in revived
+            }
             abduction = FrameAbduction(problem, new_tracks, self._solver.solver)
         return FrameResult(
             frame=frame,

@@ -239,9 +239,8 @@ def problems_of_frame(
     frame: int, abduction: FrameAbduction, events: Sequence[Event]
 ) -> list[ProblemRecord]:
     """The components of a frame worth recording: those holding the subject of one of
-    ``events`` (this frame's, in track ids), a detection that started a track, or an ended track
-    that may be revived. Empty when the
-    frame was not solved by the packaged encoding."""
+    ``events`` (this frame's, in track ids) or a detection that started (or revived) a track.
+    Empty when the frame was not solved by the packaged encoding."""
     solver = abduction.solver
     if solver.program != load_encoding():
         return []
@@ -251,9 +250,7 @@ def problems_of_frame(
     for component, track_ids, det_rows in abduction.problem.components():
         own = len(component.tracks)
         dets = tuple(started.get(r, -1) for r in det_rows)
-        # and those that may revive an ended track (its event may be reported later)
-        revives = len(track_ids) > component.n_live_refs
-        if not (any(d >= 0 for d in dets) or subjects.intersection(track_ids[:own]) or revives):
+        if not (any(d >= 0 for d in dets) or subjects.intersection(track_ids[:own])):
             continue
         out.append(
             ProblemRecord(
@@ -298,7 +295,6 @@ def keep_named(
         for p in problems
         if any(d in kept_tracks for d in p.dets if d >= 0)
         or named_here(p, by_frame.get(p.frame, ()))
-        or any(p.revives(t) for t in kept_tracks)
     ]
 
 
