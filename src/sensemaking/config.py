@@ -248,6 +248,11 @@ class AbductionCosts:
     #: ``iou_resume``, else an unseen track at the border loses a weakly fitting detection to a new
     #: track entering there (a new id).
     resumes: int = _cost(100)
+    #: an ended track found again within ``revive_s`` (reenters_fov after leaves_fov, returns
+    #: after ends), instead of a new track. Keep it below ``enters``: a new track entering at the
+    #: border costs that, and the revived track must be the cheaper explanation where it fits.
+    #: Higher: a returning object gets a new id where the border makes entering cheap.
+    returns: int = _cost(50)
 
     def __post_init__(self) -> None:
         # its own, weaker check (a TrackerConfig checks the ranges): costs are made on their own
@@ -408,6 +413,22 @@ class TrackerConfig:
             sight instead of drifting on a velocity measured from boxes that were shrinking
             behind the occluder (issue 27). In (0, 1]; 1: constant velocity (off), 0.8: after
             10 unseen frames 11 % is left.
+        revive_s: a track that ended by leaving the field of view (``leaves_fov``) or by being
+            lost (``ends``) stays, for this many seconds after it ended, a candidate that a new
+            detection may be explained by (the events ``reenters_fov`` / ``returns``, cost
+            ``costs.returns``) instead of a new track: what was said when it ended stays said.
+            It must fit: same class, its prediction (widened with the time unseen, as a
+            resumed track's) at least ``iou_resume`` IoU with the detection, heights within
+            ``revive_height_ratio``, and a detection strong enough to start a track. A revived
+            track is confirmed again as a new one is (``min_hits``), its history counting as one
+            detection; its event is then reported. The 16 latest ended tracks are kept
+            (``track_table.REVIVE_MAX``; issue 27). 0: off.
+        revive_hold: where an ended track is looked for: True, the box where it was last seen
+            (a car missed at the border comes back where it went); False (measured better), its
+            Kalman prediction continued at constant velocity from where it ended. Switch.
+        revive_height_ratio: the smaller of the two heights over the larger, at least: a revived
+            track's last seen box and the detection (1: equal heights). Lower: admits objects
+            that approached or drew away while unseen, and other objects of the class.
         costs: :class:`AbductionCosts`.
         kalman: :class:`~sensemaking.motion.KalmanConfig`.
     """
@@ -455,6 +476,9 @@ class TrackerConfig:
     unseen_damping: float = param(
         1.0, "float", "fraction of velocity kept per unseen frame", 0.0, 1.0, low_open=True
     )
+    revive_s: float = param(0.0, "float", "s", 0.0, 60.0)
+    revive_hold: bool = param(False, "bool", "-")
+    revive_height_ratio: float = param(0.7, "float", "ratio of box heights", 0.0, 1.0)
     costs: AbductionCosts = nested(AbductionCosts)
     kalman: KalmanConfig = nested(KalmanConfig)
 
@@ -468,6 +492,11 @@ class TrackerConfig:
     @property
     def max_missing_frames(self) -> int:
         return max(1, int(round(self.max_missing_s * self.fps)))
+
+    @property
+    def revive_frames(self) -> int:
+        """``revive_s`` in frames (0: revival off)."""
+        return max(1, int(round(self.revive_s * self.fps))) if self.revive_s > 0 else 0
 
     @property
     def kalman_config(self) -> KalmanConfig:

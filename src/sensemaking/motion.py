@@ -322,6 +322,20 @@ class KalmanBank:
             return
         self._bind(np.delete(self._s, idx, axis=0))
 
+    def take(self, index: np.ndarray) -> KalmanBank:
+        """A new bank of rows ``index`` (int array or (T,) bool mask), copied in that order."""
+        out = KalmanBank(self.config)
+        out._bind(self._s[self._rows(index)].copy())
+        return out
+
+    def extend(self, other: KalmanBank) -> None:
+        """Append the rows of ``other`` (their whole state) after this bank's rows."""
+        self._bind(np.concatenate([self._s, other._s]))
+
+    def observed(self) -> np.ndarray:
+        """(T, 4) each row's last measurement as boxes ``x1, y1, x2, y2`` (pixels)."""
+        return _to_xyxy(self._s[:, _OBS])
+
     def xyxy(self) -> np.ndarray:
         """(T, 4) current state as boxes ``x1, y1, x2, y2`` (pixels)."""
         return _to_xyxy(self._x)

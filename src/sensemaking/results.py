@@ -82,7 +82,8 @@ class FrameAbduction:
     Attributes:
         problem: the frame's :class:`~sensemaking.abduction.problem.FrameProblem` (detections
             by row of the frame's input).
-        new_tracks: detection row -> id of the track it started this frame (tentative ones too).
+        new_tracks: detection row -> id of the track it started this frame (tentative ones too),
+            or of the ended track it revived (``revive_s``).
         solver: the solver (program, constants, work budget) that answered it.
     """
 

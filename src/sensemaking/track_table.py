@@ -7,7 +7,10 @@ import numpy as np
 from sensemaking.motion import KalmanBank, KalmanConfig
 from sensemaking.results import TrackState
 
-__all__ = ["TrackTable"]
+__all__ = ["TrackTable", "EndedTracks"]
+
+#: at most this many ended tracks are kept to revive (``TrackerConfig.revive_s``): the latest
+REVIVE_MAX = 16
 
 
 class TrackTable:
@@ -94,8 +97,64 @@ class TrackTable:
                 np.concatenate([getattr(self, name), np.asarray(new[name]).astype(dtype)]),
             )
 
+    def take(self, rows: np.ndarray) -> TrackTable:
+        """A new table of ``rows`` (int array or (T,) bool mask), copied, filters included."""
+        out = TrackTable(self.kf.config)
+        out.kf = self.kf.take(rows)
+        for name in self.COLUMNS:
+            setattr(out, name, getattr(self, name)[rows].copy())
+        return out
+
+    def extend(self, other: TrackTable) -> None:
+        """Append the rows of ``other`` (columns and filters) after this table's rows."""
+        self.kf.extend(other.kf)
+        for name in self.COLUMNS:
+            setattr(self, name, np.concatenate([getattr(self, name), getattr(other, name)]))
+
     def drop(self, keep: np.ndarray) -> None:
         """Keep only the rows where the (T,) mask ``keep`` is True."""
         self.kf.remove(np.flatnonzero(~keep))
         for name in self.COLUMNS:
             setattr(self, name, getattr(self, name)[keep])
+
+
+class EndedTracks:
+    """Tracks that ended a moment ago and may be found again (``TrackerConfig.revive_s``).
+
+    Attributes:
+        table: their rows as they were when they ended (``unseen`` counts on while gone; the
+            filters move on only when their prediction is continued). how: (G,) index into
+            ``abduction.problem.GONE_EVENTS`` (0: left the field of view, 1: lost). age: (G,)
+            updates since each ended.
+    """
+
+    def __init__(self, kalman: KalmanConfig | None = None) -> None:
+        self.table = TrackTable(kalman)
+        self.how = np.zeros(0, dtype=np.int64)
+        self.age = np.zeros(0, dtype=np.int64)
+
+    def __len__(self) -> int:
+        return len(self.table)
+
+    def add(self, rows: TrackTable, how: np.ndarray) -> None:
+        """Keep the ended ``rows`` with how each ended; the oldest go past ``REVIVE_MAX``."""
+        self.table.extend(rows)
+        self.how = np.concatenate([self.how, np.asarray(how, dtype=np.int64)])
+        self.age = np.concatenate([self.age, np.zeros(len(rows), dtype=np.int64)])
+        if len(self) > REVIVE_MAX:
+            self.keep(np.arange(len(self)) >= len(self) - REVIVE_MAX)
+
+    def keep(self, mask: np.ndarray) -> None:
+        """Keep only the rows where the (G,) mask is True."""
+        self.table.drop(mask)
+        self.how, self.age = self.how[mask], self.age[mask]
+
+    def pop(self, ids: list[int]) -> TrackTable:
+        """Remove the tracks ``ids`` and return their rows (in the order of ``ids``)."""
+        pos = self.table.row_of()
+        rows = np.array([pos[t] for t in ids], dtype=np.int64)
+        out = self.table.take(rows)
+        mask = np.ones(len(self), dtype=bool)
+        mask[rows] = False
+        self.keep(mask)
+        return out

@@ -20,7 +20,7 @@ import numpy as np
 from sensemaking.abduction.components import ComponentSolver, SolverCache
 from sensemaking.abduction.hungarian import match_hungarian
 from sensemaking.abduction.observe import frame_problem, likelihood, likelihood_grid, quantize
-from sensemaking.abduction.problem import VISIBILITY_VALUES, FrameProblem
+from sensemaking.abduction.problem import GONE_EVENTS, VISIBILITY_VALUES, FrameProblem
 from sensemaking.abduction.solver import AbductionSolver, Answer, Det, read_encoding
 from sensemaking.adapters import as_detections
 from sensemaking.config import AbductionCosts, KalmanConfig, TrackerConfig
@@ -33,7 +33,8 @@ from sensemaking.detections import (
 )
 from sensemaking.results import Event, FrameAbduction, FrameResult, TrackState
 from sensemaking.sandbox import Limits, check_user_encoding
-from sensemaking.track_table import TrackTable
+from sensemaking.track_table import EndedTracks, TrackTable
+from sensemaking.vocabulary import REVIVE_EVENTS, START_EVENTS
 
 # the configuration lives in sensemaking.config; re-exported here, where users import it from
 __all__ = [
@@ -106,7 +107,7 @@ class Tracker:
                 "conf_start": 1,
                 "class_aware": int(c.class_aware),
                 # every event cost is tracking.lp's #const cost_<name>
-                **{f"cost_{name}": value for name, value in asdict(c.costs).items()},
+                **{f"cost_{name}": value for name, value in _costs(c).items()},
             },
             encoding=None if encoding is None else read_encoding(encoding),
             rules=[read_encoding(r) for r in extra],
@@ -125,6 +126,9 @@ class Tracker:
     def reset(self) -> None:
         """Forget every track; the next update is a first frame. Ids start again at 1."""
         self._tracks = TrackTable(self.config.kalman_config)
+        #: tracks ended a moment ago that a detection may revive (``revive_s``)
+        self._ended = EndedTracks(self.config.kalman_config)
+        self._revive = self.config.revive_frames if self.config.abduction else 0
         self._pending: dict[int, Event] = {}  # start events of tentative tracks
         self._next_id = 1
         self._frames_seen = 0
@@ -167,7 +171,10 @@ class Tracker:
         abduction = None
         if problem is not None:
             started = set(answer.start)
-            new_tracks = {row: tid for tid, row in observed.items() if row in started}
+            revived = set(problem.gone_id.tolist())  # the candidates; those in observed revived
+            new_tracks = {
+                row: tid for tid, row in observed.items() if row in started or tid in revived
+            }
             abduction = FrameAbduction(problem, new_tracks, self._solver.solver)
         return FrameResult(
             frame=frame,
@@ -206,7 +213,20 @@ class Tracker:
             unseen = self._tracks.unseen > 0
             if unseen.any():
                 self._tracks.kf.damp(unseen, self.config.unseen_damping)
+        if len(self._ended):
+            self._age_ended()
         return self._tracks.kf.predict(1) if len(self._tracks) else np.zeros((0, 4))
+
+    def _age_ended(self) -> None:
+        """One more frame for the ended tracks: unseen, older, forgotten past ``revive_s``;
+        without ``revive_hold`` their predictions move on."""
+        ended = self._ended
+        ended.age += 1
+        ended.table.unseen += 1
+        if (ended.age > self._revive).any():
+            ended.keep(ended.age <= self._revive)
+        if len(ended) and not self.config.revive_hold:
+            ended.table.kf.predict(1)
 
     def _explain(
         self, pred: np.ndarray, dets: Detections
@@ -230,6 +250,7 @@ class Tracker:
             self.config,
             first_frame=self._frames_seen == 1,
             speed="speed" in self._solver.solver.uses,
+            gone=self._ended if len(self._ended) else None,
         )
 
     def likelihood(self, pred: np.ndarray, dets: Detections) -> np.ndarray:
@@ -261,6 +282,8 @@ class Tracker:
         ``track id -> detection row`` of every track observed this frame (matched or new)."""
         if len(self._tracks) == 0 and not (ans.start or ans.events or ans.fluents):
             return [], {}  # no track before or after: nothing to update, confirm or report
+        if len(self._ended) and ans.resume:
+            self._revive_tracks(ans)
         index = self._tracks.row_of()
         matched = {**ans.assign, **ans.resume}
         camera = self._correct_matched(matched, index, dets)
@@ -271,9 +294,42 @@ class Tracker:
         self._mark_unobserved(ans.halt + ans.ignore_trk, index, camera)
         events = self._confirm(frame)
         events += self._report_events(ans, new_ids, frame)
+        if self._revive and ans.end:
+            self._keep_ended(ans)
         self._drop_ended(set(ans.end))
         events.sort(key=Event.sort_key)
         return events, observed
+
+    def _revive_tracks(self, ans: Answer) -> None:
+        """Move the ended tracks the answer revives (shown as resumed) back to the live ones,
+        unseen since they were last seen: they are corrected as any resumed track. A revived
+        track is confirmed again as a new one is, its history counting as one detection (with
+        ``min_hits`` 3 it is reported from its second detection on): a detection that flickers
+        once where a track ended does not bring it back."""
+        gone = set(self._ended.table.id.tolist())
+        revived = [t for t in ans.resume if t in gone]
+        if revived:
+            rows = self._ended.pop(revived)
+            rows.state[:] = TrackState.MISSING
+            rows.occluder[:] = -1
+            rows.confirmed[:] = False
+            rows.hits[:] = 1  # the correction adds this frame's detection
+            self._tracks.extend(rows)
+
+    def _keep_ended(self, ans: Answer) -> None:
+        """Keep the confirmed tracks the answer ends by leaves_fov or ends, to revive."""
+        how = {
+            args[0]: GONE_EVENTS.index(name)
+            for name, args in ans.events
+            if name in GONE_EVENTS and args and isinstance(args[0], int)
+        }
+        t = self._tracks
+        rows = np.array(
+            [i for i, tid in enumerate(t.id.tolist()) if tid in how and t.confirmed[i]],
+            dtype=np.int64,
+        )
+        if len(rows):
+            self._ended.add(t.take(rows), np.array([how[int(t.id[i])] for i in rows]))
 
     def _correct_matched(
         self, matched: dict[int, int], index: dict[int, int], dets: Detections
@@ -405,7 +461,7 @@ class Tracker:
             ev = Event(frame, name, ids_)
             if not ids_ or ids_[0] in confirmed or not isinstance(ids_[0], int):
                 events.append(ev)
-            elif name in ("enters_fov", "starts"):
+            elif name in START_EVENTS or name in REVIVE_EVENTS:
                 self._pending[ids_[0]] = ev
         return events
 
@@ -470,6 +526,16 @@ class Tracker:
             self._tracks.vis[keep],
             self._tracks.unseen[keep],
         )
+
+
+def _costs(config: TrackerConfig) -> dict[str, int]:
+    """The event costs the solver is given: ``costs.returns`` only with ``revive_s`` (no ended
+    track is revived without it; left out, the scene files of runs without it stay as they
+    were, their recorded constants included)."""
+    costs = asdict(config.costs)
+    if not config.revive_frames:
+        costs.pop("returns")
+    return costs
 
 
 def _check_user_program(

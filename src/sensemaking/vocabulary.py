@@ -14,7 +14,14 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-__all__ = ["EventKind", "EVENTS", "EVENT_NAMES", "START_EVENTS", "event_sentence"]
+__all__ = [
+    "EventKind",
+    "EVENTS",
+    "EVENT_NAMES",
+    "START_EVENTS",
+    "REVIVE_EVENTS",
+    "event_sentence",
+]
 
 
 @dataclass(frozen=True)
@@ -52,6 +59,10 @@ EVENTS: dict[str, EventKind] = {
         EventKind("starts", 1, "is in view"),
         # a track ends without leaving the field of view (lost)
         EventKind("ends", 1, "is lost"),
+        # a track that left the field of view is found again (revive_s): it left and came back
+        EventKind("reenters_fov", 1, "re-enters the field of view"),
+        # a lost track is found again (revive_s)
+        EventKind("returns", 1, "is found again after it was lost"),
     )
 }
 
@@ -61,6 +72,10 @@ EVENT_NAMES: dict[str, int] = {name: e.arity for name, e in EVENTS.items()}
 #: the events that start a track: a tentative track's is reported when it is confirmed, but was
 #: abduced at the frame its first detection started it
 START_EVENTS: tuple[str, ...] = ("starts", "enters_fov")
+
+#: the events that revive an ended track (``revive_s``): reported, like a start, when the revived
+#: track is confirmed again, abduced at the frame its detection revived it
+REVIVE_EVENTS: tuple[str, ...] = ("reenters_fov", "returns")
 
 
 def event_sentence(name: str, names: Sequence[str]) -> str:

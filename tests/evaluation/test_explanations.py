@@ -191,6 +191,14 @@ def test_missing_detections_and_reappears(crossing):
     assert (_one(res, back).verdict, _one(res, back).reason) == ("implausible", "identity_switch")
 
 
+@pytest.mark.parametrize("name", ["reenters_fov", "returns"])
+def test_a_revived_track_is_judged_as_a_reappearance(crossing, name):
+    back = Event(19, name, (1,))
+    res = evaluate_explanations(_truth(crossing), _perfect_tracks(crossing), [back])
+    assert (_one(res, back).verdict, _one(res, back).reason) == ("plausible", "same_object")
+    assert res.summary()["events"][name]["total"] == 1
+
+
 def _hidden_entity(frame: int, reappear: int, x: float, y: float) -> dict:
     return {
         "frame": frame,

@@ -26,7 +26,7 @@ from sensemaking.geometry import (
     safe_ratio,
 )
 from sensemaking.results import TrackState
-from sensemaking.track_table import TrackTable
+from sensemaking.track_table import EndedTracks, TrackTable
 
 __all__ = [
     "frame_problem",
@@ -40,6 +40,7 @@ __all__ = [
     "quantize",
     "likelihood_grid",
     "int_columns",
+    "revival",
 ]
 
 _HIDDEN = int(TrackState.HIDDEN)  # as a plain int: numpy compares it faster than the enum
@@ -172,7 +173,10 @@ def frame_problem(
     *,
     first_frame: bool,
     speed: bool,
+    gone: EndedTracks | None = None,
 ) -> FrameProblem:
+    """The frame's problem; ``gone``: the tracks that may revive (``revive_s``), their
+    predictions for this frame made (see :func:`revival`)."""
     c = config
     n, nd, dxy = len(pred), len(dets), dets.xyxy
     nb = n + nd
@@ -235,6 +239,17 @@ def frame_problem(
     # detections too weak to start a track: still usable to continue one (conf gate in numpy)
     det_conf_fact = np.where(start_ok, np.maximum(det_conf, 1), 0)
     active = tracks.unseen == 0
+    more: dict[str, np.ndarray] = {}
+    if gone is not None and len(gone) and nd:
+        rows, back = revival(gone, dets, config)
+        if len(rows):
+            table = gone.table
+            more = {
+                "gone_id": table.id[rows],
+                "gone_how": gone.how[rows],
+                "gone_class": table.cls[rows],
+                "back": back,
+            }
     return FrameProblem(
         track_id=tracks.id,
         active=active,
@@ -261,7 +276,41 @@ def frame_problem(
         covers_exact=covers_exact,
         speed=speeds(tracks, config) if speed else None,
         cut=cut[:n],
+        **more,
     )
+
+
+def revival(
+    ended: EndedTracks, dets: Detections, config: TrackerConfig
+) -> tuple[np.ndarray, np.ndarray]:
+    """Which ended tracks a detection may revive: ``(rows of ended tracks with a candidate,
+    (B, 3) rows ``index into those rows, detection index, likelihood 0..1000``)``.
+
+    Where each is looked for: with ``revive_hold`` the box where it was last seen, else its
+    Kalman state (the caller predicts it on each frame); widened like an unseen track's
+    prediction (``resume_growth`` per unseen frame, up to 2x), the better of the plain and the
+    widened fit counts. Gated: same class, likelihood on the solver's grid at least
+    ``iou_resume``, heights within ``revive_height_ratio``, detection strong enough to start
+    a track."""
+    c, t = config, ended.table
+    box = t.kf.observed() if c.revive_hold else t.kf.xyxy()
+    grow = np.minimum(1.0 + c.resume_growth * t.unseen, 2.0)
+    lik = np.maximum(iou(box, dets.xyxy), iou(_widen(box, grow), dets.xyxy))
+    q = quantize(config, lik)
+    seen = t.kf.observed()
+    h_last = (seen[:, 3] - seen[:, 1])[:, None]
+    h_det = (dets.xyxy[:, 3] - dets.xyxy[:, 1])[None, :]
+    ratio = safe_ratio(np.minimum(h_last, h_det), np.maximum(h_last, h_det))
+    ok = (
+        (t.cls[:, None] == dets.class_id[None, :])
+        & (q >= thresholds(config, c.iou_resume)[0])
+        & (ratio >= c.revive_height_ratio)
+        & (dets.confidence >= c.start_confidence)[None, :]
+    )
+    gi, dj = np.nonzero(ok)
+    rows = np.unique(gi)
+    local = np.searchsorted(rows, gi)
+    return rows, int_columns(local, dj, q[gi, dj])
 
 
 def speeds(tracks: TrackTable, config: TrackerConfig) -> np.ndarray:

@@ -6,9 +6,10 @@ constraints state the same thresholds, so the gate is an optimisation, never a c
 answer.
 
 A frame falls apart into *components*: tracks and detections linked by ``cand``, ``covers``,
-``keeps_covering``, ``emerges`` and ``fits`` facts. :meth:`FrameProblem.components` describes
-each one canonically (:class:`Component`: local indices, so the same facts give the same key), and
-:meth:`Component.facts` writes its facts as clingo symbols.
+``keeps_covering``, ``emerges``, ``fits`` and ``back`` facts (ended tracks that may revive).
+:meth:`FrameProblem.components` describes each one canonically (:class:`Component`: local
+indices, so the same facts give the same key), and :meth:`Component.facts` writes its facts as
+clingo symbols.
 """
 
 from __future__ import annotations
@@ -20,15 +21,18 @@ import numpy as np
 from clingo import Function, Symbol
 from clingo import Number as _number
 
-__all__ = ["FrameProblem", "Component", "VISIBILITY_VALUES", "TRACK_FLAGS"]
+__all__ = ["FrameProblem", "Component", "VISIBILITY_VALUES", "TRACK_FLAGS", "GONE_EVENTS"]
 
 VISIBILITY_VALUES = ("fully_visible", "partially_occluded", "fully_occluded")
+#: how a revivable track ended (``gone/2``), by :attr:`FrameProblem.gone_how` index
+GONE_EVENTS = ("leaves_fov", "ends")
 #: the per-track flags of the facts, in the order of :attr:`Component.tracks` rows
 TRACK_FLAGS = ("tentative", "uncertain", "expired", "outside", "at_border", "overlapped", "cut")
 
 _TRUE = Function("true")
 _ZERO = _number(0)
 _VISIBILITY = tuple(Function(v) for v in VISIBILITY_VALUES)
+_GONE = tuple(Function(v) for v in GONE_EVENTS)
 
 
 def _empty_rows(width: int = 2) -> np.ndarray:
@@ -40,7 +44,8 @@ class Component:
     """The canonical facts of one independent part of a frame; hashable, the cache's key.
 
     Tracks are numbered ``0..len(tracks)-1`` in the frame's track order, then the occluders
-    named by ``hidden_by`` that lie outside the component; detections ``0..len(dets)-1``.
+    named by ``hidden_by`` that lie outside the component, then its ended tracks that may
+    revive (``gone``); detections ``0..len(dets)-1``.
 
     Attributes:
         first_frame: the ``first_frame`` fact.
@@ -53,6 +58,9 @@ class Component:
         emerges: ``(detection, track)``.
         hidden_by: ``(track, occluder)``.
         fits: ``(track, detection)``, a subset of the ``covers`` pairs.
+        gone: per ended track that may revive ``(index into GONE_EVENTS, class)``.
+        back: ``(ended track, detection, likelihood 0..1000)``, the ended track counted from 0
+            in ``gone``.
     """
 
     first_frame: bool
@@ -64,11 +72,18 @@ class Component:
     emerges: tuple[tuple[int, int], ...]
     hidden_by: tuple[tuple[int, int], ...]
     fits: tuple[tuple[int, int], ...] = ()
+    gone: tuple[tuple[int, int], ...] = ()
+    back: tuple[tuple[int, int, int], ...] = ()
+
+    @property
+    def n_live_refs(self) -> int:
+        """Track numbers of its tracks and the occluders outside it (the ended ones follow)."""
+        return max([len(self.tracks)] + [o + 1 for _, o in self.hidden_by])
 
     @property
     def n_refs(self) -> int:
-        """Track numbers the component uses: its tracks, then occluders outside it."""
-        return max([len(self.tracks)] + [o + 1 for _, o in self.hidden_by])
+        """Track numbers the component uses: its tracks, occluders outside it, ended tracks."""
+        return self.n_live_refs + len(self.gone)
 
     def facts(self, uses: Collection[str] = (), t0: int = 0, d0: int = 0) -> list[Symbol]:
         """The component's facts as symbols. ``uses``: optional predicates to include (``speed``
@@ -120,6 +135,13 @@ class Component:
             add(Function("emerges", [det(j), track(t)]))
         for t, o in self.hidden_by:
             add(Function("holds", [Function("hidden_by", [track(t), track(o)]), _TRUE, _ZERO]))
+        if self.gone:
+            g0 = self.n_live_refs
+            for g, (how, cls) in enumerate(self.gone):
+                add(Function("gone", [track(g0 + g), _GONE[how]]))
+                add(Function("ttype", [track(g0 + g), _number(cls)]))
+            for g, j, lik in self.back:
+                add(Function("back", [track(g0 + g), det(j), _number(lik)]))
         if self.first_frame:
             add(Function("first_frame"))
         return out
@@ -167,6 +189,11 @@ class FrameProblem:
             (the ``speed/2`` facts, for encodings that read them).
         cut: (T,) bool, predicted box reaches the left, right or bottom image border
             (:func:`sensemaking.geometry.cut_by_border`), or None (no track is).
+        gone_id: (G,) int ids of the ended tracks that may revive (``revive_s``), each with at
+            least one ``back`` row.
+        gone_how: (G,) int index into :data:`GONE_EVENTS`: how each ended.
+        gone_class: (G,) int class ids.
+        back: (B, 3) int rows ``ended track index, detection index, likelihood 0..1000``.
     """
 
     track_id: np.ndarray
@@ -194,6 +221,10 @@ class FrameProblem:
     covers_exact: np.ndarray | None = None
     speed: np.ndarray | None = None
     cut: np.ndarray | None = None
+    gone_id: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    gone_how: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    gone_class: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    back: np.ndarray = field(default_factory=lambda: _empty_rows(3))
 
     @property
     def n_tracks(self) -> int:
@@ -235,7 +266,8 @@ class FrameProblem:
 
     def whole(self) -> tuple[Component, list[int], list[int]]:
         """The whole frame as one component (for checks, and encodings not known to be local)."""
-        return self._describe([(list(range(self.n_tracks)), list(range(self.n_dets)))])[0]
+        everything = (list(range(self.n_tracks)), list(range(self.n_dets)))
+        return self._describe([everything], [list(range(len(self.gone_id)))])[0]
 
     def components(self) -> list[tuple[Component, list[int], list[int]]]:
         """The independent parts of the frame: ``(component, track ids of its local tracks
@@ -243,12 +275,13 @@ class FrameProblem:
 
         No rule of ``tracking.lp`` joins atoms of two parts: its rules relate a track to a
         detection only through ``cand``, ``covers``, ``keeps_covering`` and ``emerges`` facts
-        (``hidden_by`` names an occluder, which can only keep covering through such a fact), and
-        its weak constraints are sums over objects. So an optimal answer of the frame is an
+        (``hidden_by`` names an occluder, which can only keep covering through such a fact), an
+        ended track to a detection only through ``back``, and its weak constraints are sums
+        over objects. So an optimal answer of the frame is an
         optimal answer of each part, side by side.
         """
-        nt, nd = self.n_tracks, self.n_dets
-        parent = list(range(nt + nd))
+        nt, nd, ng = self.n_tracks, self.n_dets, len(self.gone_id)
+        parent = list(range(nt + nd + ng))
 
         def find(x: int) -> int:
             while parent[x] != x:
@@ -263,6 +296,8 @@ class FrameProblem:
                 parent[find(t)] = find(nt + d)
         for t, d in self.fits.tolist():  # covered pairs already: for a part that stands alone
             parent[find(t)] = find(nt + d)
+        for g, d, _ in self.back.tolist():
+            parent[find(nt + nd + g)] = find(nt + d)
         groups: dict[int, tuple[list[int], list[int]]] = {}
         for x in range(nt + nd):
             g = groups.setdefault(find(x), ([], []))
@@ -270,10 +305,15 @@ class FrameProblem:
                 g[0].append(x)
             else:
                 g[1].append(x - nt)
-        return self._describe(list(groups.values()))
+        gone: dict[int, list[int]] = {}
+        for g in range(ng):  # each has a back row: its group holds a detection
+            gone.setdefault(find(nt + nd + g), []).append(g)
+        return self._describe(list(groups.values()), [gone.get(k, []) for k in groups])
 
     def _describe(
-        self, groups: list[tuple[list[int], list[int]]]
+        self,
+        groups: list[tuple[list[int], list[int]]],
+        gone_groups: list[list[int]] | None = None,
     ) -> list[tuple[Component, list[int], list[int]]]:
         nt = self.n_tracks
         flags = [
@@ -331,8 +371,9 @@ class FrameProblem:
             t = index.get(tid)
             if t is not None and t in where_t:
                 parts[where_t[t]]["hidden"].append((t, oid))
+        gone_groups = gone_groups or [[] for _ in groups]
         out = []
-        for (ts, ds), found in zip(groups, parts, strict=True):
+        for (ts, ds), gs, found in zip(groups, gone_groups, parts, strict=True):
             lt = {t: i for i, t in enumerate(ts)}
             ld = {d: j for j, d in enumerate(ds)}
             local_ids = [ids[t] for t in ts]
@@ -345,6 +386,8 @@ class FrameProblem:
                 if oid not in local_ids[len(ts) :]:
                     local_ids.append(oid)  # an occluder outside the component: named, no facts
                 hidden.append((lt[t], len(ts) + local_ids[len(ts) :].index(oid)))
+            gone, back = self._gone_part(gs, ld)
+            local_ids += [int(self.gone_id[g]) for g in gs]  # numbered after the occluders
             component = Component(
                 first_frame=bool(self.first_frame),
                 tracks=tuple(track_rows[t] for t in ts),
@@ -355,6 +398,22 @@ class FrameProblem:
                 emerges=tuple((ld[d], lt[t]) for d, t in found["emerges"]),
                 hidden_by=tuple(hidden),
                 fits=tuple((lt[t], ld[d]) for t, d in found["fits"]),
+                gone=gone,
+                back=back,
             )
             out.append((component, local_ids, list(ds)))
         return out
+
+    def _gone_part(
+        self, gs: list[int], ld: dict[int, int]
+    ) -> tuple[tuple[tuple[int, int], ...], tuple[tuple[int, int, int], ...]]:
+        """The ``gone`` and ``back`` rows of a component's ended tracks ``gs`` (frame indices),
+        in its terms (``ld``: frame detection index -> local)."""
+        if not gs:
+            return (), ()
+        lg = {g: k for k, g in enumerate(gs)}
+        gone = tuple((int(self.gone_how[g]), int(self.gone_class[g])) for g in gs)
+        back = tuple(
+            (lg[g], ld[d], lik) for g, d, lik in self.back.tolist() if g in lg and d in ld
+        )
+        return gone, back

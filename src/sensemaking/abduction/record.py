@@ -38,7 +38,7 @@ from sensemaking.abduction.solver import (
 )
 from sensemaking.errors import InputError
 from sensemaking.results import Event, FrameAbduction
-from sensemaking.vocabulary import START_EVENTS
+from sensemaking.vocabulary import REVIVE_EVENTS, START_EVENTS
 
 __all__ = [
     "ProblemRecord",
@@ -82,8 +82,20 @@ class ProblemRecord:
         return None
 
     def owns(self, track_id: int) -> bool:
-        """The track is one of the component's own tracks or started here."""
-        return track_id in self.tracks[: self.n_tracks] or track_id in self.dets
+        """The track is one of the component's own tracks, started here, or an ended track
+        that may be revived here (``gone/2``)."""
+        return (
+            track_id in self.tracks[: self.n_tracks]
+            or track_id in self.dets
+            or self.revives(track_id)
+        )
+
+    def revives(self, track_id: int) -> bool:
+        """The track is an ended track that may be revived here (a ``gone/2`` fact)."""
+        if track_id not in self.tracks[self.n_tracks :]:
+            return False
+        prefix = f"gone({self.tracks.index(track_id)},"
+        return any(f.startswith(prefix) for f in self.facts)
 
     def global_ref(self, x: Ref) -> Ref:
         """A local name as a track id (a detection that started no track stays ``Det``)."""
@@ -142,6 +154,9 @@ class AbductionRecord:
             return None
         if event.name in START_EVENTS:
             found = [p for p in self.problems if p.frame <= event.frame and subject in p.dets]
+            return found[-1] if found else None
+        if event.name in REVIVE_EVENTS:  # reported when confirmed again, like a start
+            found = [p for p in self.problems if p.frame <= event.frame and p.revives(subject)]
             return found[-1] if found else None
         return next((p for p in self.problems if p.frame == event.frame and p.owns(subject)), None)
 
@@ -224,8 +239,8 @@ def problems_of_frame(
     frame: int, abduction: FrameAbduction, events: Sequence[Event]
 ) -> list[ProblemRecord]:
     """The components of a frame worth recording: those holding the subject of one of
-    ``events`` (this frame's, in track ids) or a detection that started a track. Empty when the
-    frame was not solved by the packaged encoding."""
+    ``events`` (this frame's, in track ids) or a detection that started (or revived) a track.
+    Empty when the frame was not solved by the packaged encoding."""
     solver = abduction.solver
     if solver.program != load_encoding():
         return []
@@ -259,13 +274,11 @@ def recorded_constants(solver: AbductionSolver) -> tuple[dict[str, int], int | N
 
 
 def named_here(problem: ProblemRecord, events: Iterable[Event]) -> bool:
-    """One of the problem's own tracks is the subject of one of ``events`` of its frame."""
+    """One of the problem's own tracks (or ended tracks it revives) is the subject of one of
+    ``events`` of its frame."""
     own = set(problem.tracks[: problem.n_tracks])
-    return any(
-        e.frame == problem.frame and e.args and e.args[0] in own
-        for e in events
-        if isinstance(e.args[0] if e.args else None, int)
-    )
+    subjects = {e.args[0] for e in events if e.frame == problem.frame and e.args}
+    return any(isinstance(t, int) and (t in own or problem.revives(t)) for t in subjects)
 
 
 def keep_named(

@@ -121,7 +121,8 @@ def pieces(component: Component) -> list[tuple]:
     return out
 
 
-_RELATIONS = ("cand", "covers", "keeps_covering", "emerges", "hidden_by", "fits")
+# ended tracks (gone, back) lie outside every universe: such components take a fresh Control
+_RELATIONS = ("cand", "covers", "keeps_covering", "emerges", "hidden_by", "fits", "gone", "back")
 
 
 def piece_facts(piece: tuple, uses: Collection[str] = ()) -> frozenset[Symbol]:

@@ -129,6 +129,9 @@ ORIGINS: dict[str, str] = {
     "(docs/DESIGN-NOTES.md).",
     "unseen_damping": "1 (off); a technique of issue 27, measured across folds "
     "(docs/DESIGN-NOTES.md).",
+    "revive_s": "0 (off); a technique of issue 27, measured across folds (docs/DESIGN-NOTES.md).",
+    "revive_hold": "used only with revive_s; measured both ways (docs/DESIGN-NOTES.md).",
+    "revive_height_ratio": "used only with revive_s; a design choice, not tuned.",
     "weak_confidence": "off (None); ByteTrack's 0.1 when on, a technique measured across "
     "folds, not kept (docs/DESIGN-NOTES.md).",
     "weak_iou": "ByteTrack's second-round 0.5, used only with weak_confidence; not tuned.",
@@ -150,6 +153,7 @@ ORIGINS: dict[str, str] = {
     "costs.unseen": "default, hand-chosen, not tuned.",
     "costs.ignore": "default, hand-chosen, not tuned.",
     "costs.resumes": f"{_HAND} (200 in both presets).",
+    "costs.returns": "used only with revive_s; below costs.enters by design, not tuned.",
     "kalman.position_std": _DEEPSORT + ".",
     "kalman.velocity_std": f"{_DEEPSORT}; KITTI 0.1, {_HAND}.",
     "kalman.measurement_std": f"{_DEEPSORT}; MOT 1/17, {_HAND}.",

@@ -1,7 +1,8 @@
 """Are the tracker's explanations true? Events and warnings checked against ground truth.
 
 For every abduced event (``hides_behind``, ``unhides_from_behind``, ``enters_fov``,
-``leaves_fov``, ``starts``, ``ends``, ``missing_detections``, ``reappears``) and every
+``leaves_fov``, ``starts``, ``ends``, ``missing_detections``, ``reappears``, and a revived
+track's ``reenters_fov`` / ``returns``) and every
 HIDDEN_ENTITY / SUDDEN_STOP / OVERTAKING warning, a verdict: ``plausible``, ``implausible`` or
 ``undecidable``, with the reason. The method and every threshold are in docs/EXPLANATIONS.md::
 
@@ -76,6 +77,8 @@ EVENT_KINDS = (
     "ends",
     "missing_detections",
     "reappears",
+    "reenters_fov",
+    "returns",
 )
 #: warnings judged
 WARNING_KINDS = ("HIDDEN_ENTITY", "SUDDEN_STOP", "OVERTAKING")
@@ -691,7 +694,8 @@ class _OcclusionJudge(_Evidence):
         return "kept" if g2 == g_t else "switched"
 
     def same_identity(self, ev: Event) -> Verdict:
-        """unhides_from_behind / reappears: the same object before and after the gap."""
+        """unhides_from_behind / reappears (and a revived track's reenters_fov / returns): the
+        same object before and after the gap."""
         t, f = _track(ev), ev.frame
         g1, _ = self.gt_before(t, f)
         g2 = None if t is None else self.match.get((t, f))
@@ -1037,7 +1041,7 @@ def evaluate_explanations(
         if e.name == "hides_behind":
             nxt = next((u for u in unhides[e.args[0]] if u.frame > e.frame), None)
             out.events.append(judge.hides(e, nxt))
-        elif e.name in ("unhides_from_behind", "reappears"):
+        elif e.name in ("unhides_from_behind", "reappears", "reenters_fov", "returns"):
             out.events.append(judge.same_identity(e))
         elif e.name == "enters_fov":
             out.events.append(judge.enters(e))

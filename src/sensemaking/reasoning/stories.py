@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from sensemaking.results import TrackState, Visibility
+from sensemaking.results import Event, TrackState, Visibility
 from sensemaking.vocabulary import START_EVENTS
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -110,6 +110,11 @@ def _story(scene: Scene, t: Track, context: SceneContext | None) -> list[str]:
         out.append(m)
     hidden = {(f.args[1], f.start): f for f in scene.fluent_intervals("hidden_by", t.id)}
     gap_from: int | None = None
+    # a track revived (revive_s) left or was lost first: each end but the last is told with
+    # its return; the last is the end of the story
+    revived = [e.frame for e in own if e.name in ("reenters_fov", "returns")]
+    last_back = max(revived, default=None)
+    ended: Event | None = None
     for e in evs:
         if e.name == "hides_behind" and e.args[0] == t.id:
             out.append(f"At frame {e.frame} it hides behind {scene.describe(int(e.args[1]))}.")
@@ -141,9 +146,16 @@ def _story(scene: Scene, t: Track, context: SceneContext | None) -> list[str]:
             )
             out.append(f"At frame {e.frame} it is detected again{took}.")
             gap_from = None
+        elif e.name in ("leaves_fov", "ends") and e.args[0] == t.id:
+            if last_back is not None and e.frame < last_back:
+                ended = e
+        elif e.name in ("reenters_fov", "returns") and e.args[0] == t.id:
+            out.append(_return_sentence(scene, t, e, ended))
+            ended = None
     k = len(t) - 1
-    leave = next((e for e in own if e.name == "leaves_fov"), None)
-    end = next((e for e in own if e.name == "ends"), None)
+    after = -1 if last_back is None else last_back
+    leave = next((e for e in own if e.name == "leaves_fov" and e.frame > after), None)
+    end = next((e for e in own if e.name == "ends" and e.frame > after), None)
     if leave is not None:
         out.append(
             f"At frame {leave.frame} it leaves the field of view{border_phrase(scene, t.xyxy[k])}."
@@ -168,6 +180,18 @@ def _story(scene: Scene, t: Track, context: SceneContext | None) -> list[str]:
     else:
         out.append(f"It was last tracked at frame {t.last}.")
     return out
+
+
+def _return_sentence(scene: Scene, t: Track, e: Event, ended: Event | None) -> str:
+    """A revived track's return (``reenters_fov`` / ``returns``), with how it had ended."""
+    k = int(np.searchsorted(t.frames, e.frame))
+    box = t.xyxy[min(k, len(t) - 1)]
+    if e.name == "reenters_fov":
+        left = f" (it left at frame {ended.frame})" if ended is not None else ""
+        at = border_phrase(scene, box)
+        return f"At frame {e.frame} it re-enters the field of view{at}{left}."
+    lost = f" (lost at frame {ended.frame})" if ended is not None else ""
+    return f"At frame {e.frame} it is found again{lost}."
 
 
 def stories(scene: Scene, *, context: SceneContext | None = None) -> dict[int, list[str]]:
