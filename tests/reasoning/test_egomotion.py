@@ -281,6 +281,39 @@ def test_overtaking_in_the_world_needs_a_moving_overtaken_vehicle():
     noisy += " " + " ".join(f"position_sd({t},{g},200)." for t in (1, 2) for g in range(-5, 1))
     assert sit(noisy, "overtaking") == []
     assert sit(pair(-900), "overtaking") == []  # nor passing oncoming traffic
+    # B crosses the road (sideways 6 m/s against 9 m/s along: 34 degrees off the ego's heading)
+    crossing = pair(900) + " " + " ".join(f"world_lat(2,{g},600)." for g in range(-5, 1))
+    assert sit(crossing, "overtaking") == []
+    # the same pair, heading 13 degrees off: still overtaking
+    slanted = pair(900) + " " + " ".join(f"world_lat(2,{g},200)." for g in range(-5, 1))
+    assert "warn(overtaking,(1,2))" in sit(slanted, "overtaking")
+    # two lanes and more apart sideways (7 m: across the road), not neighbours
+    assert sit(pair(900).replace(",-300).", ",-500)."), "overtaking") == []
+    # B at 9 +- 5 m/s: not shown to move, nor to move the ego's way (two standard errors)
+    unsure = pair(900).replace("world_speed(2,", "world_speed(9,")
+    unsure += " " + " ".join(f"world_speed(2,{g},900,500)." for g in range(-5, 1))
+    assert sit(unsure, "overtaking") == []
+
+
+def test_reduced_visibility_in_the_world_is_about_the_ego_lane():
+    def car(z: int, x: int, hides: bool = False) -> str:
+        return (
+            "track(1,car). vehicle(1). state(1,0,visible). in_corridor(1,0). area(1,0,200). "
+            f"position(1,0,{z},{x}). position_sd(1,0,30). camera. profile(driving)."
+            + (" track(2,car). state(2,0,hidden). hidden_by(2,1,0)." if hides else "")
+        )
+
+    near_ahead = sit(car(800, 50), "reduced_visibility", head="now(0). frame_ms(100). ")
+    assert "warn(reduced_visibility,(1,))" in near_ahead
+    assert "info(reduced_visibility,(1,),distance_cm,800)" in near_ahead
+    # parked beside the ego lane, however large in the image
+    assert sit(car(600, 300), "reduced_visibility", head="now(0). frame_ms(100). ") == []
+    # far ahead in the lane: only when it hides something
+    assert sit(car(3000, 0), "reduced_visibility", head="now(0). frame_ms(100). ") == []
+    far_hiding = sit(
+        car(3000, 0, hides=True), "reduced_visibility", head="now(0). frame_ms(100). "
+    )
+    assert "warn(reduced_visibility,(1,))" in far_hiding
 
 
 def test_with_a_camera_and_no_ego_speed_image_motion_claims_nothing():

@@ -563,8 +563,8 @@ def world_facts(
     """The facts of one frame ``g`` (relative) for situations.lp, tracks by ``local`` index:
     ``camera`` (once, with the current frame ``g = 0``), ``ego_speed(G,V)``,
     ``position(T,G,Z,X)``, ``position_sd(T,G,E)``, ``closing(T,G,C,E)``,
-    ``world_speed(T,G,S,E)``, ``world_long(T,G,V)`` (centimetres, cm/s, integers; see
-    situations.lp)."""
+    ``world_speed(T,G,S,E)``, ``world_long(T,G,V)``, ``world_lat(T,G,V)`` (centimetres, cm/s,
+    integers; see situations.lp)."""
     out: list[tuple[object, ...]] = [("camera",)] if g == 0 else []
     if ego is not None:
         out.append(("ego_speed", g, _cm(ego.speed)))
@@ -579,6 +579,7 @@ def world_facts(
         if math.isfinite(m.speed):
             out.append(("world_speed", k, g, _cm(m.speed), _cm(m.speed_sd)))
             out.append(("world_long", k, g, _cm(m.v_long)))
+            out.append(("world_lat", k, g, _cm(m.v_lat)))
     return out
 
 

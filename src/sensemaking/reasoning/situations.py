@@ -398,6 +398,7 @@ FRAME_ARGUMENT: dict[tuple[str, int], int] = {
     ("closing", 4): 1,
     ("world_speed", 4): 1,
     ("world_long", 3): 1,
+    ("world_lat", 3): 1,
     ("occurs_at", 2): 1,
 }
 #: inputs fixed for the life of a monitor: base facts of the stream solver, so that the rules
