@@ -353,3 +353,29 @@ def test_stories_say_motion_over_the_road_in_km_h_and_metres(tmp_path):
     for r in build_results(objs):
         plain.add(r)
     assert "stands still" not in " ".join(explain(plain.scene(), 2))
+
+
+def test_hidden_entity_severity_from_the_path_in_the_world():
+    def hidden(z: int, x: int, vz: int, vx: int) -> list[str]:
+        facts = (
+            "profile(driving). track(1,car). track(2,car). state(1,0,hidden). "
+            "hidden_by(1,2,0). anticipated(1,2,5,600,250). anticipated_in_corridor(1,2,5). "
+            f"hidden_motion(1,{z},{x},{vz},{vx})."
+        )
+        return sit(facts, "hidden_entity")
+
+    def severity(answer: list[str]) -> list[str]:
+        return [a for a in answer if ",severity," in a]
+
+    # 20 m ahead, 3 m to the left, closing at 8 m/s and drifting right at 1.5 m/s: in the ego
+    # lane after 0.9 s, 12.8 m ahead, contact 1.6 s later
+    crossing = hidden(2000, -300, -800, 150)
+    assert "warn(hidden_entity,(1,2))" in crossing
+    assert severity(crossing) == ["info(hidden_entity,(1,2),severity,3)"]
+    assert "info(hidden_entity,(1,2),ego_path_ms,900)" in crossing
+    # parked 6 m to the left: never in the ego lane
+    assert severity(hidden(2000, -600, -800, 0)) == ["info(hidden_entity,(1,2),severity,2)"]
+    # in the lane but 60 m ahead: contact in 7.5 s, not within ss_ttc
+    assert severity(hidden(6000, 0, -800, 0)) == ["info(hidden_entity,(1,2),severity,2)"]
+    # in the lane, moving away
+    assert severity(hidden(2000, 0, 100, 0)) == ["info(hidden_entity,(1,2),severity,2)"]

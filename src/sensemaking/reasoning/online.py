@@ -158,6 +158,11 @@ class _Episode:
         self.number, self.start, self.last = number, start, start
 
 
+def _cm(v: float) -> int:
+    """Metres (or m/s) as whole centimetres (cm/s)."""
+    return int(round(v * 100.0))
+
+
 def _kmh(info: dict[str, list[Any]], key: str) -> str:
     """`` (N km/h)`` from a speed detail in cm/s, or nothing."""
     v = info.get(key)
@@ -321,6 +326,8 @@ class SituationMonitor:
         self._seq_start: int | None = None
         self._last_frame: int | None = None
         self._anticip: dict[int, Anticipation] = {}
+        # hidden track -> (Z, X cm now, VZ, VX cm/s): its last world fit, extrapolated
+        self._hidden_motion: dict[int, tuple[int, int, int, int]] = {}
         self._found: list[SituationMatch] = []  # what holds at the current frame
         # its warnings, made when read (None: not yet)
         self._active: list[SituationWarning] | None = []
@@ -449,6 +456,7 @@ class SituationMonitor:
         fr = _Frame(f, list(result.events))
         self._frames.append(fr)
         self._anticip = {}
+        self._hidden_motion = {}
         tr = result.tracks
         if tr.tracker_id is None or tr.class_id is None:
             raise ValueError(
@@ -507,6 +515,8 @@ class SituationMonitor:
                 fr.in_corr.append(ids[i])
                 fr.area[ids[i]] = round((x2 - x1) * (y2 - y1) * k)
 
+        if fr.hidden_by and self._world is not None:
+            self._extrapolate_hidden(fr)
         if fr.hidden_by:
             by_id = dict(zip(ids, boxes, strict=True))
             for t, o in fr.hidden_by.items():
@@ -543,6 +553,18 @@ class SituationMonitor:
             ):
                 if s is not None:
                     fr.surface[ids[i]] = asp_name(s)
+
+    def _extrapolate_hidden(self, fr: _Frame) -> None:
+        """Each hidden track's last fitted world position in the window, moved on to now at its
+        relative velocity then (cm, cm/s): the facts ``hidden_motion/5``."""
+        for t in fr.hidden_by:
+            for past in reversed(self._frames):
+                m = past.world.get(t)
+                if m is not None and np.isfinite(m.vz) and np.isfinite(m.vx):
+                    dt = (fr.frame - past.frame) / self.fps
+                    z, x = m.z + m.vz * dt, m.x + m.vx * dt
+                    self._hidden_motion[t] = (_cm(z), _cm(x), _cm(m.vz), _cm(m.vx))
+                    break
 
     def _prev_entry(self, h: deque[list[Any]]) -> int | None:
         """Index of the box ``lag`` frames before the latest entry of a history, else of the
@@ -671,6 +693,7 @@ class SituationMonitor:
             )
             if a.in_corridor:
                 out.append(("anticipated_in_corridor", t, o, r))
+        out += [("hidden_motion", local[t], *v) for t, v in self._hidden_motion.items()]
         return tuple(out), tracks
 
     def _stream_answer(self) -> list[SituationMatch]:
@@ -718,6 +741,7 @@ class SituationMonitor:
             window.append(("anticipated", t, o, r, px, py))
             if a.in_corridor:
                 window.append(("anticipated_in_corridor", t, o, r))
+        window += [("hidden_motion", local(t), *v) for t, v in self._hidden_motion.items()]
         solver.set_window(window)
         g = n - base
         current: list[Fact] = [("now", g)]

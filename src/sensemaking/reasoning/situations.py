@@ -222,7 +222,12 @@ class SituationConfig:
         consts = situation_constants(self.constants)
         longest = max(
             [self.window_s * 1000.0]
-            + [v for k, v in consts.items() if k.endswith("_ms") and k != "he_lead_ms"]
+            # the two look ahead, not back
+            + [
+                v
+                for k, v in consts.items()
+                if k.endswith("_ms") and k not in ("he_lead_ms", "he_path_ms")
+            ]
         )
         return int(-(-longest * fps // 1000)) + 1
 
@@ -419,6 +424,7 @@ INPUTS: frozenset[tuple[str, int]] = (
         ("occurs_at", 2),
         ("anticipated", 5),
         ("anticipated_in_corridor", 3),
+        ("hidden_motion", 5),
         ("lane", 1),
     }
 )
