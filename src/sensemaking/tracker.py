@@ -450,15 +450,19 @@ class Tracker:
             return _no_tracks()  # most frames of sparse sequences
         boxes = self._tracks.kf.xyxy()
         rows = np.full(n, -1, dtype=np.int64)
+        det_loc = dets.data.get("location")
+        loc = None if det_loc is None else np.full((n, 3), np.nan)
         if observed:
             pos = {int(t): i for i, t in enumerate(self._tracks.id.tolist())}
             idx = np.array([pos[t] for t in observed], dtype=np.int64)
             cols = np.array(list(observed.values()), dtype=np.int64)
             boxes[idx] = dets.xyxy[cols]
             rows[idx] = dets.source_row[cols]
+            if loc is not None:
+                loc[idx] = np.asarray(det_loc, dtype=np.float64)[cols]
         keep = self._tracks.confirmed
         # boolean indexing copies: the columns never alias the tracker's state
-        return _track_output(
+        out = _track_output(
             boxes[keep],
             self._tracks.conf[keep],
             self._tracks.cls[keep],
@@ -470,6 +474,9 @@ class Tracker:
             self._tracks.vis[keep],
             self._tracks.unseen[keep],
         )
+        if loc is not None:  # a 3D detector's position, for the world motion of --warnings
+            out.data["detection_location"] = loc[keep]
+        return out
 
 
 def _check_user_program(

@@ -255,7 +255,8 @@ def test_sudden_stop_in_the_world():
     toward = braking_car([900, 800, 650, 500, 350, 200], z=1200, closing=500)
     toward = " ".join(p + "." for p in toward.split(".") if p.strip() and "world_long" not in p)
     toward += " " + " ".join(
-        f"world_long(1,{g},{-s})." for g, s in zip(range(-5, 1), (900, 800, 650, 500, 350, 200))
+        f"world_long(1,{g},{-s})."
+        for g, s in zip(range(-5, 1), (900, 800, 650, 500, 350, 200), strict=True)
     )
     assert sit(toward, "sudden_stop") == []
     # a parked car the ego drives towards: stopped all along, never moved
@@ -387,3 +388,17 @@ def test_hidden_entity_severity_from_the_path_in_the_world():
     assert severity(hidden(6000, 0, -800, 0)) == ["info(hidden_entity,(1,2),severity,2)"]
     # in the lane, moving away
     assert severity(hidden(2000, 0, 100, 0)) == ["info(hidden_entity,(1,2),severity,2)"]
+
+
+def test_the_monitor_takes_a_3d_detectors_position_from_the_tracks():
+    frames = range(5)
+    results = build_results([Obj(1, CAR, {f: car_box(12.0, 0.5) for f in frames})])
+    for r in results:  # the tracker's output with a 3D detector: 30 m ahead, 2 m to the left
+        r.tracks.data["detection_location"] = np.array([[-2.0, 1.6, 30.0]] * len(r.tracks))
+    mon = SituationMonitor(fps=FPS, image_size=SIZE, camera=CAM)
+    mon.run(results)
+    m = mon._frames[-1].world[1]
+    assert (m.z, m.x) == (30.0, -2.0)
+    plain = SituationMonitor(fps=FPS, image_size=SIZE, camera=CAM)
+    plain.run(build_results([Obj(1, CAR, {f: car_box(12.0, 0.5) for f in frames})]))
+    assert plain._frames[-1].world[1].z == pytest.approx(12.0, abs=0.5)  # from the box

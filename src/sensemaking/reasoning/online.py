@@ -498,7 +498,8 @@ class SituationMonitor:
             self._motion(fr, moving)
         if self._world is not None:
             vis = [i for i, s in enumerate(states) if s == _VISIBLE]
-            loc = data.get("location")
+            # a 3D detector's position of the matched detection (the tracker's output carries it)
+            loc = data.get("location", data.get("detection_location"))
             fr.ego, fr.world = self._world.update(
                 f,
                 [ids[i] for i in vis],
