@@ -462,7 +462,7 @@ class Tracker:
                 loc[idx] = np.asarray(det_loc, dtype=np.float64)[cols]
         keep = self._tracks.confirmed
         # boolean indexing copies: the columns never alias the tracker's state
-        out = _track_output(
+        return _track_output(
             boxes[keep],
             self._tracks.conf[keep],
             self._tracks.cls[keep],
@@ -473,10 +473,9 @@ class Tracker:
             self._tracks.occluder[keep],
             self._tracks.vis[keep],
             self._tracks.unseen[keep],
+            # a 3D detector's position, for the world motion of --warnings
+            None if loc is None else loc[keep],
         )
-        if loc is not None:  # a 3D detector's position, for the world motion of --warnings
-            out.data["detection_location"] = loc[keep]
-        return out
 
 
 def _check_user_program(
@@ -512,9 +511,11 @@ def _track_output(
     occluder: np.ndarray,
     visibility: np.ndarray,
     hidden_frames: np.ndarray,
+    detection_location: np.ndarray | None = None,
 ) -> Detections:
     """The columns of :meth:`Tracker._output` (N rows; ``xyxy`` (N, 4) float pixels, the rest
-    (N,)), which have the validated dtypes and shapes already: no validation every frame."""
+    (N,); ``detection_location`` (N, 3) metres, NaN where not seen, only with a 3D detector),
+    which have the validated dtypes and shapes already: no validation every frame."""
     return Detections.trusted(
         xyxy=xyxy,
         confidence=confidence,
@@ -527,6 +528,7 @@ def _track_output(
             "occluder": occluder,
             "visibility": visibility,
             "hidden_frames": hidden_frames,
+            **({} if detection_location is None else {"detection_location": detection_location}),
         },
     )
 
