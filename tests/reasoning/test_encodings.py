@@ -169,6 +169,7 @@ def test_constants_and_defaults():
         "ss_ttc",
         "ss_decel",
         "rv_near_cm",
+        "he_path_ms",
     }
     assert situation_constants({"rv_area": 99})["rv_area"] == 99
     with pytest.raises(ValueError, match="unknown situation parameter"):
