@@ -386,10 +386,12 @@ def test_the_monitor_takes_a_3d_detectors_position_from_the_tracks():
     results = build_results([Obj(1, CAR, {f: car_box(12.0, 0.5) for f in frames})])
     for r in results:  # the tracker's output with a 3D detector: 30 m ahead, 2 m to the left
         r.tracks.data["detection_location"] = np.array([[-2.0, 1.6, 30.0]] * len(r.tracks))
-    mon = SituationMonitor(fps=FPS, image_size=SIZE, camera=CAM)
+    on = EgoMotionConfig(detection_location=True)
+    mon = SituationMonitor(fps=FPS, image_size=SIZE, camera=CAM, ego_config=on)
     mon.run(results)
     m = mon._frames[-1].world[1]
     assert (m.z, m.x) == (30.0, -2.0)
+    # by default (it did not pass the keep rule on PointRCNN): from the box on a flat road
     plain = SituationMonitor(fps=FPS, image_size=SIZE, camera=CAM)
-    plain.run(build_results([Obj(1, CAR, {f: car_box(12.0, 0.5) for f in frames})]))
-    assert plain._frames[-1].world[1].z == pytest.approx(12.0, abs=0.5)  # from the box
+    plain.run(results)
+    assert plain._frames[-1].world[1].z == pytest.approx(12.0, abs=0.5)

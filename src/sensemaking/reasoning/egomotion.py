@@ -188,6 +188,10 @@ class EgoMotionConfig:
         ego_lane_half_m: objects within this lateral offset (half a 3.5 m lane), metres, do
             not vote: the vehicle ahead in the ego's lane is the one the ego follows, and the
             one whose motion is to be judged.
+        detection_location: take the position of a track from its matched detection's 3D
+            ``location`` (a 3D detector's, carried by the tracker's output as
+            ``detection_location``) instead of the box on a flat road. Off by default: on
+            PointRCNN 0000-0010 it did not pass the keep rule (docs/DESIGN-NOTES.md, issue 22).
     """
 
     fit_s: float = 1.0
@@ -202,6 +206,7 @@ class EgoMotionConfig:
     static_range_m: float = 40.0
     ego_lane_half_m: float = 1.75
     max_vote_sd_mps: float = 2.1
+    detection_location: bool = False
 
     def __post_init__(self) -> None:
         for name in (

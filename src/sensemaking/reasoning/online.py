@@ -498,8 +498,9 @@ class SituationMonitor:
             self._motion(fr, moving)
         if self._world is not None:
             vis = [i for i, s in enumerate(states) if s == _VISIBLE]
-            # a 3D detector's position of the matched detection (the tracker's output carries it)
-            loc = data.get("location", data.get("detection_location"))
+            loc = data.get("location")
+            if loc is None and self._world.config.detection_location:
+                loc = data.get("detection_location")  # the matched detection's, a 3D detector's
             fr.ego, fr.world = self._world.update(
                 f,
                 [ids[i] for i in vis],
