@@ -25,9 +25,12 @@ Each warning carries, in its details, its episode number, a **severity** on the 
 * severity 1 *advisory* (be aware: OVERTAKING, REDUCED_VISIBILITY), 2 *caution* (be ready to
   act: HIDDEN_ENTITY, BLOCKED_LANE, EXITING_VEHICLE, a user's situation), 3 *warning* (act now:
   SUDDEN_STOP). HIDDEN_ENTITY, BLOCKED_LANE and EXITING_VEHICLE are raised to 3 when their
-  object is on the ego lane. The scale is stated in ``situations.lp`` (``severity/2``,
-  ``severity_on_ego_lane/2``, read once); a user's encoding may state it for its own situations,
-  or set one warning's severity with ``info(S,Objs,severity,N)``, N in 1..3.
+  object is on the ego lane; with a camera model HIDDEN_ENTITY's severity comes from the world
+  instead (situations.lp: the hidden track's path against the ego lane and the time to
+  contact, from the facts ``hidden_motion/5``). The scale is stated in ``situations.lp``
+  (``severity/2``, ``severity_on_ego_lane/2``, read once); a user's encoding may state it for
+  its own situations, or set one warning's severity with ``info(S,Objs,severity,N)``, N in
+  1..3.
 * lane position: ``ego``, ``left`` or ``right`` of the ego lane, or ``unknown``. The point is
   where the object stands on the road: the bottom centre of its box now (HIDDEN_ENTITY: of the
   anticipated box where it reappears). With lanes, the ego lane is the lane under the bottom
