@@ -737,3 +737,22 @@ def test_trackers_in_threads_agree_with_sequential_runs():
         th.join()
     assert threaded == sequential
     assert all(any(events for _, _, events in run_) for run_ in sequential)
+
+
+def test_a_3d_detectors_position_travels_with_the_visible_tracks():
+    """The matched detection's ``location`` (a 3D detector's, camera coordinates in metres) is
+    in the output as ``detection_location``: NaN while the track is not seen."""
+    t = Tracker(TrackerConfig(fps=10.0, image_size=(1242, 375)))
+    box = np.array([[600.0, 180.0, 700.0, 260.0]])
+    out = []
+    for f in range(6):
+        if f == 5:  # missed: the track goes on, predicted
+            dets = Detections.empty()
+        else:
+            loc = np.array([[1.0, 1.6, 20.0 - f]])
+            dets = Detections(box + f, confidence=np.array([0.9]), data={"location": loc})
+        out.append(t.update(dets, frame=f))
+    seen = out[4].tracks
+    assert len(seen) == 1 and seen.data["detection_location"].tolist() == [[1.0, 1.6, 16.0]]
+    lost = out[5].tracks
+    assert len(lost) == 1 and np.isnan(lost.data.get("detection_location", np.nan)).all()

@@ -506,12 +506,16 @@ class Tracker:
             return _no_tracks()  # most frames of sparse sequences
         boxes = self._tracks.kf.xyxy()
         rows = np.full(n, -1, dtype=np.int64)
+        det_loc = dets.data.get("location")
+        loc = None if det_loc is None else np.full((n, 3), np.nan)
         if observed:
             pos = {int(t): i for i, t in enumerate(self._tracks.id.tolist())}
             idx = np.array([pos[t] for t in observed], dtype=np.int64)
             cols = np.array(list(observed.values()), dtype=np.int64)
             boxes[idx] = dets.xyxy[cols]
             rows[idx] = dets.source_row[cols]
+            if loc is not None:
+                loc[idx] = np.asarray(det_loc, dtype=np.float64)[cols]
         keep = self._tracks.confirmed
         # boolean indexing copies: the columns never alias the tracker's state
         return _track_output(
@@ -525,6 +529,8 @@ class Tracker:
             self._tracks.occluder[keep],
             self._tracks.vis[keep],
             self._tracks.unseen[keep],
+            # a 3D detector's position, for the world motion of --warnings
+            None if loc is None else loc[keep],
         )
 
 
@@ -571,9 +577,11 @@ def _track_output(
     occluder: np.ndarray,
     visibility: np.ndarray,
     hidden_frames: np.ndarray,
+    detection_location: np.ndarray | None = None,
 ) -> Detections:
     """The columns of :meth:`Tracker._output` (N rows; ``xyxy`` (N, 4) float pixels, the rest
-    (N,)), which have the validated dtypes and shapes already: no validation every frame."""
+    (N,); ``detection_location`` (N, 3) metres, NaN where not seen, only with a 3D detector),
+    which have the validated dtypes and shapes already: no validation every frame."""
     return Detections.trusted(
         xyxy=xyxy,
         confidence=confidence,
@@ -586,6 +594,7 @@ def _track_output(
             "occluder": occluder,
             "visibility": visibility,
             "hidden_frames": hidden_frames,
+            **({} if detection_location is None else {"detection_location": detection_location}),
         },
     )
 

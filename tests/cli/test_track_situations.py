@@ -204,3 +204,21 @@ def test_mot17_fixed_camera_gives_no_ego_vehicle_warnings(tmp_path: Path):
     assert len(hides) > 20  # people do hide: with an ego vehicle this would warn
     said = {r["situation"] for r in records(warnings)}
     assert said & {"HIDDEN_ENTITY", "REDUCED_VISIBILITY", "SUDDEN_STOP"} == set()
+
+
+def test_preset_profile_without_ego_vehicle_says_so_once(tmp_path: Path, caplog):
+    det, warnings = parked_car_det(tmp_path), tmp_path / "w.jsonl"
+    with caplog.at_level("WARNING"):
+        assert track(tmp_path, det, "--warnings", str(warnings)) == 0
+    said = [r.getMessage() for r in caplog.records if "--profile driving" in r.getMessage()]
+    assert len(said) == 1 and "HIDDEN_ENTITY" in said[0] and "fixed" in said[0]
+    # the user chose the profile: nothing to point out
+    caplog.clear()
+    warnings.unlink()
+    with caplog.at_level("WARNING"):
+        assert track(tmp_path, det, "--warnings", str(warnings), "--profile", "fixed") == 0
+        assert (
+            track(tmp_path, det, "--warnings", str(tmp_path / "w2.jsonl"), "--profile", "driving")
+            == 0
+        )
+    assert not [r for r in caplog.records if "--profile driving" in r.getMessage()]

@@ -281,6 +281,39 @@ def test_overtaking_in_the_world_needs_a_moving_overtaken_vehicle():
     noisy += " " + " ".join(f"position_sd({t},{g},200)." for t in (1, 2) for g in range(-5, 1))
     assert sit(noisy, "overtaking") == []
     assert sit(pair(-900), "overtaking") == []  # nor passing oncoming traffic
+    # B crosses the road (sideways 6 m/s against 9 m/s along: 34 degrees off the ego's heading)
+    crossing = pair(900) + " " + " ".join(f"world_lat(2,{g},600)." for g in range(-5, 1))
+    assert sit(crossing, "overtaking") == []
+    # the same pair, heading 13 degrees off: still overtaking
+    slanted = pair(900) + " " + " ".join(f"world_lat(2,{g},200)." for g in range(-5, 1))
+    assert "warn(overtaking,(1,2))" in sit(slanted, "overtaking")
+    # two lanes and more apart sideways (7 m: across the road), not neighbours
+    assert sit(pair(900).replace(",-300).", ",-500)."), "overtaking") == []
+    # B at 9 +- 5 m/s: not shown to move, nor to move the ego's way (two standard errors)
+    unsure = pair(900).replace("world_speed(2,", "world_speed(9,")
+    unsure += " " + " ".join(f"world_speed(2,{g},900,500)." for g in range(-5, 1))
+    assert sit(unsure, "overtaking") == []
+
+
+def test_reduced_visibility_in_the_world_is_about_the_ego_lane():
+    def car(z: int, x: int, hides: bool = False) -> str:
+        return (
+            "track(1,car). vehicle(1). state(1,0,visible). in_corridor(1,0). area(1,0,200). "
+            f"position(1,0,{z},{x}). position_sd(1,0,30). camera. profile(driving)."
+            + (" track(2,car). state(2,0,hidden). hidden_by(2,1,0)." if hides else "")
+        )
+
+    near_ahead = sit(car(800, 50), "reduced_visibility", head="now(0). frame_ms(100). ")
+    assert "warn(reduced_visibility,(1,))" in near_ahead
+    assert "info(reduced_visibility,(1,),distance_cm,800)" in near_ahead
+    # parked beside the ego lane, however large in the image
+    assert sit(car(600, 300), "reduced_visibility", head="now(0). frame_ms(100). ") == []
+    # far ahead in the lane: only when it hides something
+    assert sit(car(3000, 0), "reduced_visibility", head="now(0). frame_ms(100). ") == []
+    far_hiding = sit(
+        car(3000, 0, hides=True), "reduced_visibility", head="now(0). frame_ms(100). "
+    )
+    assert "warn(reduced_visibility,(1,))" in far_hiding
 
 
 def test_with_a_camera_and_no_ego_speed_image_motion_claims_nothing():
@@ -320,3 +353,45 @@ def test_stories_say_motion_over_the_road_in_km_h_and_metres(tmp_path):
     for r in build_results(objs):
         plain.add(r)
     assert "stands still" not in " ".join(explain(plain.scene(), 2))
+
+
+def test_hidden_entity_severity_from_the_path_in_the_world():
+    def hidden(z: int, x: int, vz: int, vx: int) -> list[str]:
+        facts = (
+            "profile(driving). track(1,car). track(2,car). state(1,0,hidden). "
+            "hidden_by(1,2,0). anticipated(1,2,5,600,250). anticipated_in_corridor(1,2,5). "
+            f"hidden_motion(1,{z},{x},{vz},{vx})."
+        )
+        return sit(facts, "hidden_entity")
+
+    def severity(answer: list[str]) -> list[str]:
+        return [a for a in answer if ",severity," in a]
+
+    # 20 m ahead, 3 m to the left, closing at 8 m/s and drifting right at 1.5 m/s: in the ego
+    # lane after 0.9 s, 12.8 m ahead, contact 1.6 s later
+    crossing = hidden(2000, -300, -800, 150)
+    assert "warn(hidden_entity,(1,2))" in crossing
+    assert severity(crossing) == ["info(hidden_entity,(1,2),severity,3)"]
+    assert "info(hidden_entity,(1,2),ego_path_ms,900)" in crossing
+    # parked 6 m to the left: never in the ego lane
+    assert severity(hidden(2000, -600, -800, 0)) == ["info(hidden_entity,(1,2),severity,2)"]
+    # in the lane but 60 m ahead: contact in 7.5 s, not within ss_ttc
+    assert severity(hidden(6000, 0, -800, 0)) == ["info(hidden_entity,(1,2),severity,2)"]
+    # in the lane, moving away
+    assert severity(hidden(2000, 0, 100, 0)) == ["info(hidden_entity,(1,2),severity,2)"]
+
+
+def test_the_monitor_takes_a_3d_detectors_position_from_the_tracks():
+    frames = range(5)
+    results = build_results([Obj(1, CAR, {f: car_box(12.0, 0.5) for f in frames})])
+    for r in results:  # the tracker's output with a 3D detector: 30 m ahead, 2 m to the left
+        r.tracks.data["detection_location"] = np.array([[-2.0, 1.6, 30.0]] * len(r.tracks))
+    on = EgoMotionConfig(detection_location=True)
+    mon = SituationMonitor(fps=FPS, image_size=SIZE, camera=CAM, ego_config=on)
+    mon.run(results)
+    m = mon._frames[-1].world[1]
+    assert (m.z, m.x) == (30.0, -2.0)
+    # by default (it did not pass the keep rule on PointRCNN): from the box on a flat road
+    plain = SituationMonitor(fps=FPS, image_size=SIZE, camera=CAM)
+    plain.run(results)
+    assert plain._frames[-1].world[1].z == pytest.approx(12.0, abs=0.5)

@@ -168,6 +168,8 @@ def test_constants_and_defaults():
         "ov_gap_cm",
         "ss_ttc",
         "ss_decel",
+        "rv_near_cm",
+        "he_path_ms",
     }
     assert situation_constants({"rv_area": 99})["rv_area"] == 99
     with pytest.raises(ValueError, match="unknown situation parameter"):

@@ -307,6 +307,10 @@ def test_config_selects_situations_and_validates():
 def test_window_covers_the_duration_parameters():
     assert SituationConfig().window_frames(10.0) == 16  # ov_ms = 1.5 s at 10 fps, + 1
     assert SituationConfig(window_s=3.0).window_frames(30.0) == 91
+    # the two that look ahead, not back, do not widen it
+    ahead = SituationConfig(constants={"he_lead_ms": 9000, "he_path_ms": 9000})
+    assert ahead.window_frames(10.0) == 16
+    assert SituationConfig(constants={"ev_ms": 9000}).window_frames(10.0) == 91
 
 
 def test_reset_and_frame_order():

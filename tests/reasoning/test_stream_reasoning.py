@@ -21,6 +21,7 @@ from test_situations import (
 
 from sensemaking.reasoning import online
 from sensemaking.reasoning.context import SceneContext
+from sensemaking.reasoning.egomotion import CameraModel
 from sensemaking.reasoning.online import SituationMonitor
 from sensemaking.reasoning.situations import StreamSolver
 
@@ -56,6 +57,9 @@ SCENES = {
     "looming": (looming_car(True), {}),
     "exiting": (parked_car_and_person((860, 190, 900, 300)), {}),
     "blocked": (stopping_car(2), {"context": _lanes()}),
+    # with a camera model: positions, world motion, hidden tracks' paths
+    "hidden-world": (cyclist_behind_turning_car(), {"camera": CameraModel.kitti()}),
+    "overtaking-world": (overtaking(), {"camera": CameraModel.kitti()}),
 }
 
 

@@ -747,6 +747,14 @@ def _run(args: argparse.Namespace) -> int:
             profile=profile,
             **world,
         )
+        if profile != "driving" and args.profile is None:  # silence would read as "all clear"
+            log.warning(
+                "--warnings: the %s preset's scene profile is %s (a standing camera, no ego "
+                "vehicle): HIDDEN_ENTITY, REDUCED_VISIBILITY and SUDDEN_STOP are not checked; "
+                "for a camera on a vehicle give --profile driving",
+                "kitti" if args.format == "kitti" else "mot",
+                profile,
+            )
     source = args.detections or args.source
     total = 0 if last is None or first is None else last - first + 1
     with Progress(total, "tracking", enabled=not args.quiet) as progress:

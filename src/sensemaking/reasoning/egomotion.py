@@ -188,6 +188,10 @@ class EgoMotionConfig:
         ego_lane_half_m: objects within this lateral offset (half a 3.5 m lane), metres, do
             not vote: the vehicle ahead in the ego's lane is the one the ego follows, and the
             one whose motion is to be judged.
+        detection_location: take the position of a track from its matched detection's 3D
+            ``location`` (a 3D detector's, carried by the tracker's output as
+            ``detection_location``) instead of the box on a flat road. Off by default: on
+            PointRCNN 0000-0010 it did not pass the keep rule (docs/DESIGN-NOTES.md, issue 22).
     """
 
     fit_s: float = 1.0
@@ -202,6 +206,7 @@ class EgoMotionConfig:
     static_range_m: float = 40.0
     ego_lane_half_m: float = 1.75
     max_vote_sd_mps: float = 2.1
+    detection_location: bool = False
 
     def __post_init__(self) -> None:
         for name in (
@@ -563,8 +568,8 @@ def world_facts(
     """The facts of one frame ``g`` (relative) for situations.lp, tracks by ``local`` index:
     ``camera`` (once, with the current frame ``g = 0``), ``ego_speed(G,V)``,
     ``position(T,G,Z,X)``, ``position_sd(T,G,E)``, ``closing(T,G,C,E)``,
-    ``world_speed(T,G,S,E)``, ``world_long(T,G,V)`` (centimetres, cm/s, integers; see
-    situations.lp)."""
+    ``world_speed(T,G,S,E)``, ``world_long(T,G,V)``, ``world_lat(T,G,V)`` (centimetres, cm/s,
+    integers; see situations.lp)."""
     out: list[tuple[object, ...]] = [("camera",)] if g == 0 else []
     if ego is not None:
         out.append(("ego_speed", g, _cm(ego.speed)))
@@ -579,6 +584,7 @@ def world_facts(
         if math.isfinite(m.speed):
             out.append(("world_speed", k, g, _cm(m.speed), _cm(m.speed_sd)))
             out.append(("world_long", k, g, _cm(m.v_long)))
+            out.append(("world_lat", k, g, _cm(m.v_lat)))
     return out
 
 

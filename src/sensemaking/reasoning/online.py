@@ -25,9 +25,12 @@ Each warning carries, in its details, its episode number, a **severity** on the 
 * severity 1 *advisory* (be aware: OVERTAKING, REDUCED_VISIBILITY), 2 *caution* (be ready to
   act: HIDDEN_ENTITY, BLOCKED_LANE, EXITING_VEHICLE, a user's situation), 3 *warning* (act now:
   SUDDEN_STOP). HIDDEN_ENTITY, BLOCKED_LANE and EXITING_VEHICLE are raised to 3 when their
-  object is on the ego lane. The scale is stated in ``situations.lp`` (``severity/2``,
-  ``severity_on_ego_lane/2``, read once); a user's encoding may state it for its own situations,
-  or set one warning's severity with ``info(S,Objs,severity,N)``, N in 1..3.
+  object is on the ego lane; with a camera model HIDDEN_ENTITY's severity comes from the world
+  instead (situations.lp: the hidden track's path against the ego lane and the time to
+  contact, from the facts ``hidden_motion/5``). The scale is stated in ``situations.lp``
+  (``severity/2``, ``severity_on_ego_lane/2``, read once); a user's encoding may state it for
+  its own situations, or set one warning's severity with ``info(S,Objs,severity,N)``, N in
+  1..3.
 * lane position: ``ego``, ``left`` or ``right`` of the ego lane, or ``unknown``. The point is
   where the object stands on the road: the bottom centre of its box now (HIDDEN_ENTITY: of the
   anticipated box where it reappears). With lanes, the ego lane is the lane under the bottom
@@ -156,6 +159,11 @@ class _Episode:
 
     def __init__(self, number: int, start: int) -> None:
         self.number, self.start, self.last = number, start, start
+
+
+def _cm(v: float) -> int:
+    """Metres (or m/s) as whole centimetres (cm/s)."""
+    return int(round(v * 100.0))
 
 
 def _kmh(info: dict[str, list[Any]], key: str) -> str:
@@ -321,6 +329,8 @@ class SituationMonitor:
         self._seq_start: int | None = None
         self._last_frame: int | None = None
         self._anticip: dict[int, Anticipation] = {}
+        # hidden track -> (Z, X cm now, VZ, VX cm/s): its last world fit, extrapolated
+        self._hidden_motion: dict[int, tuple[int, int, int, int]] = {}
         self._found: list[SituationMatch] = []  # what holds at the current frame
         # its warnings, made when read (None: not yet)
         self._active: list[SituationWarning] | None = []
@@ -449,6 +459,7 @@ class SituationMonitor:
         fr = _Frame(f, list(result.events))
         self._frames.append(fr)
         self._anticip = {}
+        self._hidden_motion = {}
         tr = result.tracks
         if tr.tracker_id is None or tr.class_id is None:
             raise ValueError(
@@ -491,6 +502,8 @@ class SituationMonitor:
         if self._world is not None:
             vis = [i for i, s in enumerate(states) if s == _VISIBLE]
             loc = data.get("location")
+            if loc is None and self._world.config.detection_location:
+                loc = data.get("detection_location")  # the matched detection's, a 3D detector's
             fr.ego, fr.world = self._world.update(
                 f,
                 [ids[i] for i in vis],
@@ -507,6 +520,8 @@ class SituationMonitor:
                 fr.in_corr.append(ids[i])
                 fr.area[ids[i]] = round((x2 - x1) * (y2 - y1) * k)
 
+        if fr.hidden_by and self._world is not None:
+            self._extrapolate_hidden(fr)
         if fr.hidden_by:
             by_id = dict(zip(ids, boxes, strict=True))
             for t, o in fr.hidden_by.items():
@@ -543,6 +558,18 @@ class SituationMonitor:
             ):
                 if s is not None:
                     fr.surface[ids[i]] = asp_name(s)
+
+    def _extrapolate_hidden(self, fr: _Frame) -> None:
+        """Each hidden track's last fitted world position in the window, moved on to now at its
+        relative velocity then (cm, cm/s): the facts ``hidden_motion/5``."""
+        for t in fr.hidden_by:
+            for past in reversed(self._frames):
+                m = past.world.get(t)
+                if m is not None and np.isfinite(m.vz) and np.isfinite(m.vx):
+                    dt = (fr.frame - past.frame) / self.fps
+                    z, x = m.z + m.vz * dt, m.x + m.vx * dt
+                    self._hidden_motion[t] = (_cm(z), _cm(x), _cm(m.vz), _cm(m.vx))
+                    break
 
     def _prev_entry(self, h: deque[list[Any]]) -> int | None:
         """Index of the box ``lag`` frames before the latest entry of a history, else of the
@@ -671,6 +698,7 @@ class SituationMonitor:
             )
             if a.in_corridor:
                 out.append(("anticipated_in_corridor", t, o, r))
+        out += [("hidden_motion", local[t], *v) for t, v in self._hidden_motion.items()]
         return tuple(out), tracks
 
     def _stream_answer(self) -> list[SituationMatch]:
@@ -718,6 +746,7 @@ class SituationMonitor:
             window.append(("anticipated", t, o, r, px, py))
             if a.in_corridor:
                 window.append(("anticipated_in_corridor", t, o, r))
+        window += [("hidden_motion", local(t), *v) for t, v in self._hidden_motion.items()]
         solver.set_window(window)
         g = n - base
         current: list[Fact] = [("now", g)]

@@ -222,7 +222,12 @@ class SituationConfig:
         consts = situation_constants(self.constants)
         longest = max(
             [self.window_s * 1000.0]
-            + [v for k, v in consts.items() if k.endswith("_ms") and k != "he_lead_ms"]
+            # the two look ahead, not back
+            + [
+                v
+                for k, v in consts.items()
+                if k.endswith("_ms") and k not in ("he_lead_ms", "he_path_ms")
+            ]
         )
         return int(-(-longest * fps // 1000)) + 1
 
@@ -398,6 +403,7 @@ FRAME_ARGUMENT: dict[tuple[str, int], int] = {
     ("closing", 4): 1,
     ("world_speed", 4): 1,
     ("world_long", 3): 1,
+    ("world_lat", 3): 1,
     ("occurs_at", 2): 1,
 }
 #: inputs fixed for the life of a monitor: base facts of the stream solver, so that the rules
@@ -418,6 +424,7 @@ INPUTS: frozenset[tuple[str, int]] = (
         ("occurs_at", 2),
         ("anticipated", 5),
         ("anticipated_in_corridor", 3),
+        ("hidden_motion", 5),
         ("lane", 1),
     }
 )
