@@ -408,6 +408,18 @@ class TrackerConfig:
             sight instead of drifting on a velocity measured from boxes that were shrinking
             behind the occluder (issue 27). In (0, 1]; 1: constant velocity (off), 0.8: after
             10 unseen frames 11 % is left.
+        lookahead_s: fixed-lag abduction (issue 27): a frame's assignment is decided together
+            with the frames that follow it over this time (seconds, ``round(lookahead_s * fps)``
+            frames; 0: online). Where a part of the frame is contested (an alternative within
+            ``lookahead_margin`` of the optimum), each hypothesis is rolled forward by the
+            online tracker and the one cheapest over the window is kept: two crossing people or
+            a reappearing object are told apart by the frames after. Outputs, events and
+            warnings of a frame are final this much later.
+        lookahead_margin: a part of a frame is contested when an alternative explanation costs
+            at most this much more than the optimum (solver units). Higher: more frames are
+            rolled forward (more work), more chances to undo a swap.
+        lookahead_hypotheses: most hypotheses rolled forward per contested frame, the online
+            optimum included (N-best pruning). Bounds the work of a frame.
         costs: :class:`AbductionCosts`.
         kalman: :class:`~sensemaking.motion.KalmanConfig`.
     """
@@ -455,6 +467,9 @@ class TrackerConfig:
     unseen_damping: float = param(
         1.0, "float", "fraction of velocity kept per unseen frame", 0.0, 1.0, low_open=True
     )
+    lookahead_s: float = param(0.0, "float", "s", 0.0, 10.0)
+    lookahead_margin: int = param(300, "int", _COST, 0, 100_000)
+    lookahead_hypotheses: int = param(3, "int", "hypotheses", 1, 16)
     costs: AbductionCosts = nested(AbductionCosts)
     kalman: KalmanConfig = nested(KalmanConfig)
 
@@ -468,6 +483,11 @@ class TrackerConfig:
     @property
     def max_missing_frames(self) -> int:
         return max(1, int(round(self.max_missing_s * self.fps)))
+
+    @property
+    def lookahead_frames(self) -> int:
+        """Frames of look-ahead k: ``round(lookahead_s * fps)`` (0: online)."""
+        return int(round(self.lookahead_s * self.fps))
 
     @property
     def kalman_config(self) -> KalmanConfig:

@@ -99,3 +99,11 @@ class TrackTable:
         self.kf.remove(np.flatnonzero(~keep))
         for name in self.COLUMNS:
             setattr(self, name, getattr(self, name)[keep])
+
+    def copy(self) -> TrackTable:
+        """An independent copy (columns and Kalman filters)."""
+        out = TrackTable(self.kf.config)
+        out.kf = self.kf.copy()
+        for name in self.COLUMNS:
+            setattr(out, name, getattr(self, name).copy())
+        return out

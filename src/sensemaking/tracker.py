@@ -11,7 +11,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Sequence
-from dataclasses import asdict, replace
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -47,6 +47,18 @@ __all__ = [
 ]
 
 log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class TrackerState:
+    """What :meth:`Tracker.snapshot` keeps: the track table (with its Kalman filters), the
+    start events of tentative tracks, the next id and the frame counters."""
+
+    tracks: TrackTable
+    pending: dict[int, Event]
+    next_id: int
+    frames_seen: int
+    last_frame: int | None
 
 
 #: ``scene_shift`` needs at least this many matched established tracks: a median of three
@@ -156,11 +168,22 @@ class Tracker:
                 takes: supervision Detections, ultralytics results, (N, 4|5|6) arrays).
             frame: the frame number; default: the detections' frame column, else last + 1.
         """
+        return self.decide(detections, frame)[0]
+
+    def decide(
+        self, detections: Any, frame: int | None = None, answer: Answer | None = None
+    ) -> tuple[FrameResult, Answer]:
+        """:meth:`update`, and the frame's answer that was applied; with ``answer`` given (a
+        hypothesis of the look-ahead, :mod:`sensemaking.lookahead`) that answer is applied
+        instead of the frame's own optimum (the problem is still built, for the result)."""
         dets, frame = self._admit(detections, frame)
         pred = self._predict()  # Kalman prediction of every track
         t0 = time.perf_counter()
         # likelihood and gating (observe.frame_problem), then abduction (or matching without it)
-        problem, answer, timed_out = self._explain(pred, dets)
+        if answer is None:
+            problem, answer, timed_out = self._explain(pred, dets)
+        else:
+            problem, timed_out = self.problem(dets, pred), False
         solve_ms = (time.perf_counter() - t0) * 1000.0
         self.stats["solve_ms"] += solve_ms
         events, observed = self._apply(answer, dets, frame)  # update the tracks by the answer
@@ -169,7 +192,7 @@ class Tracker:
             started = set(answer.start)
             new_tracks = {row: tid for tid, row in observed.items() if row in started}
             abduction = FrameAbduction(problem, new_tracks, self._solver.solver)
-        return FrameResult(
+        result = FrameResult(
             frame=frame,
             tracks=self._output(dets, observed, frame),
             events=events,
@@ -177,6 +200,26 @@ class Tracker:
             timed_out=timed_out,
             abduction=abduction,
         )
+        return result, answer
+
+    def snapshot(self) -> TrackerState:
+        """A copy of the tracker's state (tracks, Kalman filters, waiting events, ids, frame
+        counters; not the solver or its caches): :meth:`restore` returns to it."""
+        return TrackerState(
+            self._tracks.copy(),
+            dict(self._pending),
+            self._next_id,
+            self._frames_seen,
+            self._last_frame,
+        )
+
+    def restore(self, state: TrackerState) -> None:
+        """Return to a :meth:`snapshot` (copied again: the snapshot can be restored twice)."""
+        self._tracks = state.tracks.copy()
+        self._pending = dict(state.pending)
+        self._next_id = state.next_id
+        self._frames_seen = state.frames_seen
+        self._last_frame = state.last_frame
 
     def _admit(self, detections: Any, frame: int | None) -> tuple[Detections, int]:
         """The frame's checked detections and its number; checked before any state changes,
