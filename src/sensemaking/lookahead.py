@@ -16,16 +16,17 @@ Outputs of frame t are final k frames later: :meth:`LookaheadTracker.push` retur
 that became final, :meth:`LookaheadTracker.flush` decides the frames still waiting at the end
 of the input. ``k = 0`` is the online tracker, result for result.
 
-Work per frame (the budget, deterministic: counted in frame updates, not in time): one online
-update of the new frame, as online; for a part that passes a cheap likelihood test (a swap or
-a rival detection within the margin, or a resumed track) one ground program solved at most
-``hypotheses`` times to find its alternatives (remembered by the part's canonical facts); and
-the roll-forwards, ``(k + 1)`` frame updates per hypothesis. Each decided frame earns one frame
-update of credit, saved up to ``2 * (hypotheses - 1) * (k + 1)``; a contested frame rolls
-forward only the hypotheses its credit pays for (the rest are decided online, counted in
-``stats["over_budget"]``). So the updates average at most twice the online ones, and the worst
-frame does at most ``2 * (hypotheses - 1) * (k + 1)`` of them, each under the solver's
-``max_conflicts`` budget.
+Work per frame (the budget, deterministic: counted in units of about one online frame update,
+not in time): one online update of the new frame, as online; for a part that passes a cheap
+likelihood test (a swap or a rival detection within the margin, or a resumed track) one ground
+program solved at most ``hypotheses`` times to find its alternatives (remembered by the part's
+canonical facts; ``CHECK_UNITS``); and the roll-forwards, ``k + 1`` frames per hypothesis, each
+a frame update and the costs of the parts where the hypotheses differ (``ROLL_UNITS``). Each
+decided frame earns one unit of credit, saved up to ``2 * ROLL_UNITS * (hypotheses - 1) *
+(k + 1)``; a check or a hypothesis the credit does not pay for is not done (the frame is
+decided online, counted in ``stats["over_budget"]``). So the look-ahead's extra work averages
+at most one unit per frame (twice the online work), and the worst frame's is bounded by the
+saved credit, each solve under the solver's ``max_conflicts`` budget.
 """
 
 from __future__ import annotations
@@ -47,6 +48,12 @@ from sensemaking.tracker import Tracker, TrackerState
 
 __all__ = ["LookaheadTracker", "make_tracker"]
 
+#: work units (one unit: about one online frame update) of one frame of a roll-forward: the
+#: frame's update and the costs of the parts where the hypotheses differ
+ROLL_UNITS = 2.0
+#: work units of finding a part's alternatives (one ground program, solved a few times)
+CHECK_UNITS = 1.0
+
 #: the actions that say who is who in a part of a frame: an alternative must change one
 _IDENTITY = ("assign", "resume", "start")
 
@@ -60,6 +67,8 @@ class _Step:
     result: FrameResult
     answer: Answer
     after: TrackerState
+    #: the frame's parts: ``(component, track ids, detection rows)`` (none without abduction)
+    parts: list[tuple[Component, list[int], list[int]]]
 
 
 class LookaheadTracker:
@@ -94,7 +103,7 @@ class LookaheadTracker:
         # the work budget, in frame updates: each decided frame earns one (look-ahead at most
         # twice the online updates on average), a roll-forward spends one per frame of the
         # window and hypothesis; saved up to one worst frame's need, twice over
-        self._max_credit = 2.0 * (self.hypotheses - 1) * (self.lag + 1)
+        self._max_credit = 2.0 * ROLL_UNITS * (self.hypotheses - 1) * (self.lag + 1)
         self._credit = self._max_credit
         self._base = tracker.snapshot()  # the state before the oldest frame of the window
         self._window: deque[_Step] = deque()
@@ -139,7 +148,7 @@ class LookaheadTracker:
         self.stats["solve_ms"] += self.tracker.stats["solve_ms"] - solved
         self.stats["frames"] += 1
         self.stats["timed_out"] += int(result.timed_out)
-        step = _Step(result.frame, detections, result, answer, self.tracker.snapshot())
+        step = _step(result.frame, detections, result, answer, self.tracker.snapshot())
         self._window.append(step)
         out = []
         while len(self._window) > self.lag:
@@ -172,12 +181,12 @@ class LookaheadTracker:
             hypotheses = self._hypotheses(self._window[0])
             if hypotheses:
                 self.stats["contested"] += 1
-                affordable = int(self._credit // frames)
+                affordable = int(self._credit // (ROLL_UNITS * frames))
                 if affordable < len(hypotheses):
                     self.stats["over_budget"] += 1
                     hypotheses = hypotheses[:affordable]
                 if hypotheses:
-                    self._credit -= frames * len(hypotheses)
+                    self._credit -= ROLL_UNITS * frames * len(hypotheses)
                     self._roll(hypotheses)
         step = self._window.popleft()
         self._base = step.after
@@ -188,11 +197,10 @@ class LookaheadTracker:
     def _hypotheses(self, step: _Step) -> list[tuple[int, Answer]]:
         """The frame's alternatives within the margin, cheapest first, at most
         ``hypotheses - 1``: ``(cost above the chosen answer, the whole frame's answer)``."""
-        problem = None if step.result.abduction is None else step.result.abduction.problem
-        if problem is None or self.hypotheses < 2:
+        if self.hypotheses < 2:
             return []
         found: list[tuple[int, Answer]] = []
-        for component, track_ids, det_rows in problem.components():
+        for component, track_ids, det_rows in step.parts:
             if not component.cand:
                 continue
             own = track_ids[: len(component.tracks)]
@@ -217,6 +225,10 @@ class LookaheadTracker:
         if hit is not None:
             self._alternatives.move_to_end(key)
             return hit
+        if self._credit < CHECK_UNITS:
+            self.stats["over_budget"] += 1
+            return []
+        self._credit -= CHECK_UNITS
         self.stats["checked"] += 1
         solver = self.tracker.solver.solver
         # one ground program, solved again after each forbidden explanation
@@ -294,7 +306,7 @@ class LookaheadTracker:
         """Roll each hypothesis of the oldest frame forward through the window; keep the one
         cheapest over the window (the online one on ties) as the window."""
         window = list(self._window)
-        parts0 = [_parts(s.result) for s in window[1:]]
+        parts0 = [_parts(s) for s in window[1:]]
         best: list[_Step] | None = None
         best_score = 0
         for delta, answer in hypotheses:
@@ -303,12 +315,12 @@ class LookaheadTracker:
             steps = []
             first = window[0]
             result, applied = self.tracker.decide(first.detections, first.frame, answer=answer)
-            steps.append(_Step(first.frame, first.detections, result, applied, self._snap()))
+            steps.append(_step(first.frame, first.detections, result, applied, self._snap()))
             score = delta
             for s, p0 in zip(window[1:], parts0, strict=True):
                 result, applied = self.tracker.decide(s.detections, s.frame)
-                steps.append(_Step(s.frame, s.detections, result, applied, self._snap()))
-                mine = _parts(result)
+                steps.append(_step(s.frame, s.detections, result, applied, self._snap()))
+                mine = _parts(steps[-1])
                 score += self._cost_sum(mine - p0) - self._cost_sum(p0 - mine)
             if score < best_score:
                 best, best_score = steps, score
@@ -373,11 +385,18 @@ def _may_be_contested(component: Component, chosen: Sequence[Symbol], margin: in
     return False
 
 
-def _parts(result: FrameResult) -> Counter[Component]:
+def _step(
+    frame: int, detections: Any, result: FrameResult, answer: Answer, after: TrackerState
+) -> _Step:
+    """A frame of the window, its parts cut once."""
+    ab = result.abduction
+    parts = [] if ab is None else ab.problem.components()
+    return _Step(frame, detections, result, answer, after, parts)
+
+
+def _parts(step: _Step) -> Counter[Component]:
     """The frame's parts (canonical facts), counted."""
-    if result.abduction is None:
-        return Counter()
-    return Counter(c for c, _, _ in result.abduction.problem.components())
+    return Counter(c for c, _, _ in step.parts)
 
 
 def _det(row: int) -> Symbol:
