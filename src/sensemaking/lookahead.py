@@ -58,7 +58,7 @@ CHECK_UNITS = 1.0
 _IDENTITY = ("assign", "resume", "start")
 
 
-@dataclass(frozen=True)
+@dataclass
 class _Step:
     """One frame of the window: its input, what the tracker made of it, the state after it."""
 
@@ -67,8 +67,16 @@ class _Step:
     result: FrameResult
     answer: Answer
     after: TrackerState
-    #: the frame's parts: ``(component, track ids, detection rows)`` (none without abduction)
-    parts: list[tuple[Component, list[int], list[int]]]
+    _parts: list[tuple[Component, list[int], list[int]]] | None = None
+
+    @property
+    def parts(self) -> list[tuple[Component, list[int], list[int]]]:
+        """The frame's parts ``(component, track ids, detection rows)``, cut when first asked
+        (none without abduction): most frames are never asked."""
+        if self._parts is None:
+            ab = self.result.abduction
+            self._parts = [] if ab is None else ab.problem.components()
+        return self._parts
 
 
 class LookaheadTracker:
@@ -197,7 +205,7 @@ class LookaheadTracker:
     def _hypotheses(self, step: _Step) -> list[tuple[int, Answer]]:
         """The frame's alternatives within the margin, cheapest first, at most
         ``hypotheses - 1``: ``(cost above the chosen answer, the whole frame's answer)``."""
-        if self.hypotheses < 2:
+        if self.hypotheses < 2 or not _frame_may_be_contested(step, self.margin):
             return []
         found: list[tuple[int, Answer]] = []
         for component, track_ids, det_rows in step.parts:
@@ -343,6 +351,23 @@ def make_tracker(tracker: Tracker) -> Tracker | LookaheadTracker:
     return LookaheadTracker(tracker)
 
 
+def _frame_may_be_contested(step: _Step, margin: int) -> bool:
+    """:func:`_may_be_contested` over the whole frame, before it is cut into parts (a swap or
+    a rival detection always lies within one part)."""
+    ab = step.result.abduction
+    answer = step.answer
+    if ab is None or not len(ab.problem.cand):
+        return False
+    if answer.resume:
+        return True
+    problem = ab.problem
+    index = {t: i for i, t in enumerate(problem.track_id.tolist())}
+    likelihood = {(t, d): lik for t, d, lik in problem.cand.tolist()}
+    halted = {i for i, on in enumerate(problem.active.tolist()) if not on}
+    matched = {index[t]: d for t, d in answer.assign.items() if t in index}
+    return _screen(likelihood, matched, set(answer.start), halted, margin)
+
+
 def _may_be_contested(component: Component, chosen: Sequence[Symbol], margin: int) -> bool:
     """A cheap necessary test before solving again: the chosen answer of a part (its local
     identity atoms) resumes a track (or a new one could take the detection), starts a track on
@@ -352,18 +377,30 @@ def _may_be_contested(component: Component, chosen: Sequence[Symbol], margin: in
     likelihood = {(t, d): lik for t, d, lik, _ in component.cand}
     halted = {t for t, row in enumerate(component.tracks) if not row[0]}
     matched: dict[int, int] = {}
+    started: set[int] = set()
     for atom in chosen:
         name, args = atom.name, atom.arguments
         if name == "resume":
             return True
         if name == "start":
-            d = args[0].arguments[0].number
-            if any((t, d) in likelihood for t in halted):
-                return True
+            started.add(args[0].arguments[0].number)
             continue
-        t, d = args[0].number, args[1].arguments[0].number
-        if (t, d) in likelihood:
-            matched[t] = d
+        matched[args[0].number] = args[1].arguments[0].number
+    return _screen(likelihood, matched, started, halted, margin)
+
+
+def _screen(
+    likelihood: dict[tuple[int, int], int],
+    matched: dict[int, int],
+    started: set[int],
+    halted: set[int],
+    margin: int,
+) -> bool:
+    """The test of :func:`_may_be_contested` on ``track, detection -> likelihood`` candidates,
+    the matches ``track -> detection``, the detections started and the halted tracks."""
+    if any((t, d) in likelihood for d in started for t in halted):
+        return True
+    matched = {t: d for t, d in matched.items() if (t, d) in likelihood}
     if not matched:
         return False
     taken = {d: t for t, d in matched.items()}
@@ -388,10 +425,7 @@ def _may_be_contested(component: Component, chosen: Sequence[Symbol], margin: in
 def _step(
     frame: int, detections: Any, result: FrameResult, answer: Answer, after: TrackerState
 ) -> _Step:
-    """A frame of the window, its parts cut once."""
-    ab = result.abduction
-    parts = [] if ab is None else ab.problem.components()
-    return _Step(frame, detections, result, answer, after, parts)
+    return _Step(frame, detections, result, answer, after)
 
 
 def _parts(step: _Step) -> Counter[Component]:
