@@ -22,10 +22,11 @@ likelihood test (a swap or a rival detection within the margin, or a resumed tra
 program solved at most ``hypotheses`` times to find its alternatives (remembered by the part's
 canonical facts; ``CHECK_UNITS``); and the roll-forwards, ``k + 1`` frames per hypothesis, each
 a frame update and the costs of the parts where the hypotheses differ (``ROLL_UNITS``). Each
-decided frame earns one unit of credit, saved up to ``2 * ROLL_UNITS * (hypotheses - 1) *
-(k + 1)``; a check or a hypothesis the credit does not pay for is not done (the frame is
-decided online, counted in ``stats["over_budget"]``). So the look-ahead's extra work averages
-at most one unit per frame (twice the online work), and the worst frame's is bounded by the
+decided frame earns ``CREDIT_PER_FRAME`` (0.75) units of credit, saved up to
+``2 * ROLL_UNITS * (hypotheses - 1) * (k + 1)``; a check or a hypothesis the credit does not
+pay for is not done (the frame is decided online, counted in ``stats["over_budget"]``). So the
+look-ahead's extra work averages at most 0.75 units per frame (under twice the online work),
+and the worst frame's is bounded by the
 saved credit, each solve under the solver's ``max_conflicts`` budget.
 """
 
@@ -53,6 +54,9 @@ __all__ = ["LookaheadTracker", "make_tracker"]
 ROLL_UNITS = 2.0
 #: work units of finding a part's alternatives (one ground program, solved a few times)
 CHECK_UNITS = 1.0
+#: work units each decided frame earns: below one, so that the look-ahead stays under twice the
+#: online work where its frames cost more than an online one (fresh parts, not in the cache)
+CREDIT_PER_FRAME = 0.75
 
 #: the actions that say who is who in a part of a frame: an alternative must change one
 _IDENTITY = ("assign", "resume", "start")
@@ -184,7 +188,7 @@ class LookaheadTracker:
     def _decide_oldest(self) -> FrameResult:
         t0 = time.perf_counter()
         frames = len(self._window)  # the roll-forward of one hypothesis updates this many
-        self._credit = min(self._credit + 1.0, self._max_credit)
+        self._credit = min(self._credit + CREDIT_PER_FRAME, self._max_credit)
         if frames > 1:
             hypotheses = self._hypotheses(self._window[0])
             if hypotheses:
