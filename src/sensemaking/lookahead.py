@@ -35,17 +35,17 @@ from __future__ import annotations
 import time
 from collections import Counter, OrderedDict, deque
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from clingo import Function, Number, Symbol
 
 from sensemaking import asp
-from sensemaking.abduction.problem import Component
+from sensemaking.abduction.problem import Component, FrameProblem
 from sensemaking.abduction.solver import Answer, Det, Ref, answer_of
 from sensemaking.config import TrackerConfig
 from sensemaking.results import FrameResult
-from sensemaking.tracker import Tracker, TrackerState
+from sensemaking.tracker import Tracker, TrackerState, frozen_problem
 
 __all__ = ["LookaheadTracker", "make_tracker"]
 
@@ -71,6 +71,8 @@ class _Step:
     result: FrameResult
     answer: Answer
     after: TrackerState
+    #: the problem as it was solved (None without abduction)
+    problem: FrameProblem | None
     _parts: list[tuple[Component, list[int], list[int]]] | None = None
 
     @property
@@ -78,8 +80,7 @@ class _Step:
         """The frame's parts ``(component, track ids, detection rows)``, cut when first asked
         (none without abduction): most frames are never asked."""
         if self._parts is None:
-            ab = self.result.abduction
-            self._parts = [] if ab is None else ab.problem.components()
+            self._parts = [] if self.problem is None else self.problem.components()
         return self._parts
 
 
@@ -155,12 +156,12 @@ class LookaheadTracker:
     def push(self, detections: Any, frame: int | None = None) -> list[FrameResult]:
         """Take one frame (as :meth:`Tracker.update`); return the results that became final
         (frame ``frame - lag``; none while the window fills)."""
-        solved = self.tracker.stats["solve_ms"]
-        result, answer = self.tracker.decide(detections, frame)
-        self.stats["solve_ms"] += self.tracker.stats["solve_ms"] - solved
+        before = self.tracker.stats["solve_ms"]
+        result, answer, solved = self._decide(detections, frame)
+        self.stats["solve_ms"] += self.tracker.stats["solve_ms"] - before
         self.stats["frames"] += 1
         self.stats["timed_out"] += int(result.timed_out)
-        step = _step(result.frame, detections, result, answer, self.tracker.snapshot())
+        step = _Step(result.frame, detections, result, answer, self.tracker.snapshot(), solved)
         self._window.append(step)
         out = []
         while len(self._window) > self.lag:
@@ -326,12 +327,14 @@ class LookaheadTracker:
             self.tracker.restore(self._base)
             steps = []
             first = window[0]
-            result, applied = self.tracker.decide(first.detections, first.frame, answer=answer)
-            steps.append(_step(first.frame, first.detections, result, applied, self._snap()))
+            result, applied, solved = self._decide(first.detections, first.frame, answer)
+            steps.append(
+                _Step(first.frame, first.detections, result, applied, self._snap(), solved)
+            )
             score = delta
             for s, p0 in zip(window[1:], parts0, strict=True):
-                result, applied = self.tracker.decide(s.detections, s.frame)
-                steps.append(_step(s.frame, s.detections, result, applied, self._snap()))
+                result, applied, solved = self._decide(s.detections, s.frame)
+                steps.append(_Step(s.frame, s.detections, result, applied, self._snap(), solved))
                 mine = _parts(steps[-1])
                 score += self._cost_sum(mine - p0) - self._cost_sum(p0 - mine)
             if score < best_score:
@@ -342,6 +345,21 @@ class LookaheadTracker:
         self.stats["switched"] += 1
         self.tracker.restore(best[-1].after)
         self._window = deque(best)
+
+    def _decide(
+        self, detections: Any, frame: int | None, answer: Answer | None = None
+    ) -> tuple[FrameResult, Answer, FrameProblem | None]:
+        """:meth:`Tracker.decide`, with the result's problem copied: some of its arrays are the
+        track table's columns, which the frames after change in place (online, the sinks read
+        the problem before the next frame; here k frames later); and the problem as solved."""
+        result, applied, solved = self.tracker.decide(
+            detections, frame, answer=answer, keep_problem=True
+        )
+        ab = result.abduction
+        if ab is None:
+            return result, applied, None
+        frozen = replace(ab, problem=frozen_problem(ab.problem))  # as online sinks see it
+        return replace(result, abduction=frozen), applied, solved
 
     def _snap(self) -> TrackerState:
         return self.tracker.snapshot()
@@ -358,13 +376,11 @@ def make_tracker(tracker: Tracker) -> Tracker | LookaheadTracker:
 def _frame_may_be_contested(step: _Step, margin: int) -> bool:
     """:func:`_may_be_contested` over the whole frame, before it is cut into parts (a swap or
     a rival detection always lies within one part)."""
-    ab = step.result.abduction
-    answer = step.answer
-    if ab is None or not len(ab.problem.cand):
+    problem, answer = step.problem, step.answer
+    if problem is None or not len(problem.cand):
         return False
     if answer.resume:
         return True
-    problem = ab.problem
     index = {t: i for i, t in enumerate(problem.track_id.tolist())}
     likelihood = {(t, d): lik for t, d, lik in problem.cand.tolist()}
     halted = {i for i, on in enumerate(problem.active.tolist()) if not on}
@@ -424,12 +440,6 @@ def _screen(
         if gap <= margin:
             return True
     return False
-
-
-def _step(
-    frame: int, detections: Any, result: FrameResult, answer: Answer, after: TrackerState
-) -> _Step:
-    return _Step(frame, detections, result, answer, after)
 
 
 def _parts(step: _Step) -> Counter[Component]:

@@ -11,7 +11,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -171,11 +171,18 @@ class Tracker:
         return self.decide(detections, frame)[0]
 
     def decide(
-        self, detections: Any, frame: int | None = None, answer: Answer | None = None
-    ) -> tuple[FrameResult, Answer]:
-        """:meth:`update`, and the frame's answer that was applied; with ``answer`` given (a
-        hypothesis of the look-ahead, :mod:`sensemaking.lookahead`) that answer is applied
-        instead of the frame's own optimum (the problem is still built, for the result)."""
+        self,
+        detections: Any,
+        frame: int | None = None,
+        answer: Answer | None = None,
+        *,
+        keep_problem: bool = False,
+    ) -> tuple[FrameResult, Answer, FrameProblem | None]:
+        """:meth:`update`, the frame's answer that was applied and, with ``keep_problem``, a
+        copy of the problem as it was solved (the result's problem shares arrays with the
+        track table, which the answer then changes). With ``answer`` given (a hypothesis of
+        the look-ahead, :mod:`sensemaking.lookahead`) that answer is applied instead of the
+        frame's own optimum (the problem is still built, for the result)."""
         dets, frame = self._admit(detections, frame)
         pred = self._predict()  # Kalman prediction of every track
         t0 = time.perf_counter()
@@ -186,6 +193,7 @@ class Tracker:
             problem, timed_out = self.problem(dets, pred), False
         solve_ms = (time.perf_counter() - t0) * 1000.0
         self.stats["solve_ms"] += solve_ms
+        solved = frozen_problem(problem) if keep_problem and problem is not None else None
         events, observed = self._apply(answer, dets, frame)  # update the tracks by the answer
         abduction = None
         if problem is not None:
@@ -200,7 +208,7 @@ class Tracker:
             timed_out=timed_out,
             abduction=abduction,
         )
-        return result, answer
+        return result, answer, solved
 
     def snapshot(self) -> TrackerState:
         """A copy of the tracker's state (tracks, Kalman filters, waiting events, ids, frame
@@ -513,6 +521,16 @@ class Tracker:
             self._tracks.vis[keep],
             self._tracks.unseen[keep],
         )
+
+
+def frozen_problem(problem: FrameProblem) -> FrameProblem:
+    """``problem`` with its arrays copied (some are the track table's columns)."""
+    copies: dict[str, Any] = {
+        f.name: value.copy()
+        for f in fields(problem)
+        if isinstance(value := getattr(problem, f.name), np.ndarray)
+    }
+    return replace(problem, **copies)
 
 
 def _check_user_program(
