@@ -429,6 +429,18 @@ class TrackerConfig:
         revive_height_ratio: the smaller of the two heights over the larger, at least: a revived
             track's last seen box and the detection (1: equal heights). Lower: admits objects
             that approached or drew away while unseen, and other objects of the class.
+        lookahead_s: fixed-lag abduction (issue 27): a frame's assignment is decided together
+            with the frames that follow it over this time (seconds, ``round(lookahead_s * fps)``
+            frames; 0: online). Where a part of the frame is contested (an alternative within
+            ``lookahead_margin`` of the optimum), each hypothesis is rolled forward by the
+            online tracker and the one cheapest over the window is kept: two crossing people or
+            a reappearing object are told apart by the frames after. Outputs, events and
+            warnings of a frame are final this much later.
+        lookahead_margin: a part of a frame is contested when an alternative explanation costs
+            at most this much more than the optimum (solver units). Higher: more frames are
+            rolled forward (more work), more chances to undo a swap.
+        lookahead_hypotheses: most hypotheses rolled forward per contested frame, the online
+            optimum included (N-best pruning). Bounds the work of a frame.
         costs: :class:`AbductionCosts`.
         kalman: :class:`~sensemaking.motion.KalmanConfig`.
     """
@@ -479,6 +491,9 @@ class TrackerConfig:
     revive_s: float = param(0.0, "float", "s", 0.0, 60.0)
     revive_hold: bool = param(False, "bool", "-")
     revive_height_ratio: float = param(0.7, "float", "ratio of box heights", 0.0, 1.0)
+    lookahead_s: float = param(0.0, "float", "s", 0.0, 10.0)
+    lookahead_margin: int = param(300, "int", _COST, 0, 100_000)
+    lookahead_hypotheses: int = param(3, "int", "hypotheses", 1, 16)
     costs: AbductionCosts = nested(AbductionCosts)
     kalman: KalmanConfig = nested(KalmanConfig)
 
@@ -497,6 +512,11 @@ class TrackerConfig:
     def revive_frames(self) -> int:
         """``revive_s`` in frames (0: revival off)."""
         return max(1, int(round(self.revive_s * self.fps))) if self.revive_s > 0 else 0
+
+    @property
+    def lookahead_frames(self) -> int:
+        """Frames of look-ahead k: ``round(lookahead_s * fps)`` (0: online)."""
+        return int(round(self.lookahead_s * self.fps))
 
     @property
     def kalman_config(self) -> KalmanConfig:

@@ -44,6 +44,7 @@ __all__ = [
     "PipelineSummary",
     "FrameStep",
     "FrameTracker",
+    "DelaysResults",
     "CountsTracks",
     "Configured",
     "Recorder",
@@ -59,6 +60,20 @@ class FrameTracker(Protocol):
     """A tracker: one frame's detections in, the frame's result out (frames increase)."""
 
     def update(self, detections: Detections, /, frame: int) -> FrameResult: ...
+
+
+@runtime_checkable
+class DelaysResults(Protocol):
+    """A tracker that decides frame t at frame t + ``lag`` (the look-ahead,
+    :class:`~sensemaking.lookahead.LookaheadTracker`): ``push`` takes a frame and returns the
+    results that became final, ``flush`` decides the frames still waiting."""
+
+    @property
+    def lag(self) -> int: ...
+
+    def push(self, detections: Detections, /, frame: int) -> list[FrameResult]: ...
+
+    def flush(self) -> list[FrameResult]: ...
 
 
 class TrackerSettings(Protocol):
@@ -159,6 +174,11 @@ class Pipeline:
     (:class:`Recorder`), the ``monitor`` (:class:`Monitor`) and each of ``sinks``
     (:class:`~sensemaking.sinks.Sink`).
 
+    A tracker that delays its results (:class:`DelaysResults`, the look-ahead) is stepped with
+    :meth:`advance`: the recorder, monitor and sinks get each frame's result when it is final,
+    at its own frame number, and the frames still waiting are decided at the end of the input
+    (:meth:`run`, :meth:`finish`) and before a gap is skipped.
+
     Args:
         validate: check every frame's detections
             (:func:`~sensemaking.detections.validate_detections`, with the tracker's image size)
@@ -168,7 +188,7 @@ class Pipeline:
 
     def __init__(
         self,
-        tracker: FrameTracker,
+        tracker: FrameTracker | DelaysResults,
         recorder: Recorder | None = None,
         monitor: Monitor | None = None,
         sinks: Sequence[Sink] = (),
@@ -187,6 +207,10 @@ class Pipeline:
         self._closed = False
         # asked once, used every frame
         self._counter: CountsTracks | None = tracker if isinstance(tracker, CountsTracks) else None
+        self._delayed: DelaysResults | None = (
+            tracker if isinstance(tracker, DelaysResults) and tracker.lag > 0 else None
+        )
+        self._lag = 0 if self._delayed is None else int(self._delayed.lag)
         settings = tracker.config if isinstance(tracker, Configured) else None
         self._image_size = None if settings is None else settings.image_size
         self._min_hits = 1 if settings is None else int(settings.min_hits)
@@ -200,7 +224,16 @@ class Pipeline:
     def step(self, frame: int, detections: Any = None) -> FrameStep:
         """Track one frame (``detections``: :class:`Detections` or anything the tracker takes;
         None: no detections). Frames must increase. Raises InputError (a ValueError) for a frame
-        number or detections outside the plausibility bounds, before anything changes."""
+        number or detections outside the plausibility bounds, before anything changes. A
+        tracker that delays its results is stepped with :meth:`advance` (TypeError here)."""
+        if self._delayed is not None:
+            raise TypeError("the tracker delays its results (look-ahead): use advance()")
+        return self.advance(frame, detections)[0]
+
+    def advance(self, frame: int, detections: Any = None) -> list[FrameStep]:
+        """:meth:`step` for any tracker: the frames whose results became final (one for an
+        online tracker; with a look-ahead of k frames, frame ``frame - k`` once k frames
+        wait)."""
         frame = check_frame_number(frame)
         if self.summary.last is not None and frame <= self.summary.last:
             raise InputError(f"frames must increase: got frame {frame} after {self.summary.last}")
@@ -210,7 +243,26 @@ class Pipeline:
             detections = as_detections(detections)
         if self.validate:
             validate_detections(detections, self._image_size)
-        result = self.tracker.update(detections, frame=frame)
+        if self._delayed is None:
+            results = [self.tracker.update(detections, frame=frame)]  # type: ignore[union-attr]
+        else:
+            results = self._delayed.push(detections, frame=frame)
+        s = self.summary
+        s.frames += 1
+        s.stepped += 1
+        s.first = frame if s.first is None else s.first
+        s.last = frame
+        steps = [self._emit(r) for r in results]
+        idle = self._tracker_idle() and all(
+            len(st.result.tracks) == 0 and not st.result.events for st in steps
+        )
+        self._quiet = self._quiet + 1 if idle else 0
+        if self.on_frames is not None:
+            self.on_frames(1)
+        return steps
+
+    def _emit(self, result: FrameResult) -> FrameStep:
+        """Give a final frame result to the recorder, the monitor and the sinks."""
         if self.recorder is not None:
             self.recorder.add(result)
         warnings = list(self.monitor.update(result)) if self.monitor is not None else []
@@ -218,18 +270,16 @@ class Pipeline:
         for sink in self.sinks:
             sink.frame(result, warnings)
         self._end_warnings(ended)
-        s = self.summary
-        s.frames += 1
-        s.stepped += 1
-        s.events += len(result.events)
-        s.warnings += len(warnings)
-        s.first = frame if s.first is None else s.first
-        s.last = frame
-        idle = len(result.tracks) == 0 and not result.events and self._tracker_idle()
-        self._quiet = self._quiet + 1 if idle else 0
-        if self.on_frames is not None:
-            self.on_frames(1)
+        self.summary.events += len(result.events)
+        self.summary.warnings += len(warnings)
         return FrameStep(result, warnings, ended)
+
+    def drain(self) -> list[FrameStep]:
+        """Decide and emit the frames a look-ahead tracker still holds (the end of the input);
+        nothing for an online tracker."""
+        if self._delayed is None:
+            return []
+        return [self._emit(r) for r in self._delayed.flush()]
 
     def _end_warnings(self, ends: list[Any]) -> None:
         """Give the ends of warning episodes to the sinks that take them (``end_warnings``)."""
@@ -256,9 +306,10 @@ class Pipeline:
         skip the rest at once."""
         f = first
         while f <= last:
-            if self._horizon >= 0 and self._quiet > self._horizon:
+            if self._horizon >= 0 and self._quiet > self._horizon + self._lag:
                 n = last - f + 1
                 s = self.summary
+                self.drain()  # the frames still waiting are final before the gap
                 self._finish_warnings("cleared")  # nothing holds over the frames skipped
                 # the recorder keeps the frame numbers of the gaps a scene records: add them empty
                 if self.recorder is not None and records_gap(
@@ -277,7 +328,7 @@ class Pipeline:
                 if self.on_frames is not None:
                     self.on_frames(n)
                 return
-            self.step(f)
+            self.advance(f)
             f += 1
 
     # -- a sequence ----------------------------------------------------------------------------
@@ -305,13 +356,14 @@ class Pipeline:
             start = previous + 1 if previous is not None else first_frame
             if start is not None and start < f:
                 self._fill(start, f - 1)
-            self.step(f, dets)
+            self.advance(f, dets)
         if last_frame is not None:
             start = self.summary.last + 1 if self.summary.last is not None else first_frame
             if start is None:
                 start = last_frame
             if start <= last_frame:
                 self._fill(start, last_frame)
+        self.drain()
         return self.summary
 
     # -- the end ---------------------------------------------------------------------------------
@@ -320,6 +372,7 @@ class Pipeline:
         if not self._closed:
             self._closed = True
             try:
+                self.drain()
                 self._finish_warnings("end_of_input")
             except BaseException:
                 close_all(self.sinks, ok=False)

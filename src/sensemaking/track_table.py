@@ -117,6 +117,14 @@ class TrackTable:
         for name in self.COLUMNS:
             setattr(self, name, getattr(self, name)[keep])
 
+    def copy(self) -> TrackTable:
+        """An independent copy (columns and Kalman filters)."""
+        out = TrackTable(self.kf.config)
+        out.kf = self.kf.copy()
+        for name in self.COLUMNS:
+            setattr(out, name, getattr(self, name).copy())
+        return out
+
 
 class EndedTracks:
     """Tracks that ended a moment ago and may be found again (``TrackerConfig.revive_s``).
@@ -157,4 +165,11 @@ class EndedTracks:
         mask = np.ones(len(self), dtype=bool)
         mask[rows] = False
         self.keep(mask)
+        return out
+
+    def copy(self) -> EndedTracks:
+        """An independent copy (rows, Kalman filters, how and age)."""
+        out = EndedTracks(self.table.kf.config)
+        out.table = self.table.copy()
+        out.how, out.age = self.how.copy(), self.age.copy()
         return out

@@ -11,7 +11,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Sequence
-from dataclasses import asdict, replace
+from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -48,6 +48,20 @@ __all__ = [
 ]
 
 log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class TrackerState:
+    """What :meth:`Tracker.snapshot` keeps: the track table (with its Kalman filters), the
+    tracks that ended a moment ago (``revive_s``), the start events of tentative tracks, the
+    next id and the frame counters."""
+
+    tracks: TrackTable
+    ended: EndedTracks
+    pending: dict[int, Event]
+    next_id: int
+    frames_seen: int
+    last_frame: int | None
 
 
 #: ``scene_shift`` needs at least this many matched established tracks: a median of three
@@ -160,13 +174,32 @@ class Tracker:
                 takes: supervision Detections, ultralytics results, (N, 4|5|6) arrays).
             frame: the frame number; default: the detections' frame column, else last + 1.
         """
+        return self.decide(detections, frame)[0]
+
+    def decide(
+        self,
+        detections: Any,
+        frame: int | None = None,
+        answer: Answer | None = None,
+        *,
+        keep_problem: bool = False,
+    ) -> tuple[FrameResult, Answer, FrameProblem | None]:
+        """:meth:`update`, the frame's answer that was applied and, with ``keep_problem``, a
+        copy of the problem as it was solved (the result's problem shares arrays with the
+        track table, which the answer then changes). With ``answer`` given (a hypothesis of
+        the look-ahead, :mod:`sensemaking.lookahead`) that answer is applied instead of the
+        frame's own optimum (the problem is still built, for the result)."""
         dets, frame = self._admit(detections, frame)
         pred = self._predict()  # Kalman prediction of every track
         t0 = time.perf_counter()
         # likelihood and gating (observe.frame_problem), then abduction (or matching without it)
-        problem, answer, timed_out = self._explain(pred, dets)
+        if answer is None:
+            problem, answer, timed_out = self._explain(pred, dets)
+        else:
+            problem, timed_out = self.problem(dets, pred), False
         solve_ms = (time.perf_counter() - t0) * 1000.0
         self.stats["solve_ms"] += solve_ms
+        solved = frozen_problem(problem) if keep_problem and problem is not None else None
         events, observed = self._apply(answer, dets, frame)  # update the tracks by the answer
         abduction = None
         if problem is not None:
@@ -176,7 +209,7 @@ class Tracker:
                 row: tid for tid, row in observed.items() if row in started or tid in revived
             }
             abduction = FrameAbduction(problem, new_tracks, self._solver.solver)
-        return FrameResult(
+        result = FrameResult(
             frame=frame,
             tracks=self._output(dets, observed, frame),
             events=events,
@@ -184,6 +217,28 @@ class Tracker:
             timed_out=timed_out,
             abduction=abduction,
         )
+        return result, answer, solved
+
+    def snapshot(self) -> TrackerState:
+        """A copy of the tracker's state (tracks, Kalman filters, waiting events, ids, frame
+        counters; not the solver or its caches): :meth:`restore` returns to it."""
+        return TrackerState(
+            self._tracks.copy(),
+            self._ended.copy(),
+            dict(self._pending),
+            self._next_id,
+            self._frames_seen,
+            self._last_frame,
+        )
+
+    def restore(self, state: TrackerState) -> None:
+        """Return to a :meth:`snapshot` (copied again: the snapshot can be restored twice)."""
+        self._tracks = state.tracks.copy()
+        self._ended = state.ended.copy()
+        self._pending = dict(state.pending)
+        self._next_id = state.next_id
+        self._frames_seen = state.frames_seen
+        self._last_frame = state.last_frame
 
     def _admit(self, detections: Any, frame: int | None) -> tuple[Detections, int]:
         """The frame's checked detections and its number; checked before any state changes,
@@ -542,6 +597,16 @@ def _costs(config: TrackerConfig) -> dict[str, int]:
     if not config.revive_frames:
         costs.pop("returns")
     return costs
+
+
+def frozen_problem(problem: FrameProblem) -> FrameProblem:
+    """``problem`` with its arrays copied (some are the track table's columns)."""
+    copies: dict[str, Any] = {
+        f.name: value.copy()
+        for f in fields(problem)
+        if isinstance(value := getattr(problem, f.name), np.ndarray)
+    }
+    return replace(problem, **copies)
 
 
 def _check_user_program(

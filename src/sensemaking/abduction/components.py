@@ -173,6 +173,12 @@ class ComponentSolver:
         answer.solve_ms = (time.perf_counter() - t0) * 1e3
         return answer
 
+    def remembered(self, component: Component) -> Answer | None:
+        """The cache's answer to ``component`` (local terms), None if not remembered; read only
+        (its ``cost`` is None when it was solved together with other components)."""
+        with self._lock:
+            return self._cache.get(component)
+
     def _remember(self, component: Component, local: Answer) -> None:
         if not local.timed_out and self.cache_size > 0:
             with self._lock:

@@ -132,6 +132,10 @@ ORIGINS: dict[str, str] = {
     "revive_s": "0 (off); a technique of issue 27, measured across folds (docs/DESIGN-NOTES.md).",
     "revive_hold": "used only with revive_s; measured both ways (docs/DESIGN-NOTES.md).",
     "revive_height_ratio": "used only with revive_s; a design choice, not tuned.",
+    "lookahead_s": "0 (online); the fixed-lag look-ahead of issue 27, measured across "
+    "folds (docs/DESIGN-NOTES.md).",
+    "lookahead_margin": "used only with lookahead_s; a work bound, not tuned.",
+    "lookahead_hypotheses": "used only with lookahead_s; N-best pruning, a work bound, not tuned.",
     "weak_confidence": "off (None); ByteTrack's 0.1 when on, a technique measured across "
     "folds, not kept (docs/DESIGN-NOTES.md).",
     "weak_iou": "ByteTrack's second-round 0.5, used only with weak_confidence; not tuned.",

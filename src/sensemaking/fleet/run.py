@@ -198,6 +198,7 @@ def run_sequence(spec: SequenceSpec, params: RunParams | None = None) -> Sequenc
         InputError (or another SensemakingError): the sequence's input is bad.
     """
     from sensemaking import settings
+    from sensemaking.lookahead import make_tracker
     from sensemaking.pipeline import Pipeline
     from sensemaking.reasoning.online import SituationMonitor
     from sensemaking.scene import SceneRecorder
@@ -218,7 +219,7 @@ def run_sequence(spec: SequenceSpec, params: RunParams | None = None) -> Sequenc
         last = max(last, min(first + int(spec.n_frames) - 1, horizon))
     if last < first:
         raise InputError("no detections and no sequence length: nothing to track", spec.det_path)
-    tracker = Tracker(config)
+    tracker = make_tracker(Tracker(config))  # lookahead_s > 0: frames final k frames later
     recorder = SceneRecorder(
         fps=config.fps,
         image_size=config.image_size,
