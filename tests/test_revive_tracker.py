@@ -4,6 +4,7 @@ changes."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -195,3 +196,31 @@ def test_a_shared_sequence_is_unchanged_until_the_first_revival():
         assert a.tracks.tracker_id.tolist() == b.tracks.tracker_id.tolist(), f
         assert np.array_equal(a.tracks.xyxy, b.tracks.xyxy), f
     assert revived is not None  # the car of 0004 hidden at the right border (issue 27)
+
+
+def test_a_snapshot_keeps_the_ended_tracks():
+    """The look-ahead rolls hypotheses forward from a snapshot: a restored tracker revives the
+    car that left the view as the first run did, and does not once the ended track is gone."""
+    cfg = TrackerConfig(fps=10, image_size=(1242, 375), revive_s=0.5)
+    tracker = Tracker(cfg, solver_cache=SolverCache())
+    boxes = _border_scene()
+
+    def frames(start: int) -> list[list[int]]:
+        out = []
+        for f in range(start, len(boxes)):
+            box = boxes[f]
+            r = tracker.update(Detections.empty() if box is None else _car(*box), frame=f)
+            out.append(r.tracks.tracker_id.tolist())
+        return out
+
+    for f in range(8):
+        tracker.update(_car(*boxes[f]), frame=f)
+    tracker.update(Detections.empty(), frame=8)  # the car leaves: an ended track is kept
+    state = tracker.snapshot()
+    first = frames(9)
+    assert first[-1] == [1]  # revived
+    tracker.restore(state)
+    assert frames(9) == first
+    assert len(state.ended) == 1
+    tracker.restore(replace(state, ended=EndedTracks(cfg.kalman_config)))  # forget it
+    assert frames(9)[-1] == [2]  # a new track: what the snapshot kept was what revived it
