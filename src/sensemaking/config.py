@@ -340,6 +340,15 @@ class TrackerConfig:
         hide_cover: fraction of a track's predicted box that a track in front must cover for it to
             hide behind it. Lower: occlusion is abduced more readily.
         keep_cover: fraction of coverage needed to stay hidden (hysteresis; <= hide_cover).
+        hide_sure_cover: fraction of a halting track's predicted box its occluder must cover for
+            the track to be said hidden (tracking.lp's ``hide_min_cover``); below it its
+            detections are missing. At or below ``hide_cover``: every covering occluder counts.
+        late_hides: a track already unobserved (missing, or no longer covered by its occluder)
+            may be said to hide behind a new occluder. Off: it stays missing.
+        late_hide_cover: with ``late_hides``, the share of its predicted box such a new occluder
+            must cover (its predicted box has drifted since it was seen).
+        late_confidence: weight of a late hiding's confidence (the event's ``confidence`` is
+            the occluder's cover share, times this for a track that was already unobserved).
         emerge_margin: a hidden track can only unhide where it touches its occluder's box,
             widened by this fraction of the occluder's size on every side. Lower: fewer wrong
             re-identifications in crowds; too low: objects that re-emerge fast get a new id.
@@ -430,6 +439,10 @@ class TrackerConfig:
     hide_cover: float = param(0.5, "float", "fraction of box area", 0.0, 1.0)
     emerge_margin: float = param(0.25, "float", "fraction of occluder size", 0.0, 10.0)
     keep_cover: float = param(0.2, "float", "fraction of box area (<= hide_cover)", 0.0, 1.0)
+    hide_sure_cover: float = param(0.0, "float", "fraction of box area", 0.0, 1.0)
+    late_hides: bool = param(True, "bool", "-")
+    late_hide_cover: float = param(0.0, "float", "fraction of box area", 0.0, 1.0)
+    late_confidence: float = param(1.0, "float", "factor", 0.0, 1.0)
     partial_cover: float = param(0.1, "float", "fraction of box area", 0.0, 1.0)
     border_margin: float = param(10.0, "float", "pixels", 0.0, 10_000.0)
     class_aware: bool = param(True, "bool", "-")

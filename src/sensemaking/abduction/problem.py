@@ -20,11 +20,15 @@ import numpy as np
 from clingo import Function, Symbol
 from clingo import Number as _number
 
-__all__ = ["FrameProblem", "Component", "VISIBILITY_VALUES", "TRACK_FLAGS"]
+__all__ = ["FrameProblem", "Component", "VISIBILITY_VALUES", "TRACK_FLAGS", "SHARE_STEP"]
 
 VISIBILITY_VALUES = ("fully_visible", "partially_occluded", "fully_occluded")
 #: the per-track flags of the facts, in the order of :attr:`Component.tracks` rows
 TRACK_FLAGS = ("tentative", "uncertain", "expired", "outside", "at_border", "overlapped", "cut")
+
+#: ``cover_share/3`` values are per mille rounded down to this step: a few distinct values keep
+#: the answer cache's keys and the slot solver's universe small
+SHARE_STEP = 50
 
 _TRUE = Function("true")
 _ZERO = _number(0)
@@ -48,7 +52,8 @@ class Component:
             overlapped, cut, class, visibility index, speed in px/s or -1)``.
         dets: per detection ``(confidence 0..1000, class, at border, overlapped)``.
         cand: ``(track, detection, likelihood 0..1000, preferred)``.
-        covers: ``(detection, track, rank or -1)``.
+        covers: ``(detection, track, rank or -1, share)``: share of the track's predicted box
+            the detection covers, per mille rounded down to :data:`SHARE_STEP`.
         keeps_covering: ``(detection, track)``.
         emerges: ``(detection, track)``.
         hidden_by: ``(track, occluder)``.
@@ -59,7 +64,7 @@ class Component:
     tracks: tuple[tuple[int, ...], ...]
     dets: tuple[tuple[int, ...], ...]
     cand: tuple[tuple[int, int, int, bool], ...]
-    covers: tuple[tuple[int, int, int], ...]
+    covers: tuple[tuple[int, int, int, int], ...]
     keeps_covering: tuple[tuple[int, int], ...]
     emerges: tuple[tuple[int, int], ...]
     hidden_by: tuple[tuple[int, int], ...]
@@ -108,8 +113,9 @@ class Component:
             add(Function("cand", [track(t), det(j), _number(lik)]))
             if preferred:
                 add(Function("prefer", [track(t), det(j)]))
-        for j, t, rank in self.covers:
+        for j, t, rank, share in self.covers:
             add(Function("covers", [det(j), track(t)]))
+            add(Function("cover_share", [det(j), track(t), _number(share)]))
             if rank >= 0:
                 add(Function("cover_rank", [det(j), track(t), _number(rank)]))
         for t, j in self.fits:
@@ -233,6 +239,14 @@ class FrameProblem:
                     ranks[row] = r
         return ranks
 
+    def cover_shares(self) -> np.ndarray:
+        """(P,) ``cover_share/3`` of each ``covers`` row: per mille rounded down to
+        :data:`SHARE_STEP` (1000 without ``covers_exact``: every pair counts as fully covering)."""
+        if self.covers_exact is None:
+            return np.full(len(self.covers), 1000, dtype=np.int64)
+        permille = np.floor(np.clip(self.covers_exact, 0.0, 1.0) * 1000 + 1e-6)
+        return (permille // SHARE_STEP * SHARE_STEP).astype(np.int64)
+
     def whole(self) -> tuple[Component, list[int], list[int]]:
         """The whole frame as one component (for checks, and encodings not known to be local)."""
         return self._describe([(list(range(self.n_tracks)), list(range(self.n_dets)))])[0]
@@ -320,8 +334,14 @@ class FrameProblem:
         ]
         for t, d, lik in self.cand.tolist():
             parts[where_t[t]]["cand"].append((t, d, lik, (t, d) in preferred))
-        for (d, t), r in zip(self.covers.tolist(), self.cover_ranks().tolist(), strict=True):
-            parts[where_t[t]]["covers"].append((d, t, r))
+        rows = zip(
+            self.covers.tolist(),
+            self.cover_ranks().tolist(),
+            self.cover_shares().tolist(),
+            strict=True,
+        )
+        for (d, t), r, share in rows:
+            parts[where_t[t]]["covers"].append((d, t, r, share))
         for t, d in self.fits.tolist():
             parts[where_t[t]]["fits"].append((t, d))
         for name, rel in (("keeps", self.keeps_covering), ("emerges", self.emerges)):
@@ -350,7 +370,7 @@ class FrameProblem:
                 tracks=tuple(track_rows[t] for t in ts),
                 dets=tuple(det_rows[d] for d in ds),
                 cand=tuple((lt[t], ld[d], lik, p) for t, d, lik, p in found["cand"]),
-                covers=tuple((ld[d], lt[t], r) for d, t, r in found["covers"]),
+                covers=tuple((ld[d], lt[t], r, sh) for d, t, r, sh in found["covers"]),
                 keeps_covering=tuple((ld[d], lt[t]) for d, t in found["keeps"]),
                 emerges=tuple((ld[d], lt[t]) for d, t in found["emerges"]),
                 hidden_by=tuple(hidden),

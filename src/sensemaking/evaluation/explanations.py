@@ -53,6 +53,9 @@ __all__ = [
     "evaluate_explanations",
     "load_ground_truth",
     "explanation_table",
+    "confidence_table",
+    "confidence_text",
+    "CONFIDENCE_THRESHOLDS",
     "late_start_events",
     "judged_warnings",
     "read_events",
@@ -445,6 +448,8 @@ class ExplanationResult:
         occlusions_said: the ``hides_behind`` recall occasions by what the tracker said at
         them: ``hides_behind`` (the explained ones), ``leaves_fov``, ``missing_detections``,
         ``ends`` or ``nothing``.
+        hide_hit_confidence: the confidence of the ``hides_behind`` event of each explained
+        recall occasion (1.0 for an event without one), for recall against a threshold.
     """
 
     name: str
@@ -454,6 +459,7 @@ class ExplanationResult:
     starts_total: int = 0
     recall: dict[str, tuple[int, int]] = field(default_factory=dict)
     occlusions_said: dict[str, int] = field(default_factory=dict)
+    hide_hit_confidence: list[float] = field(default_factory=list)
 
     @classmethod
     def combine(
@@ -470,6 +476,7 @@ class ExplanationResult:
                 out.recall[k] = (x + a, y + b)
             for k, n in r.occlusions_said.items():
                 out.occlusions_said[k] = out.occlusions_said.get(k, 0) + n
+            out.hide_hit_confidence += r.hide_hit_confidence
         return out
 
     def summary(self) -> dict[str, Any]:
@@ -492,6 +499,8 @@ class ExplanationResult:
                     row["occlusions_said"] = {
                         k: self.occlusions_said.get(k, 0) for k in _SAID_KINDS
                     }
+                occasions = self.recall.get(kind, (0, 0))[1]
+                row["by_confidence"] = confidence_table(vs, self.hide_hit_confidence, occasions)
                 ident = Counter(v.identity for v in vs)
                 row["identity"] = {
                     k: ident.get(k, 0) for k in ("kept", "switched", "unknown", "not_resumed")
@@ -521,6 +530,47 @@ class ExplanationResult:
         out["late_starts"] = self.late_starts
         out["starts_total"] = self.starts_total
         return out
+
+
+#: the thresholds of the ``hides_behind`` precision-recall table (event confidence, 0..1)
+CONFIDENCE_THRESHOLDS = (0.0, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0)
+
+
+def _confidence(v: Verdict) -> float:
+    """An event's confidence; 1.0 where it states none (a log without confidences)."""
+    return 1.0 if v.event.confidence is None else float(v.event.confidence)
+
+
+def confidence_table(
+    verdicts: Sequence[Verdict],
+    hit_confidence: Sequence[float],
+    occasions: int,
+    thresholds: Sequence[float] = CONFIDENCE_THRESHOLDS,
+) -> list[dict[str, Any]]:
+    """Precision and recall of the events whose confidence is at least each threshold.
+
+    Per threshold: ``n`` events kept, their ``plausible`` / ``implausible`` counts, ``precision``
+    (plausible of the decidable, None without any) and ``recall`` (recall occasions explained by
+    a kept event, of ``occasions``; None without occasions). A user who keeps only the events at
+    or above a threshold gets these figures."""
+    out = []
+    eps = 1e-9  # confidences are written with 3 decimals
+    for thr in thresholds:
+        kept = [v for v in verdicts if _confidence(v) >= thr - eps]
+        c = Counter(v.verdict for v in kept)
+        p, i = c.get(PLAUSIBLE, 0), c.get(IMPLAUSIBLE, 0)
+        hits = sum(x >= thr - eps for x in hit_confidence)
+        out.append(
+            {
+                "threshold": thr,
+                "n": len(kept),
+                PLAUSIBLE: p,
+                IMPLAUSIBLE: i,
+                "precision": p / (p + i) if p + i else None,
+                "recall": hits / occasions if occasions else None,
+            }
+        )
+    return out
 
 
 def _median(xs: list[float] | list[int]) -> float | None:
@@ -871,6 +921,8 @@ class _Recall(_Evidence):
 
     #: hides_behind recall occasions by what the tracker said at them (see :meth:`recall`)
     hide_said: Counter[str]
+    #: the confidence of the hides_behind event of each explained occasion
+    hide_hit_confidence: list[float]
 
     def recall(self, events: list[Event]) -> dict[str, tuple[int, int]]:
         """Occasions in the ground truth where an event of a kind was due, and how many got one.
@@ -883,13 +935,19 @@ class _Recall(_Evidence):
         frame) and is matched by a track within the window of that frame."""
         names: dict[str, set[tuple[int | str, int]]] = defaultdict(set)
         by_track: dict[int | str, set[str]] = defaultdict(set)
+        hide_level: dict[tuple[int | str, int], float] = {}
         for e in events:
             if e.args:  # a user's encoding may abduce events without arguments
                 names[e.name].add((e.args[0], e.frame))
                 by_track[e.args[0]].add(e.name)
+                if e.name == "hides_behind":
+                    level = 1.0 if e.confidence is None else float(e.confidence)
+                    key = (e.args[0], e.frame)
+                    hide_level[key] = max(level, hide_level.get(key, 0.0))
         tr = self.t
         hide_hit = hide_all = 0
         self.hide_said = Counter()
+        self.hide_hit_confidence = []
         for t, fs in self.visible.items():
             for a, b in zip(fs, fs[1:] + [None], strict=True):
                 f = a + 1
@@ -902,7 +960,9 @@ class _Recall(_Evidence):
                 hide_all += 1
                 said = next((n for n in _SAID_INSTEAD if (t, f) in names[n]), "nothing")
                 self.hide_said[said] += 1
-                hide_hit += said == "hides_behind"
+                if said == "hides_behind":
+                    hide_hit += 1
+                    self.hide_hit_confidence.append(hide_level[(t, f)])
         last = self.gt.first_frame + self.gt.n_frames - 1
         tracks_of: dict[int, list[tuple[int, int]]] = defaultdict(list)
         for (t, f), g in self.match.items():
@@ -1066,6 +1126,7 @@ def evaluate_explanations(
     out.recall = judge.recall(events)
     if "hides_behind" in out.recall:
         out.occlusions_said = dict(judge.hide_said)
+        out.hide_hit_confidence = list(judge.hide_hit_confidence)
     return out
 
 
@@ -1135,6 +1196,28 @@ def explanation_table(
             f"{s['starts_total']} | | | | | | | {s['late_starts']} of {s['starts_total']} |"
         )
     return "\n".join(lines) + "\n"
+
+
+def confidence_text(
+    results: Mapping[str, Sequence[ExplanationResult] | ExplanationResult | Mapping[str, Any]],
+) -> str:
+    """The ``hides_behind`` precision-recall table (markdown) against the events' confidence:
+    one row per benchmark and threshold (events at or above it kept); empty without events."""
+    lines = [
+        "| benchmark | hides_behind confidence >= | n | plausible | implausible | precision % "
+        "| recall % |",
+        "|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    for bench, res in results.items():
+        row = _summary_of(res)["events"]["hides_behind"]
+        if not row["total"]:
+            continue
+        for r in row.get("by_confidence", []):
+            lines.append(
+                f"| {bench} | {r['threshold']:.1f} | {r['n']} | {r[PLAUSIBLE]} "
+                f"| {r[IMPLAUSIBLE]} | {_pct(r['precision'])} | {_pct(r['recall'])} |"
+            )
+    return "\n".join(lines) + "\n" if len(lines) > 2 else ""
 
 
 def _summary_of(
