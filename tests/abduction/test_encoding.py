@@ -462,17 +462,18 @@ def test_hidden_by_released_when_the_occluder_is_not_observed():
 
 def test_hidden_by_released_when_hiding_behind_another():
     facts = HIDDEN + track(3) + det(1) + "cand(3,d(1),900). covers(d(1),1)."
-    assert solve(facts) == [
+    late = {"hide_late_cover": 0}  # off by default: then track 1 is missing (test below)
+    assert solve(facts, late) == [
         "assign(2,d(0))",
         "assign(3,d(1))",
-        "confidence(hides_behind(1,3),1000)",
+        "confidence(hides_behind(1,3),500)",
         "ignore_trk(1)",
         "occurs(hides_behind(1,3))",
         "value(hidden_by(1,2),false)",
         "value(hidden_by(1,3),true)",
     ]
     # visibility stays fully_occluded: not shown (unchanged), but holds
-    assert "now(visibility(1),fully_occluded)" in solve(facts, extra=SHOW_HOLDS)
+    assert "now(visibility(1),fully_occluded)" in solve(facts, late, extra=SHOW_HOLDS)
 
 
 def test_still_hidden_needs_no_new_explanation():
@@ -489,10 +490,12 @@ def test_still_hidden_needs_no_new_explanation():
 
 def test_missing_track_may_be_found_hiding():
     facts = track(1, halted=True) + track(2) + det(0) + "cand(2,d(0),900). covers(d(0),1)."
-    # explaining a missing track as hidden is free and saves the cost of an unseen frame
-    assert solve(facts) == [
+    # not by default (tracking.lp's hide_late_cover 1001): the track stays missing
+    assert solve(facts) == ["assign(2,d(0))", "ignore_trk(1)"]
+    # allowed, explaining a missing track as hidden is free and saves an unseen frame's cost
+    assert solve(facts, {"hide_late_cover": 0}) == [
         "assign(2,d(0))",
-        "confidence(hides_behind(1,2),1000)",
+        "confidence(hides_behind(1,2),500)",
         "ignore_trk(1)",
         "occurs(hides_behind(1,2))",
         "value(hidden_by(1,2),true)",
@@ -860,10 +863,11 @@ def test_late_hiding_needs_its_own_evidence_and_weighs_less():
         + det(0)
         + "cand(2,d(0),900). covers(d(0),1). cover_share(d(0),1,800)."
     )
-    late = solve(facts, {"late_confidence": 500})
-    assert "confidence(hides_behind(1,2),400)" in late  # 800 x 500 / 1000
+    late = solve(facts, {"hide_late_cover": 0, "late_confidence": 300})
+    assert "confidence(hides_behind(1,2),240)" in late  # 800 x 300 / 1000
     assert solve(facts, {"hide_late_cover": 850}) == ["assign(2,d(0))", "ignore_trk(1)"]
-    assert solve(facts, {"hide_late_cover": 1001}) == ["assign(2,d(0))", "ignore_trk(1)"]
+    assert "occurs(hides_behind(1,2))" in solve(facts, {"hide_late_cover": 800})
+    assert solve(facts) == ["assign(2,d(0))", "ignore_trk(1)"]  # never, by default
     # a hidden track whose occluder stops covering it is missing, not hidden behind a new one
     hidden = (
         track(1, halted=True)
@@ -873,6 +877,5 @@ def test_late_hiding_needs_its_own_evidence_and_weighs_less():
         + "cand(3,d(0),900). covers(d(0),1). cover_share(d(0),1,800)."
         + "holds(hidden_by(1,2),true,0)."
     )
-    moved = solve(hidden, {"hide_late_cover": 1001})
-    assert "occurs(missing_detections(1))" in moved
-    assert "occurs(hides_behind(1,3))" in solve(hidden)
+    assert "occurs(missing_detections(1))" in solve(hidden)
+    assert "occurs(hides_behind(1,3))" in solve(hidden, {"hide_late_cover": 0})
