@@ -512,7 +512,7 @@ def check_explanation_targets(b: BenchmarkRun) -> list[TargetCheck]:
 
 def _explanations_section(summary: RunSummary) -> list[str]:
     """The explanation-quality table of ours with abduction, one block per benchmark."""
-    from sensemaking.evaluation.explanations import explanation_table
+    from sensemaking.evaluation.explanations import explanation_table, spread_table
 
     judged = [(b.spec.name, b.explanations) for b in summary.benchmarks if b.explanations]
     if not judged:
@@ -540,6 +540,15 @@ def _explanations_section(summary: RunSummary) -> list[str]:
     if ok:
         lines += explanation_table(ok).rstrip("\n").split("\n")
         lines.append("")
+    spread = spread_table({name: ex.results for name, ex in judged if not ex.error})
+    if spread:
+        lines += [
+            "The spread over the sequences: precision per sequence (plausible of the decidable) "
+            "of each kind, its lowest, median and highest value, and each sequence's counts.",
+            "",
+            *spread.rstrip("\n").split("\n"),
+            "",
+        ]
     if failed:
         lines += ["Failed: " + "; ".join(failed) + ".", ""]
     quiet = [name for name, ex in judged if not ex.warnings]

@@ -55,6 +55,7 @@ __all__ = [
     "explanation_table",
     "confidence_table",
     "confidence_text",
+    "spread_table",
     "CONFIDENCE_THRESHOLDS",
     "late_start_events",
     "judged_warnings",
@@ -1216,6 +1217,42 @@ def confidence_text(
             lines.append(
                 f"| {bench} | {r['threshold']:.1f} | {r['n']} | {r[PLAUSIBLE]} "
                 f"| {r[IMPLAUSIBLE]} | {_pct(r['precision'])} | {_pct(r['recall'])} |"
+            )
+    return "\n".join(lines) + "\n" if len(lines) > 2 else ""
+
+
+def spread_table(
+    results: Mapping[str, Sequence[ExplanationResult]],
+    kinds: Sequence[str] = (*EVENT_KINDS, *WARNING_KINDS),
+) -> str:
+    """Per-sequence spread of the precision (markdown): per benchmark and kind judged on at
+    least one sequence with a decidable verdict, the number of such sequences, the lowest,
+    median and highest precision among them, the pooled precision, and every sequence's
+    ``plausible/decidable``. A pooled share can hide one sequence that carries it."""
+    lines = [
+        "| benchmark | kind | sequences | lowest % | median % | highest % | pooled % "
+        "| per sequence (plausible/decidable) |",
+        "|---|---|---:|---:|---:|---:|---:|---|",
+    ]
+    for bench, seqs in results.items():
+        for kind in kinds:
+            rows = []
+            for r in seqs:
+                verdicts = [v.verdict for v in r.events if v.event.name == kind] + [
+                    w.verdict for w in r.warnings if w.situation == kind
+                ]
+                p, i = verdicts.count(PLAUSIBLE), verdicts.count(IMPLAUSIBLE)
+                if p + i:
+                    rows.append((r.name, p, p + i))
+            if not rows:
+                continue
+            shares = [p / d for _, p, d in rows]
+            pooled = sum(p for _, p, _ in rows) / sum(d for _, _, d in rows)
+            each = ", ".join(f"{name} {p}/{d}" for name, p, d in rows)
+            lines.append(
+                f"| {bench} | {kind} | {len(rows)} | {_pct(min(shares))} "
+                f"| {_pct(float(np.median(shares)))} | {_pct(max(shares))} | {_pct(pooled)} "
+                f"| {each} |"
             )
     return "\n".join(lines) + "\n" if len(lines) > 2 else ""
 
