@@ -111,6 +111,9 @@ class Tracker:
                 if c.late_hides
                 else 1001,
                 "late_confidence": int(round(c.late_confidence * 1000)),
+                "late_maybe": int(c.late_maybe),
+                "depth_clear": int(np.floor(c.depth_clear * 1000)),
+                "depth_confidence": int(round(c.depth_confidence * 1000)),
                 # every event cost is tracking.lp's #const cost_<name>
                 **{f"cost_{name}": value for name, value in asdict(c.costs).items()},
             },

@@ -94,10 +94,10 @@ def vocabulary(
             (),
             (),
             covers=tuple(
-                (d, t, r, share)
+                (d, t, r, level, level)  # each share and each margin, as separate facts
                 for t, d in pairs
                 for r in range(-1, nd)
-                for share in range(0, 1001, SHARE_STEP)
+                for level in range(0, 1001, SHARE_STEP)
             ),
             keeps_covering=tuple((d, t) for t, d in pairs),
             emerges=tuple((d, t) for t, d in pairs),

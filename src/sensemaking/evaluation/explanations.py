@@ -73,6 +73,7 @@ PLAUSIBLE, IMPLAUSIBLE, UNDECIDABLE = "plausible", "implausible", "undecidable"
 #: event kinds judged, in table order
 EVENT_KINDS = (
     "hides_behind",
+    "may_hide_behind",
     "unhides_from_behind",
     "enters_fov",
     "leaves_fov",
@@ -81,6 +82,9 @@ EVENT_KINDS = (
     "missing_detections",
     "reappears",
 )
+#: the events that say a track hides behind another (judged alike); ``may_hide_behind`` is a
+#: late hiding of a track already unobserved, said apart for its weaker evidence
+_HIDING_KINDS = ("hides_behind", "may_hide_behind")
 #: warnings judged
 WARNING_KINDS = ("HIDDEN_ENTITY", "SUDDEN_STOP", "OVERTAKING")
 
@@ -387,7 +391,7 @@ class Verdict:
             "reason": self.reason,
             "gt": list(self.gt),
         }
-        if self.event.name == "hides_behind":
+        if self.event.name in _HIDING_KINDS:
             out.update(border=self.border, identity=self.identity)
         return out
 
@@ -491,7 +495,7 @@ class ExplanationResult:
                 hit, total = self.recall[kind]
                 row["recall"] = hit / total if total else None
                 row["recall_occasions"] = total
-            if kind == "hides_behind":
+            if kind in _HIDING_KINDS:
                 row["self"] = sum(v.reason == "self" for v in vs)
                 row["implausible_at_border"] = sum(
                     v.verdict == IMPLAUSIBLE and v.border for v in vs
@@ -501,7 +505,8 @@ class ExplanationResult:
                         k: self.occlusions_said.get(k, 0) for k in _SAID_KINDS
                     }
                 occasions = self.recall.get(kind, (0, 0))[1]
-                row["by_confidence"] = confidence_table(vs, self.hide_hit_confidence, occasions)
+                hits = self.hide_hit_confidence if kind == "hides_behind" else []
+                row["by_confidence"] = confidence_table(vs, hits, occasions)
                 ident = Counter(v.identity for v in vs)
                 row["identity"] = {
                     k: ident.get(k, 0) for k in ("kept", "switched", "unknown", "not_resumed")
@@ -1095,7 +1100,7 @@ def evaluate_explanations(
             unhides[e.args[0]].append(e)
     out = ExplanationResult(name)
     for e in events:
-        if e.name == "hides_behind":
+        if e.name in _HIDING_KINDS:
             nxt = next((u for u in unhides[e.args[0]] if u.frame > e.frame), None)
             out.events.append(judge.hides(e, nxt))
         elif e.name in ("unhides_from_behind", "reappears"):
@@ -1158,7 +1163,7 @@ def explanation_table(
             if not row["total"]:
                 continue
             notes = []
-            if kind == "hides_behind":
+            if kind in _HIDING_KINDS:
                 ident = row["identity"]
                 notes.append(
                     f"self {row['self']}; implausible at border {row['implausible_at_border']}; "
