@@ -4,7 +4,8 @@ An **event record** is one line of ``track --events`` and one entry of a scene's
 
     {"frame": 12, "event": "hides_behind", "args": [7, 3], "confidence": 0.85}
 
-(``confidence``, 0..1, only on events whose encoding states one: ``hides_behind``.)
+(``confidence``, 0..1, only on events whose encoding states one: ``hides_behind`` and
+``may_hide_behind``.)
 
 A **warning record** (:func:`warning_record`) is ``{"frame", "situation", "objects", "message",
 "details"}``; the warnings file of ``track --warnings`` is a stream of episodes, two records
@@ -88,7 +89,7 @@ class WarningEndLike(Protocol):
 # -- events -------------------------------------------------------------------------------------
 def event_record(e: Event) -> dict[str, Any]:
     """The record ``{"frame": ..., "event": ..., "args": [...]}`` of an event, with
-    ``"confidence"`` (0..1) where the encoding states one (``hides_behind``)."""
+    ``"confidence"`` (0..1) where the encoding states one (the hiding events)."""
     out: dict[str, Any] = {
         "frame": int(e.frame),
         "event": e.name,

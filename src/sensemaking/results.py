@@ -61,7 +61,7 @@ class Event:
     frame: int
     name: str
     args: tuple[int | str, ...]
-    #: how sure the encoding is of the event, 0..1 (``hides_behind``: see tracking.lp's
+    #: how sure the encoding is of the event, 0..1 (the hiding events: see tracking.lp's
     #: ``hide_confidence``); None where it states none. Not part of the event's identity.
     confidence: float | None = field(default=None, compare=False)
 
