@@ -292,3 +292,5 @@ def test_report_shows_the_per_sequence_spread_of_the_explanations() -> None:
         "| kitti-rrc-car | hides_behind | 2 | 25.0 | 62.5 | 100.0 | 62.5 | a 4/4, b 1/4 |"
         in section
     )
+    # events without a confidence count at every threshold: the same 5 of 8 up to 1.0
+    assert "| kitti-rrc-car | 1.0 | 9 | 5 | 3 | 62.5 | - |" in section
