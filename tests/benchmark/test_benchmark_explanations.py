@@ -30,8 +30,10 @@ report = load_benchmarks_script("benchmark_report")
 
 
 def _body(table: str) -> list[str]:
-    """The table's rows without the benchmark column (the CLI labels it by its rules)."""
-    return [line.split(" | ", 1)[1] for line in table.splitlines()[2:]]
+    """The explanation table's rows without the benchmark column (the CLI labels it by its
+    rules); the CLI's confidence table, after a blank line, is left out."""
+    rows = table.split("\n\n", 1)[0].splitlines()[2:]
+    return [line.split(" | ", 1)[1] for line in rows]
 
 
 def _cli_judgement(
