@@ -512,7 +512,11 @@ def check_explanation_targets(b: BenchmarkRun) -> list[TargetCheck]:
 
 def _explanations_section(summary: RunSummary) -> list[str]:
     """The explanation-quality table of ours with abduction, one block per benchmark."""
-    from sensemaking.evaluation.explanations import explanation_table
+    from sensemaking.evaluation.explanations import (
+        confidence_text,
+        explanation_table,
+        spread_table,
+    )
 
     judged = [(b.spec.name, b.explanations) for b in summary.benchmarks if b.explanations]
     if not judged:
@@ -540,6 +544,25 @@ def _explanations_section(summary: RunSummary) -> list[str]:
     if ok:
         lines += explanation_table(ok).rstrip("\n").split("\n")
         lines.append("")
+    spread = spread_table({name: ex.results for name, ex in judged if not ex.error})
+    if spread:
+        lines += [
+            "The spread over the sequences: precision per sequence (plausible of the decidable) "
+            "of each kind, its lowest, median and highest value, and each sequence's counts.",
+            "",
+            *spread.rstrip("\n").split("\n"),
+            "",
+        ]
+    curve = confidence_text(ok)
+    if curve:
+        lines += [
+            "`hides_behind` precision and recall of the events at or above each confidence (the "
+            "events log's `confidence`: the occluder's cover share, halved where the depth order "
+            "is unclear): what a user who keeps only those events gets.",
+            "",
+            *curve.rstrip("\n").split("\n"),
+            "",
+        ]
     if failed:
         lines += ["Failed: " + "; ".join(failed) + ".", ""]
     quiet = [name for name, ex in judged if not ex.warnings]

@@ -22,7 +22,7 @@ from pathlib import Path
 from sensemaking.benchmark.datasets import default_data_root
 from sensemaking.benchmark.runner import run
 from sensemaking.errors import SensemakingError
-from sensemaking.evaluation.explanations import explanation_table
+from sensemaking.evaluation.explanations import confidence_text, explanation_table, spread_table
 from sensemaking.io.atomic import atomic_write
 
 
@@ -74,7 +74,14 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     judged = {b.spec.name: b.explanations for b in summary.benchmarks if b.explanations}
     failed = [f"{name}: {ex.error}" for name, ex in judged.items() if ex.error]
-    print(explanation_table({n: ex.results for n, ex in judged.items() if not ex.error}), end="")
+    ok = {n: ex.results for n, ex in judged.items() if not ex.error}
+    print(explanation_table(ok), end="")
+    spread = spread_table(ok)
+    if spread:
+        print("\n" + spread, end="")
+    curve = confidence_text(ok)
+    if curve:
+        print("\n" + curve, end="")
     seconds = sum(ex.seconds for ex in judged.values())
     print(f"\nexplanation part: {seconds:.1f} s of {summary.total_seconds:.1f} s", file=sys.stderr)
     if args.json is not None:

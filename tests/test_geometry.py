@@ -286,3 +286,15 @@ def test_tracker_output_columns_are_valid():
             assert getattr(again, name).dtype == getattr(out, name).dtype
             assert np.array_equal(getattr(again, name), getattr(out, name))
     assert len(out) == 2
+
+
+def test_front_margin_by_box_bottom_or_by_depth():
+    from sensemaking.geometry import front_margin
+
+    back = np.array([[0.0, 0.0, 10.0, 100.0], [0.0, 0.0, 10.0, 100.0]])
+    front = np.array([[0.0, 20.0, 10.0, 130.0], [0.0, 20.0, 10.0, 105.0]])
+    nan = np.full(2, np.nan)
+    assert np.allclose(front_margin(front, back, nan, nan), [0.3, 0.05])  # pixels / height
+    # with both depths the 3D gap counts, whatever the boxes: (20 - 15) / 20
+    got = front_margin(front, back, np.array([15.0, np.nan]), np.array([20.0, 20.0]))
+    assert np.allclose(got, [0.25, 0.05])

@@ -345,6 +345,21 @@ class TrackerConfig:
         hide_cover: fraction of a track's predicted box that a track in front must cover for it to
             hide behind it. Lower: occlusion is abduced more readily.
         keep_cover: fraction of coverage needed to stay hidden (hysteresis; <= hide_cover).
+        hide_sure_cover: fraction of a halting track's predicted box its occluder must cover for
+            the track to be said hidden (tracking.lp's ``hide_min_cover``); below it its
+            detections are missing. At or below ``hide_cover``: every covering occluder counts.
+        late_hides: a track already unobserved (missing, or no longer covered by its occluder)
+            may be found hiding behind a new occluder (it is then kept as hidden). Off: it
+            stays missing.
+        late_maybe: such a late hiding is said as the event ``may_hide_behind`` (weaker
+            evidence) rather than ``hides_behind``; the track is hidden either way.
+        late_hide_cover: with ``late_hides``, the share of its predicted box such a new occluder
+            must cover (its predicted box has drifted since it was seen).
+        late_confidence: weight of a late hiding's confidence (the event's ``confidence`` is
+            the occluder's cover share, times this for a track that was already unobserved).
+        depth_clear: how far (fraction of the hidden track's height, or of its depth with 3D
+            positions) the occluder must stand in front for its depth order to count as clear.
+        depth_confidence: weight of the confidence of a hiding whose depth order is not clear.
         emerge_margin: a hidden track can only unhide where it touches its occluder's box,
             widened by this fraction of the occluder's size on every side. Lower: fewer wrong
             re-identifications in crowds; too low: objects that re-emerge fast get a new id.
@@ -463,6 +478,13 @@ class TrackerConfig:
     hide_cover: float = param(0.5, "float", "fraction of box area", 0.0, 1.0)
     emerge_margin: float = param(0.25, "float", "fraction of occluder size", 0.0, 10.0)
     keep_cover: float = param(0.2, "float", "fraction of box area (<= hide_cover)", 0.0, 1.0)
+    hide_sure_cover: float = param(0.0, "float", "fraction of box area", 0.0, 1.0)
+    late_hides: bool = param(True, "bool", "-")
+    late_maybe: bool = param(True, "bool", "-")
+    late_hide_cover: float = param(0.0, "float", "fraction of box area", 0.0, 1.0)
+    late_confidence: float = param(0.5, "float", "factor", 0.0, 1.0)
+    depth_clear: float = param(0.15, "float", "fraction of height or depth", 0.0, 1.0)
+    depth_confidence: float = param(0.5, "float", "factor", 0.0, 1.0)
     partial_cover: float = param(0.1, "float", "fraction of box area", 0.0, 1.0)
     border_margin: float = param(10.0, "float", "pixels", 0.0, 10_000.0)
     class_aware: bool = param(True, "bool", "-")

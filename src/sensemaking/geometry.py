@@ -18,6 +18,7 @@ __all__ = [
     "cxcywh_to_xyxy",
     "clip_to_image",
     "cut_by_border",
+    "front_margin",
     "in_front",
 ]
 
@@ -113,6 +114,23 @@ def cut_by_border(
         return np.zeros(len(x), dtype=bool)
     w, h = float(image_size[0]), float(image_size[1])
     return (x[:, 0] <= margin) | (x[:, 2] >= w - margin) | (x[:, 3] >= h - margin)
+
+
+def front_margin(
+    front: np.ndarray, back: np.ndarray, depth_front: np.ndarray, depth_back: np.ndarray
+) -> np.ndarray:
+    """(K,) how far each ``front`` box stands in front of its ``back`` box, as a fraction:
+    where both have a depth (metres), the depth gap over the back one's depth; else the gap of
+    the box bottoms over the back box's height (pixels over pixels). Rows are pairs: (K, 4)
+    boxes, (K,) depths, NaN where unknown. The evidence of :func:`in_front`'s order: near 0 the
+    two could as well stand side by side."""
+    f = np.asarray(front, dtype=np.float64).reshape(-1, 4)
+    b = np.asarray(back, dtype=np.float64).reshape(-1, 4)
+    zf, zb = np.asarray(depth_front, dtype=np.float64), np.asarray(depth_back, dtype=np.float64)
+    by_box = (f[:, 3] - b[:, 3]) / np.maximum(b[:, 3] - b[:, 1], 1e-9)
+    both = np.isfinite(zf) & np.isfinite(zb) & (zb > 0)
+    by_depth = np.where(both, (zb - zf) / np.where(both, zb, 1.0), 0.0)
+    return np.where(both, by_depth, by_box)
 
 
 def in_front(

@@ -2,7 +2,10 @@
 
 An **event record** is one line of ``track --events`` and one entry of a scene's ``"events"``::
 
-    {"frame": 12, "event": "hides_behind", "args": [7, 3]}
+    {"frame": 12, "event": "hides_behind", "args": [7, 3], "confidence": 0.85}
+
+(``confidence``, 0..1, only on events whose encoding states one: ``hides_behind`` and
+``may_hide_behind``.)
 
 A **warning record** (:func:`warning_record`) is ``{"frame", "situation", "objects", "message",
 "details"}``; the warnings file of ``track --warnings`` is a stream of episodes, two records
@@ -85,21 +88,27 @@ class WarningEndLike(Protocol):
 
 # -- events -------------------------------------------------------------------------------------
 def event_record(e: Event) -> dict[str, Any]:
-    """The record ``{"frame": ..., "event": ..., "args": [...]}`` of an event."""
-    return {
+    """The record ``{"frame": ..., "event": ..., "args": [...]}`` of an event, with
+    ``"confidence"`` (0..1) where the encoding states one (the hiding events)."""
+    out: dict[str, Any] = {
         "frame": int(e.frame),
         "event": e.name,
         "args": [a if isinstance(a, str) else int(a) for a in e.args],
     }
+    if e.confidence is not None:
+        out["confidence"] = round(float(e.confidence), 3)
+    return out
 
 
 def event_from_record(record: Mapping[str, Any]) -> Event:
     """The event of a record (inverse of :func:`event_record`). Raises KeyError, TypeError or
     ValueError on a malformed record."""
+    level = record.get("confidence")
     return Event(
         int(record["frame"]),
         str(record["event"]),
         tuple(a if isinstance(a, str) else int(a) for a in record["args"]),
+        None if level is None else float(level),
     )
 
 

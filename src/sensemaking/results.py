@@ -61,6 +61,9 @@ class Event:
     frame: int
     name: str
     args: tuple[int | str, ...]
+    #: how sure the encoding is of the event, 0..1 (the hiding events: see tracking.lp's
+    #: ``hide_confidence``); None where it states none. Not part of the event's identity.
+    confidence: float | None = field(default=None, compare=False)
 
     def sort_key(self) -> tuple[int, str, tuple[tuple[int, int, str], ...]]:
         """Order of events: by frame, name, then arguments, track ids before constants (the

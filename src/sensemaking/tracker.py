@@ -120,6 +120,15 @@ class Tracker:
                 "conf_assign": 0,
                 "conf_start": 1,
                 "class_aware": int(c.class_aware),
+                # evidence for a hiding, per mille of the hidden track's box (1001: never)
+                "hide_min_cover": int(np.floor(c.hide_sure_cover * 1000)),
+                "hide_late_cover": int(np.floor(c.late_hide_cover * 1000))
+                if c.late_hides
+                else 1001,
+                "late_confidence": int(round(c.late_confidence * 1000)),
+                "late_maybe": int(c.late_maybe),
+                "depth_clear": int(np.floor(c.depth_clear * 1000)),
+                "depth_confidence": int(round(c.depth_confidence * 1000)),
                 # every event cost is tracking.lp's #const cost_<name>
                 **{f"cost_{name}": value for name, value in _costs(c).items()},
             },
@@ -508,12 +517,14 @@ class Tracker:
         (:meth:`_confirm`)."""
         events: list[Event] = []
         confirmed = set(self._tracks.id[self._tracks.confirmed].tolist()) if ans.events else set()
+        sure = {(n, a): c for n, a, c in ans.confidence}
         for name, args in ans.events:
             if any(isinstance(a, Det) and a not in new_ids for a in args):
                 log.debug("event %s names a detection that starts no track: not reported", name)
                 continue
             ids_ = tuple(new_ids[a] if isinstance(a, Det) else a for a in args)
-            ev = Event(frame, name, ids_)
+            level = sure.get((name, args))
+            ev = Event(frame, name, ids_, None if level is None else level / 1000)
             if not ids_ or ids_[0] in confirmed or not isinstance(ids_[0], int):
                 events.append(ev)
             elif name in START_EVENTS or name in REVIVE_EVENTS:

@@ -51,6 +51,8 @@ EVENTS: dict[str, EventKind] = {
         EventKind("enters_fov", 1, "enters the field of view"),
         EventKind("leaves_fov", 1, "leaves the field of view"),
         EventKind("hides_behind", 2, "hides behind {1}"),
+        # a late hiding (the track was already unobserved): weaker evidence, said apart
+        EventKind("may_hide_behind", 2, "may be hiding behind {1}"),
         EventKind("unhides_from_behind", 2, "reappears from behind {1}"),
         EventKind("missing_detections", 1, "is not detected (missing detections)"),
         # detections resume after missing detections

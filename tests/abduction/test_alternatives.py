@@ -123,11 +123,13 @@ def test_the_normal_solve_is_unchanged_by_the_alternatives_api():
 
 
 def test_an_unseen_track_found_hiding_against_staying_unseen():
-    """A track already unseen (missing) that a visible track now covers is found to hide behind
-    it for free; the alternative, staying unseen, holds nothing the chosen answer lacks."""
+    """With late hidings said as hides_behind (by default may_hide_behind), a track already
+    unseen (missing) that a visible track now covers is found to hide behind it for free; the
+    alternative, staying unseen, holds nothing the chosen answer lacks."""
     problem = hiding_frame(at_border=False)
     problem.active[0] = False  # track 10 was not seen in the previous frame
-    found = AbductionSolver().alternatives(problem, ("hides_behind", (10, 11)), k=1)
+    solver = AbductionSolver(constants={"late_maybe": 0})
+    found = solver.alternatives(problem, ("hides_behind", (10, 11)), k=1)
     assert found.holds and found.chosen is not None
     assert "ignore_trk(10)" in found.chosen.atoms()
     (alt,) = found.alternatives

@@ -328,6 +328,7 @@ def test_hides_behind_a_visible_track_in_front_that_covers():
     facts = FRONT_BACK + "covers(d(0),1)."
     assert solve(facts) == [
         "assign(2,d(0))",
+        "confidence(hides_behind(1,2),1000)",
         "halt(1)",
         "occurs(hides_behind(1,2))",
         "value(hidden_by(1,2),true)",
@@ -365,6 +366,7 @@ def test_no_hiding_behind_a_track_that_is_not_observed():
 def test_hides_behind_a_newly_started_detection():
     facts = track(1) + det(0) + "covers(d(0),1)."
     assert solve(facts) == [
+        "confidence(hides_behind(1,d(0)),1000)",
         "halt(1)",
         "occurs(hides_behind(1,d(0)))",
         "occurs(starts(d(0)))",
@@ -460,16 +462,18 @@ def test_hidden_by_released_when_the_occluder_is_not_observed():
 
 def test_hidden_by_released_when_hiding_behind_another():
     facts = HIDDEN + track(3) + det(1) + "cand(3,d(1),900). covers(d(1),1)."
-    assert solve(facts) == [
+    late = {"late_maybe": 0}  # said as hides_behind (by default may_hide_behind, test below)
+    assert solve(facts, late) == [
         "assign(2,d(0))",
         "assign(3,d(1))",
+        "confidence(hides_behind(1,3),500)",
         "ignore_trk(1)",
         "occurs(hides_behind(1,3))",
         "value(hidden_by(1,2),false)",
         "value(hidden_by(1,3),true)",
     ]
     # visibility stays fully_occluded: not shown (unchanged), but holds
-    assert "now(visibility(1),fully_occluded)" in solve(facts, extra=SHOW_HOLDS)
+    assert "now(visibility(1),fully_occluded)" in solve(facts, late, extra=SHOW_HOLDS)
 
 
 def test_still_hidden_needs_no_new_explanation():
@@ -486,9 +490,22 @@ def test_still_hidden_needs_no_new_explanation():
 
 def test_missing_track_may_be_found_hiding():
     facts = track(1, halted=True) + track(2) + det(0) + "cand(2,d(0),900). covers(d(0),1)."
-    # explaining a missing track as hidden is free and saves the cost of an unseen frame
+    # explaining a missing track as hidden is free and saves an unseen frame's cost; it is said
+    # as may_hide_behind (weaker evidence: its box has drifted), or hides_behind on request
     assert solve(facts) == [
         "assign(2,d(0))",
+        "confidence(may_hide_behind(1,2),500)",
+        "ignore_trk(1)",
+        "occurs(may_hide_behind(1,2))",
+        "value(hidden_by(1,2),true)",
+        "value(visibility(1),fully_occluded)",
+    ]
+    assert "occurs(hides_behind(1,2))" in solve(facts, {"late_maybe": 0})
+    # without late hidings (hide_late_cover 1001) it stays missing
+    assert solve(facts, {"hide_late_cover": 1001}) == ["assign(2,d(0))", "ignore_trk(1)"]
+    assert solve(facts, {"late_maybe": 0}) == [
+        "assign(2,d(0))",
+        "confidence(hides_behind(1,2),500)",
         "ignore_trk(1)",
         "occurs(hides_behind(1,2))",
         "value(hidden_by(1,2),true)",
@@ -554,6 +571,7 @@ def test_every_fluent_has_exactly_one_value():
     assert not [a for a in atoms if a.startswith("two(")]
     assert [a for a in atoms if not a.startswith("now(")] == [
         "assign(2,d(0))",
+        "confidence(hides_behind(3,2),1000)",
         "end(4)",
         "halt(3)",
         "occurs(enters_fov(d(2)))",
@@ -628,6 +646,7 @@ def test_problem_facts_and_solver_answer():
     assert answer.cost == cost(facts) == 150 + (1000 + 50) + (1000 + 20) + 400
     assert solve(facts) == [
         "assign(1,d(0))",
+        "confidence(hides_behind(0,1),1000)",
         "halt(0)",
         "ignore_trk(2)",
         "occurs(hides_behind(0,1))",
@@ -819,3 +838,64 @@ def test_problem_names_the_preferred_pairs_from_exact_likelihoods():
     assert "prefer(0,d(1))." in facts and "prefer(1,d(0))." in facts
     answer = AbductionSolver().solve(p)
     assert answer.assign == {5: 1, 6: 0} and answer.cost == 400
+
+
+# ---- evidence for a hiding and its confidence (issue 22) -----------------------------------
+def _halting_behind(share: int) -> str:
+    """Track 1 visible last frame, undetected now; track 2 takes d(0), which covers ``share``
+    per mille of track 1's predicted box."""
+    return (
+        track(1)
+        + track(2)
+        + det(0)
+        + f"cand(2,d(0),900). covers(d(0),1). cover_share(d(0),1,{share})."
+    )
+
+
+def test_hiding_confidence_is_the_occluders_cover_share():
+    atoms = solve(_halting_behind(650))
+    assert "occurs(hides_behind(1,2))" in atoms
+    assert "confidence(hides_behind(1,2),650)" in atoms
+
+
+def test_weak_cover_is_missing_detections_not_a_hiding():
+    weak = solve(_halting_behind(550), {"hide_min_cover": 600})
+    assert "occurs(missing_detections(1))" in weak
+    assert not [a for a in weak if "hides_behind" in a]
+    strong = solve(_halting_behind(600), {"hide_min_cover": 600})
+    assert "occurs(hides_behind(1,2))" in strong
+
+
+def test_late_hiding_needs_its_own_evidence_and_weighs_less():
+    facts = (
+        track(1, halted=True)
+        + track(2)
+        + det(0)
+        + "cand(2,d(0),900). covers(d(0),1). cover_share(d(0),1,800)."
+    )
+    late = solve(facts, {"late_confidence": 300})
+    assert "confidence(may_hide_behind(1,2),240)" in late  # 800 x 300 / 1000
+    assert solve(facts, {"hide_late_cover": 850}) == ["assign(2,d(0))", "ignore_trk(1)"]
+    assert "occurs(may_hide_behind(1,2))" in solve(facts, {"hide_late_cover": 800})
+    assert solve(facts, {"hide_late_cover": 1001}) == ["assign(2,d(0))", "ignore_trk(1)"]
+    # a hidden track whose occluder stops covering it is missing, not hidden behind a new one
+    hidden = (
+        track(1, halted=True)
+        + track(2)
+        + track(3)
+        + det(0)
+        + "cand(3,d(0),900). covers(d(0),1). cover_share(d(0),1,800)."
+        + "holds(hidden_by(1,2),true,0)."
+    )
+    assert "occurs(missing_detections(1))" in solve(hidden, {"hide_late_cover": 1001})
+    assert "occurs(may_hide_behind(1,3))" in solve(hidden)
+
+
+def test_unclear_depth_order_halves_the_confidence_not_the_event():
+    clear = _halting_behind(800) + "cover_depth(d(0),1,150)."
+    assert "confidence(hides_behind(1,2),800)" in solve(clear)
+    unclear = _halting_behind(800) + "cover_depth(d(0),1,100)."
+    atoms = solve(unclear)
+    assert "occurs(hides_behind(1,2))" in atoms  # the same explanation, less sure
+    assert "confidence(hides_behind(1,2),400)" in atoms
+    assert "confidence(hides_behind(1,2),640)" in solve(unclear, {"depth_confidence": 800})

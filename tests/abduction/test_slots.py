@@ -45,11 +45,14 @@ def random_component(
     covers = []
     for t in range(nt):
         ds = [d for d in range(nd) if rng.random() < 0.3]
-        covers += [(d, t, r if len(ds) > 1 else -1) for r, d in enumerate(ds)]
+        covers += [
+            (d, t, r if len(ds) > 1 else -1, rng.choice((500, 650, 1000)), rng.choice((0, 1000)))
+            for r, d in enumerate(ds)
+        ]
     hidden = tuple((t, rng.randrange(nt + no)) for t in range(nt) if rng.random() < 0.4)
     if no and nt and not any(o >= nt for _, o in hidden):
         hidden += ((0, nt + no - 1),)
-    fits = tuple((t, d) for d, t, _ in covers if rng.random() < 0.5)  # a subset of covers
+    fits = tuple((t, d) for d, t, *_ in covers if rng.random() < 0.5)  # a subset of covers
     return Component(
         rng.random() < 0.1,
         tracks,

@@ -30,8 +30,10 @@ report = load_benchmarks_script("benchmark_report")
 
 
 def _body(table: str) -> list[str]:
-    """The table's rows without the benchmark column (the CLI labels it by its rules)."""
-    return [line.split(" | ", 1)[1] for line in table.splitlines()[2:]]
+    """The explanation table's rows without the benchmark column (the CLI labels it by its
+    rules); the CLI's confidence table, after a blank line, is left out."""
+    rows = table.split("\n\n", 1)[0].splitlines()[2:]
+    return [line.split(" | ", 1)[1] for line in rows]
 
 
 def _cli_judgement(
@@ -268,3 +270,29 @@ def test_report_has_the_explanation_table_and_the_targets(tmp_path: Path) -> Non
     assert ex["summary"]["warnings"]["HIDDEN_ENTITY"]["on_target"] == 3
     assert ex["per_sequence"] == {"s": {"hides_behind": [9, 1, 0], "HIDDEN_ENTITY": [3, 2, 0]}}
     assert (ex["monitor_seconds"], ex["judge_seconds"]) == (1.5, 0.25)
+
+
+def test_report_shows_the_per_sequence_spread_of_the_explanations() -> None:
+    """Two sequences, 4 of 4 and 1 of 4 hidings plausible: the pooled 62.5 % hides a sequence
+    at 25 %, which the spread table shows (issue 22)."""
+    spec = next(s for s in datasets.SPECS if s.name == "kitti-rrc-car")
+    good = [_hide(f, "plausible", "occluded_in_front") for f in range(4)]
+    bad = [_hide(f, "plausible", "occluded_in_front") for f in range(1)] + [
+        _hide(f, "implausible", "not_occluded") for f in range(1, 4)
+    ]
+    b = runner.BenchmarkRun(spec, ["a", "b"], 10, [])
+    b.explanations = BenchmarkExplanations(
+        [
+            ExplanationResult("a", good, []),
+            ExplanationResult("b", bad + [_hide(9, "undecidable", "unmatched")], []),
+        ],
+        Path("x"),
+    )
+    md = report.render_markdown(runner.RunSummary([b], [], ["ours"], "data", "out", "cmd", "now"))
+    section = md[md.index("## Explanations") : md.index("## Targets")]
+    assert (
+        "| kitti-rrc-car | hides_behind | 2 | 25.0 | 62.5 | 100.0 | 62.5 | a 4/4, b 1/4 |"
+        in section
+    )
+    # events without a confidence count at every threshold: the same 5 of 8 up to 1.0
+    assert "| kitti-rrc-car | 1.0 | 9 | 5 | 3 | 62.5 | - |" in section

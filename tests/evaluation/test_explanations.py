@@ -15,12 +15,13 @@ from sensemaking.detections import Detections
 from sensemaking.evaluation.explanations import (
     ExplanationResult,
     GroundTruth,
+    confidence_text,
     evaluate_explanations,
     explanation_table,
     late_start_events,
     match_tracks,
 )
-from sensemaking.records import event_record
+from sensemaking.records import event_from_record, event_record
 from sensemaking.results import Event
 from sensemaking.synthetic import crossing_scene, occlusion_suite
 from sensemaking.tracker import Tracker, TrackerConfig
@@ -608,3 +609,30 @@ def test_read_events_and_warnings_name_the_bad_line(tmp_path):
     w.write_text('{"frame": "2", "situation": "HIDDEN_ENTITY", "objects": [4]}\n')
     with pytest.raises(InputError, match=r"w\.jsonl:1"):
         read_warnings(w)
+
+
+# -- confidence: a precision-recall table a user can threshold (issue 22) --------------------
+def test_confidence_table_keeps_the_events_at_or_above_each_threshold(crossing):
+    """A true hiding at confidence 0.9 and a false one (behind itself) at 0.55: keeping the
+    events of 0.6 and more leaves the true one; recall counts its occasion up to 0.9 only."""
+    sure = Event(13, "hides_behind", (1, 2), 0.9)
+    wrong = Event(5, "hides_behind", (2, 2), 0.55)
+    res = evaluate_explanations(_truth(crossing), _perfect_tracks(crossing), [sure, wrong, UNHIDE])
+    row = res.summary()["events"]["hides_behind"]
+    by = {r["threshold"]: r for r in row["by_confidence"]}
+    assert (by[0.0]["n"], by[0.0]["plausible"], by[0.0]["implausible"]) == (2, 1, 1)
+    assert by[0.0]["precision"] == 0.5 and by[0.5]["precision"] == 0.5
+    assert (by[0.6]["n"], by[0.6]["precision"]) == (1, 1.0)
+    assert by[0.9]["recall"] == row["recall"] == 1.0
+    assert (by[1.0]["n"], by[1.0]["precision"], by[1.0]["recall"]) == (0, None, 0.0)
+    text = confidence_text({"synthetic": [res]})
+    assert "| synthetic | 0.6 | 1 | 1 | 0 | 100.0 | 100.0 |" in text
+
+
+def test_confidence_round_trips_through_the_event_record():
+    e = Event(3, "hides_behind", (1, 2), 0.65)
+    rec = event_record(e)
+    assert rec["confidence"] == 0.65
+    back = event_from_record(json.loads(json.dumps(rec)))
+    assert back == e and back.confidence == 0.65
+    assert "confidence" not in event_record(Event(3, "ends", (1,)))

@@ -240,3 +240,17 @@ def test_report_of_empty_runs(no_explain: None):
     assert "No tracks." in build_report([])
     trackless = build_report([FrameResult(f, Detections.empty()) for f in range(5)])
     assert "No tracks." in trackless and trackless.count('<figure class="thumb"') == 5
+
+
+def test_a_hidings_confidence_and_a_late_hiding_are_told(no_explain: None):
+    """A hiding's confidence is on its line of the track's events; a late hiding
+    (may_hide_behind) is told as such, not as a hiding."""
+    from sensemaking.results import Event
+
+    results = occlusion_results()
+    results[4].events.extend(
+        [Event(4, "hides_behind", (1, 2), 0.65), Event(4, "may_hide_behind", (2, 1), 0.3)]
+    )
+    text = build_report(as_run(results, width=800, height=300), max_thumbnails=0)
+    assert re.search(r"Frame 4: [^<]*hides behind [^<]*\(confidence 0\.65\)", text)
+    assert re.search(r"Frame 4: [^<]*may be hiding behind [^<]*\(confidence 0\.30\)", text)

@@ -261,4 +261,7 @@ def _split(answer: Answer, t_starts: list[int], d_starts: list[int]) -> list[Ans
     for fl, args, value in answer.fluents:
         k = owner(args)
         parts[k].fluents.append((fl, local(k, args), value))
+    for ev, args, level in answer.confidence:
+        k = owner(args)
+        parts[k].confidence.append((ev, local(k, args), level))
     return parts

@@ -19,6 +19,7 @@ from sensemaking.detections import Detections
 from sensemaking.geometry import (
     box_area,
     cut_by_border,
+    front_margin,
     in_front,
     intersection,
     iou,
@@ -211,7 +212,7 @@ def frame_problem(
     at_border, outside, det_border = at_all[:n], outside_all[:n], at_all[n:]
     start_ok = dets.confidence >= c.start_confidence
     covers = keeps = fits = np.zeros((0, 2), dtype=np.int64)
-    covers_exact = np.zeros(0)
+    covers_exact = covers_margin = np.zeros(0)
     overlapped = np.zeros(n, dtype=bool)
     if n > 1:
         overlapped = in_front_cov[:n, :n].max(axis=1) >= c.partial_cover
@@ -221,6 +222,8 @@ def frame_problem(
         back, dj = np.nonzero(dcov >= c.hide_cover)
         covers = int_columns(dj, back)
         covers_exact = dcov[back, dj]
+        # how clear the depth order of each pair is (cover_depth/3, a hiding's confidence)
+        covers_margin = front_margin(dxy[dj], pred[back], dets.depth[dj], tracks.depth[back])
         # covering detections that fit the track as its own observation would (fits/2)
         own = qlik[back, dj] >= thresholds(config, c.iou_resume)[0]
         if c.class_aware:
@@ -274,6 +277,7 @@ def frame_problem(
         first_frame=first_frame,
         cand_exact=cand_exact,
         covers_exact=covers_exact,
+        covers_margin=covers_margin,
         speed=speeds(tracks, config) if speed else None,
         cut=cut[:n],
         **more,

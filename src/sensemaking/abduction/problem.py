@@ -21,13 +21,24 @@ import numpy as np
 from clingo import Function, Symbol
 from clingo import Number as _number
 
-__all__ = ["FrameProblem", "Component", "VISIBILITY_VALUES", "TRACK_FLAGS", "GONE_EVENTS"]
+__all__ = [
+    "FrameProblem",
+    "Component",
+    "VISIBILITY_VALUES",
+    "TRACK_FLAGS",
+    "GONE_EVENTS",
+    "SHARE_STEP",
+]
 
 VISIBILITY_VALUES = ("fully_visible", "partially_occluded", "fully_occluded")
 #: how a revivable track ended (``gone/2``), by :attr:`FrameProblem.gone_how` index
 GONE_EVENTS = ("leaves_fov", "ends")
 #: the per-track flags of the facts, in the order of :attr:`Component.tracks` rows
 TRACK_FLAGS = ("tentative", "uncertain", "expired", "outside", "at_border", "overlapped", "cut")
+
+#: ``cover_share/3`` and ``cover_depth/3`` values are per mille rounded down to this step: a
+#: few distinct values keep the answer cache's keys and the slot solver's universe small
+SHARE_STEP = 50
 
 _TRUE = Function("true")
 _ZERO = _number(0)
@@ -53,7 +64,10 @@ class Component:
             overlapped, cut, class, visibility index, speed in px/s or -1)``.
         dets: per detection ``(confidence 0..1000, class, at border, overlapped)``.
         cand: ``(track, detection, likelihood 0..1000, preferred)``.
-        covers: ``(detection, track, rank or -1)``.
+        covers: ``(detection, track, rank or -1, share, margin)``: share of the track's
+            predicted box the detection covers and how far it stands in front
+            (:func:`sensemaking.geometry.front_margin`), per mille rounded down to
+            :data:`SHARE_STEP`, the margin at most 1000.
         keeps_covering: ``(detection, track)``.
         emerges: ``(detection, track)``.
         hidden_by: ``(track, occluder)``.
@@ -67,7 +81,7 @@ class Component:
     tracks: tuple[tuple[int, ...], ...]
     dets: tuple[tuple[int, ...], ...]
     cand: tuple[tuple[int, int, int, bool], ...]
-    covers: tuple[tuple[int, int, int], ...]
+    covers: tuple[tuple[int, int, int, int, int], ...]
     keeps_covering: tuple[tuple[int, int], ...]
     emerges: tuple[tuple[int, int], ...]
     hidden_by: tuple[tuple[int, int], ...]
@@ -123,8 +137,10 @@ class Component:
             add(Function("cand", [track(t), det(j), _number(lik)]))
             if preferred:
                 add(Function("prefer", [track(t), det(j)]))
-        for j, t, rank in self.covers:
+        for j, t, rank, share, margin in self.covers:
             add(Function("covers", [det(j), track(t)]))
+            add(Function("cover_share", [det(j), track(t), _number(share)]))
+            add(Function("cover_depth", [det(j), track(t), _number(margin)]))
             if rank >= 0:
                 add(Function("cover_rank", [det(j), track(t), _number(rank)]))
         for t, j in self.fits:
@@ -185,6 +201,9 @@ class FrameProblem:
         covers_exact: (P,) float fraction of the track's predicted box covered by the detection,
             one per ``covers`` row, or None. With them the facts rank each track's covering
             detections (``cover_rank/3``): a lowest-priority tie-break between occluders.
+        covers_margin: (P,) float, how far the detection of each ``covers`` row stands in
+            front of the track (:func:`sensemaking.geometry.front_margin`), or None (the
+            ``cover_depth/3`` facts then say 1000: clear).
         speed: (T,) int predicted speed of each track's box centre, pixels per second, or None
             (the ``speed/2`` facts, for encodings that read them).
         cut: (T,) bool, predicted box reaches the left, right or bottom image border
@@ -219,6 +238,7 @@ class FrameProblem:
     first_frame: bool = False
     cand_exact: np.ndarray | None = None
     covers_exact: np.ndarray | None = None
+    covers_margin: np.ndarray | None = None
     speed: np.ndarray | None = None
     cut: np.ndarray | None = None
     gone_id: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
@@ -263,6 +283,22 @@ class FrameProblem:
                 for r, (_, _, row) in enumerate(sorted(rows)):
                     ranks[row] = r
         return ranks
+
+    def cover_shares(self) -> np.ndarray:
+        """(P,) ``cover_share/3`` of each ``covers`` row: per mille rounded down to
+        :data:`SHARE_STEP` (1000 without ``covers_exact``: every pair counts as fully covering)."""
+        if self.covers_exact is None:
+            return np.full(len(self.covers), 1000, dtype=np.int64)
+        permille = np.floor(np.clip(self.covers_exact, 0.0, 1.0) * 1000 + 1e-6)
+        return (permille // SHARE_STEP * SHARE_STEP).astype(np.int64)
+
+    def cover_depths(self) -> np.ndarray:
+        """(P,) ``cover_depth/3`` of each ``covers`` row: the front margin per mille, rounded
+        down to :data:`SHARE_STEP`, within 0..1000 (1000 without ``covers_margin``)."""
+        if self.covers_margin is None:
+            return np.full(len(self.covers), 1000, dtype=np.int64)
+        permille = np.floor(np.clip(self.covers_margin, 0.0, 1.0) * 1000 + 1e-6)
+        return (permille // SHARE_STEP * SHARE_STEP).astype(np.int64)
 
     def whole(self) -> tuple[Component, list[int], list[int]]:
         """The whole frame as one component (for checks, and encodings not known to be local)."""
@@ -360,8 +396,15 @@ class FrameProblem:
         ]
         for t, d, lik in self.cand.tolist():
             parts[where_t[t]]["cand"].append((t, d, lik, (t, d) in preferred))
-        for (d, t), r in zip(self.covers.tolist(), self.cover_ranks().tolist(), strict=True):
-            parts[where_t[t]]["covers"].append((d, t, r))
+        rows = zip(
+            self.covers.tolist(),
+            self.cover_ranks().tolist(),
+            self.cover_shares().tolist(),
+            self.cover_depths().tolist(),
+            strict=True,
+        )
+        for (d, t), r, share, margin in rows:
+            parts[where_t[t]]["covers"].append((d, t, r, share, margin))
         for t, d in self.fits.tolist():
             parts[where_t[t]]["fits"].append((t, d))
         for name, rel in (("keeps", self.keeps_covering), ("emerges", self.emerges)):
@@ -393,7 +436,7 @@ class FrameProblem:
                 tracks=tuple(track_rows[t] for t in ts),
                 dets=tuple(det_rows[d] for d in ds),
                 cand=tuple((lt[t], ld[d], lik, p) for t, d, lik, p in found["cand"]),
-                covers=tuple((ld[d], lt[t], r) for d, t, r in found["covers"]),
+                covers=tuple((ld[d], lt[t], r, sh, mg) for d, t, r, sh, mg in found["covers"]),
                 keeps_covering=tuple((ld[d], lt[t]) for d, t in found["keeps"]),
                 emerges=tuple((ld[d], lt[t]) for d, t in found["emerges"]),
                 hidden_by=tuple(hidden),

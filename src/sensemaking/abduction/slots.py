@@ -34,7 +34,7 @@ from typing import Any
 from clingo import Symbol
 
 from sensemaking import asp
-from sensemaking.abduction.problem import TRACK_FLAGS, VISIBILITY_VALUES, Component
+from sensemaking.abduction.problem import SHARE_STEP, TRACK_FLAGS, VISIBILITY_VALUES, Component
 from sensemaking.abduction.solver import AbductionSolver, Answer, answer_of
 
 __all__ = ["SlotSolver", "Shape", "shape_of", "vocabulary", "pieces", "piece_facts"]
@@ -93,7 +93,12 @@ def vocabulary(
             (),
             (),
             (),
-            covers=tuple((d, t, r) for t, d in pairs for r in range(-1, nd)),
+            covers=tuple(
+                (d, t, r, level, level)  # each share and each margin, as separate facts
+                for t, d in pairs
+                for r in range(-1, nd)
+                for level in range(0, 1001, SHARE_STEP)
+            ),
             keeps_covering=tuple((d, t) for t, d in pairs),
             emerges=tuple((d, t) for t, d in pairs),
             hidden_by=tuple((t, o) for t in range(nt) for o in range(nt + no)),

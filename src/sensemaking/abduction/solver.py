@@ -99,6 +99,8 @@ class Answer:
     ignore_det: list[int] = field(default_factory=list)
     events: list[tuple[str, tuple[Ref, ...]]] = field(default_factory=list)
     fluents: list[tuple[str, tuple[Ref, ...], str]] = field(default_factory=list)
+    #: ``(event name, args, confidence 0..1000)``: the shown ``confidence/2`` of an event
+    confidence: list[tuple[str, tuple[Ref, ...], int]] = field(default_factory=list)
     #: the objective's value at priority >= 0 (None: not known for this part alone)
     cost: int | None = 0
     optimal: bool = True
@@ -138,6 +140,7 @@ class Answer:
             ignore_det=[row(d) for d in self.ignore_det],
             events=[(n, tuple(ref(a) for a in args)) for n, args in self.events],
             fluents=[(n, tuple(ref(a) for a in args), v) for n, args, v in self.fluents],
+            confidence=[(n, tuple(ref(a) for a in args), c) for n, args, c in self.confidence],
             cost=self.cost,
             optimal=self.optimal,
             budget_hit=self.budget_hit,
@@ -149,7 +152,16 @@ class Answer:
         """Add the answer of another component (in the frame's terms)."""
         self.assign.update(part.assign)
         self.resume.update(part.resume)
-        for name in ("start", "end", "halt", "ignore_trk", "ignore_det", "events", "fluents"):
+        for name in (
+            "start",
+            "end",
+            "halt",
+            "ignore_trk",
+            "ignore_det",
+            "events",
+            "fluents",
+            "confidence",
+        ):
             getattr(self, name).extend(getattr(part, name))
         self.cost = None if self.cost is None or part.cost is None else self.cost + part.cost
         self.optimal &= part.optimal
@@ -492,6 +504,11 @@ def _decode(symbols: list[Symbol]) -> Answer:
         name, args = sym.name, sym.arguments
         if name == "occurs" and len(args) == 1:
             ans.events.append((args[0].name, tuple(_ref(a) for a in args[0].arguments)))
+        elif name == "confidence" and len(args) == 2 and args[1].type == SymbolType.Number:
+            event, level = args
+            ans.confidence.append(
+                (event.name, tuple(_ref(a) for a in event.arguments), level.number)
+            )
         elif name == "value" and len(args) == 2:
             fluent, value = args
             ans.fluents.append(

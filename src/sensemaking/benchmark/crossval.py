@@ -118,6 +118,17 @@ ORIGINS: dict[str, str] = {
     "hide_cover": "default, the definition of being hidden (half the box covered), not tuned.",
     "emerge_margin": "default, a design choice, not tuned.",
     "keep_cover": "default, hysteresis of hide_cover, not tuned.",
+    "hide_sure_cover": "explanations only (issue 22): chosen by leave-one-video-out on the "
+    "shared sequences' checker precision (docs/DESIGN-NOTES.md).",
+    "late_hides": "default: on (off moved mot15 HOTA by -0.3; docs/DESIGN-NOTES.md, issue 22).",
+    "late_hide_cover": "explanations only (issue 22), with late_hides; see late_hides.",
+    "late_maybe": "explanations only (issue 22): leave-one-video-out on the shared "
+    "sequences' checker precision; the tracks do not change (docs/DESIGN-NOTES.md).",
+    "late_confidence": "explanations only (issue 22): the weight of a late hiding's "
+    "confidence, from its measured precision (docs/DESIGN-NOTES.md).",
+    "depth_clear": "explanations only (issue 22): a hiding's confidence, in-sample on the "
+    "shared sequences' checker precision (docs/DESIGN-NOTES.md); no event changes.",
+    "depth_confidence": "explanations only (issue 22): see depth_clear.",
     "partial_cover": "default, the definition of partial occlusion, not tuned.",
     "border_margin": "default 10 px, the definition of *at the border* (calibrate uses the "
     "same), not tuned.",

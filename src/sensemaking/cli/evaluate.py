@@ -302,6 +302,7 @@ def _explanations(
     from sensemaking.evaluation.explanations import (
         ExplanationResult,
         GroundTruth,
+        confidence_text,
         evaluate_explanations,
         explanation_table,
     )
@@ -346,6 +347,9 @@ def _explanations(
         results.append(evaluate_explanations(gt, s.tracks, evs, ws, name=name))
     label = benchmark + (f"/{','.join(classes)}" if classes else "")
     print(explanation_table({label: results}), end="")
+    curve = confidence_text({label: results})
+    if curve:
+        print("\n" + curve, end="")
     if args.json is not None:
         doc = {
             "benchmark": benchmark,

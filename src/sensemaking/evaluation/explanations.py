@@ -54,6 +54,10 @@ __all__ = [
     "evaluate_explanations",
     "load_ground_truth",
     "explanation_table",
+    "confidence_table",
+    "confidence_text",
+    "spread_table",
+    "CONFIDENCE_THRESHOLDS",
     "late_start_events",
     "judged_warnings",
     "read_events",
@@ -70,6 +74,7 @@ PLAUSIBLE, IMPLAUSIBLE, UNDECIDABLE = "plausible", "implausible", "undecidable"
 #: event kinds judged, in table order
 EVENT_KINDS = (
     "hides_behind",
+    "may_hide_behind",
     "unhides_from_behind",
     "enters_fov",
     "leaves_fov",
@@ -80,6 +85,9 @@ EVENT_KINDS = (
     "reenters_fov",
     "returns",
 )
+#: the events that say a track hides behind another (judged alike); ``may_hide_behind`` is a
+#: late hiding of a track already unobserved, said apart for its weaker evidence
+_HIDING_KINDS = ("hides_behind", "may_hide_behind")
 #: warnings judged
 WARNING_KINDS = ("HIDDEN_ENTITY", "SUDDEN_STOP", "OVERTAKING")
 
@@ -386,7 +394,7 @@ class Verdict:
             "reason": self.reason,
             "gt": list(self.gt),
         }
-        if self.event.name == "hides_behind":
+        if self.event.name in _HIDING_KINDS:
             out.update(border=self.border, identity=self.identity)
         return out
 
@@ -448,6 +456,8 @@ class ExplanationResult:
         occlusions_said: the ``hides_behind`` recall occasions by what the tracker said at
         them: ``hides_behind`` (the explained ones), ``leaves_fov``, ``missing_detections``,
         ``ends`` or ``nothing``.
+        hide_hit_confidence: the confidence of the ``hides_behind`` event of each explained
+        recall occasion (1.0 for an event without one), for recall against a threshold.
     """
 
     name: str
@@ -457,6 +467,7 @@ class ExplanationResult:
     starts_total: int = 0
     recall: dict[str, tuple[int, int]] = field(default_factory=dict)
     occlusions_said: dict[str, int] = field(default_factory=dict)
+    hide_hit_confidence: list[float] = field(default_factory=list)
 
     @classmethod
     def combine(
@@ -473,6 +484,7 @@ class ExplanationResult:
                 out.recall[k] = (x + a, y + b)
             for k, n in r.occlusions_said.items():
                 out.occlusions_said[k] = out.occlusions_said.get(k, 0) + n
+            out.hide_hit_confidence += r.hide_hit_confidence
         return out
 
     def summary(self) -> dict[str, Any]:
@@ -486,7 +498,7 @@ class ExplanationResult:
                 hit, total = self.recall[kind]
                 row["recall"] = hit / total if total else None
                 row["recall_occasions"] = total
-            if kind == "hides_behind":
+            if kind in _HIDING_KINDS:
                 row["self"] = sum(v.reason == "self" for v in vs)
                 row["implausible_at_border"] = sum(
                     v.verdict == IMPLAUSIBLE and v.border for v in vs
@@ -495,6 +507,9 @@ class ExplanationResult:
                     row["occlusions_said"] = {
                         k: self.occlusions_said.get(k, 0) for k in _SAID_KINDS
                     }
+                occasions = self.recall.get(kind, (0, 0))[1]
+                hits = self.hide_hit_confidence if kind == "hides_behind" else []
+                row["by_confidence"] = confidence_table(vs, hits, occasions)
                 ident = Counter(v.identity for v in vs)
                 row["identity"] = {
                     k: ident.get(k, 0) for k in ("kept", "switched", "unknown", "not_resumed")
@@ -524,6 +539,47 @@ class ExplanationResult:
         out["late_starts"] = self.late_starts
         out["starts_total"] = self.starts_total
         return out
+
+
+#: the thresholds of the ``hides_behind`` precision-recall table (event confidence, 0..1)
+CONFIDENCE_THRESHOLDS = (0.0, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0)
+
+
+def _confidence(v: Verdict) -> float:
+    """An event's confidence; 1.0 where it states none (a log without confidences)."""
+    return 1.0 if v.event.confidence is None else float(v.event.confidence)
+
+
+def confidence_table(
+    verdicts: Sequence[Verdict],
+    hit_confidence: Sequence[float],
+    occasions: int,
+    thresholds: Sequence[float] = CONFIDENCE_THRESHOLDS,
+) -> list[dict[str, Any]]:
+    """Precision and recall of the events whose confidence is at least each threshold.
+
+    Per threshold: ``n`` events kept, their ``plausible`` / ``implausible`` counts, ``precision``
+    (plausible of the decidable, None without any) and ``recall`` (recall occasions explained by
+    a kept event, of ``occasions``; None without occasions). A user who keeps only the events at
+    or above a threshold gets these figures."""
+    out = []
+    eps = 1e-9  # confidences are written with 3 decimals
+    for thr in thresholds:
+        kept = [v for v in verdicts if _confidence(v) >= thr - eps]
+        c = Counter(v.verdict for v in kept)
+        p, i = c.get(PLAUSIBLE, 0), c.get(IMPLAUSIBLE, 0)
+        hits = sum(x >= thr - eps for x in hit_confidence)
+        out.append(
+            {
+                "threshold": thr,
+                "n": len(kept),
+                PLAUSIBLE: p,
+                IMPLAUSIBLE: i,
+                "precision": p / (p + i) if p + i else None,
+                "recall": hits / occasions if occasions else None,
+            }
+        )
+    return out
 
 
 def _median(xs: list[float] | list[int]) -> float | None:
@@ -875,6 +931,8 @@ class _Recall(_Evidence):
 
     #: hides_behind recall occasions by what the tracker said at them (see :meth:`recall`)
     hide_said: Counter[str]
+    #: the confidence of the hides_behind event of each explained occasion
+    hide_hit_confidence: list[float]
 
     def recall(self, events: list[Event]) -> dict[str, tuple[int, int]]:
         """Occasions in the ground truth where an event of a kind was due, and how many got one.
@@ -887,13 +945,19 @@ class _Recall(_Evidence):
         frame) and is matched by a track within the window of that frame."""
         names: dict[str, set[tuple[int | str, int]]] = defaultdict(set)
         by_track: dict[int | str, set[str]] = defaultdict(set)
+        hide_level: dict[tuple[int | str, int], float] = {}
         for e in events:
             if e.args:  # a user's encoding may abduce events without arguments
                 names[e.name].add((e.args[0], e.frame))
                 by_track[e.args[0]].add(e.name)
+                if e.name == "hides_behind":
+                    level = 1.0 if e.confidence is None else float(e.confidence)
+                    key = (e.args[0], e.frame)
+                    hide_level[key] = max(level, hide_level.get(key, 0.0))
         tr = self.t
         hide_hit = hide_all = 0
         self.hide_said = Counter()
+        self.hide_hit_confidence = []
         for t, fs in self.visible.items():
             for a, b in zip(fs, fs[1:] + [None], strict=True):
                 f = a + 1
@@ -906,7 +970,9 @@ class _Recall(_Evidence):
                 hide_all += 1
                 said = next((n for n in _SAID_INSTEAD if (t, f) in names[n]), "nothing")
                 self.hide_said[said] += 1
-                hide_hit += said == "hides_behind"
+                if said == "hides_behind":
+                    hide_hit += 1
+                    self.hide_hit_confidence.append(hide_level[(t, f)])
         last = self.gt.first_frame + self.gt.n_frames - 1
         tracks_of: dict[int, list[tuple[int, int]]] = defaultdict(list)
         for (t, f), g in self.match.items():
@@ -1038,7 +1104,7 @@ def evaluate_explanations(
             unhides[e.args[0]].append(e)
     out = ExplanationResult(name)
     for e in events:
-        if e.name == "hides_behind":
+        if e.name in _HIDING_KINDS:
             nxt = next((u for u in unhides[e.args[0]] if u.frame > e.frame), None)
             out.events.append(judge.hides(e, nxt))
         elif e.name in ("unhides_from_behind", "reappears", "reenters_fov", "returns"):
@@ -1070,6 +1136,7 @@ def evaluate_explanations(
     out.recall = judge.recall(events)
     if "hides_behind" in out.recall:
         out.occlusions_said = dict(judge.hide_said)
+        out.hide_hit_confidence = list(judge.hide_hit_confidence)
     return out
 
 
@@ -1100,7 +1167,7 @@ def explanation_table(
             if not row["total"]:
                 continue
             notes = []
-            if kind == "hides_behind":
+            if kind in _HIDING_KINDS:
                 ident = row["identity"]
                 notes.append(
                     f"self {row['self']}; implausible at border {row['implausible_at_border']}; "
@@ -1139,6 +1206,64 @@ def explanation_table(
             f"{s['starts_total']} | | | | | | | {s['late_starts']} of {s['starts_total']} |"
         )
     return "\n".join(lines) + "\n"
+
+
+def confidence_text(
+    results: Mapping[str, Sequence[ExplanationResult] | ExplanationResult | Mapping[str, Any]],
+) -> str:
+    """The ``hides_behind`` precision-recall table (markdown) against the events' confidence:
+    one row per benchmark and threshold (events at or above it kept); empty without events."""
+    lines = [
+        "| benchmark | hides_behind confidence >= | n | plausible | implausible | precision % "
+        "| recall % |",
+        "|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    for bench, res in results.items():
+        row = _summary_of(res)["events"]["hides_behind"]
+        if not row["total"]:
+            continue
+        for r in row.get("by_confidence", []):
+            lines.append(
+                f"| {bench} | {r['threshold']:.1f} | {r['n']} | {r[PLAUSIBLE]} "
+                f"| {r[IMPLAUSIBLE]} | {_pct(r['precision'])} | {_pct(r['recall'])} |"
+            )
+    return "\n".join(lines) + "\n" if len(lines) > 2 else ""
+
+
+def spread_table(
+    results: Mapping[str, Sequence[ExplanationResult]],
+    kinds: Sequence[str] = (*EVENT_KINDS, *WARNING_KINDS),
+) -> str:
+    """Per-sequence spread of the precision (markdown): per benchmark and kind judged on at
+    least one sequence with a decidable verdict, the number of such sequences, the lowest,
+    median and highest precision among them, the pooled precision, and every sequence's
+    ``plausible/decidable``. A pooled share can hide one sequence that carries it."""
+    lines = [
+        "| benchmark | kind | sequences | lowest % | median % | highest % | pooled % "
+        "| per sequence (plausible/decidable) |",
+        "|---|---|---:|---:|---:|---:|---:|---|",
+    ]
+    for bench, seqs in results.items():
+        for kind in kinds:
+            rows = []
+            for r in seqs:
+                verdicts = [v.verdict for v in r.events if v.event.name == kind] + [
+                    w.verdict for w in r.warnings if w.situation == kind
+                ]
+                p, i = verdicts.count(PLAUSIBLE), verdicts.count(IMPLAUSIBLE)
+                if p + i:
+                    rows.append((r.name, p, p + i))
+            if not rows:
+                continue
+            shares = [p / d for _, p, d in rows]
+            pooled = sum(p for _, p, _ in rows) / sum(d for _, _, d in rows)
+            each = ", ".join(f"{name} {p}/{d}" for name, p, d in rows)
+            lines.append(
+                f"| {bench} | {kind} | {len(rows)} | {_pct(min(shares))} "
+                f"| {_pct(float(np.median(shares)))} | {_pct(max(shares))} | {_pct(pooled)} "
+                f"| {each} |"
+            )
+    return "\n".join(lines) + "\n" if len(lines) > 2 else ""
 
 
 def _summary_of(

@@ -120,6 +120,10 @@ def _story(scene: Scene, t: Track, context: SceneContext | None) -> list[str]:
             out.append(f"At frame {e.frame} it hides behind {scene.describe(int(e.args[1]))}.")
         elif e.name == "hides_behind" and len(e.args) > 1 and e.args[1] == t.id:
             out.append(f"At frame {e.frame} it hides {scene.describe(int(e.args[0]))} from view.")
+        elif e.name == "may_hide_behind" and e.args[0] == t.id:
+            out.append(
+                f"At frame {e.frame} it may be hiding behind {scene.describe(int(e.args[1]))}."
+            )
         elif e.name == "unhides_from_behind" and e.args[0] == t.id:
             ep = max(
                 (iv for (o, s), iv in hidden.items() if o == e.args[1] and s < e.frame),

@@ -65,6 +65,7 @@ METRIC_COLUMNS = (
 #: event name -> (marker colour, importance for choosing key frames)
 _EVENT_STYLE: dict[str, tuple[str, int]] = {
     "hides_behind": ("#e8871e", 3),
+    "may_hide_behind": ("#f0b27a", 2),
     "unhides_from_behind": ("#c2571a", 3),
     "missing_detections": ("#6b7280", 2),
     "reappears": ("#2563eb", 2),
@@ -118,7 +119,13 @@ def fallback_story(run: Run, track_id: int) -> list[str]:
         if track_id not in e.args:
             continue
         text = f"Frame {e.frame}: {st.event_sentence(e.name, e.args, classes)}"
-        if e.args[0] == track_id and e.name in ("hides_behind", "missing_detections"):
+        if e.confidence is not None:
+            text += f" (confidence {e.confidence:.2f})"
+        if e.args[0] == track_id and e.name in (
+            "hides_behind",
+            "may_hide_behind",
+            "missing_detections",
+        ):
             sp = pending.pop(e.frame, None) or pending.pop(e.frame + 1, None)
             if sp is not None:
                 text += f" (for {lasting(sp)})"
