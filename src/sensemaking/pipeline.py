@@ -247,12 +247,12 @@ class Pipeline:
             results = [self.tracker.update(detections, frame=frame)]  # type: ignore[union-attr]
         else:
             results = self._delayed.push(detections, frame=frame)
-        s = self.summary
+        steps = [self._emit(r) for r in results]
+        s = self.summary  # counted once emitted: an interrupt in a sink leaves the frame undone
         s.frames += 1
         s.stepped += 1
         s.first = frame if s.first is None else s.first
         s.last = frame
-        steps = [self._emit(r) for r in results]
         idle = self._tracker_idle() and all(
             len(st.result.tracks) == 0 and not st.result.events for st in steps
         )
