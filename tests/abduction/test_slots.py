@@ -10,7 +10,7 @@ import pytest
 from clingo.ast import ProgramBuilder
 from conftest import SHARED_DATA
 
-from sensemaking.abduction.components import ComponentSolver
+from sensemaking.abduction.components import GROUND_AHEAD, ComponentSolver
 from sensemaking.abduction.observe import quantize
 from sensemaking.abduction.problem import TRACK_FLAGS, Component, FrameProblem
 from sensemaking.abduction.slots import Shape, SlotSolver, piece_facts, pieces, shape_of
@@ -165,6 +165,24 @@ def test_outside_the_slots_goes_to_the_fresh_control() -> None:
     assert SlotSolver(user, numbers=GRID, misses_per_cell=0).solve(moving) is None
 
 
+def test_a_shape_ground_ahead_is_used_from_its_frame_on_with_the_same_answers() -> None:
+    solver = AbductionSolver()
+    rng = random.Random(5)
+    pool = [random_component(rng, 2, 2, 0) for _ in range(12)]
+    now = SlotSolver(solver, numbers=GRID, misses_per_cell=0)
+    ahead = SlotSolver(solver, numbers=GRID, misses_per_cell=0, ahead=3)
+    assert ahead.solve(pool[0]) is None  # grounding starts, in the worker
+    for _ in range(2):
+        ahead.tick()
+        assert ahead.solve(pool[0]) is None and ahead.stats["grounded"] == 0
+    ahead.tick()  # the third frame: the shape is used (waiting for the worker if need be)
+    for component in pool:
+        mine, theirs = ahead.solve(component), now.solve(component)
+        assert mine is not None and theirs is not None
+        assert (mine.cost, mine.atoms()) == (theirs.cost, theirs.atoms())
+    assert ahead.stats["grounded"] == 1
+
+
 def test_a_shape_is_ground_once_met_often_enough() -> None:
     solver = AbductionSolver()
     slots = SlotSolver(solver, numbers=GRID, misses_per_cell=0.5)  # 1 x 1: 4 cells, 2 misses
@@ -195,7 +213,8 @@ def test_component_solver_answers_misses_from_the_slots() -> None:
     answers = []
     for slots in (True, False):
         components = ComponentSolver(solver, cache_size=0, slots=slots, numbers=GRID)
-        for _ in range(6):  # a 2 x 2 shape is ground at its 5th component
+        # a 2 x 2 shape starts grounding at its 5th component, used GROUND_AHEAD frames later
+        for _ in range(6 + GROUND_AHEAD):
             answers.append(components.solve(problem))
         assert (components.stats["slot_calls"] > 0) == slots
     assert len({(a.cost, tuple(readable(a)[0])) for a in answers}) == 1

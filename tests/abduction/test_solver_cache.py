@@ -39,3 +39,33 @@ def test_a_tracker_with_its_own_cache_leaves_the_shared_one_alone():
 
 def test_the_default_cache_is_the_shared_one():
     assert Tracker(CONFIG).solver.cache is SHARED
+
+
+def test_an_answer_from_the_cache_equals_the_solved_one():
+    from sensemaking.abduction.components import ComponentSolver
+    from sensemaking.abduction.solver import Det
+
+    own = SolverCache()
+    tracker = Tracker(CONFIG, solver_cache=own)
+    problems = []
+    solve = tracker.solver.solve
+
+    def keep(problem, budget_ms=None):  # type: ignore[no-untyped-def]
+        problems.append(problem)
+        return solve(problem, budget_ms)
+
+    tracker.solver.solve = keep  # type: ignore[method-assign]
+    _run(tracker)
+    assert len(problems) > 10
+    solver = ComponentSolver(tracker.solver.solver, cache=SolverCache(), slots=False)
+    solved = [solver.solve(problem) for problem in problems]
+    hits = solver.stats["cache_hits"]
+    with_det = 0
+    for problem, a in zip(problems, solved, strict=True):
+        b = solver.solve(problem)  # every component from the cache now
+        assert a is not None and b is not None
+        b.solve_ms = a.solve_ms = 0.0
+        assert b == a  # every field, in order (events and fluents name detections as Det)
+        with_det += any(isinstance(x, Det) for _, args in a.events for x in args)
+    assert solver.stats["cache_hits"] - hits == solver.stats["components"] // 2 > 0
+    assert with_det > 0

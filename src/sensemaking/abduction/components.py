@@ -76,7 +76,7 @@ class SolverCache:
             key = _key(solver)
             found = self._slots.get(key)
             if found is None:
-                found = self._slots[key] = SlotSolver(solver)
+                found = self._slots[key] = SlotSolver(solver, ahead=GROUND_AHEAD)
             return found
 
     def __len__(self) -> int:
@@ -89,6 +89,13 @@ class SolverCache:
         with self.lock:
             self._answers.clear()
             self._slots.clear()
+
+
+#: frames between the start of a shape's grounding (in a worker thread) and its first use
+#: (:class:`~sensemaking.abduction.slots.SlotSolver` ``ahead``): long enough for the largest
+#: shape (~70 ms on this machine, ~9 ms a frame on MOT17) to be ready when it is needed, so
+#: that no frame waits for it
+GROUND_AHEAD = 12
 
 
 def _key(solver: AbductionSolver) -> _Key:
@@ -142,6 +149,8 @@ class ComponentSolver:
         """The frame's answer in its terms (track ids, detection rows); None if no model was
         found within the budgets (the caller falls back for the whole frame)."""
         t0 = time.perf_counter()
+        if self._slots is not None:
+            self._slots.tick()
         parts = problem.components() if self.decompose else [problem.whole()]
         answer = Answer()
         missed: dict[Component, list[tuple[list[int], list[int]]]] = {}

@@ -28,6 +28,7 @@ import threading
 import time
 from collections import OrderedDict
 from collections.abc import Collection, Iterable
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -152,7 +153,6 @@ class _Grounded:
         classes: frozenset[int] = frozenset(),
         numbers: frozenset[int] = frozenset(),
     ):
-        self.universe = universe
         #: the classes and numbers the universe was made with
         self.classes, self.numbers = classes, numbers
         self.ctl = asp.control([*solver.options, _FORGET], asp.parsed(solver.program))
@@ -162,15 +162,16 @@ class _Grounded:
         atoms = self.ctl.symbolic_atoms
         # a fact some rule also derives is no longer external: it cannot be set, so a component
         # stating it is not answered here
-        #: fact -> its program literal (0: no rule reads the fact, the grounder dropped it: true
-        #: or false, it changes nothing)
-        self.literal: dict[Symbol, int] = {}
+        #: fact (its text: a Symbol is an object Python's garbage collector walks, thousands
+        #: a shape) -> its program literal (0: no rule reads the fact, the grounder dropped it:
+        #: true or false, it changes nothing)
+        self.literal: dict[str, int] = {}
         for fact in universe:
             atom = atoms[fact]
             if atom is None:
-                self.literal[fact] = 0
+                self.literal[str(fact)] = 0
             elif atom.is_external:
-                self.literal[fact] = atom.literal
+                self.literal[str(fact)] = atom.literal
         literals = [lit for lit in self.literal.values() if lit]
         #: every external false: a component's assumptions are this with its facts made true
         self._all_false = [-lit for lit in literals]
@@ -197,7 +198,7 @@ class _Grounded:
     def _lookup(self, facts: Iterable[Symbol]) -> tuple[int, ...] | None:
         lits = []
         for fact in facts:
-            lit = self.literal.get(fact)
+            lit = self.literal.get(str(fact))
             if lit is None:
                 return None
             lits.append(lit)
@@ -237,6 +238,12 @@ class SlotSolver:
         misses_per_cell: a shape is ground at its n-th component, n = this times
             ``(tracks + 1) x (detections + 1)`` (grounding measured ~2 ms per such cell with
             the 42 numbers of the tracker's grid, a fresh solve 2.5-5 ms); 0: at once.
+        ahead: 0: a shape is ground in the caller's thread when its n-th component comes
+            (that frame pays for it: 50-150 ms for the larger shapes). k > 0: it is ground in a
+            worker thread, and used from the k-th :meth:`tick` (frame) on, waiting for the
+            worker then if it is not done; until then the shape's components go to the fresh
+            Control as before. Counted in frames, not measured: which component takes which
+            path does not depend on the machine's load.
     """
 
     def __init__(
@@ -250,6 +257,7 @@ class SlotSolver:
         max_numbers: int = 128,
         max_controls: int = 32,
         misses_per_cell: float = 0.5,
+        ahead: int = 0,
     ):
         self.solver = solver
         self.max_shape = Shape(max_tracks, max_dets, max_occluders)
@@ -262,8 +270,19 @@ class SlotSolver:
         self._grounded: OrderedDict[Shape, _Grounded] = OrderedDict()
         #: components declined per shape not ground yet
         self._misses: dict[Shape, int] = {}
+        self.ahead = ahead
+        #: frames seen (:meth:`tick`): the clock of the groundings made ahead
+        self._frames = 0
+        #: shapes being ground in the worker: the grounding, and the frame it is used from
+        self._pending: dict[Shape, tuple[Future[_Grounded], int]] = {}
+        self._worker: ThreadPoolExecutor | None = None
         self._lock = threading.Lock()
         self.stats = {"answered": 0, "outside": 0, "grounded": 0}
+
+    def tick(self) -> None:
+        """A new frame: groundings started ``ahead`` frames ago are used from now on."""
+        with self._lock:
+            self._frames += 1
 
     def expect(self, numbers: Iterable[int]) -> None:
         """Add likelihoods and confidences to the universe (shapes ground later include them)."""
@@ -285,17 +304,27 @@ class SlotSolver:
             self.stats["outside"] += 1
             return None
         with self._lock:
+            pending = self._pending.get(shape)
+            if pending is not None and self._frames >= pending[1]:
+                self._install(shape, pending[0].result())  # its frame has come: wait if need be
+                del self._pending[shape]
+                pending = None
             grounded = self._grounded.get(shape)
             if grounded is not None:
                 self._grounded.move_to_end(shape)
-            else:
+            elif pending is None:
                 self._misses[shape] = misses = self._misses.get(shape, 0) + 1
                 if misses > self.misses_per_cell * (shape.tracks + 1) * (shape.dets + 1):
                     grounded = self._ground(shape, component)
             true = None if grounded is None else grounded.literals_of(component)
-            if true is None and grounded is not None and self._brings_values(component, grounded):
+            if (
+                true is None
+                and grounded is not None
+                and pending is None
+                and self._brings_values(component, grounded)
+            ):
                 grounded = self._ground(shape, component)
-                true = grounded.literals_of(component)
+                true = None if grounded is None else grounded.literals_of(component)
             if true is None or grounded is None:  # grounded is None only with true None
                 self.stats["outside"] += 1
                 return None
@@ -324,24 +353,42 @@ class SlotSolver:
             and len(self.numbers | numbers) <= self.max_numbers
         )
 
-    def _ground(self, shape: Shape, component: Component) -> _Grounded:
-        """Ground the shape with the classes and numbers known, the component's added."""
-        t0 = time.perf_counter()
+    def _ground(self, shape: Shape, component: Component) -> _Grounded | None:
+        """Ground the shape with the classes and numbers known, the component's added: at
+        once (the shape's Control), or in the worker with ``ahead`` (None: not usable yet)."""
         classes, numbers = self._values(component)
         if len(self.classes | classes) <= self.max_classes:
             self.classes |= classes
         if len(self.numbers | numbers) <= self.max_numbers:
             self.numbers |= numbers
-        universe = vocabulary(shape, self.classes, self.numbers, self.solver.uses)
-        grounded = _Grounded(
-            self.solver, universe, frozenset(self.classes), frozenset(self.numbers)
-        )
+        self._misses.pop(shape, None)
+        args = (self.solver, shape, frozenset(self.classes), frozenset(self.numbers))
+        if self.ahead <= 0:
+            return self._install(shape, _build(*args))
+        if self._worker is None:
+            self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="slots")
+        self._pending[shape] = (self._worker.submit(_build, *args), self._frames + self.ahead)
+        return None
+
+    def _install(self, shape: Shape, grounded: _Grounded) -> _Grounded:
+        """Keep a ground shape (least recently used out past ``max_controls``)."""
         self._grounded[shape] = grounded
         self._grounded.move_to_end(shape)
         while len(self._grounded) > self.max_controls:
             self._grounded.popitem(last=False)
-        self._misses.pop(shape, None)
-        ms = (time.perf_counter() - t0) * 1000.0
         self.stats["grounded"] += 1
-        log.debug("ground shape %s: %d externals, %.1f ms", shape, len(universe), ms)
         return grounded
+
+
+def _build(
+    solver: AbductionSolver, shape: Shape, classes: frozenset[int], numbers: frozenset[int]
+) -> _Grounded:
+    """A shape's Control, ground with its universe (reads nothing but its arguments: it may run
+    in a worker thread; clingo's symbol table is locked, and the grounder lets go of Python's
+    lock while it works)."""
+    t0 = time.perf_counter()
+    universe = vocabulary(shape, classes, numbers, solver.uses)
+    grounded = _Grounded(solver, universe, classes, numbers)
+    ms = (time.perf_counter() - t0) * 1000.0
+    log.debug("ground shape %s: %d externals, %.1f ms", shape, len(universe), ms)
+    return grounded
