@@ -10,7 +10,7 @@ import pytest
 from clingo.ast import ProgramBuilder
 from conftest import SHARED_DATA
 
-from sensemaking.abduction.components import GROUND_AHEAD, ComponentSolver
+from sensemaking.abduction.components import ComponentSolver
 from sensemaking.abduction.observe import quantize
 from sensemaking.abduction.problem import TRACK_FLAGS, Component, FrameProblem
 from sensemaking.abduction.slots import Shape, SlotSolver, piece_facts, pieces, shape_of
@@ -165,22 +165,39 @@ def test_outside_the_slots_goes_to_the_fresh_control() -> None:
     assert SlotSolver(user, numbers=GRID, misses_per_cell=0).solve(moving) is None
 
 
-def test_a_shape_ground_ahead_is_used_from_its_frame_on_with_the_same_answers() -> None:
+def test_a_shape_ground_ahead_takes_the_same_path_with_the_same_answers() -> None:
     solver = AbductionSolver()
     rng = random.Random(5)
-    pool = [random_component(rng, 2, 2, 0) for _ in range(12)]
-    now = SlotSolver(solver, numbers=GRID, misses_per_cell=0)
-    ahead = SlotSolver(solver, numbers=GRID, misses_per_cell=0, ahead=3)
-    assert ahead.solve(pool[0]) is None  # grounding starts, in the worker
-    for _ in range(2):
-        ahead.tick()
-        assert ahead.solve(pool[0]) is None and ahead.stats["grounded"] == 0
-    ahead.tick()  # the third frame: the shape is used (waiting for the worker if need be)
-    for component in pool:
+    pool = [random_component(rng, 2, 2, 0, classes=(1,)) for _ in range(12)]
+    # a 2 x 2 shape is due at its 5th component; ahead, its grounding starts at the 3rd
+    now = SlotSolver(solver, numbers=GRID + [1], misses_per_cell=0.5)
+    ahead = SlotSolver(solver, numbers=GRID + [1], misses_per_cell=0.5, lead=0.5)
+    for i, component in enumerate(pool):
         mine, theirs = ahead.solve(component), now.solve(component)
-        assert mine is not None and theirs is not None
-        assert (mine.cost, mine.atoms()) == (theirs.cost, theirs.atoms())
-    assert ahead.stats["grounded"] == 1
+        assert (mine is None) == (theirs is None) == (i < 4)
+        assert (ahead.stats["grounded"], bool(ahead._pending)) == (
+            now.stats["grounded"],
+            2 <= i < 4,
+        )
+        if mine is not None and theirs is not None:
+            assert (mine.cost, mine.atoms()) == (theirs.cost, theirs.atoms())
+    assert ahead.stats["ahead"] == 1
+
+
+def test_a_grounding_ahead_with_other_values_is_not_taken() -> None:
+    solver = AbductionSolver()
+    rng = random.Random(6)
+    first, second = random_component(rng, 1, 1, 0), random_component(rng, 1, 1, 0)
+    # no numbers expected: each component brings its own, so the one ground ahead (with the
+    # first's) is not the one the second is due with (with both): it is ground again at once
+    ahead = SlotSolver(solver, misses_per_cell=0.5, lead=0.5)  # 1 x 1: due at the 3rd
+    assert ahead.solve(first) is None and ahead.solve(first) is None and ahead._pending
+    if ahead._values(second)[1] <= ahead._values(first)[1]:
+        pytest.skip("the second component brings no new number")
+    answer = ahead.solve(second)
+    assert answer is not None and ahead.stats["ahead"] == 0 and not ahead._pending
+    fresh = solver.solve_facts(second.facts())
+    assert fresh is not None and answer.cost == fresh.cost
 
 
 def test_a_shape_is_ground_once_met_often_enough() -> None:
@@ -213,8 +230,7 @@ def test_component_solver_answers_misses_from_the_slots() -> None:
     answers = []
     for slots in (True, False):
         components = ComponentSolver(solver, cache_size=0, slots=slots, numbers=GRID)
-        # a 2 x 2 shape starts grounding at its 5th component, used GROUND_AHEAD frames later
-        for _ in range(6 + GROUND_AHEAD):
+        for _ in range(6):  # a 2 x 2 shape is ground at its 5th component
             answers.append(components.solve(problem))
         assert (components.stats["slot_calls"] > 0) == slots
     assert len({(a.cost, tuple(readable(a)[0])) for a in answers}) == 1

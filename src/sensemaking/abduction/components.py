@@ -76,7 +76,7 @@ class SolverCache:
             key = _key(solver)
             found = self._slots.get(key)
             if found is None:
-                found = self._slots[key] = SlotSolver(solver, ahead=GROUND_AHEAD)
+                found = self._slots[key] = SlotSolver(solver, lead=GROUND_LEAD)
             return found
 
     def __len__(self) -> int:
@@ -91,11 +91,10 @@ class SolverCache:
             self._slots.clear()
 
 
-#: frames between the start of a shape's grounding (in a worker thread) and its first use
-#: (:class:`~sensemaking.abduction.slots.SlotSolver` ``ahead``): long enough for the largest
-#: shape (~70 ms on this machine, ~9 ms a frame on MOT17) to be ready when it is needed, so
-#: that no frame waits for it
-GROUND_AHEAD = 12
+#: a shape's Control starts grounding in a worker thread at this fraction of the components
+#: after which it is used (:class:`~sensemaking.abduction.slots.SlotSolver` ``lead``), so that
+#: no frame waits 50-150 ms for it; the Control and the answers are the same as without
+GROUND_LEAD = 0.5
 
 
 def _key(solver: AbductionSolver) -> _Key:
@@ -149,8 +148,6 @@ class ComponentSolver:
         """The frame's answer in its terms (track ids, detection rows); None if no model was
         found within the budgets (the caller falls back for the whole frame)."""
         t0 = time.perf_counter()
-        if self._slots is not None:
-            self._slots.tick()
         parts = problem.components() if self.decompose else [problem.whole()]
         answer = Answer()
         missed: dict[Component, list[tuple[list[int], list[int]]]] = {}

@@ -238,12 +238,14 @@ class SlotSolver:
         misses_per_cell: a shape is ground at its n-th component, n = this times
             ``(tracks + 1) x (detections + 1)`` (grounding measured ~2 ms per such cell with
             the 42 numbers of the tracker's grid, a fresh solve 2.5-5 ms); 0: at once.
-        ahead: 0: a shape is ground in the caller's thread when its n-th component comes
-            (that frame pays for it: 50-150 ms for the larger shapes). k > 0: it is ground in a
-            worker thread, and used from the k-th :meth:`tick` (frame) on, waiting for the
-            worker then if it is not done; until then the shape's components go to the fresh
-            Control as before. Counted in frames, not measured: which component takes which
-            path does not depend on the machine's load.
+        lead: 0: a shape is ground in the caller's thread at its n-th component (that frame
+            pays for it: 50-150 ms for the larger shapes). 0 < lead < 1: a worker thread starts
+            grounding it at its ``lead`` x n-th component, with the classes and numbers known
+            then, and the n-th component takes that Control (waiting for the worker if it is
+            not done) when they are the ones it would be ground with now; otherwise it is
+            ground at once as without ``lead``. Either way the shape's Control is the same
+            program from the same component on: the answers are those of ``lead=0``.
+        max_pending: groundings started ahead and not taken yet, at most (memory).
     """
 
     def __init__(
@@ -257,7 +259,8 @@ class SlotSolver:
         max_numbers: int = 128,
         max_controls: int = 32,
         misses_per_cell: float = 0.5,
-        ahead: int = 0,
+        lead: float = 0.0,
+        max_pending: int = 4,
     ):
         self.solver = solver
         self.max_shape = Shape(max_tracks, max_dets, max_occluders)
@@ -270,19 +273,12 @@ class SlotSolver:
         self._grounded: OrderedDict[Shape, _Grounded] = OrderedDict()
         #: components declined per shape not ground yet
         self._misses: dict[Shape, int] = {}
-        self.ahead = ahead
-        #: frames seen (:meth:`tick`): the clock of the groundings made ahead
-        self._frames = 0
-        #: shapes being ground in the worker: the grounding, and the frame it is used from
-        self._pending: dict[Shape, tuple[Future[_Grounded], int]] = {}
+        self.lead, self.max_pending = lead, max_pending
+        #: shapes being ground ahead in the worker: the classes and numbers, the grounding
+        self._pending: dict[Shape, tuple[tuple[frozenset[int], frozenset[int]], Future]] = {}
         self._worker: ThreadPoolExecutor | None = None
         self._lock = threading.Lock()
-        self.stats = {"answered": 0, "outside": 0, "grounded": 0}
-
-    def tick(self) -> None:
-        """A new frame: groundings started ``ahead`` frames ago are used from now on."""
-        with self._lock:
-            self._frames += 1
+        self.stats = {"answered": 0, "outside": 0, "grounded": 0, "ahead": 0}
 
     def expect(self, numbers: Iterable[int]) -> None:
         """Add likelihoods and confidences to the universe (shapes ground later include them)."""
@@ -304,27 +300,20 @@ class SlotSolver:
             self.stats["outside"] += 1
             return None
         with self._lock:
-            pending = self._pending.get(shape)
-            if pending is not None and self._frames >= pending[1]:
-                self._install(shape, pending[0].result())  # its frame has come: wait if need be
-                del self._pending[shape]
-                pending = None
             grounded = self._grounded.get(shape)
             if grounded is not None:
                 self._grounded.move_to_end(shape)
-            elif pending is None:
+            else:
                 self._misses[shape] = misses = self._misses.get(shape, 0) + 1
-                if misses > self.misses_per_cell * (shape.tracks + 1) * (shape.dets + 1):
+                due = self.misses_per_cell * (shape.tracks + 1) * (shape.dets + 1)
+                if misses > due:
                     grounded = self._ground(shape, component)
+                elif misses > self.lead * due and self.lead > 0:
+                    self._start(shape, component)
             true = None if grounded is None else grounded.literals_of(component)
-            if (
-                true is None
-                and grounded is not None
-                and pending is None
-                and self._brings_values(component, grounded)
-            ):
+            if true is None and grounded is not None and self._brings_values(component, grounded):
                 grounded = self._ground(shape, component)
-                true = None if grounded is None else grounded.literals_of(component)
+                true = grounded.literals_of(component)
             if true is None or grounded is None:  # grounded is None only with true None
                 self.stats["outside"] += 1
                 return None
@@ -353,22 +342,40 @@ class SlotSolver:
             and len(self.numbers | numbers) <= self.max_numbers
         )
 
-    def _ground(self, shape: Shape, component: Component) -> _Grounded | None:
-        """Ground the shape with the classes and numbers known, the component's added: at
-        once (the shape's Control), or in the worker with ``ahead`` (None: not usable yet)."""
+    def _with(self, component: Component) -> tuple[frozenset[int], frozenset[int]]:
+        """The classes and numbers known with the component's added (within the bounds)."""
         classes, numbers = self._values(component)
         if len(self.classes | classes) <= self.max_classes:
-            self.classes |= classes
+            classes = self.classes | classes
+        else:
+            classes = set(self.classes)
         if len(self.numbers | numbers) <= self.max_numbers:
-            self.numbers |= numbers
+            numbers = self.numbers | numbers
+        else:
+            numbers = set(self.numbers)
+        return frozenset(classes), frozenset(numbers)
+
+    def _ground(self, shape: Shape, component: Component) -> _Grounded:
+        """Ground the shape with the classes and numbers known, the component's added; the
+        Control ground ahead for them if there is one."""
+        values = self._with(component)
+        self.classes, self.numbers = set(values[0]), set(values[1])
         self._misses.pop(shape, None)
-        args = (self.solver, shape, frozenset(self.classes), frozenset(self.numbers))
-        if self.ahead <= 0:
-            return self._install(shape, _build(*args))
+        ahead = self._pending.pop(shape, None)
+        if ahead is not None and ahead[0] == values:
+            self.stats["ahead"] += 1
+            return self._install(shape, ahead[1].result())  # waits for the worker if need be
+        return self._install(shape, _build(self.solver, shape, *values))
+
+    def _start(self, shape: Shape, component: Component) -> None:
+        """Start grounding the shape in the worker with the values known now (the
+        component's added), unless it is started already or too many are."""
+        if shape in self._pending or len(self._pending) >= self.max_pending:
+            return
+        values = self._with(component)
         if self._worker is None:
             self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="slots")
-        self._pending[shape] = (self._worker.submit(_build, *args), self._frames + self.ahead)
-        return None
+        self._pending[shape] = (values, self._worker.submit(_build, self.solver, shape, *values))
 
     def _install(self, shape: Shape, grounded: _Grounded) -> _Grounded:
         """Keep a ground shape (least recently used out past ``max_controls``)."""
