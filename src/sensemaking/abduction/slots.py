@@ -245,7 +245,8 @@ class SlotSolver:
             not done) when they are the ones it would be ground with now; otherwise it is
             ground at once as without ``lead``. Either way the shape's Control is the same
             program from the same component on: the answers are those of ``lead=0``.
-        max_pending: groundings started ahead and not taken yet, at most (memory).
+        max_pending: groundings started ahead and not taken yet, at most (memory: a Control
+            each); past it the one started first is dropped.
     """
 
     def __init__(
@@ -260,7 +261,7 @@ class SlotSolver:
         max_controls: int = 32,
         misses_per_cell: float = 0.5,
         lead: float = 0.0,
-        max_pending: int = 4,
+        max_pending: int = 8,
     ):
         self.solver = solver
         self.max_shape = Shape(max_tracks, max_dets, max_occluders)
@@ -369,9 +370,13 @@ class SlotSolver:
 
     def _start(self, shape: Shape, component: Component) -> None:
         """Start grounding the shape in the worker with the values known now (the
-        component's added), unless it is started already or too many are."""
-        if shape in self._pending or len(self._pending) >= self.max_pending:
+        component's added), unless it is started already; past ``max_pending``, the grounding
+        started first is dropped (a shape whose components stopped coming)."""
+        if shape in self._pending:
             return
+        while len(self._pending) >= self.max_pending:
+            oldest = next(iter(self._pending))
+            self._pending.pop(oldest)[1].cancel()
         values = self._with(component)
         if self._worker is None:
             self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="slots")
