@@ -13,7 +13,9 @@ Four shortcuts, each forced by the structure of the problem rather than by any r
 * **A small component not in the cache** is answered by a ``Control`` ground once for its shape
   (:class:`~sensemaking.abduction.slots.SlotSolver`): the facts are externals, and the ground
   program with them fixed is the program of those facts, so the optimum and its cost are a fresh
-  solve's; where optima tie, the one chosen may differ (1 in ~7,700 real components).
+  solve's; where optima tie, the one chosen may differ (1 in ~7,700 real components). A shape
+  starts grounding in a worker thread before it is due (:data:`GROUND_LEAD`), so that no frame
+  waits for it; it is the same Control from the same component on as without.
 * **The other components not in the cache are solved together**, in one program on one fresh
   ``Control``: the grounder's fixed cost (~1.6 ms per ``Control``, whatever the facts) is paid
   once a frame. Their atoms are told apart by their numbers (each component gets its own range).
