@@ -69,3 +69,16 @@ def test_an_answer_from_the_cache_equals_the_solved_one():
         with_det += any(isinstance(x, Det) for _, args in a.events for x in args)
     assert solver.stats["cache_hits"] - hits == solver.stats["components"] // 2 > 0
     assert with_det > 0
+
+
+def test_shapes_ground_ahead_give_the_tracks_of_shapes_ground_at_once():
+    ahead, now = (
+        Tracker(CONFIG, solver_cache=SolverCache()),
+        Tracker(CONFIG, solver_cache=SolverCache(lead=0)),
+    )
+    assert _run(ahead) == _run(now)
+    slots_ahead, slots_now = ahead.solver._slots, now.solver._slots
+    assert slots_ahead is not None and slots_now is not None
+    assert slots_ahead.stats["ahead"] > 0 and slots_now.stats["ahead"] == 0
+    assert slots_ahead.stats["grounded"] == slots_now.stats["grounded"]
+    assert slots_ahead.stats["answered"] == slots_now.stats["answered"]

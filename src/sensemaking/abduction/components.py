@@ -53,6 +53,12 @@ Plain = tuple
 Packed = tuple
 
 
+#: a shape's Control starts grounding in a worker thread at this fraction of the components
+#: after which it is used (:class:`~sensemaking.abduction.slots.SlotSolver` ``lead``), so that
+#: no frame waits 50-150 ms for it; the Control and the answers are the same as without
+GROUND_LEAD = 0.5
+
+
 class SolverCache:
     """What :class:`ComponentSolver` objects remember between frames, per program and options:
     clingo's answers by component (least recently used first) and the Controls ground once for
@@ -61,7 +67,10 @@ class SolverCache:
     answers may depend on what another solved before; a cache of its own makes a tracker's
     output depend on its input only. Thread-safe."""
 
-    def __init__(self) -> None:
+    def __init__(self, lead: float = GROUND_LEAD) -> None:
+        #: the slot Controls' ``lead`` (0: every shape ground on the caller's thread, no worker
+        #: thread, e.g. before forking a process)
+        self.lead = lead
         self._answers: dict[_Key, OrderedDict[Plain, Packed]] = {}
         self._slots: dict[_Key, SlotSolver] = {}
         self.lock = threading.Lock()
@@ -78,7 +87,7 @@ class SolverCache:
             key = _key(solver)
             found = self._slots.get(key)
             if found is None:
-                found = self._slots[key] = SlotSolver(solver, lead=GROUND_LEAD)
+                found = self._slots[key] = SlotSolver(solver, lead=self.lead)
             return found
 
     def __len__(self) -> int:
@@ -91,12 +100,6 @@ class SolverCache:
         with self.lock:
             self._answers.clear()
             self._slots.clear()
-
-
-#: a shape's Control starts grounding in a worker thread at this fraction of the components
-#: after which it is used (:class:`~sensemaking.abduction.slots.SlotSolver` ``lead``), so that
-#: no frame waits 50-150 ms for it; the Control and the answers are the same as without
-GROUND_LEAD = 0.5
 
 
 def _key(solver: AbductionSolver) -> _Key:
