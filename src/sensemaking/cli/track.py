@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import gc
 import logging
 import math
 import os
@@ -796,6 +797,9 @@ def _run(args: argparse.Namespace) -> int:
             validate=args.detections is None,
             on_frames=progress.advance,
         )
+        # everything made so far lives as long as the run: the collector stops walking it (its
+        # full collections over the libraries' own objects cost 30-50 ms frames; DESIGN-NOTES)
+        gc.freeze()
         try:
             with pipe:
                 summary = pipe.run(frames, first_frame=first, last_frame=last)
@@ -816,6 +820,8 @@ def _run(args: argparse.Namespace) -> int:
                 file=sys.stderr,
             )
             raise
+        finally:
+            gc.unfreeze()  # a caller running several tracks in one process collects as before
     stats = tracker.stats
     n_tracks, n_boxes = len(sinks[0].ids), sinks[0].boxes
     per_frame = stats["solve_ms"] / max(stats["frames"], 1)
