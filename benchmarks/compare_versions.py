@@ -4,7 +4,7 @@ For each benchmark of ``../shared/data`` the two versions run ``same_answers.py`
 turn (this one, the other, this one, the other, ...), each in a fresh process, so a slow spell
 of a shared machine hits both alike; the script prints each version's median mean-ms-per-frame
 over ``--repeat`` turns, their ratio, the worst frame, and whether their tracks and events are
-identical.
+identical. With ``--cpu`` the times are the tracker thread's CPU time (a loaded machine).
 
     git worktree add /tmp/old <commit>
     python benchmarks/compare_versions.py --other /tmp/old/src [--only kitti-rrc-car] [--repeat 3]
@@ -24,7 +24,10 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 LINE = re.compile(
     r"^(\S+)\s+frames\s+(\d+)\s+mean\s+([\d.]+) ms\s+p95\s+([\d.]+) ms\s+worst\s+([\d.]+) ms"
+    r"(?:\s+cpu mean\s+([\d.]+) ms\s+cpu p95\s+([\d.]+) ms\s+cpu worst\s+([\d.]+) ms)?"
 )
+#: the mean and worst figures of LINE: wall clock, or CPU time of the tracker's thread
+GROUPS = {False: (3, 5), True: (6, 8)}
 BENCHMARKS = (
     "kitti-rrc-car",
     "kitti-rrc-pedestrian",
@@ -37,7 +40,7 @@ BENCHMARKS = (
 
 
 def _run(
-    src: Path | None, bench: str, out: Path, compare: Path | None
+    src: Path | None, bench: str, out: Path, compare: Path | None, cpu: bool = False
 ) -> tuple[float, float, bool]:
     env = dict(os.environ)
     if src is not None:
@@ -49,7 +52,11 @@ def _run(
     match = next((m for m in map(LINE.match, proc.stdout.splitlines()) if m), None)
     if match is None:
         raise SystemExit(f"{bench}: no timing line from {' '.join(cmd)}\n{proc.stderr[-2000:]}")
-    return float(match.group(3)), float(match.group(5)), compare is None or proc.returncode == 0
+    mean, worst = GROUPS[cpu]
+    if match.group(mean) is None:
+        raise SystemExit(f"{bench}: no CPU times from {' '.join(cmd)}")
+    same = compare is None or proc.returncode == 0
+    return float(match.group(mean)), float(match.group(worst)), same
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -57,6 +64,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--other", type=Path, required=True, help="the other checkout's src/ folder")
     ap.add_argument("--only", nargs="*", default=list(BENCHMARKS))
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--cpu", action="store_true", help="the tracker thread's CPU time")
     args = ap.parse_args(argv)
     print(
         f"{'benchmark':28s} {'this ms':>8} {'other ms':>9} {'ratio':>6} {'worst this':>10} "
@@ -66,8 +74,8 @@ def main(argv: list[str] | None = None) -> int:
         for bench in args.only:
             this, other, worst_this, worst_other, same = [], [], [], [], True
             for _r in range(args.repeat):
-                o = _run(args.other, bench, Path(tmp) / "other", None)
-                t = _run(None, bench, Path(tmp) / "this", Path(tmp) / "other")
+                o = _run(args.other, bench, Path(tmp) / "other", None, args.cpu)
+                t = _run(None, bench, Path(tmp) / "this", Path(tmp) / "other", args.cpu)
                 other.append(o[0])
                 worst_other.append(o[1])
                 this.append(t[0])

@@ -273,11 +273,11 @@ class LookaheadTracker:
         if hit is not None:
             self._costs.move_to_end(component)
             return hit
-        answer = self.tracker.solver.remembered(component)
-        if answer is None or answer.cost is None:
+        cost = self.tracker.solver.remembered_cost(component)
+        if cost is None:
             return None
-        _remember(self._costs, component, answer.cost, self.memo_size)
-        return answer.cost
+        _remember(self._costs, component, cost, self.memo_size)
+        return cost
 
     def _cost(self, component: Component) -> int:
         """The optimal cost of a part (solver units at priority >= 0), remembered."""

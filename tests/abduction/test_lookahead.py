@@ -257,3 +257,27 @@ def test_track_cli_places_events_warnings_and_scene_at_their_frames(tmp_path: Pa
         files[lookahead] = [p.read_bytes() for p in paths]
     assert all(files["0"]) and files["0"][2].count(b"\n") > 0  # tracks, events, warnings, scene
     assert files["0"] == files["0.5"]
+
+
+def test_the_cache_tells_the_cost_of_a_part_it_solved() -> None:
+    """The look-ahead reads the tracker's cache for a part's optimal cost: the cost of each part
+    solved on its own is remembered, and a part never solved is not."""
+    frames = list(crossing_scene(1, gap=6).frames())
+    tracker = Tracker(config(), solver_cache=SolverCache())
+    for f, d in frames[:12]:
+        tracker.update(d, f)
+    f, d = frames[12]
+    problem = tracker.problem(d)
+    parts = problem.components()
+    assert parts
+    costs = []
+    for component, _, _ in parts:
+        alone = tracker.solver.solver.solve_facts(component.facts(tracker.solver.solver.uses))
+        cost = tracker.solver.remembered_cost(component)
+        if cost is not None:
+            costs.append(cost)
+            assert alone is not None and cost == alone.cost
+    tracker.update(d, f)  # solves this frame's parts: each is remembered now
+    assert all(tracker.solver.remembered_cost(c) is not None for c, _, _ in parts)
+    fresh = Tracker(config(), solver_cache=SolverCache())
+    assert all(fresh.solver.remembered_cost(c) is None for c, _, _ in parts)

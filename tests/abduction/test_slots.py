@@ -168,6 +168,41 @@ def test_outside_the_slots_goes_to_the_fresh_control() -> None:
     assert SlotSolver(user, numbers=GRID, misses_per_cell=0).solve(moving) is None
 
 
+def test_a_shape_ground_ahead_takes_the_same_path_with_the_same_answers() -> None:
+    solver = AbductionSolver()
+    rng = random.Random(5)
+    pool = [random_component(rng, 2, 2, 0, classes=(1,)) for _ in range(12)]
+    # a 2 x 2 shape is due at its 5th component; ahead, its grounding starts at the 3rd
+    now = SlotSolver(solver, numbers=GRID + [1], misses_per_cell=0.5)
+    ahead = SlotSolver(solver, numbers=GRID + [1], misses_per_cell=0.5, lead=0.5)
+    for i, component in enumerate(pool):
+        mine, theirs = ahead.solve(component), now.solve(component)
+        assert (mine is None) == (theirs is None) == (i < 4)
+        assert (ahead.stats["grounded"], bool(ahead._pending)) == (
+            now.stats["grounded"],
+            2 <= i < 4,
+        )
+        if mine is not None and theirs is not None:
+            assert (mine.cost, mine.atoms()) == (theirs.cost, theirs.atoms())
+    assert ahead.stats["ahead"] == 1
+
+
+def test_a_grounding_ahead_with_other_values_is_not_taken() -> None:
+    solver = AbductionSolver()
+    rng = random.Random(6)
+    first, second = random_component(rng, 1, 1, 0), random_component(rng, 1, 1, 0)
+    # no numbers expected: each component brings its own, so the one ground ahead (with the
+    # first's) is not the one the second is due with (with both): it is ground again at once
+    ahead = SlotSolver(solver, misses_per_cell=0.5, lead=0.5)  # 1 x 1: due at the 3rd
+    assert ahead.solve(first) is None and ahead.solve(first) is None and ahead._pending
+    if ahead._values(second)[1] <= ahead._values(first)[1]:
+        pytest.skip("the second component brings no new number")
+    answer = ahead.solve(second)
+    assert answer is not None and ahead.stats["ahead"] == 0 and not ahead._pending
+    fresh = solver.solve_facts(second.facts())
+    assert fresh is not None and answer.cost == fresh.cost
+
+
 def test_a_shape_is_ground_once_met_often_enough() -> None:
     solver = AbductionSolver()
     slots = SlotSolver(solver, numbers=GRID, misses_per_cell=0.5)  # 1 x 1: 4 cells, 2 misses

@@ -39,3 +39,46 @@ def test_a_tracker_with_its_own_cache_leaves_the_shared_one_alone():
 
 def test_the_default_cache_is_the_shared_one():
     assert Tracker(CONFIG).solver.cache is SHARED
+
+
+def test_an_answer_from_the_cache_equals_the_solved_one():
+    from sensemaking.abduction.components import ComponentSolver
+    from sensemaking.abduction.solver import Det
+
+    own = SolverCache()
+    tracker = Tracker(CONFIG, solver_cache=own)
+    problems = []
+    solve = tracker.solver.solve
+
+    def keep(problem, budget_ms=None):  # type: ignore[no-untyped-def]
+        problems.append(problem)
+        return solve(problem, budget_ms)
+
+    tracker.solver.solve = keep  # type: ignore[method-assign]
+    _run(tracker)
+    assert len(problems) > 10
+    solver = ComponentSolver(tracker.solver.solver, cache=SolverCache(), slots=False)
+    solved = [solver.solve(problem) for problem in problems]
+    hits = solver.stats["cache_hits"]
+    with_det = 0
+    for problem, a in zip(problems, solved, strict=True):
+        b = solver.solve(problem)  # every component from the cache now
+        assert a is not None and b is not None
+        b.solve_ms = a.solve_ms = 0.0
+        assert b == a  # every field, in order (events and fluents name detections as Det)
+        with_det += any(isinstance(x, Det) for _, args in a.events for x in args)
+    assert solver.stats["cache_hits"] - hits == solver.stats["components"] // 2 > 0
+    assert with_det > 0
+
+
+def test_shapes_ground_ahead_give_the_tracks_of_shapes_ground_at_once():
+    ahead, now = (
+        Tracker(CONFIG, solver_cache=SolverCache()),
+        Tracker(CONFIG, solver_cache=SolverCache(lead=0)),
+    )
+    assert _run(ahead) == _run(now)
+    slots_ahead, slots_now = ahead.solver._slots, now.solver._slots
+    assert slots_ahead is not None and slots_now is not None
+    assert slots_ahead.stats["ahead"] > 0 and slots_now.stats["ahead"] == 0
+    assert slots_ahead.stats["grounded"] == slots_now.stats["grounded"]
+    assert slots_ahead.stats["answered"] == slots_now.stats["answered"]

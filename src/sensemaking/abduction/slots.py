@@ -13,6 +13,10 @@ The universe comes from the fact vocabulary, never from the rules: it is the uni
 outside the universe (a larger shape, a class or number not seen yet, an optional predicate such
 as ``speed/2``) is not answered here (None): the caller solves it on a fresh Control.
 
+With ``lead``, a shape's Control is ground ahead in a worker thread (the grounder lets go of
+Python's lock), so that the frame where it becomes due does not pay 50-150 ms for it; the due
+component takes it only when it holds the universe that component would be ground with.
+
 Measured on KITTI RRC car (misses of the answer cache, one process): a slot solve takes
 0.1-0.8 ms for 1x1 to 3x3 components where a fresh Control takes 2.5-5 ms; every answer had
 the fresh solve's cost and atoms. clasp forgets between solves, so an answer does not depend on
@@ -24,10 +28,13 @@ shapes met before it in the process.
 from __future__ import annotations
 
 import logging
+import os
 import threading
 import time
+import weakref
 from collections import OrderedDict
 from collections.abc import Collection, Iterable
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -47,6 +54,21 @@ _FORGET = "--forget-on-step=varScores,signs,lemmaScores,lemmas"
 _UNSEEN: tuple[int, ...] = (-1,)  # the memo's "not looked up yet", compared by identity
 #: bound of the memo of each shape's pieces (their literals); past it the memo starts afresh
 _MAX_PIECES = 20_000
+#: solvers with a worker thread: a fork waits for their groundings (a child must not inherit
+#: clingo's locks in the middle of a grounding, e.g. the sandbox's limited child)
+_WITH_WORKERS: weakref.WeakSet[SlotSolver] = weakref.WeakSet()
+_FORK_HOOK: list[bool] = []
+
+
+def _settle_before_fork() -> None:
+    """Wait for every grounding under way in a worker thread (``os.register_at_fork``)."""
+    for solver in list(_WITH_WORKERS):
+        for _, future in list(solver._pending.values()):
+            if not future.cancelled():
+                try:
+                    future.result()
+                except Exception:  # noqa: BLE001 - the due component grounds it again and says why
+                    pass
 
 
 @dataclass(frozen=True)
@@ -158,7 +180,6 @@ class _Grounded:
         classes: frozenset[int] = frozenset(),
         numbers: frozenset[int] = frozenset(),
     ):
-        self.universe = universe
         #: the classes and numbers the universe was made with
         self.classes, self.numbers = classes, numbers
         self.ctl = asp.control([*solver.options, _FORGET], asp.parsed(solver.program))
@@ -168,15 +189,16 @@ class _Grounded:
         atoms = self.ctl.symbolic_atoms
         # a fact some rule also derives is no longer external: it cannot be set, so a component
         # stating it is not answered here
-        #: fact -> its program literal (0: no rule reads the fact, the grounder dropped it: true
-        #: or false, it changes nothing)
-        self.literal: dict[Symbol, int] = {}
+        #: fact (its text: a Symbol is an object Python's garbage collector walks, thousands
+        #: a shape) -> its program literal (0: no rule reads the fact, the grounder dropped it:
+        #: true or false, it changes nothing)
+        self.literal: dict[str, int] = {}
         for fact in universe:
             atom = atoms[fact]
             if atom is None:
-                self.literal[fact] = 0
+                self.literal[str(fact)] = 0
             elif atom.is_external:
-                self.literal[fact] = atom.literal
+                self.literal[str(fact)] = atom.literal
         literals = [lit for lit in self.literal.values() if lit]
         #: every external false: a component's assumptions are this with its facts made true
         self._all_false = [-lit for lit in literals]
@@ -203,7 +225,7 @@ class _Grounded:
     def _lookup(self, facts: Iterable[Symbol]) -> tuple[int, ...] | None:
         lits = []
         for fact in facts:
-            lit = self.literal.get(fact)
+            lit = self.literal.get(str(fact))
             if lit is None:
                 return None
             lits.append(lit)
@@ -243,6 +265,15 @@ class SlotSolver:
         misses_per_cell: a shape is ground at its n-th component, n = this times
             ``(tracks + 1) x (detections + 1)`` (grounding measured ~2 ms per such cell with
             the 42 numbers of the tracker's grid, a fresh solve 2.5-5 ms); 0: at once.
+        lead: 0: a shape is ground in the caller's thread at its n-th component (that frame
+            pays for it: 50-150 ms for the larger shapes). 0 < lead < 1: a worker thread starts
+            grounding it at its ``lead`` x n-th component, with the classes and numbers known
+            then, and the n-th component takes that Control (waiting for the worker if it is
+            not done) when they are the ones it would be ground with now; otherwise it is
+            ground at once as without ``lead``. Either way the shape's Control is the same
+            program from the same component on: the answers are those of ``lead=0``.
+        max_pending: groundings started ahead and not taken yet, at most (memory: a Control
+            each); past it the one started first is dropped.
     """
 
     def __init__(
@@ -256,6 +287,8 @@ class SlotSolver:
         max_numbers: int = 128,
         max_controls: int = 32,
         misses_per_cell: float = 0.5,
+        lead: float = 0.0,
+        max_pending: int = 8,
     ):
         self.solver = solver
         self.max_shape = Shape(max_tracks, max_dets, max_occluders)
@@ -268,8 +301,12 @@ class SlotSolver:
         self._grounded: OrderedDict[Shape, _Grounded] = OrderedDict()
         #: components declined per shape not ground yet
         self._misses: dict[Shape, int] = {}
+        self.lead, self.max_pending = lead, max_pending
+        #: shapes being ground ahead in the worker: the classes and numbers, the grounding
+        self._pending: dict[Shape, tuple[tuple[frozenset[int], frozenset[int]], Future]] = {}
+        self._worker: ThreadPoolExecutor | None = None
         self._lock = threading.Lock()
-        self.stats = {"answered": 0, "outside": 0, "grounded": 0}
+        self.stats = {"answered": 0, "outside": 0, "grounded": 0, "ahead": 0}
 
     def expect(self, numbers: Iterable[int]) -> None:
         """Add likelihoods and confidences to the universe (shapes ground later include them)."""
@@ -296,8 +333,11 @@ class SlotSolver:
                 self._grounded.move_to_end(shape)
             else:
                 self._misses[shape] = misses = self._misses.get(shape, 0) + 1
-                if misses > self.misses_per_cell * (shape.tracks + 1) * (shape.dets + 1):
+                due = self.misses_per_cell * (shape.tracks + 1) * (shape.dets + 1)
+                if misses > due:
                     grounded = self._ground(shape, component)
+                elif misses > self.lead * due and self.lead > 0:
+                    self._start(shape, component)
             true = None if grounded is None else grounded.literals_of(component)
             if true is None and grounded is not None and self._brings_values(component, grounded):
                 grounded = self._ground(shape, component)
@@ -330,24 +370,68 @@ class SlotSolver:
             and len(self.numbers | numbers) <= self.max_numbers
         )
 
-    def _ground(self, shape: Shape, component: Component) -> _Grounded:
-        """Ground the shape with the classes and numbers known, the component's added."""
-        t0 = time.perf_counter()
+    def _with(self, component: Component) -> tuple[frozenset[int], frozenset[int]]:
+        """The classes and numbers known with the component's added (within the bounds)."""
         classes, numbers = self._values(component)
         if len(self.classes | classes) <= self.max_classes:
-            self.classes |= classes
+            classes = self.classes | classes
+        else:
+            classes = set(self.classes)
         if len(self.numbers | numbers) <= self.max_numbers:
-            self.numbers |= numbers
-        universe = vocabulary(shape, self.classes, self.numbers, self.solver.uses)
-        grounded = _Grounded(
-            self.solver, universe, frozenset(self.classes), frozenset(self.numbers)
-        )
+            numbers = self.numbers | numbers
+        else:
+            numbers = set(self.numbers)
+        return frozenset(classes), frozenset(numbers)
+
+    def _ground(self, shape: Shape, component: Component) -> _Grounded:
+        """Ground the shape with the classes and numbers known, the component's added; the
+        Control ground ahead for them if there is one."""
+        values = self._with(component)
+        self.classes, self.numbers = set(values[0]), set(values[1])
+        self._misses.pop(shape, None)
+        ahead = self._pending.pop(shape, None)
+        if ahead is not None and ahead[0] == values:
+            self.stats["ahead"] += 1
+            return self._install(shape, ahead[1].result())  # waits for the worker if need be
+        return self._install(shape, _build(self.solver, shape, *values))
+
+    def _start(self, shape: Shape, component: Component) -> None:
+        """Start grounding the shape in the worker with the values known now (the
+        component's added), unless it is started already; past ``max_pending``, the grounding
+        started first is dropped (a shape whose components stopped coming)."""
+        if shape in self._pending:
+            return
+        while len(self._pending) >= self.max_pending:
+            oldest = next(iter(self._pending))
+            self._pending.pop(oldest)[1].cancel()
+        values = self._with(component)
+        if self._worker is None:
+            self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="slots")
+            _WITH_WORKERS.add(self)
+            if not _FORK_HOOK and hasattr(os, "register_at_fork"):
+                os.register_at_fork(before=_settle_before_fork)
+                _FORK_HOOK.append(True)
+        self._pending[shape] = (values, self._worker.submit(_build, self.solver, shape, *values))
+
+    def _install(self, shape: Shape, grounded: _Grounded) -> _Grounded:
+        """Keep a ground shape (least recently used out past ``max_controls``)."""
         self._grounded[shape] = grounded
         self._grounded.move_to_end(shape)
         while len(self._grounded) > self.max_controls:
             self._grounded.popitem(last=False)
-        self._misses.pop(shape, None)
-        ms = (time.perf_counter() - t0) * 1000.0
         self.stats["grounded"] += 1
-        log.debug("ground shape %s: %d externals, %.1f ms", shape, len(universe), ms)
         return grounded
+
+
+def _build(
+    solver: AbductionSolver, shape: Shape, classes: frozenset[int], numbers: frozenset[int]
+) -> _Grounded:
+    """A shape's Control, ground with its universe (reads nothing but its arguments: it may run
+    in a worker thread; clingo's symbol table is locked, and the grounder lets go of Python's
+    lock while it works)."""
+    t0 = time.perf_counter()
+    universe = vocabulary(shape, classes, numbers, solver.uses)
+    grounded = _Grounded(solver, universe, classes, numbers)
+    ms = (time.perf_counter() - t0) * 1000.0
+    log.debug("ground shape %s: %d externals, %.1f ms", shape, len(universe), ms)
+    return grounded

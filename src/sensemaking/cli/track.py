@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import gc
 import logging
 import math
 import os
@@ -821,6 +822,9 @@ def _run(args: argparse.Namespace) -> int:
             validate=args.detections is None,
             on_frames=progress.advance,
         )
+        # everything made so far lives as long as the run: the collector stops walking it (its
+        # full collections over the libraries' own objects cost 30-50 ms frames; DESIGN-NOTES)
+        gc.freeze()
         try:
             with pipe:
                 summary = pipe.run(frames, first_frame=first, last_frame=last)
@@ -841,6 +845,8 @@ def _run(args: argparse.Namespace) -> int:
                 file=sys.stderr,
             )
             raise
+        finally:
+            gc.unfreeze()  # a caller running several tracks in one process collects as before
     stats = tracker.stats
     if tracker is not online:  # every solve, the hypotheses' included, per frame of input
         stats = {**stats, "solve_ms": online.stats["solve_ms"]}
