@@ -37,6 +37,8 @@ import time
 from bisect import bisect_right
 from collections import OrderedDict
 from collections.abc import Iterable
+from dataclasses import fields
+from operator import attrgetter
 
 from sensemaking.abduction.problem import Component, FrameProblem
 from sensemaking.abduction.slots import SlotSolver
@@ -230,19 +232,13 @@ class ComponentSolver:
         return _split(whole, t_starts, d_starts)
 
 
+#: every field of a component, in order: a new field is part of the cache key by itself
+_FIELDS = attrgetter(*(f.name for f in fields(Component)))
+
+
 def _plain(c: Component) -> Plain:
     """The component's fields as a plain tuple (equal exactly when the components are)."""
-    return (
-        c.first_frame,
-        c.tracks,
-        c.dets,
-        c.cand,
-        c.covers,
-        c.keeps_covering,
-        c.emerges,
-        c.hidden_by,
-        c.fits,
-    )
+    return tuple(_FIELDS(c))
 
 
 def _pack_ref(x: Ref) -> int | str | tuple[int]:
@@ -267,6 +263,7 @@ def _pack(a: Answer) -> Packed:
         a.budget_hit,
         a.timed_out,
         a.solve_ms,
+        tuple((n, tuple(map(_pack_ref, args)), c) for n, args, c in a.confidence),
     )
 
 
@@ -298,6 +295,7 @@ def _unpack_mapped(p: Packed, track_ids: list[int], det_rows: list[int]) -> Answ
         budget_hit=p[11],
         timed_out=p[12],
         solve_ms=p[13],
+        confidence=[(n, tuple(ref(a) for a in args), c) for n, args, c in p[14]],
     )
 
 
