@@ -112,6 +112,23 @@ def test_frame_number_taken_from_the_detections():
 
 
 # ---- hidden tracks ------------------------------------------------------------------------
+def test_the_recorded_problem_keeps_the_visibility_it_was_solved_with():
+    """A frame's recorded problem (the scene file, ``ask why``) holds the visibility the
+    tracks had before the answer, even where the answer changes it (the hiding frame)."""
+    scene = crossing_scene(0)
+    t = Tracker(TrackerConfig(fps=scene.fps, image_size=(scene.width, scene.height)))
+    changed = 0
+    for f, d in scene.frames():
+        before = t.tracks.vis.copy()
+        r = t.update(d, frame=f)
+        if r.abduction is None or not len(before):
+            continue
+        recorded = r.abduction.problem.visibility
+        assert recorded.tolist() == before.tolist()
+        changed += int(t.tracks.vis[: len(before)].tolist() != before.tolist())
+    assert changed  # the answer did change a visibility on some frame
+
+
 def test_hidden_track_is_reported_with_predicted_box_and_occluder():
     scene = with_rows(
         crossing_scene(0)

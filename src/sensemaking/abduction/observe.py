@@ -273,7 +273,7 @@ def frame_problem(
         keeps_covering=keeps,
         hidden_by=int_columns(tracks.id[hid], tracks.occluder[hid]),
         emerges=emerging,
-        visibility=tracks.vis,
+        visibility=tracks.vis.copy(),  # the answer sets the tracks' own in place
         first_frame=first_frame,
         cand_exact=cand_exact,
         covers_exact=covers_exact,
