@@ -46,7 +46,7 @@ def random_component(
     for t in range(nt):
         ds = [d for d in range(nd) if rng.random() < 0.3]
         covers += [
-            (d, t, r if len(ds) > 1 else -1, rng.choice((500, 650, 1000)), rng.choice((0, 1000)))
+            (d, t, r if len(ds) > 1 else -1, rng.choice((500, 750, 1000)), rng.choice((0, 1000)))
             for r, d in enumerate(ds)
         ]
     hidden = tuple((t, rng.randrange(nt + no)) for t in range(nt) if rng.random() < 0.4)

@@ -222,8 +222,10 @@ def frame_problem(
         back, dj = np.nonzero(dcov >= c.hide_cover)
         covers = int_columns(dj, back)
         covers_exact = dcov[back, dj]
-        # how clear the depth order of each pair is (cover_depth/3, a hiding's confidence)
-        covers_margin = front_margin(dxy[dj], pred[back], dets.depth[dj], tracks.depth[back])
+        # whether the depth order of each pair is clear (cover_depth/3, a hiding's confidence):
+        # the rule compares with depth_clear only, so two values keep the slots' universe small
+        margin = front_margin(dxy[dj], pred[back], dets.depth[dj], tracks.depth[back])
+        covers_margin = (margin >= c.depth_clear).astype(np.float64)
         # covering detections that fit the track as its own observation would (fits/2)
         own = qlik[back, dj] >= thresholds(config, c.iou_resume)[0]
         if c.class_aware:

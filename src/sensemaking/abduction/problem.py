@@ -36,9 +36,10 @@ GONE_EVENTS = ("leaves_fov", "ends")
 #: the per-track flags of the facts, in the order of :attr:`Component.tracks` rows
 TRACK_FLAGS = ("tentative", "uncertain", "expired", "outside", "at_border", "overlapped", "cut")
 
-#: ``cover_share/3`` and ``cover_depth/3`` values are per mille rounded down to this step: a
-#: few distinct values keep the answer cache's keys and the slot solver's universe small
-SHARE_STEP = 50
+#: ``cover_share/3`` values are per mille rounded down to this step (``cover_depth/3`` is 0 or
+#: 1000): few distinct values keep the answer cache's keys and the slot solver's universe small
+#: (a step of 50 made MOT17-04 track three times slower, docs/DESIGN-NOTES.md)
+SHARE_STEP = 250
 
 _TRUE = Function("true")
 _ZERO = _number(0)
@@ -201,9 +202,9 @@ class FrameProblem:
         covers_exact: (P,) float fraction of the track's predicted box covered by the detection,
             one per ``covers`` row, or None. With them the facts rank each track's covering
             detections (``cover_rank/3``): a lowest-priority tie-break between occluders.
-        covers_margin: (P,) float, how far the detection of each ``covers`` row stands in
-            front of the track (:func:`sensemaking.geometry.front_margin`), or None (the
-            ``cover_depth/3`` facts then say 1000: clear).
+        covers_margin: (P,) float, 1 where the detection of each ``covers`` row stands in
+            front of the track by at least ``depth_clear`` (:func:`sensemaking.geometry.
+            front_margin`), else 0; or None (the ``cover_depth/3`` facts then say 1000: clear).
         speed: (T,) int predicted speed of each track's box centre, pixels per second, or None
             (the ``speed/2`` facts, for encodings that read them).
         cut: (T,) bool, predicted box reaches the left, right or bottom image border
@@ -293,8 +294,8 @@ class FrameProblem:
         return (permille // SHARE_STEP * SHARE_STEP).astype(np.int64)
 
     def cover_depths(self) -> np.ndarray:
-        """(P,) ``cover_depth/3`` of each ``covers`` row: the front margin per mille, rounded
-        down to :data:`SHARE_STEP`, within 0..1000 (1000 without ``covers_margin``)."""
+        """(P,) ``cover_depth/3`` of each ``covers`` row: 1000 where the depth order is clear,
+        else 0 (1000 without ``covers_margin``)."""
         if self.covers_margin is None:
             return np.full(len(self.covers), 1000, dtype=np.int64)
         permille = np.floor(np.clip(self.covers_margin, 0.0, 1.0) * 1000 + 1e-6)

@@ -116,10 +116,11 @@ def vocabulary(
             (),
             (),
             covers=tuple(
-                (d, t, r, level, level)  # each share and each margin, as separate facts
+                (d, t, r, level, margin)  # each share, and the two margins (clear or not)
                 for t, d in pairs
                 for r in range(-1, nd)
                 for level in range(0, 1001, SHARE_STEP)
+                for margin in ((0, 1000) if level == 0 else (1000,))
             ),
             keeps_covering=tuple((d, t) for t, d in pairs),
             emerges=tuple((d, t) for t, d in pairs),
