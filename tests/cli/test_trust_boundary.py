@@ -27,11 +27,11 @@ from sensemaking.cli import main
 def test_a_hidden_include_is_refused_before_clingo_opens_the_file(
     scene_file: Path, capsys, monkeypatch, query: str
 ) -> None:
-    (scene_file.parent / "secret.lp").write_text("secret(42).\n")
+    (scene_file.parent / "secret.lp").write_text("secret(84611597).\n")
     monkeypatch.chdir(scene_file.parent)
     assert main(["ask", "--timeout", "5", str(scene_file), query]) == 2
     line = one_line_error(capsys)
-    assert "#include is not allowed" in line and "42" not in line
+    assert "#include is not allowed" in line and "84611597" not in line
 
 
 def test_a_query_that_does_not_parse_is_refused_with_its_position(
@@ -159,7 +159,7 @@ def test_user_encodings_get_one_line_errors_and_limits(
     tmp_path: Path, capsys, option: str, text: str, expected: str
 ) -> None:
     det = write_det(tmp_path / "det.txt")
-    (tmp_path / "other.lp").write_text("secret(42).\n")
+    (tmp_path / "other.lp").write_text("secret(84611597).\n")
     rules = tmp_path / "rules.lp"
     rules.write_text(text)
     out = tmp_path / "out.txt"
@@ -169,7 +169,7 @@ def test_user_encodings_get_one_line_errors_and_limits(
         argv += ["--warnings", str(tmp_path / "w.jsonl")]
     assert main(argv) == 2
     line = one_line_error(capsys)
-    assert expected in line and "42" not in line
+    assert expected in line and "84611597" not in line
     assert not out.exists() and not list(tmp_path.glob("*.part"))
 
 
