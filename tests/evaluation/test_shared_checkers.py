@@ -14,7 +14,6 @@ and calls a person who stays between 0.5 and 0.8 visible undecidable.
 
 from __future__ import annotations
 
-import configparser
 import importlib.util
 import json
 from collections import Counter
@@ -95,10 +94,15 @@ def test_kitti_hides_checker_and_our_evaluator_on_0002(tmp_path):
     )
     assert rc == 0
     checker = list(kh.verdicts(str(labels), str(tmp_path / "res"), str(tmp_path / "ev"), seq))
-    from sensemaking.io.kitti import read_kitti_labels
+    from sensemaking.io.kitti import read_kitti_labels, read_kitti_seqinfo
 
+    info = read_kitti_seqinfo(SHARED_DATA / "kitti" / "training" / "seqinfo.csv")[seq]
     gt = load_ground_truth(
-        labels / f"{seq}.txt", "kitti", image_size=(1242, 375), fps=10.0, classes=("car",)
+        labels / f"{seq}.txt",
+        "kitti",
+        image_size=(info.width, info.height),
+        fps=info.fps,
+        classes=("car",),
     )
     ours = evaluate_explanations(gt, read_kitti_labels(res), read_events(events), name=seq)
     table = _side_by_side(checker, events, ours)
@@ -138,17 +142,15 @@ def test_mot_hides_checker_and_our_evaluator_on_mot17_05(tmp_path):
     )
     assert rc == 0
     checker = list(mh.verdicts(str(root), str(tmp_path / "res"), str(tmp_path / "ev"), seq))
-    from sensemaking.io.mot import read_mot
+    from sensemaking.io.mot import read_mot, read_seqinfo
 
-    info = configparser.ConfigParser()
-    info.read(root / seq / "seqinfo.ini")
-    q = info["Sequence"]
+    info = read_seqinfo(root / seq)
     gt = load_ground_truth(
         root / seq / "gt" / "gt.txt",
         "mot",
-        image_size=(int(q["imWidth"]), int(q["imHeight"])),
-        fps=float(q["frameRate"]),
-        n_frames=int(q["seqLength"]),
+        image_size=(info.width, info.height),
+        fps=info.fps,
+        n_frames=info.length,
     )
     ours = evaluate_explanations(gt, read_mot(res, kind="results"), read_events(events), name=seq)
     table = _side_by_side(checker, events, ours)

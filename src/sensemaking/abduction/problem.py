@@ -288,18 +288,12 @@ class FrameProblem:
     def cover_shares(self) -> np.ndarray:
         """(P,) ``cover_share/3`` of each ``covers`` row: per mille rounded down to
         :data:`SHARE_STEP` (1000 without ``covers_exact``: every pair counts as fully covering)."""
-        if self.covers_exact is None:
-            return np.full(len(self.covers), 1000, dtype=np.int64)
-        permille = np.floor(np.clip(self.covers_exact, 0.0, 1.0) * 1000 + 1e-6)
-        return (permille // SHARE_STEP * SHARE_STEP).astype(np.int64)
+        return _steps(self.covers_exact, len(self.covers))
 
     def cover_depths(self) -> np.ndarray:
         """(P,) ``cover_depth/3`` of each ``covers`` row: 1000 where the depth order is clear,
         else 0 (1000 without ``covers_margin``)."""
-        if self.covers_margin is None:
-            return np.full(len(self.covers), 1000, dtype=np.int64)
-        permille = np.floor(np.clip(self.covers_margin, 0.0, 1.0) * 1000 + 1e-6)
-        return (permille // SHARE_STEP * SHARE_STEP).astype(np.int64)
+        return _steps(self.covers_margin, len(self.covers))
 
     def whole(self) -> tuple[Component, list[int], list[int]]:
         """The whole frame as one component (for checks, and encodings not known to be local)."""
@@ -461,3 +455,12 @@ class FrameProblem:
             (lg[g], ld[d], lik) for g, d, lik in self.back.tolist() if g in lg and d in ld
         )
         return gone, back
+
+
+def _steps(values: np.ndarray | None, n: int) -> np.ndarray:
+    """(n,) ``values`` in [0, 1] as per mille rounded down to :data:`SHARE_STEP` (all 1000
+    where None)."""
+    if values is None:
+        return np.full(n, 1000, dtype=np.int64)
+    permille = np.floor(np.clip(values, 0.0, 1.0) * 1000 + 1e-6)
+    return (permille // SHARE_STEP * SHARE_STEP).astype(np.int64)
