@@ -456,6 +456,18 @@ class TrackerConfig:
             rolled forward (more work), more chances to undo a swap.
         lookahead_hypotheses: most hypotheses rolled forward per contested frame, the online
             optimum included (N-best pruning). Bounds the work of a frame.
+        direction_weight: motion-direction consistency (OC-SORT's observation-centric
+            momentum, issue 27): a match costs this much more per half turn between the track's
+            direction of motion (from its observation 3 frames before its last one to the last;
+            ``track_table.DIRECTION_SPAN``) and the direction from its observation about 3
+            frames back to the detection; a track with a direction left unmatched costs half of
+            it (so a match within a quarter turn of the motion is cheaper than none, one against
+            it dearer). The angle is rounded to eighths of a turn (45 degrees): four weights.
+            Only tracks seen three times or more and moving at least ``direction_min_speed``
+            have a direction (solver units; tracking.lp's ``direction_weight``). 0: off.
+        direction_min_speed: with ``direction_weight``, how fast a track's last observations
+            must move for its direction to count, in box heights per second (the box's last
+            observed height): slower tracks' directions are detector jitter.
         costs: :class:`AbductionCosts`.
         kalman: :class:`~sensemaking.motion.KalmanConfig`.
     """
@@ -516,6 +528,8 @@ class TrackerConfig:
     lookahead_s: float = param(0.0, "float", "s", 0.0, 10.0)
     lookahead_margin: int = param(300, "int", _COST, 0, 100_000)
     lookahead_hypotheses: int = param(3, "int", "hypotheses", 1, 16)
+    direction_weight: int = param(0, "int", _COST, 0, 100_000)
+    direction_min_speed: float = param(0.25, "float", "box heights / s", 0.0, 100.0)
     costs: AbductionCosts = nested(AbductionCosts)
     kalman: KalmanConfig = nested(KalmanConfig)
 

@@ -11,6 +11,10 @@ __all__ = ["TrackTable", "EndedTracks"]
 
 #: at most this many ended tracks are kept to revive (``TrackerConfig.revive_s``): the latest
 REVIVE_MAX = 16
+#: frames between the observations a track's direction of motion is read from (OC-SORT's
+#: delta t, ``TrackerConfig.direction_weight``); the trail keeps this many + 1 observations
+DIRECTION_SPAN = 3
+TRAIL = DIRECTION_SPAN + 1
 
 
 class TrackTable:
@@ -22,8 +26,10 @@ class TrackTable:
         visibility values (``abduction.problem.VISIBILITY_VALUES``). unseen: frames since last
         matched. hits: frames matched. conf: last detection score (detector units).
         confirmed: reported (enough hits). depth: metres along the optical axis at the last
-        match (``Detections.depth``), NaN where its detector gives none. kf: the Kalman
-        filters, one row per track.
+        match (``Detections.depth``), NaN where its detector gives none. trail_frame:
+        (T, TRAIL) frame numbers of the last observations, oldest first, -1 where none;
+        trail_xy: (T, TRAIL, 2) their box centres (pixels); kept only with
+        ``direction_weight`` (:meth:`record`). kf: the Kalman filters, one row per track.
     """
 
     #: the columns, with their dtypes
@@ -38,7 +44,11 @@ class TrackTable:
         "conf": np.float64,
         "confirmed": bool,
         "depth": np.float64,
+        "trail_frame": np.int64,
+        "trail_xy": np.float64,
     }
+    #: the trailing dimensions of the columns that are not (T,)
+    SHAPES: dict[str, tuple[int, ...]] = {"trail_frame": (TRAIL,), "trail_xy": (TRAIL, 2)}
 
     id: np.ndarray
     cls: np.ndarray
@@ -50,11 +60,13 @@ class TrackTable:
     conf: np.ndarray
     confirmed: np.ndarray
     depth: np.ndarray
+    trail_frame: np.ndarray
+    trail_xy: np.ndarray
 
     def __init__(self, kalman: KalmanConfig | None = None) -> None:
         self.kf = KalmanBank(kalman)
         for name, dtype in self.COLUMNS.items():
-            setattr(self, name, np.zeros(0, dtype=dtype))
+            setattr(self, name, np.zeros((0, *self.SHAPES.get(name, ())), dtype=dtype))
 
     def __len__(self) -> int:
         return int(self.id.shape[0])
@@ -89,6 +101,8 @@ class TrackTable:
             "conf": conf,
             "confirmed": np.zeros(k, dtype=bool),
             "depth": np.full(k, np.nan) if depth is None else depth,
+            "trail_frame": np.full((k, TRAIL), -1),
+            "trail_xy": np.zeros((k, TRAIL, 2)),
         }
         for name, dtype in self.COLUMNS.items():
             setattr(
@@ -96,6 +110,15 @@ class TrackTable:
                 name,
                 np.concatenate([getattr(self, name), np.asarray(new[name]).astype(dtype)]),
             )
+
+    def record(self, rows: np.ndarray, frame: int, xyxy: np.ndarray) -> None:
+        """Append the observation of ``rows`` (K,) at ``frame``, boxes ``xyxy`` (K, 4) pixels, to
+        their trails (the oldest drops out)."""
+        f, xy = self.trail_frame, self.trail_xy
+        f[rows, :-1] = f[rows, 1:]
+        xy[rows, :-1] = xy[rows, 1:]
+        f[rows, -1] = frame
+        xy[rows, -1] = (xyxy[:, :2] + xyxy[:, 2:]) / 2
 
     def take(self, rows: np.ndarray) -> TrackTable:
         """A new table of ``rows`` (int array or (T,) bool mask), copied, filters included."""

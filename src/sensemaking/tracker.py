@@ -131,6 +131,8 @@ class Tracker:
                 "depth_confidence": int(round(c.depth_confidence * 1000)),
                 # every event cost is tracking.lp's #const cost_<name>
                 **{f"cost_{name}": value for name, value in _costs(c).items()},
+                # only when on: the constants (recorded in scene files) stay as they were
+                **({"direction_weight": c.direction_weight} if c.direction_weight else {}),
             },
             encoding=None if encoding is None else read_encoding(encoding),
             rules=[read_encoding(r) for r in extra],
@@ -354,6 +356,8 @@ class Tracker:
         # new tracks first, so that fluents and events can name them
         new_ids = self._start_new(ans, dets)
         observed = {**matched, **{t: d.row for d, t in new_ids.items()}}
+        if self.config.direction_weight and observed:
+            self._record_trail(observed, dets, frame)
         self._carry_fluents(ans, index, new_ids)
         self._mark_unobserved(ans.halt + ans.ignore_trk, index, camera)
         events = self._confirm(frame)
@@ -431,6 +435,14 @@ class Tracker:
         self._tracks.conf[rows] = dets.confidence[cols]
         self._tracks.depth[rows] = dets.depth[cols]
         return camera
+
+    def _record_trail(self, observed: dict[int, int], dets: Detections, frame: int) -> None:
+        """Add this frame's observations (``track id -> detection row``) to the tracks'
+        trails, from which their directions of motion are read (``direction_weight``)."""
+        index = self._tracks.row_of()
+        rows = np.array([index[t] for t in observed], dtype=np.int64)
+        cols = np.array(list(observed.values()), dtype=np.int64)
+        self._tracks.record(rows, frame, dets.xyxy[cols])
 
     def _start_new(self, ans: Answer, dets: Detections) -> dict[Det, int]:
         """Start a track for each detection the answer starts; ``detection -> new track id``

@@ -27,7 +27,7 @@ from sensemaking.geometry import (
     safe_ratio,
 )
 from sensemaking.results import TrackState
-from sensemaking.track_table import EndedTracks, TrackTable
+from sensemaking.track_table import DIRECTION_SPAN, EndedTracks, TrackTable
 
 __all__ = [
     "frame_problem",
@@ -42,6 +42,7 @@ __all__ = [
     "likelihood_grid",
     "int_columns",
     "revival",
+    "headings",
 ]
 
 _HIDDEN = int(TrackState.HIDDEN)  # as a plain int: numpy compares it faster than the enum
@@ -255,6 +256,8 @@ def frame_problem(
                 "gone_class": table.cls[rows],
                 "back": back,
             }
+    if c.direction_weight and n and nd:
+        more["moving"], more["heading"] = headings(tracks, dets, cand, config)
     return FrameProblem(
         track_id=tracks.id,
         active=active,
@@ -317,6 +320,49 @@ def revival(
     rows = np.unique(gi)
     local = np.searchsorted(rows, gi)
     return rows, int_columns(local, dj, q[gi, dj])
+
+
+def headings(
+    tracks: TrackTable, dets: Detections, cand: np.ndarray, config: TrackerConfig
+) -> tuple[np.ndarray, np.ndarray]:
+    """Motion-direction consistency (OC-SORT's observation-centric momentum): ``(moving (T,)
+    bool, (H, 3) rows ``track index, detection index, level 1..4``)`` over the ``cand`` rows.
+
+    A track's direction runs from the oldest of its observations within ``DIRECTION_SPAN``
+    frames before its last one (else the one before the last) to the last; it counts when the
+    track was seen three times or more and that motion is at least ``direction_min_speed``
+    box heights per second. A detection's direction runs from the track's oldest observation
+    within ``DIRECTION_SPAN`` frames of this one (else its last) to the detection's centre. The
+    level is the angle between the two in eighths of a turn, rounded (a detection on that
+    origin: a quarter turn, as a track without a direction is charged)."""
+    f, xy = tracks.trail_frame, tracks.trail_xy  # (T, K) oldest first, (T, K, 2) pixels
+    k = f.shape[1]
+    rows = np.arange(len(tracks))
+    last = f[:, -1]
+    before = (f[:, :-1] >= 0) & (f[:, :-1] >= last[:, None] - DIRECTION_SPAN)
+    anchor = np.where(before.any(axis=1), before.argmax(axis=1), k - 2)
+    motion = xy[:, -1] - xy[rows, anchor]  # (T, 2) pixels
+    frames = np.maximum(last - f[rows, anchor], 1)
+    seen = tracks.kf.observed()
+    height = np.maximum(seen[:, 3] - seen[:, 1], 1.0)
+    speed = np.hypot(motion[:, 0], motion[:, 1]) / frames * config.fps / height  # heights / s
+    moving = ((f >= 0).sum(axis=1) >= 3) & (speed >= config.direction_min_speed) & (speed > 0)
+    pairs = cand[moving[cand[:, 0]]] if len(cand) else cand
+    if not len(pairs):
+        return moving, np.zeros((0, 3), dtype=np.int64)
+    now = int(dets.frame[0])
+    near = (f >= 0) & (f >= now - DIRECTION_SPAN)
+    start = np.where(near.any(axis=1), near.argmax(axis=1), k - 1)
+    origin = xy[rows, start]  # (T, 2)
+    t, d = pairs[:, 0], pairs[:, 1]
+    centre = (dets.xyxy[d, :2] + dets.xyxy[d, 2:]) / 2
+    to = centre - origin[t]
+    u = motion[t]
+    norm = np.hypot(to[:, 0], to[:, 1]) * np.hypot(u[:, 0], u[:, 1])
+    cos = np.where(norm > 0, (u * to).sum(axis=1) / np.maximum(norm, 1e-12), 0.0)
+    level = np.rint(np.arccos(np.clip(cos, -1.0, 1.0)) / (np.pi / 4)).astype(np.int64)
+    keep = level > 0
+    return moving, int_columns(t[keep], d[keep], level[keep])
 
 
 def speeds(tracks: TrackTable, config: TrackerConfig) -> np.ndarray:

@@ -76,6 +76,9 @@ class Component:
         gone: per ended track that may revive ``(index into GONE_EVENTS, class)``.
         back: ``(ended track, detection, likelihood 0..1000)``, the ended track counted from 0
             in ``gone``.
+        moving: tracks with a direction of motion (``direction_weight``).
+        heading: ``(track, detection, level 1..4)``: eighths of a turn between a moving track's
+            direction and the direction to the detection (level 0 has no row).
     """
 
     first_frame: bool
@@ -89,6 +92,8 @@ class Component:
     fits: tuple[tuple[int, int], ...] = ()
     gone: tuple[tuple[int, int], ...] = ()
     back: tuple[tuple[int, int, int], ...] = ()
+    moving: tuple[int, ...] = ()
+    heading: tuple[tuple[int, int, int], ...] = ()
 
     @property
     def n_live_refs(self) -> int:
@@ -159,6 +164,10 @@ class Component:
                 add(Function("ttype", [track(g0 + g), _number(cls)]))
             for g, j, lik in self.back:
                 add(Function("back", [track(g0 + g), det(j), _number(lik)]))
+        for t in self.moving:
+            add(Function("moving", [track(t)]))
+        for t, j, level in self.heading:
+            add(Function("heading", [track(t), det(j), _number(level)]))
         if self.first_frame:
             add(Function("first_frame"))
         return out
@@ -214,6 +223,10 @@ class FrameProblem:
         gone_how: (G,) int index into :data:`GONE_EVENTS`: how each ended.
         gone_class: (G,) int class ids.
         back: (B, 3) int rows ``ended track index, detection index, likelihood 0..1000``.
+        moving: (T,) bool, the track has a direction of motion (``direction_weight``), or None.
+        heading: (H, 3) int rows ``track index, detection index, level 1..4`` over ``cand``
+            pairs of moving tracks: the angle between the track's direction of motion and the
+            direction to the detection, in eighths of a turn (rounded; 0 has no row).
     """
 
     track_id: np.ndarray
@@ -246,6 +259,8 @@ class FrameProblem:
     gone_how: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     gone_class: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     back: np.ndarray = field(default_factory=lambda: _empty_rows(3))
+    moving: np.ndarray | None = None
+    heading: np.ndarray = field(default_factory=lambda: _empty_rows(3))
 
     @property
     def n_tracks(self) -> int:
@@ -386,9 +401,20 @@ class FrameProblem:
             where_t.update(dict.fromkeys(ts, g))
             where_d.update(dict.fromkeys(ds, g))
         parts: list[dict[str, list]] = [
-            {"cand": [], "covers": [], "fits": [], "keeps": [], "emerges": [], "hidden": []}
+            {
+                "cand": [],
+                "covers": [],
+                "fits": [],
+                "keeps": [],
+                "emerges": [],
+                "hidden": [],
+                "heading": [],
+            }
             for _ in groups
         ]
+        for t, d, level in self.heading.tolist():
+            parts[where_t[t]]["heading"].append((t, d, level))
+        moving = set() if self.moving is None else set(np.flatnonzero(self.moving).tolist())
         for t, d, lik in self.cand.tolist():
             parts[where_t[t]]["cand"].append((t, d, lik, (t, d) in preferred))
         rows = zip(
@@ -438,6 +464,8 @@ class FrameProblem:
                 fits=tuple((lt[t], ld[d]) for t, d in found["fits"]),
                 gone=gone,
                 back=back,
+                moving=tuple(lt[t] for t in ts if t in moving),
+                heading=tuple((lt[t], ld[d], a) for t, d, a in found["heading"]),
             )
             out.append((component, local_ids, list(ds)))
         return out

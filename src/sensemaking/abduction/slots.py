@@ -87,11 +87,16 @@ def shape_of(component: Component) -> Shape:
 
 
 def vocabulary(
-    shape: Shape, classes: Iterable[int], numbers: Iterable[int], uses: Iterable[str] = ()
+    shape: Shape,
+    classes: Iterable[int],
+    numbers: Iterable[int],
+    uses: Iterable[str] = (),
+    heading: bool = False,
 ) -> frozenset[Symbol]:
     """Every fact :meth:`Component.facts` can write for a component of ``shape`` whose classes
     lie in ``classes`` and whose likelihoods and confidences lie in ``numbers``: the union of
-    the facts of synthetic components that take each value of each field once."""
+    the facts of synthetic components that take each value of each field once. ``heading``:
+    with the ``moving`` and ``heading`` facts (given only with ``direction_weight``)."""
     nt, nd, no = shape.tracks, shape.dets, shape.occluders
     classes, numbers, uses = sorted(set(classes)), sorted(set(numbers)), tuple(uses)
     flags_on = (True,) * len(TRACK_FLAGS)
@@ -128,6 +133,9 @@ def vocabulary(
             fits=tuple(pairs),
         )
     )
+    if heading:
+        levels = tuple((t, d, a) for t, d in pairs for a in range(1, 5))
+        parts.append(replace(_NOTHING, moving=tuple(range(nt)), heading=levels))
     out: set[Symbol] = set()
     for part in parts:
         out.update(part.facts(uses))
@@ -150,7 +158,18 @@ def pieces(component: Component) -> list[tuple]:
 
 
 # ended tracks (gone, back) lie outside every universe: such components take a fresh Control
-_RELATIONS = ("cand", "covers", "keeps_covering", "emerges", "hidden_by", "fits", "gone", "back")
+_RELATIONS = (
+    "cand",
+    "covers",
+    "keeps_covering",
+    "emerges",
+    "hidden_by",
+    "fits",
+    "gone",
+    "back",
+    "moving",
+    "heading",
+)
 
 
 def piece_facts(piece: tuple, uses: Collection[str] = ()) -> frozenset[Symbol]:
@@ -431,7 +450,8 @@ def _build(
     in a worker thread; clingo's symbol table is locked, and the grounder lets go of Python's
     lock while it works)."""
     t0 = time.perf_counter()
-    universe = vocabulary(shape, classes, numbers, solver.uses)
+    heading = solver.constants.get("direction_weight", 0) > 0
+    universe = vocabulary(shape, classes, numbers, solver.uses, heading)
     grounded = _Grounded(solver, universe, classes, numbers)
     ms = (time.perf_counter() - t0) * 1000.0
     log.debug("ground shape %s: %d externals, %.1f ms", shape, len(universe), ms)

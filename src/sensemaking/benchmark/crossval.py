@@ -147,6 +147,9 @@ ORIGINS: dict[str, str] = {
     "folds (docs/DESIGN-NOTES.md).",
     "lookahead_margin": "used only with lookahead_s; a work bound, not tuned.",
     "lookahead_hypotheses": "used only with lookahead_s; N-best pruning, a work bound, not tuned.",
+    "direction_weight": "0 (off); motion-direction consistency of issue 27, measured across "
+    "folds (docs/DESIGN-NOTES.md).",
+    "direction_min_speed": "used only with direction_weight; a design choice, not tuned.",
     "weak_confidence": "off (None); ByteTrack's 0.1 when on, a technique measured across "
     "folds, not kept (docs/DESIGN-NOTES.md).",
     "weak_iou": "ByteTrack's second-round 0.5, used only with weak_confidence; not tuned.",

@@ -1,0 +1,230 @@
+"""Motion-direction consistency (``direction_weight``, issue 27; OC-SORT's observation-centric
+momentum): the rule of tracking.lp on tiny programs, the numbers the gate computes, the facts
+of the components and the slots, and the setting."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from helpers import optimal
+
+from sensemaking.abduction.observe import headings
+from sensemaking.abduction.problem import FrameProblem
+from sensemaking.abduction.slots import SlotSolver
+from sensemaking.abduction.solver import AbductionSolver
+from sensemaking.config import ParameterError, TrackerConfig
+from sensemaking.detections import Detections
+from sensemaking.track_table import TrackTable
+from sensemaking.tracker import Tracker
+
+
+def active(t: int) -> str:
+    return (
+        f"track({t}). ttype({t},1). active({t}). holds(in_fov({t}),true,0). "
+        f"holds(visibility({t}),fully_visible,0). "
+    )
+
+
+def det(j: int) -> str:
+    return f"det(d({j}),900). dtype(d({j}),1). "
+
+
+# two people crossing: their predictions fit the other's detection a little better (the swap),
+# but each one's detection lies along its own motion and the other's against it
+CROSSING = (
+    active(1)
+    + active(2)
+    + det(0)
+    + det(1)
+    + "cand(1,d(0),600). cand(1,d(1),650). cand(2,d(0),650). cand(2,d(1),600). "
+)
+MOTION = "moving(1). moving(2). heading(1,d(1),4). heading(2,d(0),4). "
+
+
+def answer(facts: str, consts: dict[str, int] | None = None) -> list[str]:
+    models = optimal(facts, consts)
+    assert len(models) == 1, f"optimum not unique: {models}"
+    return models[0][1]
+
+
+def test_the_direction_term_flips_a_crossing():
+    swapped = answer(CROSSING + MOTION)  # direction_weight 0 (the default): off
+    assert "assign(1,d(1))" in swapped and "assign(2,d(0))" in swapped
+    kept = answer(CROSSING + MOTION, {"direction_weight": 200})
+    assert "assign(1,d(0))" in kept and "assign(2,d(1))" in kept
+    # too light to outweigh 2 x 50 of likelihood: each swapped match costs 40 x 4 / 4 = 40 more
+    light = answer(CROSSING + MOTION, {"direction_weight": 40})
+    assert "assign(1,d(1))" in light
+
+
+def test_a_match_along_the_motion_is_cheaper_than_none_and_against_it_dearer():
+    one = active(1) + det(0) + "moving(1). cand(1,d(0),400). "
+    base = optimal(one)[0][0]
+    # aligned (no heading fact): the unmatched alternative would pay the half weight
+    assert optimal(one, {"direction_weight": 200})[0][0] == base
+    # the opposite way: 200 more, and a new track (appears 400 + unmatched 1000 + half 100)
+    # is still dearer than the match (1000 - 400 + 200)
+    against = one + "heading(1,d(0),4). "
+    assert optimal(against, {"direction_weight": 200})[0][0] == base + 200
+    # past twice (1000 + missing 250 + appears 400 - 600) the track halts and the detection
+    # starts a new one: the match pays the weight, leaving it unmatched half of it
+    assert "assign(1,d(0))" in answer(against, {"direction_weight": 2000})
+    atoms = answer(against, {"direction_weight": 2200})
+    assert "halt(1)" in atoms and "start(d(0))" in atoms
+
+
+def test_without_moving_facts_the_weight_changes_nothing():
+    plain = CROSSING
+    assert optimal(plain) == optimal(plain, {"direction_weight": 400})
+
+
+# ---- the numbers of the gate -------------------------------------------------------------
+def _table(trails: list[list[tuple[int, float, float]]], height: float = 100.0) -> TrackTable:
+    """Tracks whose trails hold ``(frame, cx, cy)`` observations (oldest first), boxes
+    ``height`` pixels tall around the last one."""
+    table = TrackTable()
+    last = np.array(
+        [
+            [cx - 20, cy - height / 2, cx + 20, cy + height / 2]
+            for _, cx, cy in (trail[-1] for trail in trails)
+        ]
+    )
+    table.add(
+        np.arange(1, len(trails) + 1),
+        last,
+        np.ones(len(trails), dtype=np.int64),
+        np.full(len(trails), 0.9),
+        np.zeros(len(trails), dtype=np.int64),
+    )
+    for i, trail in enumerate(trails):
+        for frame, cx, cy in trail:
+            box = np.array([[cx - 20, cy - height / 2, cx + 20, cy + height / 2]])
+            table.record(np.array([i]), frame, box)
+    return table
+
+
+def _dets(frame: int, centres: list[tuple[float, float]]) -> Detections:
+    xyxy = np.array([[x - 20, y - 50, x + 20, y + 50] for x, y in centres], dtype=np.float64)
+    n = len(centres)
+    return Detections(
+        xyxy=xyxy,
+        confidence=np.full(n, 0.9),
+        class_id=np.ones(n, dtype=np.int64),
+        frame=np.full(n, frame, dtype=np.int64),
+    )
+
+
+def test_headings_measure_the_angle_in_eighths_of_a_turn():
+    right = [(f, 100.0 + 10 * f, 200.0) for f in range(1, 5)]  # 10 px / frame to the right
+    table = _table([right])
+    # ahead, across (up), behind, back and down (131 degrees)
+    dets = _dets(5, [(150.0, 200.0), (120.0, 100.0), (60.0, 200.0), (60.0, 270.0)])
+    cand = np.array([[0, j, 500] for j in range(4)], dtype=np.int64)
+    config = TrackerConfig(fps=10.0, direction_weight=200)
+    moving, rows = headings(table, dets, cand, config)
+    assert moving.tolist() == [True]
+    # origin: the observation 3 frames back (frame 2, x = 120)
+    assert rows.tolist() == [[0, 1, 2], [0, 2, 4], [0, 3, 3]]
+
+
+def test_slow_or_young_tracks_have_no_direction():
+    slow = [(f, 100.0 + 0.5 * f, 200.0) for f in range(1, 5)]  # 5 px / s: 0.05 heights / s
+    young = [(3, 100.0, 200.0), (4, 110.0, 200.0)]  # two observations only
+    fast = [(f, 100.0 + 10 * f, 200.0) for f in range(1, 5)]
+    table = _table([slow, young, fast])
+    config = TrackerConfig(fps=10.0, direction_weight=200)
+    cand = np.array([[t, 0, 500] for t in range(3)], dtype=np.int64)
+    moving, rows = headings(table, _dets(5, [(60.0, 200.0)]), cand, config)
+    assert moving.tolist() == [False, False, True]
+    assert rows[:, 0].tolist() == [2]
+    # a lower speed threshold lets the slow one count
+    loose = config.replace(direction_min_speed=0.01)
+    assert headings(table, _dets(5, [(60.0, 200.0)]), cand, loose)[0].tolist()[0]
+
+
+def test_a_hidden_track_is_measured_from_its_last_observation():
+    right = [(f, 100.0 + 10 * f, 200.0) for f in range(1, 5)]  # last seen at frame 4, x = 140
+    table = _table([right])
+    config = TrackerConfig(fps=10.0, direction_weight=200)
+    cand = np.array([[0, 0, 300], [0, 1, 300]], dtype=np.int64)
+    # 6 frames later: right of where it was last seen, and left of it
+    _, rows = headings(table, _dets(10, [(200.0, 200.0), (130.0, 200.0)]), cand, config)
+    assert rows.tolist() == [[0, 1, 4]]
+
+
+# ---- facts, components, slots ------------------------------------------------------------
+def _problem(moving: bool = True) -> FrameProblem:
+    b = np.array
+    return FrameProblem(
+        track_id=b([4, 7]),
+        active=b([True, True]),
+        tentative=b([False, False]),
+        expired=b([False, False]),
+        outside=b([False, False]),
+        at_border=b([False, False]),
+        overlapped=b([False, False]),
+        track_class=b([1, 1]),
+        det_conf=b([900, 900]),
+        det_class=b([1, 1]),
+        det_border=b([False, False]),
+        det_overlapped=b([False, False]),
+        cand=b([[0, 0, 600], [0, 1, 650], [1, 0, 650], [1, 1, 600]]),
+        visibility=b([0, 0]),
+        moving=b([True, True]) if moving else None,
+        heading=b([[0, 1, 4], [1, 0, 4]]) if moving else np.zeros((0, 3), dtype=np.int64),
+    )
+
+
+def test_the_facts_name_moving_tracks_and_headings():
+    ((component, ids, _),) = _problem().components()
+    facts = {str(s) for s in component.facts()}
+    assert ids == [4, 7]
+    assert {"moving(0)", "moving(1)", "heading(0,d(1),4)", "heading(1,d(0),4)"} <= facts
+    ((plain, _, _),) = _problem(moving=False).components()
+    assert not any(str(s).startswith(("moving", "heading")) for s in plain.facts())
+
+
+@pytest.mark.parametrize("weight, straight", [(0, False), (200, True)])
+def test_fresh_and_slot_solves_agree(weight: int, straight: bool):
+    solver = AbductionSolver(constants={"direction_weight": weight} if weight else {})
+    fresh = solver.solve(_problem())
+    assert fresh is not None
+    assert (fresh.assign == {4: 0, 7: 1}) is straight
+    slots = SlotSolver(solver, misses_per_cell=0)
+    ((component, ids, rows),) = _problem().components()
+    slotted = slots.solve(component)
+    if weight:
+        assert slotted is not None  # the headings lie in the shape's universe
+        assert slotted.mapped(ids, rows).assign == fresh.assign
+    else:  # off: the universe has no headings, the component goes to a fresh Control
+        assert slotted is None
+
+
+# ---- the tracker and the setting ---------------------------------------------------------
+def test_the_tracker_keeps_trails_and_writes_headings_only_when_on():
+    frames = [_dets(f, [(100.0 + 10 * f, 200.0)]) for f in range(1, 6)]
+    on, off = Tracker(fps=10.0, direction_weight=200), Tracker(fps=10.0)
+    for d in frames:
+        on.update(d)
+        off.update(d)
+    assert on.tracks.trail_frame.tolist() == [[2, 3, 4, 5]]
+    assert off.tracks.trail_frame.tolist() == [[-1, -1, -1, -1]]
+    assert on.problem(_dets(6, [(160.0, 200.0)])).moving.tolist() == [True]
+    assert off.problem(_dets(6, [(160.0, 200.0)])).moving is None
+    assert "direction_weight" not in off.solver.solver.constants
+
+
+@pytest.mark.parametrize(
+    "changes, message",
+    [
+        ({"direction_weight": -1}, "direction_weight must be in"),
+        ({"direction_weight": 1.5}, "direction_weight must be an integer"),
+        ({"direction_weight": 100_001}, "direction_weight must be in"),
+        ({"direction_min_speed": -0.1}, "direction_min_speed must be in"),
+        ({"direction_min_speed": float("inf")}, "direction_min_speed must be a finite number"),
+    ],
+)
+def test_the_settings_are_validated(changes, message):
+    with pytest.raises(ParameterError, match=message):
+        TrackerConfig(**changes)
+    assert TrackerConfig().direction_weight == 0  # off by default
