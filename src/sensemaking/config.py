@@ -42,6 +42,7 @@ __all__ = [
     "MIN_FPS",
     "MAX_FPS",
     "MAX_IMAGE_SIDE",
+    "MAX_DIRECTION_FRAMES",
     "FAMILIES",
     "FORMAT",
     "SCENE_PROFILES",
@@ -63,6 +64,8 @@ log = logging.getLogger(__name__)
 
 MIN_FPS, MAX_FPS = 0.01, 1000.0  # frames per second: a frame a 100 s .. a frame a ms
 MAX_IMAGE_SIDE = 100_000  # pixels, each side of the field of view
+#: the longest span, in frames, a track's direction of motion is read over (``direction_span_s``)
+MAX_DIRECTION_FRAMES = 15
 #: metadata key of a field's :class:`Param`
 _PARAM = "sensemaking.param"
 
@@ -458,9 +461,9 @@ class TrackerConfig:
             optimum included (N-best pruning). Bounds the work of a frame.
         direction_weight: motion-direction consistency (OC-SORT's observation-centric
             momentum, issue 27): a match costs this much more per half turn between the track's
-            direction of motion (from its observation 3 frames before its last one to the last;
-            ``track_table.DIRECTION_SPAN``) and the direction from its observation about 3
-            frames back to the detection; a track with a direction left unmatched costs half of
+            direction of motion (from its observation ``direction_span_s`` before its last one
+            to the last) and the direction from its observation about ``direction_span_s`` back
+            to the detection; a track with a direction left unmatched costs half of
             it (so a match within a quarter turn of the motion is cheaper than none, one against
             it dearer). The angle is rounded to eighths of a turn (45 degrees): four weights.
             Only tracks seen three times or more and moving at least ``direction_min_speed``
@@ -468,6 +471,16 @@ class TrackerConfig:
         direction_min_speed: with ``direction_weight``, how fast a track's last observations
             must move for its direction to count, in box heights per second (the box's last
             observed height): slower tracks' directions are detector jitter.
+        direction_span_s: with ``direction_weight``, the time between the observations a
+            direction is read from, in frames ``round(direction_span_s * fps)``, at least 1 and
+            at most 15 (OC-SORT's delta t is 3 frames: at 30 fps a walking person moves about
+            as far in 0.1 s as its box jitters). Longer: less jitter, slower to follow a turn.
+        size_weight: size consistency of a resume (issue 27): a hidden or missing track seen
+            again costs up to this much more, a quarter of it per tenth by which the heights of
+            its last observed box and the detection differ (the smaller over the larger; under
+            a tenth: nothing; four tenths or more: all of it): four weights (solver units;
+            tracking.lp's ``size_weight``). A person who reappears as a box half as tall is
+            more likely someone else. 0: off.
         costs: :class:`AbductionCosts`.
         kalman: :class:`~sensemaking.motion.KalmanConfig`.
     """
@@ -530,6 +543,8 @@ class TrackerConfig:
     lookahead_hypotheses: int = param(3, "int", "hypotheses", 1, 16)
     direction_weight: int = param(0, "int", _COST, 0, 100_000)
     direction_min_speed: float = param(0.25, "float", "box heights / s", 0.0, 100.0)
+    direction_span_s: float = param(0.3, "float", "s", 0.0, 10.0, low_open=True)
+    size_weight: int = param(0, "int", _COST, 0, 100_000)
     costs: AbductionCosts = nested(AbductionCosts)
     kalman: KalmanConfig = nested(KalmanConfig)
 
@@ -553,6 +568,11 @@ class TrackerConfig:
     def lookahead_frames(self) -> int:
         """Frames of look-ahead k: ``round(lookahead_s * fps)`` (0: online)."""
         return int(round(self.lookahead_s * self.fps))
+
+    @property
+    def direction_span_frames(self) -> int:
+        """``direction_span_s`` in frames, within 1 .. ``MAX_DIRECTION_FRAMES``."""
+        return min(max(1, int(round(self.direction_span_s * self.fps))), MAX_DIRECTION_FRAMES)
 
     @property
     def kalman_config(self) -> KalmanConfig:

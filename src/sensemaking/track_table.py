@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from sensemaking.config import MAX_DIRECTION_FRAMES
 from sensemaking.motion import KalmanBank, KalmanConfig
 from sensemaking.results import TrackState
 
@@ -11,10 +12,9 @@ __all__ = ["TrackTable", "EndedTracks"]
 
 #: at most this many ended tracks are kept to revive (``TrackerConfig.revive_s``): the latest
 REVIVE_MAX = 16
-#: frames between the observations a track's direction of motion is read from (OC-SORT's
-#: delta t, ``TrackerConfig.direction_weight``); the trail keeps this many + 1 observations
-DIRECTION_SPAN = 3
-TRAIL = DIRECTION_SPAN + 1
+#: observations kept in a track's trail (``TrackerConfig.direction_weight``): the longest span
+#: its direction of motion is read over, plus one
+TRAIL = MAX_DIRECTION_FRAMES + 1
 
 
 class TrackTable:

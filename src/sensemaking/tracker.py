@@ -133,6 +133,7 @@ class Tracker:
                 **{f"cost_{name}": value for name, value in _costs(c).items()},
                 # only when on: the constants (recorded in scene files) stay as they were
                 **({"direction_weight": c.direction_weight} if c.direction_weight else {}),
+                **({"size_weight": c.size_weight} if c.size_weight else {}),
             },
             encoding=None if encoding is None else read_encoding(encoding),
             rules=[read_encoding(r) for r in extra],

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from helpers import optimal
 
-from sensemaking.abduction.observe import headings
+from sensemaking.abduction.observe import headings, size_gaps
 from sensemaking.abduction.problem import FrameProblem
 from sensemaking.abduction.slots import SlotSolver
 from sensemaking.abduction.solver import AbductionSolver
@@ -207,8 +207,9 @@ def test_the_tracker_keeps_trails_and_writes_headings_only_when_on():
     for d in frames:
         on.update(d)
         off.update(d)
-    assert on.tracks.trail_frame.tolist() == [[2, 3, 4, 5]]
-    assert off.tracks.trail_frame.tolist() == [[-1, -1, -1, -1]]
+    trail = on.tracks.trail_frame[0]
+    assert trail[-5:].tolist() == [1, 2, 3, 4, 5] and (trail[:-5] == -1).all()
+    assert (off.tracks.trail_frame == -1).all()
     assert on.problem(_dets(6, [(160.0, 200.0)])).moving.tolist() == [True]
     assert off.problem(_dets(6, [(160.0, 200.0)])).moving is None
     assert "direction_weight" not in off.solver.solver.constants
@@ -228,3 +229,67 @@ def test_the_settings_are_validated(changes, message):
     with pytest.raises(ParameterError, match=message):
         TrackerConfig(**changes)
     assert TrackerConfig().direction_weight == 0  # off by default
+
+
+# ---- size consistency of a resume (size_weight) -----------------------------------------
+def halted(t: int) -> str:
+    return (
+        f"track({t}). ttype({t},1). halted({t}). holds(in_fov({t}),true,0). "
+        f"holds(visibility({t}),fully_visible,0). "
+    )
+
+
+def test_a_resume_of_another_height_costs_size_weight_and_a_new_track_wins():
+    facts = halted(1) + det(0) + "cand(1,d(0),300). size_gap(1,d(0),4). "
+    assert "resume(1,d(0))" in answer(facts)  # off
+    # resume: 700 + resumes 100 + size 800 > start: appears 400 + unmatched 1000 + unseen 20
+    # (600 is not enough: 1400 < 1420)
+    assert "resume(1,d(0))" in answer(facts, {"size_weight": 600})
+    atoms = answer(facts, {"size_weight": 800})
+    assert "start(d(0))" in atoms and "ignore_trk(1)" in atoms
+    # a quarter of the weight per tenth: a level-1 gap costs 200, the resume still wins
+    one = facts.replace("size_gap(1,d(0),4)", "size_gap(1,d(0),1)")
+    assert "resume(1,d(0))" in answer(one, {"size_weight": 800})
+    assert optimal(one, {"size_weight": 800})[0][0] == optimal(one)[0][0] + 200
+
+
+def test_size_gaps_count_tenths_for_unseen_tracks_only():
+    table = _table([[(1, 100.0, 200.0)], [(1, 300.0, 200.0)]])  # both 100 px tall
+    table.unseen[:] = [2, 0]  # the first unseen for two frames, the second seen last frame
+    dets = Detections(
+        xyxy=np.array([[80, 150, 120, 245], [80, 160, 120, 235], [280, 170, 320, 230]], float),
+        confidence=np.full(3, 0.9),
+        class_id=np.ones(3, dtype=np.int64),
+        frame=np.full(3, 4, dtype=np.int64),
+    )
+    cand = np.array([[0, 0, 500], [0, 1, 500], [0, 2, 100], [1, 2, 500]], dtype=np.int64)
+    rows = size_gaps(table, dets, cand)
+    # 95 px: under a tenth, no row; 75 px: 2 tenths; 60 px: 4; the seen track: none
+    assert rows.tolist() == [[0, 1, 2], [0, 2, 4]]
+    config = TrackerConfig(size_weight=300)
+    tracker = Tracker(config)
+    assert tracker.solver.solver.constants["size_weight"] == 300
+    assert "size_weight" not in Tracker().solver.solver.constants
+
+
+def test_the_size_setting_is_validated():
+    with pytest.raises(ParameterError, match="size_weight must be in"):
+        TrackerConfig(size_weight=-5)
+    assert TrackerConfig().size_weight == 0
+
+
+def test_the_span_is_long_enough_that_a_jittering_standing_person_has_no_direction():
+    assert TrackerConfig(fps=30.0).direction_span_frames == 9
+    assert TrackerConfig(fps=10.0).direction_span_frames == 3
+    assert TrackerConfig(fps=1000.0).direction_span_frames == 15  # the trail's length
+    assert TrackerConfig(fps=1.0).direction_span_frames == 1
+    # standing, its box centre jittering by 4 px (100 px tall) frame to frame, at 30 fps
+    jitter = [(f, 200.0 + (4.0 if f % 2 else 0.0), 200.0) for f in range(1, 16)]
+    table = _table([jitter])
+    cand = np.array([[0, 0, 500]], dtype=np.int64)
+    dets = _dets(16, [(200.0, 200.0)])
+    config = TrackerConfig(fps=30.0, direction_weight=200)
+    assert headings(table, dets, cand, config)[0].tolist() == [False]
+    # over one frame the jitter reads as 1.2 heights per second
+    short = config.replace(direction_span_s=1 / 30)
+    assert headings(table, dets, cand, short)[0].tolist() == [True]

@@ -27,7 +27,7 @@ from sensemaking.geometry import (
     safe_ratio,
 )
 from sensemaking.results import TrackState
-from sensemaking.track_table import DIRECTION_SPAN, EndedTracks, TrackTable
+from sensemaking.track_table import EndedTracks, TrackTable
 
 __all__ = [
     "frame_problem",
@@ -43,6 +43,7 @@ __all__ = [
     "int_columns",
     "revival",
     "headings",
+    "size_gaps",
 ]
 
 _HIDDEN = int(TrackState.HIDDEN)  # as a plain int: numpy compares it faster than the enum
@@ -258,6 +259,8 @@ def frame_problem(
             }
     if c.direction_weight and n and nd:
         more["moving"], more["heading"] = headings(tracks, dets, cand, config)
+    if c.size_weight and n and nd:
+        more["size_gap"] = size_gaps(tracks, dets, cand)
     return FrameProblem(
         track_id=tracks.id,
         active=active,
@@ -328,18 +331,19 @@ def headings(
     """Motion-direction consistency (OC-SORT's observation-centric momentum): ``(moving (T,)
     bool, (H, 3) rows ``track index, detection index, level 1..4``)`` over the ``cand`` rows.
 
-    A track's direction runs from the oldest of its observations within ``DIRECTION_SPAN``
-    frames before its last one (else the one before the last) to the last; it counts when the
-    track was seen three times or more and that motion is at least ``direction_min_speed``
+    A track's direction runs from the oldest of its observations within ``direction_span_s``
+    (in frames) before its last one (else the one before the last) to the last; it counts when
+    the track was seen three times or more and that motion is at least ``direction_min_speed``
     box heights per second. A detection's direction runs from the track's oldest observation
-    within ``DIRECTION_SPAN`` frames of this one (else its last) to the detection's centre. The
+    within ``direction_span_s`` of this frame (else its last) to the detection's centre. The
     level is the angle between the two in eighths of a turn, rounded (a detection on that
     origin: a quarter turn, as a track without a direction is charged)."""
+    span = config.direction_span_frames
     f, xy = tracks.trail_frame, tracks.trail_xy  # (T, K) oldest first, (T, K, 2) pixels
     k = f.shape[1]
     rows = np.arange(len(tracks))
     last = f[:, -1]
-    before = (f[:, :-1] >= 0) & (f[:, :-1] >= last[:, None] - DIRECTION_SPAN)
+    before = (f[:, :-1] >= 0) & (f[:, :-1] >= last[:, None] - span)
     anchor = np.where(before.any(axis=1), before.argmax(axis=1), k - 2)
     motion = xy[:, -1] - xy[rows, anchor]  # (T, 2) pixels
     frames = np.maximum(last - f[rows, anchor], 1)
@@ -351,7 +355,7 @@ def headings(
     if not len(pairs):
         return moving, np.zeros((0, 3), dtype=np.int64)
     now = int(dets.frame[0])
-    near = (f >= 0) & (f >= now - DIRECTION_SPAN)
+    near = (f >= 0) & (f >= now - span)
     start = np.where(near.any(axis=1), near.argmax(axis=1), k - 1)
     origin = xy[rows, start]  # (T, 2)
     t, d = pairs[:, 0], pairs[:, 1]
@@ -363,6 +367,23 @@ def headings(
     level = np.rint(np.arccos(np.clip(cos, -1.0, 1.0)) / (np.pi / 4)).astype(np.int64)
     keep = level > 0
     return moving, int_columns(t[keep], d[keep], level[keep])
+
+
+def size_gaps(tracks: TrackTable, dets: Detections, cand: np.ndarray) -> np.ndarray:
+    """(S, 3) rows ``track index, detection index, level 1..4`` over the ``cand`` rows of unseen
+    tracks: the tenths by which the track's last observed height and the detection's differ
+    (1 - smaller / larger, rounded down, at most 4; level 0 has no row)."""
+    pairs = cand[tracks.unseen[cand[:, 0]] > 0] if len(cand) else cand
+    if not len(pairs):
+        return np.zeros((0, 3), dtype=np.int64)
+    t, d = pairs[:, 0], pairs[:, 1]
+    seen = tracks.kf.observed()[t]
+    h_last = seen[:, 3] - seen[:, 1]
+    h_det = dets.xyxy[d, 3] - dets.xyxy[d, 1]
+    ratio = safe_ratio(np.minimum(h_last, h_det), np.maximum(h_last, h_det))
+    level = np.minimum(np.floor((1.0 - ratio) * 10 + 1e-9), 4).astype(np.int64)
+    keep = level > 0
+    return int_columns(t[keep], d[keep], level[keep])
 
 
 def speeds(tracks: TrackTable, config: TrackerConfig) -> np.ndarray:

@@ -79,6 +79,8 @@ class Component:
         moving: tracks with a direction of motion (``direction_weight``).
         heading: ``(track, detection, level 1..4)``: eighths of a turn between a moving track's
             direction and the direction to the detection (level 0 has no row).
+        size_gap: ``(track, detection, level 1..4)``: tenths by which an unseen track's last
+            observed height and the detection's differ (``size_weight``; 0 has no row).
     """
 
     first_frame: bool
@@ -94,6 +96,7 @@ class Component:
     back: tuple[tuple[int, int, int], ...] = ()
     moving: tuple[int, ...] = ()
     heading: tuple[tuple[int, int, int], ...] = ()
+    size_gap: tuple[tuple[int, int, int], ...] = ()
 
     @property
     def n_live_refs(self) -> int:
@@ -168,6 +171,8 @@ class Component:
             add(Function("moving", [track(t)]))
         for t, j, level in self.heading:
             add(Function("heading", [track(t), det(j), _number(level)]))
+        for t, j, level in self.size_gap:
+            add(Function("size_gap", [track(t), det(j), _number(level)]))
         if self.first_frame:
             add(Function("first_frame"))
         return out
@@ -227,6 +232,9 @@ class FrameProblem:
         heading: (H, 3) int rows ``track index, detection index, level 1..4`` over ``cand``
             pairs of moving tracks: the angle between the track's direction of motion and the
             direction to the detection, in eighths of a turn (rounded; 0 has no row).
+        size_gap: (S, 3) int rows ``track index, detection index, level 1..4`` over ``cand``
+            pairs of unseen tracks: tenths by which the track's last observed height and the
+            detection's differ, 1 - smaller / larger, rounded down, at most 4 (0 has no row).
     """
 
     track_id: np.ndarray
@@ -261,6 +269,7 @@ class FrameProblem:
     back: np.ndarray = field(default_factory=lambda: _empty_rows(3))
     moving: np.ndarray | None = None
     heading: np.ndarray = field(default_factory=lambda: _empty_rows(3))
+    size_gap: np.ndarray = field(default_factory=lambda: _empty_rows(3))
 
     @property
     def n_tracks(self) -> int:
@@ -409,11 +418,13 @@ class FrameProblem:
                 "emerges": [],
                 "hidden": [],
                 "heading": [],
+                "size_gap": [],
             }
             for _ in groups
         ]
-        for t, d, level in self.heading.tolist():
-            parts[where_t[t]]["heading"].append((t, d, level))
+        for name, rel in (("heading", self.heading), ("size_gap", self.size_gap)):
+            for t, d, level in rel.tolist():
+                parts[where_t[t]][name].append((t, d, level))
         moving = set() if self.moving is None else set(np.flatnonzero(self.moving).tolist())
         for t, d, lik in self.cand.tolist():
             parts[where_t[t]]["cand"].append((t, d, lik, (t, d) in preferred))
@@ -466,6 +477,7 @@ class FrameProblem:
                 back=back,
                 moving=tuple(lt[t] for t in ts if t in moving),
                 heading=tuple((lt[t], ld[d], a) for t, d, a in found["heading"]),
+                size_gap=tuple((lt[t], ld[d], a) for t, d, a in found["size_gap"]),
             )
             out.append((component, local_ids, list(ds)))
         return out

@@ -92,11 +92,13 @@ def vocabulary(
     numbers: Iterable[int],
     uses: Iterable[str] = (),
     heading: bool = False,
+    size_gap: bool = False,
 ) -> frozenset[Symbol]:
     """Every fact :meth:`Component.facts` can write for a component of ``shape`` whose classes
     lie in ``classes`` and whose likelihoods and confidences lie in ``numbers``: the union of
     the facts of synthetic components that take each value of each field once. ``heading``:
-    with the ``moving`` and ``heading`` facts (given only with ``direction_weight``)."""
+    with the ``moving`` and ``heading`` facts (given only with ``direction_weight``);
+    ``size_gap``: with the ``size_gap`` facts (only with ``size_weight``)."""
     nt, nd, no = shape.tracks, shape.dets, shape.occluders
     classes, numbers, uses = sorted(set(classes)), sorted(set(numbers)), tuple(uses)
     flags_on = (True,) * len(TRACK_FLAGS)
@@ -136,6 +138,9 @@ def vocabulary(
     if heading:
         levels = tuple((t, d, a) for t, d in pairs for a in range(1, 5))
         parts.append(replace(_NOTHING, moving=tuple(range(nt)), heading=levels))
+    if size_gap:
+        gaps = tuple((t, d, a) for t, d in pairs for a in range(1, 5))
+        parts.append(replace(_NOTHING, size_gap=gaps))
     out: set[Symbol] = set()
     for part in parts:
         out.update(part.facts(uses))
@@ -169,6 +174,7 @@ _RELATIONS = (
     "back",
     "moving",
     "heading",
+    "size_gap",
 )
 
 
@@ -451,7 +457,8 @@ def _build(
     lock while it works)."""
     t0 = time.perf_counter()
     heading = solver.constants.get("direction_weight", 0) > 0
-    universe = vocabulary(shape, classes, numbers, solver.uses, heading)
+    size_gap = solver.constants.get("size_weight", 0) > 0
+    universe = vocabulary(shape, classes, numbers, solver.uses, heading, size_gap)
     grounded = _Grounded(solver, universe, classes, numbers)
     ms = (time.perf_counter() - t0) * 1000.0
     log.debug("ground shape %s: %d externals, %.1f ms", shape, len(universe), ms)

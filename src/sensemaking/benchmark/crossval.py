@@ -150,6 +150,10 @@ ORIGINS: dict[str, str] = {
     "direction_weight": "0 (off); motion-direction consistency of issue 27, measured across "
     "folds (docs/DESIGN-NOTES.md).",
     "direction_min_speed": "used only with direction_weight; a design choice, not tuned.",
+    "direction_span_s": "used only with direction_weight; longer than OC-SORT's 3 frames at "
+    "30 fps (jitter), a design choice, not tuned.",
+    "size_weight": "0 (off); size consistency of a resume, issue 27, measured across folds "
+    "(docs/DESIGN-NOTES.md).",
     "weak_confidence": "off (None); ByteTrack's 0.1 when on, a technique measured across "
     "folds, not kept (docs/DESIGN-NOTES.md).",
     "weak_iou": "ByteTrack's second-round 0.5, used only with weak_confidence; not tuned.",
