@@ -146,10 +146,12 @@ def test_a_hidden_track_is_measured_from_its_last_observation():
     right = [(f, 100.0 + 10 * f, 200.0) for f in range(1, 5)]  # last seen at frame 4, x = 140
     table = _table([right])
     config = TrackerConfig(fps=10.0, direction_weight=200)
-    cand = np.array([[0, 0, 300], [0, 1, 300]], dtype=np.int64)
-    # 6 frames later: right of where it was last seen, and left of it
-    _, rows = headings(table, _dets(10, [(200.0, 200.0), (130.0, 200.0)]), cand, config)
-    assert rows.tolist() == [[0, 1, 4]]
+    cand = np.array([[0, 0, 300], [0, 1, 300], [0, 2, 300]], dtype=np.int64)
+    # 6 frames later: right of where it was last seen, left of it, and 10 px left of it (at
+    # 0.17 heights / s: jitter, neither along nor against the motion)
+    dets = _dets(10, [(200.0, 200.0), (60.0, 200.0), (130.0, 200.0)])
+    _, rows = headings(table, dets, cand, config)
+    assert rows.tolist() == [[0, 1, 4], [0, 2, 2]]
 
 
 # ---- facts, components, slots ------------------------------------------------------------

@@ -336,8 +336,9 @@ def headings(
     the track was seen three times or more and that motion is at least ``direction_min_speed``
     box heights per second. A detection's direction runs from the track's oldest observation
     within ``direction_span_s`` of this frame (else its last) to the detection's centre. The
-    level is the angle between the two in eighths of a turn, rounded (a detection on that
-    origin: a quarter turn, as a track without a direction is charged)."""
+    level is the angle between the two in eighths of a turn, rounded; a detection nearer that
+    origin than ``direction_min_speed`` would carry it counts as a quarter turn (2: neither
+    along nor against the motion, charged as a moving track left unmatched)."""
     span = config.direction_span_frames
     f, xy = tracks.trail_frame, tracks.trail_xy  # (T, K) oldest first, (T, K, 2) pixels
     k = f.shape[1]
@@ -358,12 +359,17 @@ def headings(
     near = (f >= 0) & (f >= now - span)
     start = np.where(near.any(axis=1), near.argmax(axis=1), k - 1)
     origin = xy[rows, start]  # (T, 2)
+    elapsed = np.maximum(now - f[rows, start], 1)
     t, d = pairs[:, 0], pairs[:, 1]
     centre = (dets.xyxy[d, :2] + dets.xyxy[d, 2:]) / 2
     to = centre - origin[t]
     u = motion[t]
-    norm = np.hypot(to[:, 0], to[:, 1]) * np.hypot(u[:, 0], u[:, 1])
+    step = np.hypot(to[:, 0], to[:, 1])
+    norm = step * np.hypot(u[:, 0], u[:, 1])
     cos = np.where(norm > 0, (u * to).sum(axis=1) / np.maximum(norm, 1e-12), 0.0)
+    # a detection about where the track was: its direction is jitter, neither along nor against
+    still = step / elapsed[t] * config.fps / height[t] < config.direction_min_speed
+    cos = np.where(still, 0.0, cos)
     level = np.rint(np.arccos(np.clip(cos, -1.0, 1.0)) / (np.pi / 4)).astype(np.int64)
     keep = level > 0
     return moving, int_columns(t[keep], d[keep], level[keep])
