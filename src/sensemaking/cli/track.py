@@ -256,6 +256,14 @@ def register(sub: argparse._SubParsersAction) -> None:
         "KITTI's camera; else none: motion judged in the image, as for a fixed camera)",
     )
     p.add_argument(
+        "--pitch",
+        choices=("level", "scene"),
+        default=None,
+        help="the camera's pitch over the road for --warnings: level (the horizon at the camera "
+        "model's row) or scene (the horizon fitted to the boxes' bottoms and heights, "
+        "docs/EGOMOTION.md); default: level",
+    )
+    p.add_argument(
         "--params",
         dest="params_file",
         type=Path,
@@ -576,7 +584,7 @@ def _situation_context(args: argparse.Namespace) -> tuple[Any, str]:
 def _world_motion(args: argparse.Namespace) -> dict[str, Any]:
     """``camera`` and ``ego_motion`` of the SituationMonitor from --camera / --ego-motion."""
     from sensemaking.io.egomotion import read_ego_motion
-    from sensemaking.reasoning.egomotion import CameraModel
+    from sensemaking.reasoning.egomotion import CameraModel, EgoMotionConfig
 
     camera = CameraModel.parse(args.camera) if args.camera else None
     if camera is None and args.format == "kitti":
@@ -584,7 +592,13 @@ def _world_motion(args: argparse.Namespace) -> dict[str, Any]:
     if args.ego_motion is not None and camera is None:
         raise InputError("--ego-motion needs a camera model: --format kitti or --camera")
     ego = None if args.ego_motion is None else read_ego_motion(args.ego_motion)
-    return {"camera": camera, "ego_motion": ego}
+    out: dict[str, Any] = {"camera": camera, "ego_motion": ego}
+    pitch = getattr(args, "pitch", None)
+    if pitch is not None:
+        if camera is None:
+            raise InputError("--pitch needs a camera model: --format kitti or --camera")
+        out["ego_config"] = EgoMotionConfig(horizon_from_scene=pitch == "scene")
+    return out
 
 
 #: bytes read from stdin or a pipe given as --detections (spooled to a temporary file)
@@ -749,6 +763,8 @@ def _run(args: argparse.Namespace) -> int:
         raise InputError(
             "--camera needs --warnings, --scene, --output RUN.mcap or --live (it serves those)"
         )
+    if getattr(args, "pitch", None) and not args.warnings:
+        raise InputError("--pitch needs --warnings (it serves those)")
     world = _world_motion(args)
     # the stories of --output RUN.mcap and --live, told at the end from the recorded scene
     stories = ros.run_stories(args, config, world["camera"])
