@@ -151,3 +151,38 @@ def test_config_rejects_bad_horizon_settings():
     ):
         with pytest.raises(ValueError):
             EgoMotionConfig(**bad)
+
+
+def test_track_pitch_option(tmp_path, capsys):
+    """``--pitch level`` is the default's output; ``--pitch scene`` runs; without a camera
+    model or without --warnings it is a one-line error."""
+    from sensemaking.cli import main
+
+    det = tmp_path / "0000.txt"
+    det.write_text(
+        "".join(
+            f"{f},{400 + 3 * f},{180 + f},{520 + 4 * f},{250 + 2 * f},0.9\n"
+            f"{f},{800 - 2 * f},{178},{860 - 2 * f},{205},0.8\n"
+            for f in range(15)
+        )
+    )
+
+    def run(name: str, *extra: str, fmt: str = "kitti") -> int:
+        args = ["-q", "track", "--detections", str(det), "--format", fmt]
+        args += ["--output", str(tmp_path / f"{name}.txt")]
+        return main([*args, *extra])
+
+    w = {k: tmp_path / f"{k}.jsonl" for k in ("default", "level", "scene")}
+    kitti = ("--class", "car", "--warnings")
+    assert run("default", *kitti, str(w["default"])) == 0
+    assert run("level", *kitti, str(w["level"]), "--pitch", "level") == 0
+    assert run("scene", *kitti, str(w["scene"]), "--pitch", "scene") == 0
+    assert w["level"].read_bytes() == w["default"].read_bytes()
+    capsys.readouterr()
+    assert run("nowarn", "--class", "car", "--pitch", "scene") == 2
+    assert "--pitch needs --warnings" in capsys.readouterr().err
+    mot = ("--image-size", "1242x375", "--fps", "10", "--warnings", str(tmp_path / "m.jsonl"))
+    det.write_text("".join(f"{f + 1},-1,500,200,100,60,0.9,-1,-1,-1\n" for f in range(5)))
+    assert run("mot", *mot, "--pitch", "scene", fmt="mot") == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--pitch needs a camera model" in err[0]
