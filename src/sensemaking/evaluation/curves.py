@@ -23,7 +23,7 @@ from sensemaking.evaluation.explanations import (
     spread_table,
 )
 
-__all__ = ["curve_points", "pr_curve_svg", "explanations_html"]
+__all__ = ["curve_points", "pr_curve_svg", "confidence_rows_html", "explanations_html"]
 
 #: size of one curve, px, and the margin around its plot area
 _W, _H, _M = 360, 260, 40
@@ -98,7 +98,9 @@ def pr_curve_svg(rows: Sequence[Mapping[str, Any]], title: str) -> str:
     return "".join(parts)
 
 
-def _table(rows: Sequence[Mapping[str, Any]]) -> str:
+def confidence_rows_html(rows: Sequence[Mapping[str, Any]]) -> str:
+    """The confidence_table rows as an HTML table (percentages with one decimal)."""
+
     def pct(x: float | None) -> str:
         return "-" if x is None else f"{100 * x:.1f}"
 
@@ -133,7 +135,7 @@ def explanations_html(
             blocks.append(
                 f'<figure class="pr" data-kind="{html.escape(kind)}">'
                 f"{pr_curve_svg(rows, f'{bench}: {kind}')}"
-                f"<figcaption>{_table(rows)}</figcaption></figure>"
+                f"<figcaption>{confidence_rows_html(rows)}</figcaption></figure>"
             )
         if not blocks:
             blocks.append("<p>No event with a confidence.</p>")
