@@ -293,6 +293,7 @@ def test_explanations_section_curve_is_the_evaluators_table(no_explain: None):
     )
     text = build_report(run, gt=gt, gt_format="mot", max_thumbnails=0)
     assert '<section id="explanations">' in text and 'href="#explanations"' in text
+    assert "http:" not in text and "//" not in text  # still self-contained
     svg = re.search(r'<figure class="pr" data-kind="hides_behind">(<svg.*?</svg>)', text, re.S)
     assert svg is not None
     points = [
@@ -301,7 +302,7 @@ def test_explanations_section_curve_is_the_evaluators_table(no_explain: None):
             float(c.get("data-recall")),
             float(c.get("data-precision")),
         )
-        for c in ET.fromstring(svg.group(1)).iter("{http://www.w3.org/2000/svg}circle")
+        for c in ET.fromstring(svg.group(1)).iter("circle")
     ]
     truth = GroundTruth.from_mot(gt, image_size=(800, 300), fps=30.0)  # the report's, fps unknown
     tracks = report_mod._run_tracks(run)

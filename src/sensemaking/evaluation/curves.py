@@ -49,7 +49,7 @@ def pr_curve_svg(rows: Sequence[Mapping[str, Any]], title: str) -> str:
     pts = curve_points(rows)
     esc = html.escape(title)
     parts = [
-        f'<svg class="pr-curve" xmlns="http://www.w3.org/2000/svg" width="{_W}" '
+        f'<svg class="pr-curve" width="{_W}" '
         f'height="{_H}" viewBox="0 0 {_W} {_H}" role="img" aria-label="{esc}">',
         f'<text x="{_W / 2:.0f}" y="16" text-anchor="middle" font-size="13">{esc}</text>',
     ]
@@ -93,7 +93,17 @@ def pr_curve_svg(rows: Sequence[Mapping[str, Any]], title: str) -> str:
                 f'data-threshold="{thr!r}" data-recall="{r!r}" data-precision="{p!r}">'
                 f"<title>{html.escape(tip)}</title></circle>"
             )
-            parts.append(f'<text x="{x + 5:.1f}" y="{y - 5:.1f}" font-size="9">{thr:g}</text>')
+        # one label per place: thresholds that keep the same events share a point
+        groups: list[list[tuple[float, float, float]]] = []
+        for pt in pts:
+            if groups and groups[-1][-1][1:] == pt[1:]:
+                groups[-1].append(pt)
+            else:
+                groups.append([pt])
+        for g in groups:
+            x, y = _xy(g[0][1], g[0][2])
+            label = f"{g[0][0]:g}" if len(g) == 1 else f"{g[0][0]:g}-{g[-1][0]:g}"
+            parts.append(f'<text x="{x + 5:.1f}" y="{y - 5:.1f}" font-size="9">{label}</text>')
     parts.append("</svg>")
     return "".join(parts)
 
