@@ -458,6 +458,8 @@ OBJECT_HEIGHT_M: dict[int, float] = {
 }
 #: boxes kept per frame for the horizon fit (the nearest first: their bottoms are the surest)
 _HORIZON_BOXES_PER_FRAME = 40
+#: boxes one fit uses at most (the latest): the pairwise slopes grow with the square
+_HORIZON_MAX_POINTS = 240
 #: smallest difference of ``h / H`` (px per metre) for a pair to give a slope
 _HORIZON_MIN_DX = 3.0
 
@@ -493,7 +495,8 @@ class HorizonEstimator:
     box ``focal * H / Z`` tall, so over the untruncated boxes of the classes in
     :data:`OBJECT_HEIGHT_M` the bottom row is linear in ``h / H`` with slope ``height_m``
     (:func:`fit_horizon`). The fit is made over the last ``horizon_window_s`` seconds of boxes
-    (at most ``_HORIZON_BOXES_PER_FRAME`` a frame: memory is bounded), kept within
+    (at most ``_HORIZON_BOXES_PER_FRAME`` a frame and ``_HORIZON_MAX_POINTS`` in all: memory
+    and time are bounded), kept within
     ``horizon_max_pitch_deg`` of level and smoothed with time constant ``horizon_smooth_s``;
     with fewer than ``horizon_min_boxes`` boxes in the window it relaxes back to level.
     """
@@ -550,8 +553,8 @@ class HorizonEstimator:
         self._window.append((frame, x, y))
         while self._window and frame - self._window[0][0] >= self._keep:
             self._window.popleft()
-        xs = np.concatenate([w[1] for w in self._window])
-        ys = np.concatenate([w[2] for w in self._window])
+        xs = np.concatenate([w[1] for w in self._window])[-_HORIZON_MAX_POINTS:]
+        ys = np.concatenate([w[2] for w in self._window])[-_HORIZON_MAX_POINTS:]
         level = self.camera.horizon_px
         if xs.size >= c.horizon_min_boxes:
             raw, self.slope_m = fit_horizon(xs, ys, self.camera.height_m, c.horizon_height_band)
