@@ -29,9 +29,10 @@ module gives them the numbers:
 What cannot be known is left out rather than guessed: no distance for a box whose bottom is at
 the image's bottom edge (cut off: the road contact is not seen) or too near the horizon
 (farther than ``max_range_m``), no ego speed before two static objects agree (or a file says
-it), none after ``hold_s`` without static objects. Limits: a flat road and a level camera; a
-scene with no static object in view (a queue of cars moving together, and nothing else) makes
-the moving ones look static -- give the ego-motion file there.
+it), none after ``hold_s`` without static objects. Limits: a flat road and a level camera
+(or, with ``horizon_from_scene``, one pitch per frame fitted to the boxes:
+:class:`HorizonEstimator`); a scene with no static object in view (a queue of cars moving
+together, and nothing else) makes the moving ones look static -- give the ego-motion file there.
 
 :func:`world_facts` writes the numbers as the facts situations.lp reads (centimetres,
 centimetres per second, integers); the rules that say what "stopped" or "sudden stop" means
