@@ -109,3 +109,30 @@ def test_a_detection_another_tracks_prediction_admits_is_not_taken_at_a_last_see
     t = _table(on, [last, [104.0, 100.0, 154.0, 200.0]], [8, 0])
     p = _problem(on, t, pred, np.array([[102.0, 100.0, 152.0, 200.0]]))
     assert p.cand[:, :2].tolist() == [[1, 0]] and len(p.at_last_seen) == 0
+
+
+# ---- the facts -------------------------------------------------------------------------------
+def test_the_evidence_reaches_the_components_facts_and_a_fresh_control():
+    from sensemaking.abduction.slots import SlotSolver
+    from sensemaking.abduction.solver import AbductionSolver
+
+    last = [100.0, 100.0, 150.0, 200.0]
+    on = TrackerConfig(resume_last_seen=True)
+    p = _problem(
+        on,
+        _table(on, [last], [8]),
+        np.array([[400.0, 100.0, 450.0, 200.0]]),
+        np.array([[102.0, 100.0, 152.0, 200.0]]),
+    )
+    ((component, ids, dets),) = p.components()
+    assert component.at_last_seen == ((0, 0),) and ids == [1] and dets == [0]
+    facts = {str(f) for f in component.facts()}
+    assert "at_last_seen(0,d(0))" in facts
+    slots = SlotSolver(AbductionSolver(), misses_per_cell=0)
+    assert slots.solve(component) is None  # outside every slot universe
+    answer = AbductionSolver().solve_facts(component.facts())
+    free = AbductionSolver(constants={"cost_resumes_seen": 0}).solve_facts(component.facts())
+    assert answer is not None and free is not None
+    assert answer.resume == {0: 0} and free.resume == {0: 0}
+    assert answer.cost is not None and free.cost is not None
+    assert answer.cost - free.cost == 100  # the encoding's default cost_resumes_seen
