@@ -603,10 +603,13 @@ class Tracker:
 def _costs(config: TrackerConfig) -> dict[str, int]:
     """The event costs the solver is given: ``costs.returns`` only with ``revive_s`` (no ended
     track is revived without it; left out, the scene files of runs without it stay as they
-    were, their recorded constants included)."""
+    were, their recorded constants included), ``costs.resumes_seen`` only with
+    ``resume_last_seen``."""
     costs = asdict(config.costs)
     if not config.revive_frames:
         costs.pop("returns")
+    if not (config.resume_last_seen and config.abduction):  # scene constants stay as they were
+        costs.pop("resumes_seen")
     return costs
 
 

@@ -76,6 +76,8 @@ class Component:
         gone: per ended track that may revive ``(index into GONE_EVENTS, class)``.
         back: ``(ended track, detection, likelihood 0..1000)``, the ended track counted from 0
             in ``gone``.
+        at_last_seen: ``(track, detection)``, a subset of the ``cand`` pairs: the detection fits
+            the box where the (hidden or missing) track was last seen better than its prediction.
     """
 
     first_frame: bool
@@ -89,6 +91,7 @@ class Component:
     fits: tuple[tuple[int, int], ...] = ()
     gone: tuple[tuple[int, int], ...] = ()
     back: tuple[tuple[int, int, int], ...] = ()
+    at_last_seen: tuple[tuple[int, int], ...] = ()
 
     @property
     def n_live_refs(self) -> int:
@@ -159,6 +162,8 @@ class Component:
                 add(Function("ttype", [track(g0 + g), _number(cls)]))
             for g, j, lik in self.back:
                 add(Function("back", [track(g0 + g), det(j), _number(lik)]))
+        for t, j in self.at_last_seen:
+            add(Function("at_last_seen", [track(t), det(j)]))
         if self.first_frame:
             add(Function("first_frame"))
         return out
@@ -214,6 +219,9 @@ class FrameProblem:
         gone_how: (G,) int index into :data:`GONE_EVENTS`: how each ended.
         gone_class: (G,) int class ids.
         back: (B, 3) int rows ``ended track index, detection index, likelihood 0..1000``.
+        at_last_seen: (S, 2) int rows ``track index, detection index``, a subset of the ``cand``
+            pairs (``resume_last_seen``): the detection fits the box where the hidden or missing
+            track was last seen better than its prediction; the pair's likelihood is that fit.
     """
 
     track_id: np.ndarray
@@ -246,6 +254,7 @@ class FrameProblem:
     gone_how: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     gone_class: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     back: np.ndarray = field(default_factory=lambda: _empty_rows(3))
+    at_last_seen: np.ndarray = field(default_factory=_empty_rows)
 
     @property
     def n_tracks(self) -> int:
@@ -386,7 +395,15 @@ class FrameProblem:
             where_t.update(dict.fromkeys(ts, g))
             where_d.update(dict.fromkeys(ds, g))
         parts: list[dict[str, list]] = [
-            {"cand": [], "covers": [], "fits": [], "keeps": [], "emerges": [], "hidden": []}
+            {
+                "cand": [],
+                "covers": [],
+                "fits": [],
+                "keeps": [],
+                "emerges": [],
+                "hidden": [],
+                "seen": [],
+            }
             for _ in groups
         ]
         for t, d, lik in self.cand.tolist():
@@ -402,6 +419,8 @@ class FrameProblem:
             parts[where_t[t]]["covers"].append((d, t, r, share, margin))
         for t, d in self.fits.tolist():
             parts[where_t[t]]["fits"].append((t, d))
+        for t, d in self.at_last_seen.tolist():  # cand pairs: in the track's component
+            parts[where_t[t]]["seen"].append((t, d))
         for name, rel in (("keeps", self.keeps_covering), ("emerges", self.emerges)):
             for d, t in rel.tolist():
                 parts[where_t[t]][name].append((d, t))
@@ -438,6 +457,7 @@ class FrameProblem:
                 fits=tuple((lt[t], ld[d]) for t, d in found["fits"]),
                 gone=gone,
                 back=back,
+                at_last_seen=tuple((lt[t], ld[d]) for t, d in found["seen"]),
             )
             out.append((component, local_ids, list(ds)))
         return out

@@ -149,8 +149,19 @@ def pieces(component: Component) -> list[tuple]:
     return out
 
 
-# ended tracks (gone, back) lie outside every universe: such components take a fresh Control
-_RELATIONS = ("cand", "covers", "keeps_covering", "emerges", "hidden_by", "fits", "gone", "back")
+# ended tracks (gone, back) and last seen fits (at_last_seen) lie outside every universe: such
+# components take a fresh Control
+_RELATIONS = (
+    "cand",
+    "covers",
+    "keeps_covering",
+    "emerges",
+    "hidden_by",
+    "fits",
+    "gone",
+    "back",
+    "at_last_seen",
+)
 
 
 def piece_facts(piece: tuple, uses: Collection[str] = ()) -> frozenset[Symbol]:
