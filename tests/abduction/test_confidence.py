@@ -6,6 +6,7 @@ import clingo
 import numpy as np
 import pytest
 
+from sensemaking.abduction.components import SolverCache
 from sensemaking.abduction.confidence import HideConfidence
 from sensemaking.abduction.problem import FrameProblem
 from sensemaking.abduction.solver import AbductionSolver, Answer, Det, load_encoding
@@ -143,9 +144,11 @@ def test_an_edited_rule_changes_the_confidence():
 CAR = CLASS_IDS["car"]
 
 
-def _hiding_events(**kwargs) -> list[tuple[int, str, tuple, float | None]]:
+def _hiding_events(
+    tracker: Tracker | None = None, **kwargs
+) -> list[tuple[int, str, tuple, float | None]]:
     """A car that a nearer car (lower box bottom) drives in front of and covers: it hides."""
-    t = Tracker(TrackerConfig(fps=10, image_size=(1242, 375)), **kwargs)
+    t = tracker or Tracker(TrackerConfig(fps=10, image_size=(1242, 375)), **kwargs)
     far = [600.0, 120.0, 840.0, 300.0]
     out = []
     for f in range(8):
@@ -177,3 +180,12 @@ def test_shares_are_facts_where_the_evidence_constants_read_them():
     assert "cover_share" not in Tracker(late_hides=False).solver.solver.uses
     reads = "occurs(wide(T)) :- cover_share(_,T,S), S > 500."
     assert "cover_share" in Tracker(rules=reads).solver.solver.uses
+
+
+def test_answers_from_the_cache_carry_the_same_confidence():
+    cache = SolverCache()
+    solved = _hiding_events(solver_cache=cache)
+    tracker = Tracker(TrackerConfig(fps=10, image_size=(1242, 375)), solver_cache=cache)
+    again = _hiding_events(solver_cache=cache, tracker=tracker)
+    assert tracker.solver.stats["cache_hits"] > 0  # the second run is answered from the cache
+    assert solved and again == solved  # confidence included
