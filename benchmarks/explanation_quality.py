@@ -9,7 +9,8 @@ docs/EXPLANATIONS.md). Prints the explanation-quality table per benchmark (markd
 benchmark report has it.
 
     nice -n 10 .venv/bin/python benchmarks/explanation_quality.py [--only kitti-rrc-car] \\
-        [--data ../shared/data] [--output out/explanations] [--json out.json] [--all-warnings]
+        [--data ../shared/data] [--output out/explanations] [--json out.json] [--all-warnings] \\
+        [--html out/explanations.html]
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from pathlib import Path
 from sensemaking.benchmark.datasets import default_data_root
 from sensemaking.benchmark.runner import run
 from sensemaking.errors import SensemakingError
+from sensemaking.evaluation.curves import explanations_html
 from sensemaking.evaluation.explanations import confidence_text, explanation_table, spread_table
 from sensemaking.io.atomic import atomic_write
 
@@ -53,6 +55,12 @@ def main(argv: list[str] | None = None) -> int:
         ),
     )
     p.add_argument("--json", type=Path, default=None, help="write every verdict and summary here")
+    p.add_argument(
+        "--html",
+        type=Path,
+        default=None,
+        help="write the precision-recall curves and the tables as one self-contained page",
+    )
     args = p.parse_args(argv)
     root = args.data or default_data_root()
     if not Path(root).is_dir():
@@ -82,6 +90,9 @@ def main(argv: list[str] | None = None) -> int:
     curve = confidence_text(ok)
     if curve:
         print("\n" + curve, end="")
+    if args.html is not None and ok:
+        with atomic_write(args.html) as handle:
+            handle.write(explanations_html(ok))
     seconds = sum(ex.seconds for ex in judged.values())
     print(f"\nexplanation part: {seconds:.1f} s of {summary.total_seconds:.1f} s", file=sys.stderr)
     if args.json is not None:

@@ -256,6 +256,11 @@ class AbductionCosts:
     #: border costs that, and the revived track must be the cheaper explanation where it fits.
     #: Higher: a returning object gets a new id where the border makes entering cheap.
     returns: int = _cost(50)
+    #: with ``resume_last_seen``: a hidden or missing track resumed by a detection that fits the
+    #: box where it was last seen better than its (drifted) prediction, on top of ``resumes``.
+    #: Higher: such a track must fit its last seen box clearly better than a visible track's
+    #: prediction fits that detection; 0: the better of the two fits is all that counts.
+    resumes_seen: int = _cost(100)
 
     def __post_init__(self) -> None:
         # its own, weaker check (a TrackerConfig checks the ranges): costs are made on their own
@@ -447,6 +452,13 @@ class TrackerConfig:
         revive_height_ratio: the smaller of the two heights over the larger, at least: a revived
             track's last seen box and the detection (1: equal heights). Lower: admits objects
             that approached or drew away while unseen, and other objects of the class.
+        resume_last_seen: a hidden or missing track is also looked for at the box where it was
+            last seen, not only at its (widened) prediction (OC-SORT's observation-centric
+            recovery, issue 27): a person who stopped behind an occluder, or whose prediction
+            drifted while unseen, is resumed where it was last seen. The pair's likelihood is
+            the better of the two fits (gated at ``iou_resume``); where the last seen box fits
+            better, the fact ``at_last_seen(T,D)`` says so and the resume costs
+            ``costs.resumes_seen`` more. Switch (no unit); False: the prediction only.
         lookahead_s: fixed-lag abduction (issue 27): a frame's assignment is decided together
             with the frames that follow it over this time (seconds, ``round(lookahead_s * fps)``
             frames; 0: online). Where a part of the frame is contested (an alternative within
@@ -538,6 +550,7 @@ class TrackerConfig:
     revive_s: float = param(0.0, "float", "s", 0.0, 60.0)
     revive_hold: bool = param(False, "bool", "-")
     revive_height_ratio: float = param(0.7, "float", "ratio of box heights", 0.0, 1.0)
+    resume_last_seen: bool = param(False, "bool", "-")
     lookahead_s: float = param(0.0, "float", "s", 0.0, 10.0)
     lookahead_margin: int = param(300, "int", _COST, 0, 100_000)
     lookahead_hypotheses: int = param(3, "int", "hypotheses", 1, 16)

@@ -636,3 +636,92 @@ def test_confidence_round_trips_through_the_event_record():
     back = event_from_record(json.loads(json.dumps(rec)))
     assert back == e and back.confidence == 0.65
     assert "confidence" not in event_record(Event(3, "ends", (1,)))
+
+
+# -- the precision-recall curve in the HTML page (issue 22, item 2) -------------------------------
+def _svg_points(page: str, kind: str) -> list[tuple[float, float, float]]:
+    """(threshold, recall, precision) of the curve's points of ``kind`` in an HTML page."""
+    import re
+    import xml.etree.ElementTree as ET
+
+    fig = re.search(rf'<figure class="pr" data-kind="{kind}">(<svg.*?</svg>)', page, re.S)
+    assert fig is not None
+    svg = ET.fromstring(fig.group(1))
+    return [
+        (
+            float(c.get("data-threshold")),
+            float(c.get("data-recall")),
+            float(c.get("data-precision")),
+        )
+        for c in svg.iter("circle")
+    ]
+
+
+def test_pr_curve_points_are_the_table_rows_with_precision_and_recall():
+    from sensemaking.evaluation.curves import curve_points, pr_curve_svg
+
+    rows = [
+        {
+            "threshold": 0.0,
+            "n": 2,
+            "plausible": 1,
+            "implausible": 1,
+            "precision": 0.5,
+            "recall": 1.0,
+        },
+        {
+            "threshold": 0.6,
+            "n": 1,
+            "plausible": 1,
+            "implausible": 0,
+            "precision": 1.0,
+            "recall": 0.5,
+        },
+        {
+            "threshold": 1.0,
+            "n": 0,
+            "plausible": 0,
+            "implausible": 0,
+            "precision": None,
+            "recall": 0.0,
+        },
+    ]
+    assert curve_points(rows) == [(0.0, 1.0, 0.5), (0.6, 0.5, 1.0)]
+    svg = pr_curve_svg(rows, "a <b>")
+    assert svg.count('class="pr-point"') == 2 and "a &lt;b&gt;" in svg
+    assert "no threshold" in pr_curve_svg(rows[2:], "none")
+
+
+def test_cli_html_curve_equals_the_printed_confidence_table(mot_run, capsys):
+    """A true hiding at confidence 0.9 and one behind itself at 0.55: every point of the
+    page's hides_behind curve is a row of the printed table, and every printed row with a
+    precision and a recall is a point."""
+    tmp, res, events = mot_run
+    events.write_text(
+        "".join(
+            json.dumps(event_record(Event(e.frame + 1, e.name, e.args, c))) + "\n"
+            for e, c in (
+                (Event(13, "hides_behind", (1, 2)), 0.9),
+                (Event(5, "hides_behind", (2, 2)), 0.55),
+                (UNHIDE, None),
+            )
+        )
+    )
+    page_path = tmp / "out" / "explanations.html"
+    args = ["evaluate", "--explanations", "--gt", str(tmp / "gt"), "--results", str(res)]
+    assert main([*args, "--events", str(events), "--html", str(page_path)]) == 0
+    printed = {}
+    for line in capsys.readouterr().out.splitlines():
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        if len(cells) == 7 and cells[0] == "mot17" and cells[1][0].isdigit():
+            printed[float(cells[1])] = (cells[5], cells[6])
+    assert set(printed) == {0.0, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0}
+    page = page_path.read_text()
+    assert "http" not in page and "<script" not in page  # opens offline
+    points = _svg_points(page, "hides_behind")
+    assert len(points) >= 2
+    assert {t for t, _, _ in points} == {t for t, (p, r) in printed.items() if "-" not in (p, r)}
+    for thr, recall, precision in points:
+        assert printed[thr] == (f"{100 * precision:.1f}", f"{100 * recall:.1f}")
+    with pytest.raises(SystemExit):  # the page is about explanations only
+        main(["evaluate", "--gt", str(tmp / "gt"), "--results", str(res), "--html", "x.html"])

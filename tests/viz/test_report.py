@@ -254,3 +254,62 @@ def test_a_hidings_confidence_and_a_late_hiding_are_told(no_explain: None):
     text = build_report(as_run(results, width=800, height=300), max_thumbnails=0)
     assert re.search(r"Frame 4: [^<]*hides behind [^<]*\(confidence 0\.65\)", text)
     assert re.search(r"Frame 4: [^<]*may be hiding behind [^<]*\(confidence 0\.30\)", text)
+
+
+def test_explanations_section_curve_is_the_evaluators_table(no_explain: None):
+    """With ground truth, the report judges the run's hidings and draws the precision-recall
+    curve: its points are the evaluator's rows for the same run (the hiding behind car #1 is
+    a true one: the cyclist is labelled occluded while hidden)."""
+    import xml.etree.ElementTree as ET
+
+    from sensemaking.classes import CLASS_IDS
+    from sensemaking.evaluation.curves import curve_points
+    from sensemaking.evaluation.explanations import GroundTruth, evaluate_explanations
+    from sensemaking.results import Event
+
+    ped = CLASS_IDS["pedestrian"]
+    shifted = []
+    for r in occlusion_results():
+        events = [
+            Event(e.frame + 1, e.name, e.args, 0.75 if e.name == "hides_behind" else None)
+            for e in r.events
+        ]
+        tracks = r.tracks.with_(frame=r.tracks.frame + 1, class_id=np.full(len(r.tracks), ped))
+        shifted.append(r.__class__(r.frame + 1, tracks, events))
+    run = as_run(shifted, warnings=None, width=800, height=300)
+    rows = []
+    for f in range(1, 41):
+        x = 150 + (f - 1) * 12
+        rows.append((f, 1, [300, 100, 500, 250], 1.0))
+        rows.append((f, 2, [x, 120, x + 50, 240], 0.0 if 16 <= f <= 23 else 1.0))
+        if f >= 6:
+            rows.append((f, 3, [20 + f - 1, 40, 100 + f - 1, 90], 1.0))
+    gt = Detections(
+        xyxy=np.array([r[2] for r in rows], dtype=float),
+        class_id=np.ones(len(rows), int),
+        tracker_id=[r[1] for r in rows],
+        frame=[r[0] for r in rows],
+        data={"visibility": np.array([r[3] for r in rows])},
+    )
+    text = build_report(run, gt=gt, gt_format="mot", max_thumbnails=0)
+    assert '<section id="explanations">' in text and 'href="#explanations"' in text
+    assert "http:" not in text and "//" not in text  # still self-contained
+    svg = re.search(r'<figure class="pr" data-kind="hides_behind">(<svg.*?</svg>)', text, re.S)
+    assert svg is not None
+    points = [
+        (
+            float(c.get("data-threshold")),
+            float(c.get("data-recall")),
+            float(c.get("data-precision")),
+        )
+        for c in ET.fromstring(svg.group(1)).iter("circle")
+    ]
+    truth = GroundTruth.from_mot(gt, image_size=(800, 300), fps=30.0)  # the report's, fps unknown
+    tracks = report_mod._run_tracks(run)
+    judged = evaluate_explanations(truth, tracks, run.events).summary()["events"]["hides_behind"]
+    assert points == curve_points(judged["by_confidence"])
+    by = {t: (r, p) for t, r, p in points}
+    assert by[0.7] == (1.0, 1.0) and 0.8 not in by  # kept up to its confidence 0.75
+    # without hidings there is no section
+    plain = build_report(occlusion_run(), max_thumbnails=0)
+    assert 'id="explanations"' not in plain

@@ -44,6 +44,8 @@ __all__ = [
     "revival",
     "headings",
     "size_gaps",
+    "best_fit",
+    "last_seen_rows",
 ]
 
 _HIDDEN = int(TrackState.HIDDEN)  # as a plain int: numpy compares it faster than the enum
@@ -109,14 +111,13 @@ def gate(
         empty = np.zeros((len(pred), len(dets)))
         return empty, empty.astype(np.int64)
     unseen, parts = uncertain_boxes(tracks, pred, config) if uncertain is None else uncertain
-    lik = iou(pred, dets.xyxy) if plain is None else plain.copy()
+    lik = iou(pred, dets.xyxy) if plain is None else plain
     if parts:
         if extra is None:  # one iou call for all parts (iou is elementwise in its rows)
             extra = iou(np.concatenate([b for _, b in parts]), dets.xyxy)
-        start = 0
-        for rows, boxes in parts:  # max is exact and order-free: as one max per part
-            lik[rows] = np.maximum(lik[rows], extra[start : start + len(boxes)])
-            start += len(boxes)
+        lik = best_fit(lik, parts, extra)
+    else:
+        lik = lik.copy()
     same = (
         tracks.cls[:, None] == dets.class_id[None, :]
         if c.class_aware
@@ -138,6 +139,27 @@ def gate(
             settled = ~unseen & tracks.confirmed & ~ok.any(axis=1)
             ok = ok | (fits & weak[None, :] & settled[:, None] & (lik >= c.weak_iou))
     return np.where(ok, lik, 0.0), q
+
+
+def best_fit(
+    plain: np.ndarray, parts: list[tuple[np.ndarray, np.ndarray]], extra: np.ndarray
+) -> np.ndarray:
+    """(T, D) the better of ``plain`` (a copy) and each part's fit: ``extra`` holds the iou of
+    the parts' boxes (stacked in order) with the detections."""
+    lik = plain.copy()
+    start = 0
+    for rows, boxes in parts:  # max is exact and order-free: as one max per part
+        lik[rows] = np.maximum(lik[rows], extra[start : start + len(boxes)])
+        start += len(boxes)
+    return lik
+
+
+def last_seen_rows(tracks: TrackTable, config: TrackerConfig) -> np.ndarray:
+    """(T,) mask of the tracks also looked for at the box where they were last seen
+    (``resume_last_seen``): the hidden and missing ones."""
+    if not config.resume_last_seen:
+        return np.zeros(len(tracks), dtype=bool)
+    return tracks.unseen > 0
 
 
 def thresholds(config: TrackerConfig, *iou: float) -> tuple[int, ...]:
@@ -187,6 +209,10 @@ def frame_problem(
     # tracks' extra boxes, see uncertain_boxes) with the predictions and detections, from which
     # the iou and coverage of its blocks follow
     uncertain = uncertain_boxes(tracks, pred, config) if n and nd else None
+    seen_rows = last_seen_rows(tracks, config)
+    n_seen = int(seen_rows.sum()) if uncertain is not None else 0
+    if n_seen and uncertain is not None:  # the last seen boxes, one more part (recovery)
+        uncertain = (uncertain[0], [*uncertain[1], (seen_rows, tracks.kf.observed()[seen_rows])])
     if uncertain is not None:
         boxes = np.concatenate([pred, dxy] + [b for _, b in uncertain[1]])
     else:
@@ -207,9 +233,16 @@ def frame_problem(
     front = in_front(boxes[:nb], depth, cut)
     in_front_cov = np.where(front.T, covered, 0.0)
     lik, qlik = gate(tracks, pred, dets, config, plain, uncertain, extra)
+    won = None
+    if n_seen and plain is not None and extra is not None and uncertain is not None:
+        lik, qlik, won = _recovered(tracks, pred, dets, config, plain, uncertain, extra, lik, qlik)
     ti, dj = np.nonzero(lik > 0)
     cand = int_columns(ti, dj, qlik[ti, dj])
     cand_exact = lik[ti, dj]
+    at_last_seen = np.zeros((0, 2), dtype=np.int64)
+    if won is not None:
+        si, sj = np.nonzero(won)
+        at_last_seen = int_columns(si, sj)
     at_all, outside_all = borders(boxes[:nb], config, area[:nb])
     at_border, outside, det_border = at_all[:n], outside_all[:n], at_all[n:]
     start_ok = dets.confidence >= c.start_confidence
@@ -288,8 +321,39 @@ def frame_problem(
         covers_margin=covers_margin,
         speed=speeds(tracks, config) if speed else None,
         cut=cut[:n],
+        at_last_seen=at_last_seen,
         **more,
     )
+
+
+def _recovered(
+    tracks: TrackTable,
+    pred: np.ndarray,
+    dets: Detections,
+    config: TrackerConfig,
+    plain: np.ndarray,
+    uncertain: tuple[np.ndarray, list],
+    extra: np.ndarray,
+    lik: np.ndarray,
+    qlik: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The gate with the last seen boxes (``resume_last_seen``; their part is the last of
+    ``uncertain``, its fits the last rows of ``extra``) as OC-SORT's recovery takes them: from
+    detections that no other track's prediction admits. ``lik``, ``qlik``: :func:`gate` with
+    every part. Returns (T, D) likelihood, its grid values and the pairs the last seen box won
+    (their likelihood is that fit, better than the prediction's)."""
+    n_seen = len(uncertain[1][-1][1])
+    lik_p, q_p = gate(
+        tracks, pred, dets, config, plain, (uncertain[0], uncertain[1][:-1]), extra[:-n_seen]
+    )
+    by_pred = lik_p > 0
+    # a detection another track's motion explains stays theirs to contest (the recovery of
+    # OC-SORT takes what its first round left): there the pair keeps its predicted fit.
+    # Measured without it, hidden tracks took their occluders' detections (issue 27)
+    claimed = (by_pred.sum(axis=0)[None, :] - by_pred) > 0
+    lik = np.where(claimed, lik_p, lik)
+    qlik = np.where(claimed, q_p, qlik)
+    return lik, qlik, (lik > 0) & (qlik > q_p)
 
 
 def revival(

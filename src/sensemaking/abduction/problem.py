@@ -81,6 +81,8 @@ class Component:
             direction and the direction to the detection (level 0 has no row).
         size_gap: ``(track, detection, level 1..4)``: tenths by which an unseen track's last
             observed height and the detection's differ (``size_weight``; 0 has no row).
+        at_last_seen: ``(track, detection)``, a subset of the ``cand`` pairs: the detection fits
+            the box where the (hidden or missing) track was last seen better than its prediction.
     """
 
     first_frame: bool
@@ -97,6 +99,7 @@ class Component:
     moving: tuple[int, ...] = ()
     heading: tuple[tuple[int, int, int], ...] = ()
     size_gap: tuple[tuple[int, int, int], ...] = ()
+    at_last_seen: tuple[tuple[int, int], ...] = ()
 
     @property
     def n_live_refs(self) -> int:
@@ -109,12 +112,14 @@ class Component:
         return self.n_live_refs + len(self.gone)
 
     def facts(self, uses: Collection[str] = (), t0: int = 0, d0: int = 0) -> list[Symbol]:
-        """The component's facts as symbols. ``uses``: optional predicates to include (``speed``
-        only when the encoding mentions it: a fact no rule reads cannot change the answer).
+        """The component's facts as symbols. ``uses``: optional predicates to include
+        (``speed``, ``cover_share``, ``cover_depth``: only when the encoding reads them, a fact
+        no rule reads cannot change the answer).
         ``t0``, ``d0``: first track and detection number (several components in one program)."""
         out: list[Symbol] = []
         add = out.append
         with_speed = "speed" in uses
+        with_share, with_depth = "cover_share" in uses, "cover_depth" in uses
 
         def det(j: int) -> Symbol:
             return Function("d", [_number(d0 + j)])
@@ -148,8 +153,10 @@ class Component:
                 add(Function("prefer", [track(t), det(j)]))
         for j, t, rank, share, margin in self.covers:
             add(Function("covers", [det(j), track(t)]))
-            add(Function("cover_share", [det(j), track(t), _number(share)]))
-            add(Function("cover_depth", [det(j), track(t), _number(margin)]))
+            if with_share:
+                add(Function("cover_share", [det(j), track(t), _number(share)]))
+            if with_depth:
+                add(Function("cover_depth", [det(j), track(t), _number(margin)]))
             if rank >= 0:
                 add(Function("cover_rank", [det(j), track(t), _number(rank)]))
         for t, j in self.fits:
@@ -173,6 +180,8 @@ class Component:
             add(Function("heading", [track(t), det(j), _number(level)]))
         for t, j, level in self.size_gap:
             add(Function("size_gap", [track(t), det(j), _number(level)]))
+        for t, j in self.at_last_seen:
+            add(Function("at_last_seen", [track(t), det(j)]))
         if self.first_frame:
             add(Function("first_frame"))
         return out
@@ -235,6 +244,9 @@ class FrameProblem:
         size_gap: (S, 3) int rows ``track index, detection index, level 1..4`` over ``cand``
             pairs of unseen tracks: tenths by which the track's last observed height and the
             detection's differ, 1 - smaller / larger, rounded down, at most 4 (0 has no row).
+        at_last_seen: (S, 2) int rows ``track index, detection index``, a subset of the ``cand``
+            pairs (``resume_last_seen``): the detection fits the box where the hidden or missing
+            track was last seen better than its prediction; the pair's likelihood is that fit.
     """
 
     track_id: np.ndarray
@@ -270,6 +282,7 @@ class FrameProblem:
     moving: np.ndarray | None = None
     heading: np.ndarray = field(default_factory=lambda: _empty_rows(3))
     size_gap: np.ndarray = field(default_factory=lambda: _empty_rows(3))
+    at_last_seen: np.ndarray = field(default_factory=_empty_rows)
 
     @property
     def n_tracks(self) -> int:
@@ -419,6 +432,7 @@ class FrameProblem:
                 "hidden": [],
                 "heading": [],
                 "size_gap": [],
+                "seen": [],
             }
             for _ in groups
         ]
@@ -439,6 +453,8 @@ class FrameProblem:
             parts[where_t[t]]["covers"].append((d, t, r, share, margin))
         for t, d in self.fits.tolist():
             parts[where_t[t]]["fits"].append((t, d))
+        for t, d in self.at_last_seen.tolist():  # cand pairs: in the track's component
+            parts[where_t[t]]["seen"].append((t, d))
         for name, rel in (("keeps", self.keeps_covering), ("emerges", self.emerges)):
             for d, t in rel.tolist():
                 parts[where_t[t]][name].append((d, t))
@@ -478,6 +494,7 @@ class FrameProblem:
                 moving=tuple(lt[t] for t in ts if t in moving),
                 heading=tuple((lt[t], ld[d], a) for t, d, a in found["heading"]),
                 size_gap=tuple((lt[t], ld[d], a) for t, d, a in found["size_gap"]),
+                at_last_seen=tuple((lt[t], ld[d]) for t, d in found["seen"]),
             )
             out.append((component, local_ids, list(ds)))
         return out

@@ -162,7 +162,8 @@ def pieces(component: Component) -> list[tuple]:
     return out
 
 
-# ended tracks (gone, back) lie outside every universe: such components take a fresh Control
+# ended tracks (gone, back) and last seen fits (at_last_seen) lie outside every universe: such
+# components take a fresh Control
 _RELATIONS = (
     "cand",
     "covers",
@@ -175,6 +176,7 @@ _RELATIONS = (
     "moving",
     "heading",
     "size_gap",
+    "at_last_seen",
 )
 
 

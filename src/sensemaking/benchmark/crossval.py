@@ -143,6 +143,8 @@ ORIGINS: dict[str, str] = {
     "revive_s": "0 (off); a technique of issue 27, measured across folds (docs/DESIGN-NOTES.md).",
     "revive_hold": "used only with revive_s; measured both ways (docs/DESIGN-NOTES.md).",
     "revive_height_ratio": "used only with revive_s; a design choice, not tuned.",
+    "resume_last_seen": "switch: off; OC-SORT's observation-centric recovery, a technique of "
+    "issue 27 measured across folds (docs/DESIGN-NOTES.md).",
     "lookahead_s": "0 (online); the fixed-lag look-ahead of issue 27, measured across "
     "folds (docs/DESIGN-NOTES.md).",
     "lookahead_margin": "used only with lookahead_s; a work bound, not tuned.",
@@ -176,6 +178,8 @@ ORIGINS: dict[str, str] = {
     "costs.ignore": "default, hand-chosen, not tuned.",
     "costs.resumes": f"{_HAND} (200 in both presets).",
     "costs.returns": "used only with revive_s; below costs.enters by design, not tuned.",
+    "costs.resumes_seen": "used only with resume_last_seen; measured across folds "
+    "(docs/DESIGN-NOTES.md).",
     "kalman.position_std": _DEEPSORT + ".",
     "kalman.velocity_std": f"{_DEEPSORT}; KITTI 0.1, {_HAND}.",
     "kalman.measurement_std": f"{_DEEPSORT}; MOT 1/17, {_HAND}.",

@@ -123,6 +123,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="image size in pixels when no seqinfo is found (e.g. 1242x375)",
     )
     x.add_argument("--fps", type=float, help="frame rate when no seqinfo is found")
+    x.add_argument(
+        "--html",
+        type=Path,
+        metavar="OUT",
+        help="also write a self-contained HTML page: the precision-recall curve (inline SVG) of "
+        "each event kind with a confidence, and the tables",
+    )
     p.set_defaults(func=run, _parser=p)
 
 
@@ -167,9 +174,18 @@ def run(args: argparse.Namespace) -> int:
     from sensemaking.sinks import check_output_paths
 
     parser: argparse.ArgumentParser = args._parser
+    html_out = getattr(args, "html", None)
+    if html_out is not None and not args.explanations:
+        parser.error("--html goes with --explanations")
     check_output_paths(
-        {"--json": args.json},
-        {"--gt": args.gt, "--results": args.results, "--seqmap": args.seqmap},
+        {"--json": args.json, "--html": html_out},
+        {
+            "--gt": args.gt,
+            "--results": args.results,
+            "--seqmap": args.seqmap,
+            "--events": args.events,
+            "--warnings": args.warnings,
+        },
     )
     fmt, benchmark = args.format, args.benchmark
     if benchmark is not None:
@@ -350,6 +366,12 @@ def _explanations(
     curve = confidence_text({label: results})
     if curve:
         print("\n" + curve, end="")
+    if args.html is not None:
+        from sensemaking.evaluation.curves import explanations_html
+
+        with atomic_write(args.html) as handle:
+            handle.write(explanations_html({label: results}))
+        log.info("wrote %s", args.html)
     if args.json is not None:
         doc = {
             "benchmark": benchmark,

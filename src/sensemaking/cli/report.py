@@ -16,7 +16,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "timeline, stories, warnings, metrics, key frames",
         description="Write one HTML file that opens offline: a timeline of every track's states "
         "and events, each track's story, the warnings, the metrics against ground truth "
-        "(with --gt) and thumbnails of the key frames with the explanation drawn. "
+        "(with --gt; with hidings in the run also their precision-recall curve against the "
+        "confidence) and thumbnails of the key frames with the explanation drawn. "
         "Needs the 'viz' extra.",
     )
     p.add_argument("scene", type=Path, help="scene JSON written by `sensemaking track --scene`")

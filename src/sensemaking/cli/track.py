@@ -170,6 +170,14 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="an encoding (.lp) that replaces the packaged tracking.lp",
     )
     p.add_argument(
+        "--confidence",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="rules (.lp) that replace the packaged confidence.lp: how sure each hiding is "
+        "(the events' confidence)",
+    )
+    p.add_argument(
         "--situations",
         type=Path,
         action="append",
@@ -254,6 +262,14 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="camera model for --warnings and the --scene stories: focal length px, height "
         "above the road m, horizon row px, principal column px (default with --format kitti: "
         "KITTI's camera; else none: motion judged in the image, as for a fixed camera)",
+    )
+    p.add_argument(
+        "--pitch",
+        choices=("level", "scene"),
+        default=None,
+        help="the camera's pitch over the road for --warnings: level (the horizon at the camera "
+        "model's row) or scene (the horizon fitted to the boxes' bottoms and heights, "
+        "docs/EGOMOTION.md); default: level",
     )
     p.add_argument(
         "--params",
@@ -576,7 +592,7 @@ def _situation_context(args: argparse.Namespace) -> tuple[Any, str]:
 def _world_motion(args: argparse.Namespace) -> dict[str, Any]:
     """``camera`` and ``ego_motion`` of the SituationMonitor from --camera / --ego-motion."""
     from sensemaking.io.egomotion import read_ego_motion
-    from sensemaking.reasoning.egomotion import CameraModel
+    from sensemaking.reasoning.egomotion import CameraModel, EgoMotionConfig
 
     camera = CameraModel.parse(args.camera) if args.camera else None
     if camera is None and args.format == "kitti":
@@ -584,7 +600,13 @@ def _world_motion(args: argparse.Namespace) -> dict[str, Any]:
     if args.ego_motion is not None and camera is None:
         raise InputError("--ego-motion needs a camera model: --format kitti or --camera")
     ego = None if args.ego_motion is None else read_ego_motion(args.ego_motion)
-    return {"camera": camera, "ego_motion": ego}
+    out: dict[str, Any] = {"camera": camera, "ego_motion": ego}
+    pitch = getattr(args, "pitch", None)
+    if pitch is not None:
+        if camera is None:
+            raise InputError("--pitch needs a camera model: --format kitti or --camera")
+        out["ego_config"] = EgoMotionConfig(horizon_from_scene=pitch == "scene")
+    return out
 
 
 #: bytes read from stdin or a pipe given as --detections (spooled to a temporary file)
@@ -698,6 +720,7 @@ def _run(args: argparse.Namespace) -> int:
         "--detector": args.detector,
         "--seqinfo": args.seqinfo,
         "--encoding": args.encoding,
+        "--confidence": args.confidence,
         **{f"--rules {r}": r for r in args.rules},
         **{f"--situations {r}": r for r in args.situations},
         "--lanes": args.lanes,
@@ -740,7 +763,13 @@ def _run(args: argparse.Namespace) -> int:
     from sensemaking.sandbox import Limits
 
     limits = Limits(args.timeout, args.max_atoms, args.max_memory)
-    online = Tracker(config, encoding=args.encoding, rules=args.rules, limits=limits)
+    online = Tracker(
+        config,
+        encoding=args.encoding,
+        rules=args.rules,
+        limits=limits,
+        confidence=args.confidence,
+    )
     tracker = make_tracker(online)  # with lookahead_s > 0: frames decided k frames later
     recorder = monitor = None
     if args.ego_motion and not (args.warnings or args.scene):
@@ -749,6 +778,8 @@ def _run(args: argparse.Namespace) -> int:
         raise InputError(
             "--camera needs --warnings, --scene, --output RUN.mcap or --live (it serves those)"
         )
+    if getattr(args, "pitch", None) and not args.warnings:
+        raise InputError("--pitch needs --warnings (it serves those)")
     world = _world_motion(args)
     # the stories of --output RUN.mcap and --live, told at the end from the recorded scene
     stories = ros.run_stories(args, config, world["camera"])

@@ -29,9 +29,10 @@ module gives them the numbers:
 What cannot be known is left out rather than guessed: no distance for a box whose bottom is at
 the image's bottom edge (cut off: the road contact is not seen) or too near the horizon
 (farther than ``max_range_m``), no ego speed before two static objects agree (or a file says
-it), none after ``hold_s`` without static objects. Limits: a flat road and a level camera; a
-scene with no static object in view (a queue of cars moving together, and nothing else) makes
-the moving ones look static -- give the ego-motion file there.
+it), none after ``hold_s`` without static objects. Limits: a flat road and a level camera
+(or, with ``horizon_from_scene``, one pitch per frame fitted to the boxes:
+:class:`HorizonEstimator`); a scene with no static object in view (a queue of cars moving
+together, and nothing else) makes the moving ones look static -- give the ego-motion file there.
 
 :func:`world_facts` writes the numbers as the facts situations.lp reads (centimetres,
 centimetres per second, integers); the rules that say what "stopped" or "sudden stop" means
@@ -44,11 +45,12 @@ import math
 import weakref
 from collections import deque
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from sensemaking.classes import CLASS_IDS
 from sensemaking.errors import InputError
 from sensemaking.io.egomotion import EgoMotion
 
@@ -61,6 +63,9 @@ __all__ = [
     "EgoState",
     "TrackMotion",
     "EgoEstimator",
+    "HorizonEstimator",
+    "OBJECT_HEIGHT_M",
+    "fit_horizon",
     "WorldMotion",
     "estimate_ego_speed",
     "world_facts",
@@ -192,6 +197,17 @@ class EgoMotionConfig:
             ``location`` (a 3D detector's, carried by the tracker's output as
             ``detection_location``) instead of the box on a flat road. Off by default: on
             PointRCNN 0000-0010 it did not pass the keep rule (docs/DESIGN-NOTES.md, issue 22).
+        horizon_from_scene: estimate the horizon row (the camera's pitch over the road) from
+            the boxes instead of taking the camera model's ``horizon_px`` (a level camera):
+            :class:`HorizonEstimator`. Off by default (docs/DESIGN-NOTES.md, "Camera pitch").
+        horizon_window_s: seconds of boxes one horizon fit uses, > 0.
+        horizon_smooth_s: time constant of the horizon's exponential smoothing, seconds, > 0;
+            with too few boxes the estimate relaxes back to level at the same rate.
+        horizon_min_boxes: boxes (in the window) a fit needs, >= 2.
+        horizon_max_pitch_deg: the largest pitch the fit may give, degrees (0 < x < 45); the
+            horizon stays within ``focal * tan`` of it from the level row.
+        horizon_height_band: how far (relative, 0 <= x < 1) the fitted slope may stray from the
+            camera height: 0 takes the camera height as the slope (only the horizon is fitted).
     """
 
     fit_s: float = 1.0
@@ -207,6 +223,12 @@ class EgoMotionConfig:
     ego_lane_half_m: float = 1.75
     max_vote_sd_mps: float = 2.1
     detection_location: bool = False
+    horizon_from_scene: bool = False
+    horizon_window_s: float = 1.0
+    horizon_smooth_s: float = 0.15
+    horizon_min_boxes: int = 8
+    horizon_max_pitch_deg: float = 3.0
+    horizon_height_band: float = 0.1
 
     def __post_init__(self) -> None:
         for name in (
@@ -220,12 +242,19 @@ class EgoMotionConfig:
             "static_range_m",
             "ego_lane_half_m",
             "max_vote_sd_mps",
+            "horizon_window_s",
+            "horizon_smooth_s",
+            "horizon_max_pitch_deg",
         ):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be finite and > 0, got {v!r}")
         if self.hold_s < 0 or self.min_static < 1:
             raise ValueError("hold_s must be >= 0 and min_static >= 1")
+        if self.horizon_min_boxes < 2 or not 0 <= self.horizon_height_band < 1:
+            raise ValueError("horizon_min_boxes must be >= 2 and horizon_height_band in [0, 1)")
+        if self.horizon_max_pitch_deg >= 45:
+            raise ValueError("horizon_max_pitch_deg must be below 45")
 
 
 @dataclass(frozen=True)
@@ -421,6 +450,124 @@ class EgoEstimator:
         return float(np.median(vx[member] / z[member]))
 
 
+#: typical real height of an object of each class, metres (KITTI's label means: car 1.53,
+#: pedestrian 1.76, cyclist 1.74); boxes of other classes do not vote on the horizon
+OBJECT_HEIGHT_M: dict[int, float] = {
+    CLASS_IDS["car"]: 1.53,
+    CLASS_IDS["pedestrian"]: 1.76,
+    CLASS_IDS["cyclist"]: 1.74,
+}
+#: boxes kept per frame for the horizon fit (the nearest first: their bottoms are the surest)
+_HORIZON_BOXES_PER_FRAME = 40
+#: boxes one fit uses at most (the latest): the pairwise slopes grow with the square
+_HORIZON_MAX_POINTS = 240
+#: smallest difference of ``h / H`` (px per metre) for a pair to give a slope
+_HORIZON_MIN_DX = 3.0
+
+
+def fit_horizon(x: np.ndarray, y: np.ndarray, height_m: float, band: float) -> tuple[float, float]:
+    """Horizon row and slope of ``y = horizon + slope * x`` for boxes standing on the road.
+
+    Args:
+        x: (N,) box height over the object's real height, px per metre (``focal / Z``).
+        y: (N,) box bottom rows, px.
+        height_m: the camera's height above the road, metres: the slope expected.
+        band: the slope is the median of the pairwise slopes (Theil-Sen), kept within
+            ``height_m * (1 +- band)``; 0: the slope is ``height_m``.
+
+    Returns ``(horizon_px, slope_m)``; the horizon is the median of ``y - slope * x``.
+    """
+    slope = height_m
+    if band > 0 and x.size >= 2:
+        i, j = np.triu_indices(x.size, 1)
+        dx = x[j] - x[i]
+        ok = np.abs(dx) >= _HORIZON_MIN_DX
+        if ok.any():
+            k = float(np.median((y[j] - y[i])[ok] / dx[ok]))
+            slope = min(max(k, height_m * (1.0 - band)), height_m * (1.0 + band))
+    return float(np.median(y - slope * x)), slope
+
+
+class HorizonEstimator:
+    """The horizon row (so the camera's pitch over the road) from the boxes of a scene.
+
+    A pinhole camera ``height_m`` over a flat road sees an object of real height ``H`` standing
+    on the road at distance Z with its box bottom at ``horizon + focal * height_m / Z`` and its
+    box ``focal * H / Z`` tall, so over the untruncated boxes of the classes in
+    :data:`OBJECT_HEIGHT_M` the bottom row is linear in ``h / H`` with slope ``height_m``
+    (:func:`fit_horizon`). The fit is made over the last ``horizon_window_s`` seconds of boxes
+    (at most ``_HORIZON_BOXES_PER_FRAME`` a frame and ``_HORIZON_MAX_POINTS`` in all: memory
+    and time are bounded), kept within
+    ``horizon_max_pitch_deg`` of level and smoothed with time constant ``horizon_smooth_s``;
+    with fewer than ``horizon_min_boxes`` boxes in the window it relaxes back to level.
+    """
+
+    def __init__(
+        self,
+        camera: CameraModel,
+        fps: float,
+        config: EgoMotionConfig | None = None,
+        image_size: tuple[int, int] | None = None,
+    ):
+        self.camera = camera
+        self.fps = float(fps)
+        self.config = config or EgoMotionConfig()
+        self.image_size = image_size
+        self._keep = max(1, int(round(self.config.horizon_window_s * self.fps)))
+        self._limit = camera.focal_px * math.tan(math.radians(self.config.horizon_max_pitch_deg))
+        self.reset()
+
+    def reset(self) -> None:
+        self._window: deque[tuple[int, np.ndarray, np.ndarray]] = deque()
+        self.horizon_px = self.camera.horizon_px
+        self.slope_m = self.camera.height_m
+        self._frame: int | None = None
+
+    @property
+    def pitch_deg(self) -> float:
+        """The camera's pitch over the road, degrees (positive: looking up, the horizon lower
+        in the image than the level camera's)."""
+        return math.degrees(
+            math.atan((self.horizon_px - self.camera.horizon_px) / self.camera.focal_px)
+        )
+
+    def update(self, frame: int, xyxy: np.ndarray, classes: Sequence[int] | None = None) -> float:
+        """The horizon row (px) at ``frame`` from the boxes ``xyxy`` (N, 4) px of this frame's
+        visible objects, of classes ``classes`` (N,) (None: all cars)."""
+        c = self.config
+        b = np.asarray(xyxy, dtype=np.float64).reshape(-1, 4)
+        if classes is None:
+            tall = np.full(len(b), OBJECT_HEIGHT_M[CLASS_IDS["car"]])
+        else:
+            tall = np.array([OBJECT_HEIGHT_M.get(int(k), np.nan) for k in classes], dtype=float)
+        h = b[:, 3] - b[:, 1]
+        ok = np.isfinite(tall) & (h > 0) & np.isfinite(b).all(axis=1)
+        edge = 2.0  # a box this near the image's edge is cut: its bottom or height is not real
+        ok &= (b[:, 0] > edge) & (b[:, 1] > edge)
+        if self.image_size is not None:
+            w, hh = self.image_size
+            ok &= (b[:, 2] < w - 1 - edge) & (b[:, 3] < hh - 1 - edge)
+        x, y = h[ok] / tall[ok], b[ok, 3]
+        if x.size > _HORIZON_BOXES_PER_FRAME:
+            near = np.argsort(-x)[:_HORIZON_BOXES_PER_FRAME]
+            x, y = x[near], y[near]
+        self._window.append((frame, x, y))
+        while self._window and frame - self._window[0][0] >= self._keep:
+            self._window.popleft()
+        xs = np.concatenate([w[1] for w in self._window])[-_HORIZON_MAX_POINTS:]
+        ys = np.concatenate([w[2] for w in self._window])[-_HORIZON_MAX_POINTS:]
+        level = self.camera.horizon_px
+        if xs.size >= c.horizon_min_boxes:
+            raw, self.slope_m = fit_horizon(xs, ys, self.camera.height_m, c.horizon_height_band)
+            target = min(max(raw, level - self._limit), level + self._limit)
+        else:
+            target = level
+        dt = 1.0 / self.fps if self._frame is None else max(0, frame - self._frame) / self.fps
+        self.horizon_px += (1.0 - math.exp(-dt / c.horizon_smooth_s)) * (target - self.horizon_px)
+        self._frame = frame
+        return self.horizon_px
+
+
 @dataclass
 class _History:
     frames: deque[int] = field(default_factory=deque)
@@ -463,11 +610,18 @@ class WorldMotion:
         self.image_size = image_size
         self.config = config or EgoMotionConfig()
         self.ego = EgoEstimator(fps, self.config, ego_motion)
+        self.horizon = (
+            HorizonEstimator(camera, fps, self.config, image_size)
+            if self.config.horizon_from_scene
+            else None
+        )
         self._keep = max(3, int(round(self.config.fit_s * self.fps)) + 1)
         self.reset()
 
     def reset(self) -> None:
         self.ego.reset()
+        if self.horizon is not None:
+            self.horizon.reset()
         self._hist: dict[int, _History] = {}
 
     def forget(self, alive: set[int]) -> None:
@@ -481,11 +635,15 @@ class WorldMotion:
         ids: Sequence[int],
         xyxy: np.ndarray,
         location: np.ndarray | None = None,
+        classes: Sequence[int] | None = None,
     ) -> tuple[EgoState | None, dict[int, TrackMotion]]:
         """Positions, relative and world velocities of the visible tracks ``ids`` with boxes
         ``xyxy`` (N, 4) px (and, where the detector gives them, 3D ``location`` (N, 3) camera
-        coordinates, m, NaN where not) at ``frame``."""
+        coordinates, m, NaN where not) at ``frame``; ``classes`` (N,) class ids serve the
+        horizon estimate (``horizon_from_scene``; None: all cars)."""
         c, cam = self.config, self.camera
+        if self.horizon is not None:
+            cam = replace(cam, horizon_px=self.horizon.update(frame, xyxy, classes))
         h = None if self.image_size is None else self.image_size[1]
         z, x = cam.ground_position(xyxy, h)
         zsd = cam.distance_sd(z, c.pixel_sd)

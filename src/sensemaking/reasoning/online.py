@@ -509,6 +509,7 @@ class SituationMonitor:
                 [ids[i] for i in vis],
                 xyxy[vis],
                 None if loc is None else np.asarray(loc, dtype=np.float64)[vis],
+                [cls[i] for i in vis],
             )
 
         if self.image_size is not None:

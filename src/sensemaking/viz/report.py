@@ -12,6 +12,8 @@ Sections:
   :func:`sensemaking.reasoning.explain` when it is available, else a story built from the
   track's states and events.
 * **Metrics** — with ground truth: the :mod:`sensemaking.evaluation` table per scored class.
+* **Explanations** — with ground truth and hidings in the run: the precision-recall curve
+  (inline SVG) and table of each hiding kind against its confidence (:func:`explanation_curves`).
 * **Key frames** — thumbnails of the frames where events or warnings happen, with the
   explanation drawn (:class:`~sensemaking.viz.render.FrameDrawer`).
 """
@@ -39,7 +41,14 @@ from sensemaking.viz import _style as st
 from sensemaking.viz._run import Run, Span, as_run, scene_of
 from sensemaking.viz._style import _get
 
-__all__ = ["build_report", "write_report", "key_frames", "track_story", "METRIC_COLUMNS"]
+__all__ = [
+    "build_report",
+    "write_report",
+    "key_frames",
+    "track_story",
+    "explanation_curves",
+    "METRIC_COLUMNS",
+]
 
 log = logging.getLogger(__name__)
 
@@ -316,6 +325,54 @@ def compute_metrics(
     return out
 
 
+def explanation_curves(
+    run: Run,
+    gt: str | os.PathLike[str] | Detections,
+    gt_format: str | None = None,
+) -> str:
+    """HTML of the run's events judged against ground truth: per event kind with a confidence
+    (the hidings), the precision-recall curve (inline SVG) and its table
+    (:mod:`sensemaking.evaluation.curves`); empty when the run has no such event."""
+    from sensemaking.evaluation.curves import confidence_rows_html, pr_curve_svg
+    from sensemaking.evaluation.explanations import GroundTruth, evaluate_explanations
+
+    if not any(e.name in ("hides_behind", "may_hide_behind") for e in run.events):
+        return ""
+    if not isinstance(gt, Detections):
+        path = Path(gt)
+        if not path.is_file():
+            raise InputError("no such ground-truth file", path)
+        gt_format = gt_format or _guess_format(path)
+        if gt_format == "mot":
+            from sensemaking.io.mot import read_mot
+
+            gt = read_mot(path, "gt")
+        else:
+            from sensemaking.io.kitti import read_kitti_labels
+
+            gt = read_kitti_labels(path)
+    tracks = _run_tracks(run)
+    if gt_format == "mot":
+        truth = GroundTruth.from_mot(gt, image_size=run.size(), fps=float(run.fps or 30.0))
+    else:
+        names = [c for c in ("car", "pedestrian") if np.any(tracks.class_id == CLASS_IDS[c])]
+        truth = GroundTruth.from_kitti(
+            gt, image_size=run.size(), fps=float(run.fps or 10.0), classes=names or ("car",)
+        )
+    result = evaluate_explanations(truth, tracks, run.events, name=run.name or "")
+    events = result.summary()["events"]
+    blocks = []
+    for kind in ("hides_behind", "may_hide_behind"):
+        row = events.get(kind, {})
+        rows = row.get("by_confidence")
+        if rows and row.get("total"):
+            blocks.append(
+                f'<figure class="pr" data-kind="{kind}">{pr_curve_svg(rows, kind)}'
+                f"<figcaption>{confidence_rows_html(rows)}</figcaption></figure>"
+            )
+    return "".join(blocks)
+
+
 # HTML pieces -----------------------------------------------------------------------------------
 _CSS = """
 :root{--fg:#1f2430;--dim:#5b6270;--line:#e3e6ec;--bg:#fafbfc;--card:#fff;--warn:#d92d2d}
@@ -353,6 +410,10 @@ article.story .source{color:var(--dim);font-size:11px}
 table.metrics{border-collapse:collapse;background:var(--card)}
 table.metrics th,table.metrics td{border:1px solid var(--line);padding:4px 8px;text-align:right}
 table.metrics th:first-child,table.metrics td:first-child{text-align:left}
+figure.pr{display:inline-block;margin:0 24px 16px 0;vertical-align:top}
+table.by-confidence{border-collapse:collapse;background:var(--card);font-size:12px}
+table.by-confidence th,table.by-confidence td{border:1px solid var(--line);padding:2px 6px;
+  text-align:right}
 .note{color:var(--dim);font-size:12px}
 .frames{display:grid;grid-template-columns:repeat(auto-fill,minmax(360px,1fr));gap:12px}
 figure.thumb{margin:0;background:var(--card);border:1px solid var(--line);border-radius:6px;
@@ -673,6 +734,7 @@ def build_report(
     name = run.name or "run"
     title = title or f"sensemaking report: {name}"
     metrics = compute_metrics(run, gt, gt_format, idsw_mode) if gt is not None else None
+    curves = explanation_curves(run, gt, gt_format) if gt is not None else ""
     frames = key_frames(run, max_thumbnails) if max_thumbnails > 0 else []
     thumbs = (
         _thumbnails_html(run, frames, images, video, thumbnail_width, first_frame)
@@ -696,6 +758,8 @@ def build_report(
     ]
     if metrics is not None:
         nav.append('<a href="#metrics">Metrics</a>')
+    if curves:
+        nav.append('<a href="#explanations">Explanations</a>')
     if thumbs:
         nav.append('<a href="#frames">Key frames</a>')
     body = [
@@ -708,6 +772,13 @@ def build_report(
     ]
     if metrics is not None:
         body.append(f'<section id="metrics"><h2>Metrics</h2>{_metrics_html(metrics)}</section>')
+    if curves:
+        body.append(
+            '<section id="explanations"><h2>Explanations</h2><p class="summary">Precision '
+            "(plausible of the decidable) and recall of the events kept at or above each "
+            f"confidence, judged against the ground truth (docs/EXPLANATIONS.md).</p>{curves}"
+            "</section>"
+        )
     if thumbs:
         body.append(f'<section id="frames"><h2>Key frames</h2>{thumbs}</section>')
     return (
