@@ -437,8 +437,9 @@ class FrameProblem:
             for _ in groups
         ]
         for name, rel in (("heading", self.heading), ("size_gap", self.size_gap)):
-            for t, d, level in rel.tolist():
-                parts[where_t[t]][name].append((t, d, level))
+            if len(rel):  # only with direction_weight / size_weight
+                for t, d, level in rel.tolist():
+                    parts[where_t[t]][name].append((t, d, level))
         moving = set() if self.moving is None else set(np.flatnonzero(self.moving).tolist())
         for t, d, lik in self.cand.tolist():
             parts[where_t[t]]["cand"].append((t, d, lik, (t, d) in preferred))
@@ -491,9 +492,9 @@ class FrameProblem:
                 fits=tuple((lt[t], ld[d]) for t, d in found["fits"]),
                 gone=gone,
                 back=back,
-                moving=tuple(lt[t] for t in ts if t in moving),
-                heading=tuple((lt[t], ld[d], a) for t, d, a in found["heading"]),
-                size_gap=tuple((lt[t], ld[d], a) for t, d, a in found["size_gap"]),
+                moving=tuple(lt[t] for t in ts if t in moving) if moving else (),
+                heading=_local3(found["heading"], lt, ld),
+                size_gap=_local3(found["size_gap"], lt, ld),
                 at_last_seen=tuple((lt[t], ld[d]) for t, d in found["seen"]),
             )
             out.append((component, local_ids, list(ds)))
@@ -512,6 +513,13 @@ class FrameProblem:
             (lg[g], ld[d], lik) for g, d, lik in self.back.tolist() if g in lg and d in ld
         )
         return gone, back
+
+
+def _local3(
+    rows: list[tuple[int, int, int]], lt: dict[int, int], ld: dict[int, int]
+) -> tuple[tuple[int, int, int], ...]:
+    """``(track, detection, level)`` rows in a component's local numbering (``lt``, ``ld``)."""
+    return tuple((lt[t], ld[d], a) for t, d, a in rows) if rows else ()
 
 
 def _steps(values: np.ndarray | None, n: int) -> np.ndarray:
