@@ -340,7 +340,8 @@ def classify(item: Item, out: Path, data: Path, preset: dict[str, Any]) -> list[
     objs = _gt_objects(item, gt)
     res = _res(item, out)
     assert res.frame is not None and res.tracker_id is not None
-    min_conf = float(preset.get("min_confidence", 0.0))
+    gates = preset.get(item.cls, preset)  # the class's own thresholds, else the global
+    min_conf = float(gates.get("min_confidence", 0.0))
     window = 5 if item.fmt == "kitti" else max(5, round(0.35 * _fps(item, data)))
     rows = []
     for e in s.episodes:
@@ -475,7 +476,16 @@ def _preset(fmt: str) -> dict[str, Any]:
     from sensemaking.settings import preset_config
 
     cfg = preset_config("kitti" if fmt == "kitti" else "mot")
-    return {"min_confidence": cfg.min_confidence, "start_confidence": cfg.start_confidence}
+    # the pedestrian class's own thresholds where class_confidence sets them, else global
+    table = cfg.class_confidence.get("pedestrian", {})
+    return {
+        "min_confidence": cfg.min_confidence,
+        "start_confidence": cfg.start_confidence,
+        "pedestrian": {
+            "min_confidence": table.get("min_confidence", cfg.min_confidence),
+            "start_confidence": table.get("start_confidence", cfg.start_confidence),
+        },
+    }
 
 
 def taxonomy(args: argparse.Namespace) -> None:
