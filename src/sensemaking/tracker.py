@@ -17,11 +17,20 @@ from typing import Any
 
 import numpy as np
 
+from sensemaking import asp
 from sensemaking.abduction.components import ComponentSolver, SolverCache
+from sensemaking.abduction.confidence import CONFIDENCE_CONSTANTS, HideConfidence
 from sensemaking.abduction.hungarian import match_hungarian
 from sensemaking.abduction.observe import frame_problem, likelihood, likelihood_grid, quantize
 from sensemaking.abduction.problem import GONE_EVENTS, VISIBILITY_VALUES, FrameProblem
-from sensemaking.abduction.solver import AbductionSolver, Answer, Det, read_encoding
+from sensemaking.abduction.solver import (
+    AbductionSolver,
+    Answer,
+    Det,
+    Ref,
+    load_encoding,
+    read_encoding,
+)
 from sensemaking.adapters import as_detections
 from sensemaking.config import AbductionCosts, KalmanConfig, TrackerConfig
 from sensemaking.detections import (
@@ -83,6 +92,7 @@ class Tracker:
         rules: str | Path | Sequence[str | Path] = (),
         solver_cache: SolverCache | None = None,
         limits: Limits | None = None,
+        confidence: str | Path | None = None,
         **overrides: Any,
     ):
         """Args:
@@ -101,6 +111,9 @@ class Tracker:
             before any frame (grounded and solved without facts in a limited child process,
             :mod:`sensemaking.sandbox`); the atom limit holds for every frame too. Default:
             ``ask``'s limits.
+        confidence: rules (a ``.lp`` path or its text) that replace the packaged
+            ``confidence.lp``: how sure each hiding is (the events' ``confidence``). They read
+            the facts documented there and show ``confidence(E,C)``, 0..1000.
         """
         self.config = (
             replace(config or TrackerConfig(), **overrides)
@@ -109,36 +122,49 @@ class Tracker:
         )
         c = self.config
         extra = [rules] if isinstance(rules, (str, Path)) else list(rules)
+        constants = {
+            # thresholds on the likelihood grid, rounded down so that every pair the numpy
+            # gate admits also passes the encoding's constraint
+            "iou_assign": quantize(c, np.array([c.iou_assign]), np.floor)[0],
+            "iou_resume": quantize(c, np.array([c.iou_resume]), np.floor)[0],
+            # confidence gates are applied in numpy in the detector's own units: detections
+            # too weak to start a track get confidence 0 in the facts, all others >= 1
+            "conf_assign": 0,
+            "conf_start": 1,
+            "class_aware": int(c.class_aware),
+            # evidence for a hiding, per mille of the hidden track's box (1001: never)
+            "hide_min_cover": int(np.floor(c.hide_sure_cover * 1000)),
+            "hide_late_cover": int(np.floor(c.late_hide_cover * 1000)) if c.late_hides else 1001,
+            "late_confidence": int(round(c.late_confidence * 1000)),
+            "late_maybe": int(c.late_maybe),
+            "depth_clear": int(np.floor(c.depth_clear * 1000)),
+            "depth_confidence": int(round(c.depth_confidence * 1000)),
+            # every event cost is tracking.lp's #const cost_<name>
+            **{f"cost_{name}": value for name, value in _costs(c).items()},
+        }
+        base = None if encoding is None else read_encoding(encoding)
+        rule_texts = [read_encoding(r) for r in extra]
+        names = asp.mentioned("\n".join((base or load_encoding(), *rule_texts)))
         solver = AbductionSolver(
+            # the confidence's constants are confidence.lp's (unless the program reads them): a
+            # change of them is no new frame program, no new answer cache
             constants={
-                # thresholds on the likelihood grid, rounded down so that every pair the numpy
-                # gate admits also passes the encoding's constraint
-                "iou_assign": quantize(c, np.array([c.iou_assign]), np.floor)[0],
-                "iou_resume": quantize(c, np.array([c.iou_resume]), np.floor)[0],
-                # confidence gates are applied in numpy in the detector's own units: detections
-                # too weak to start a track get confidence 0 in the facts, all others >= 1
-                "conf_assign": 0,
-                "conf_start": 1,
-                "class_aware": int(c.class_aware),
-                # evidence for a hiding, per mille of the hidden track's box (1001: never)
-                "hide_min_cover": int(np.floor(c.hide_sure_cover * 1000)),
-                "hide_late_cover": int(np.floor(c.late_hide_cover * 1000))
-                if c.late_hides
-                else 1001,
-                "late_confidence": int(round(c.late_confidence * 1000)),
-                "late_maybe": int(c.late_maybe),
-                "depth_clear": int(np.floor(c.depth_clear * 1000)),
-                "depth_confidence": int(round(c.depth_confidence * 1000)),
-                # every event cost is tracking.lp's #const cost_<name>
-                **{f"cost_{name}": value for name, value in _costs(c).items()},
+                k: v for k, v in constants.items() if k not in CONFIDENCE_CONSTANTS or k in names
             },
-            encoding=None if encoding is None else read_encoding(encoding),
-            rules=[read_encoding(r) for r in extra],
+            encoding=base,
+            rules=rule_texts,
             max_conflicts=c.max_conflicts,
+            unread=_unread(encoding is None, constants, rule_texts),
         )
         packaged = encoding is None and not extra
         if not packaged:  # the user's code, under ask's limits (issue 24)
             _check_user_program(solver, [encoding, *extra], limits or Limits())
+        self._confidence = HideConfidence(
+            {k: constants[k] for k in CONFIDENCE_CONSTANTS},
+            None if confidence is None else read_encoding(confidence),
+        )
+        if confidence is not None:
+            _check_user_program(self._confidence, [confidence], limits or Limits())
         decompose = packaged if c.decompose is None else c.decompose
         self._solver = ComponentSolver(
             solver, decompose=decompose, numbers=likelihood_grid(c), cache=solver_cache
@@ -209,7 +235,9 @@ class Tracker:
         solve_ms = (time.perf_counter() - t0) * 1000.0
         self.stats["solve_ms"] += solve_ms
         solved = frozen_problem(problem) if keep_problem and problem is not None else None
-        events, observed = self._apply(answer, dets, frame)  # update the tracks by the answer
+        # how sure each hiding is: read off the problem before the answer changes its tracks
+        sure = {} if problem is None else self._confidence.levels(problem, answer)
+        events, observed = self._apply(answer, dets, frame, sure)  # update the tracks
         abduction = None
         if problem is not None:
             started = set(answer.start)
@@ -340,10 +368,15 @@ class Tracker:
 
     # -- applying the answer ----------------------------------------------------------------------
     def _apply(
-        self, ans: Answer, dets: Detections, frame: int
+        self,
+        ans: Answer,
+        dets: Detections,
+        frame: int,
+        sure: dict[tuple[str, tuple[Ref, ...]], int] | None = None,
     ) -> tuple[list[Event], dict[int, int]]:
         """Update the tracks by the answer; return this frame's events and
-        ``track id -> detection row`` of every track observed this frame (matched or new)."""
+        ``track id -> detection row`` of every track observed this frame (matched or new).
+        ``sure``: the confidence (0..1000) of some of the answer's events, by name and args."""
         if len(self._tracks) == 0 and not (ans.start or ans.events or ans.fluents):
             return [], {}  # no track before or after: nothing to update, confirm or report
         if len(self._ended) and ans.resume:
@@ -357,7 +390,7 @@ class Tracker:
         self._carry_fluents(ans, index, new_ids)
         self._mark_unobserved(ans.halt + ans.ignore_trk, index, camera)
         events = self._confirm(frame)
-        events += self._report_events(ans, new_ids, frame)
+        events += self._report_events(ans, new_ids, frame, sure or {})
         if self._revive and ans.end:
             self._keep_ended(ans)
         self._drop_ended(set(ans.end))
@@ -511,13 +544,20 @@ class Tracker:
                 events.append(replace(pending, frame=frame))
         return events
 
-    def _report_events(self, ans: Answer, new_ids: dict[Det, int], frame: int) -> list[Event]:
+    def _report_events(
+        self,
+        ans: Answer,
+        new_ids: dict[Det, int],
+        frame: int,
+        levels: dict[tuple[str, tuple[Ref, ...]], int],
+    ) -> list[Event]:
         """The answer's events, with detections renamed to their new track ids; a tentative
         track's events other than its start are not reported, its start waits
-        (:meth:`_confirm`)."""
+        (:meth:`_confirm`). ``levels``: confidences of events (the program's own
+        ``confidence/2``, if it shows any, comes first)."""
         events: list[Event] = []
         confirmed = set(self._tracks.id[self._tracks.confirmed].tolist()) if ans.events else set()
-        sure = {(n, a): c for n, a, c in ans.confidence}
+        sure = {**levels, **{(n, a): c for n, a, c in ans.confidence}}
         for name, args in ans.events:
             if any(isinstance(a, Det) and a not in new_ids for a in args):
                 log.debug("event %s names a detection that starts no track: not reported", name)
@@ -623,8 +663,18 @@ def frozen_problem(problem: FrameProblem) -> FrameProblem:
     return replace(problem, **copies)
 
 
+def _unread(packaged: bool, constants: dict[str, int], rules: Sequence[str]) -> tuple[str, ...]:
+    """The optional facts ``tracking.lp`` mentions that cannot change an answer with these
+    constants: ``cover_share/3`` where hide_min_cover and hide_late_cover admit every share
+    (without the facts each counts as full, 1000), unless the user's rules read it."""
+    if not packaged or "cover_share" in asp.mentioned("\n".join(rules)):
+        return ()
+    lows = (constants["hide_min_cover"], constants["hide_late_cover"])
+    return ("cover_share",) if all(v <= 0 or v > 1000 for v in lows) else ()
+
+
 def _check_user_program(
-    solver: AbductionSolver, sources: Sequence[str | Path | None], limits: Limits
+    solver: AbductionSolver | HideConfidence, sources: Sequence[str | Path | None], limits: Limits
 ) -> None:
     """Ground and solve the user's program once without facts under ``limits`` and keep the
     atom limit for every frame. ``sources``: the encoding (None: packaged), then the rules.

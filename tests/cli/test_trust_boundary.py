@@ -149,6 +149,8 @@ def test_an_archive_path_with_a_bracket_is_not_a_glob(tmp_path: Path, capsys) ->
         ("--rules", "occurs(stops(T)) :- track(T)\n", "does not parse"),
         ("--rules", ":- not nope.\n", "UNSATISFIABLE"),
         ("--rules", ":- track(T).\n", "UNSATISFIABLE"),
+        ("--confidence", '#include "other.lp".\n', "#include is not allowed"),
+        ("--confidence", "confidence(E,C) :- said_hide(E,_,_).\n", "unsafe variables"),
         ("--situations", '#include "other.lp".\n', "#include is not allowed"),
         ("--situations", "warn(x,(T,)) :- not track(T).\n", "unsafe variables"),
         pytest.param("--situations", "p(1..100000000).\n", "limit", marks=pytest.mark.slow),

@@ -146,6 +146,9 @@ class ComponentSolver:
         self._lock = self.cache.lock
         self._slots: SlotSolver | None = None
         self._cache = self.cache.answers(solver)
+        #: whether the facts state the cover pairs' shares and depths (only for encodings that
+        #: read them): else components that differ in those alone share one answer
+        self._levels = bool({"cover_share", "cover_depth"} & solver.uses)
         if slots:
             self._slots = self.cache.slots(solver)
             self._slots.expect(numbers)
@@ -159,7 +162,7 @@ class ComponentSolver:
         answer = Answer()
         missed: dict[Component, list[tuple[list[int], list[int]]]] = {}
         for component, track_ids, det_rows in parts:
-            key = _plain(component)
+            key = _plain(component, self._levels)
             with self._lock:
                 packed = self._cache.get(key)
                 if packed is not None:
@@ -198,14 +201,14 @@ class ComponentSolver:
         """The cost of the cache's answer to ``component``, None if not remembered or solved
         together with other components (no cost of its own); read only."""
         with self._lock:
-            packed = self._cache.get(_plain(component))
+            packed = self._cache.get(_plain(component, self._levels))
         return None if packed is None else packed[9]
 
     def _remember(self, component: Component, local: Answer) -> None:
         if not local.timed_out and self.cache_size > 0:
             packed = _pack(local)
             with self._lock:
-                self._cache[_plain(component)] = packed
+                self._cache[_plain(component, self._levels)] = packed
                 while len(self._cache) > self.cache_size:
                     self._cache.popitem(last=False)
 
@@ -234,11 +237,17 @@ class ComponentSolver:
 
 #: every field of a component, in order: a new field is part of the cache key by itself
 _FIELDS = attrgetter(*(f.name for f in fields(Component)))
+_COVERS = [f.name for f in fields(Component)].index("covers")
 
 
-def _plain(c: Component) -> Plain:
-    """The component's fields as a plain tuple (equal exactly when the components are)."""
-    return tuple(_FIELDS(c))
+def _plain(c: Component, levels: bool = True) -> Plain:
+    """The component's fields as a plain tuple (equal exactly when the components are); without
+    ``levels``, the ``covers`` rows lose their share and depth (facts that do not state them)."""
+    plain = _FIELDS(c)
+    if levels or not c.covers:
+        return tuple(plain)
+    covers = tuple(row[:3] for row in c.covers)
+    return (*plain[:_COVERS], covers, *plain[_COVERS + 1 :])
 
 
 def _pack_ref(x: Ref) -> int | str | tuple[int]:

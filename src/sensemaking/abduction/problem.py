@@ -104,12 +104,14 @@ class Component:
         return self.n_live_refs + len(self.gone)
 
     def facts(self, uses: Collection[str] = (), t0: int = 0, d0: int = 0) -> list[Symbol]:
-        """The component's facts as symbols. ``uses``: optional predicates to include (``speed``
-        only when the encoding mentions it: a fact no rule reads cannot change the answer).
+        """The component's facts as symbols. ``uses``: optional predicates to include
+        (``speed``, ``cover_share``, ``cover_depth``: only when the encoding reads them, a fact
+        no rule reads cannot change the answer).
         ``t0``, ``d0``: first track and detection number (several components in one program)."""
         out: list[Symbol] = []
         add = out.append
         with_speed = "speed" in uses
+        with_share, with_depth = "cover_share" in uses, "cover_depth" in uses
 
         def det(j: int) -> Symbol:
             return Function("d", [_number(d0 + j)])
@@ -143,8 +145,10 @@ class Component:
                 add(Function("prefer", [track(t), det(j)]))
         for j, t, rank, share, margin in self.covers:
             add(Function("covers", [det(j), track(t)]))
-            add(Function("cover_share", [det(j), track(t), _number(share)]))
-            add(Function("cover_depth", [det(j), track(t), _number(margin)]))
+            if with_share:
+                add(Function("cover_share", [det(j), track(t), _number(share)]))
+            if with_depth:
+                add(Function("cover_depth", [det(j), track(t), _number(margin)]))
             if rank >= 0:
                 add(Function("cover_rank", [det(j), track(t), _number(rank)]))
         for t, j in self.fits:

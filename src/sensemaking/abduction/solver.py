@@ -180,6 +180,8 @@ class AbductionSolver:
         max_conflicts: deterministic work budget per solve, in solver conflicts (clingo's
             ``--solve-limit``): past it the best answer so far is used (``budget_hit``). The
             same input gives the same answer on any machine. None: no limit.
+        unread: optional facts (``cover_share``, ...) not given although the program mentions
+            them: the caller knows that with its constants they cannot change an answer.
     """
 
     def __init__(
@@ -189,6 +191,7 @@ class AbductionSolver:
         encoding: str | None = None,
         rules: Iterable[str] = (),
         max_conflicts: int | None = None,
+        unread: Iterable[str] = (),
     ):
         self.constants = {k: int(v) for k, v in (constants or {}).items()}
         self.options = list(options) + [f"-c{k}={v}" for k, v in sorted(self.constants.items())]
@@ -201,7 +204,7 @@ class AbductionSolver:
         #: ground atoms a frame's program may have (set for a user's encoding or rules)
         self.max_atoms: int | None = None
         #: names the program mentions: optional facts are only given when read
-        self.uses = asp.mentioned(self.program)
+        self.uses = asp.mentioned(self.program) - frozenset(unread)
 
     def solve(self, problem: FrameProblem, budget_ms: float | None = None) -> Answer | None:
         """The whole frame in one program (no decomposition); None if no model in time."""

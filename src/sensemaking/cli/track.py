@@ -171,6 +171,14 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="an encoding (.lp) that replaces the packaged tracking.lp",
     )
     p.add_argument(
+        "--confidence",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="rules (.lp) that replace the packaged confidence.lp: how sure each hiding is "
+        "(the events' confidence)",
+    )
+    p.add_argument(
         "--situations",
         type=Path,
         action="append",
@@ -713,6 +721,7 @@ def _run(args: argparse.Namespace) -> int:
         "--detector": args.detector,
         "--seqinfo": args.seqinfo,
         "--encoding": args.encoding,
+        "--confidence": args.confidence,
         **{f"--rules {r}": r for r in args.rules},
         **{f"--situations {r}": r for r in args.situations},
         "--lanes": args.lanes,
@@ -755,7 +764,13 @@ def _run(args: argparse.Namespace) -> int:
     from sensemaking.sandbox import Limits
 
     limits = Limits(args.timeout, args.max_atoms, args.max_memory)
-    online = Tracker(config, encoding=args.encoding, rules=args.rules, limits=limits)
+    online = Tracker(
+        config,
+        encoding=args.encoding,
+        rules=args.rules,
+        limits=limits,
+        confidence=args.confidence,
+    )
     tracker = make_tracker(online)  # with lookahead_s > 0: frames decided k frames later
     recorder = monitor = None
     if args.ego_motion and not (args.warnings or args.scene):
