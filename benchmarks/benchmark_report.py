@@ -14,6 +14,7 @@ It takes the options of ``sensemaking benchmark`` and ``--docs`` / ``--params-do
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import sys
 from collections.abc import Mapping
@@ -970,7 +971,9 @@ def render_parameters(summary: RunSummary | None = None) -> str:
         "(frame rate and image size from `seqinfo`, `--fps`, `--image-size`, `--no-abduction`, "
         "`--max-solve-ms`); then `--set KEY=VALUE` (repeatable; dotted keys reach the nested "
         "settings: `--set costs.resumes=200`, `--set kalman.velocity_std=0.1`; switches take "
-        "`true`/`false` in any case, optional values `null`)."
+        "`true`/`false` in any case, optional values `null`; a class's own thresholds: "
+        "`--set class_confidence.pedestrian.min_confidence=0.5`, all of them cleared with "
+        "`--set class_confidence={}`)."
     )
     add("")
     add("A parameter file is JSON (or TOML with the same keys):")
@@ -1032,6 +1035,8 @@ def render_parameters(summary: RunSummary | None = None) -> str:
 
 
 def _value(v: Any) -> str:
+    if isinstance(v, dict):  # class_confidence: a table, as in a parameter file
+        return json.dumps(v, separators=(", ", ": ")).replace("|", "\\|")
     if isinstance(v, float):
         return f"{v:.6g}"
     if isinstance(v, tuple):

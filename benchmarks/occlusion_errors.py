@@ -22,7 +22,7 @@ classifies every occlusion episode that was not kept:
     nice -n 10 python benchmarks/occlusion_errors.py run OUT [--no-abduction] [--set K=V ...]
     python benchmarks/occlusion_errors.py measure OUT [OUT2 ...] [--json FILE]
     python benchmarks/occlusion_errors.py taxonomy OUT [--json FILE] [--list]
-    python benchmarks/occlusion_errors.py select BASE VARIANT [VARIANT ...]
+    python benchmarks/occlusion_errors.py select BASE VARIANT [VARIANT ...] [--cv-out DIR]
 
 ``run`` writes ``OUT/<benchmark>/<seq>.txt`` (+ ``.events.jsonl``, ``.scene.json``: the scene
 holds every track's predicted box while hidden or missing); ``--only`` restricts benchmarks.
@@ -30,7 +30,9 @@ holds every track's predicted box while hidden or missing); ``--only`` restricts
 per folder the pooled figure. ``taxonomy`` prints the counts of each cause. ``select`` chooses
 among output folders (the variants of a setting) leave one video out (:func:`choose`) and
 applies the keep rule of issue 27: the pooled kept share rises, and still rises without the
-video that gained most, and HOTA is lower on at most half of each family's sequences.
+video that gained most, and HOTA is lower on at most half of each family's sequences;
+``--cv-out DIR`` writes each sequence's outputs from the variant its fold chose (a run folder
+that ``measure`` and ``pedestrian_starts.py`` read).
 ``--only BENCHMARK`` (before the subcommand, repeatable) restricts any of them.
 """
 
@@ -38,6 +40,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import shutil
 import subprocess
 import sys
 from collections import Counter
@@ -340,7 +343,8 @@ def classify(item: Item, out: Path, data: Path, preset: dict[str, Any]) -> list[
     objs = _gt_objects(item, gt)
     res = _res(item, out)
     assert res.frame is not None and res.tracker_id is not None
-    min_conf = float(preset.get("min_confidence", 0.0))
+    gates = preset.get(item.cls, preset)  # the class's own thresholds, else the global
+    min_conf = float(gates.get("min_confidence", 0.0))
     window = 5 if item.fmt == "kitti" else max(5, round(0.35 * _fps(item, data)))
     rows = []
     for e in s.episodes:
@@ -475,7 +479,16 @@ def _preset(fmt: str) -> dict[str, Any]:
     from sensemaking.settings import preset_config
 
     cfg = preset_config("kitti" if fmt == "kitti" else "mot")
-    return {"min_confidence": cfg.min_confidence, "start_confidence": cfg.start_confidence}
+    # the pedestrian class's own thresholds where class_confidence sets them, else global
+    table = cfg.class_confidence.get("pedestrian", {})
+    return {
+        "min_confidence": cfg.min_confidence,
+        "start_confidence": cfg.start_confidence,
+        "pedestrian": {
+            "min_confidence": table.get("min_confidence", cfg.min_confidence),
+            "start_confidence": table.get("start_confidence", cfg.start_confidence),
+        },
+    }
 
 
 def taxonomy(args: argparse.Namespace) -> None:
@@ -561,6 +574,13 @@ def select(args: argparse.Namespace) -> None:
         train = {f for f in folds if f != fold and f.startswith(fam)}
         chosen_of[fold] = choose(variants, base, train)
     cv = [variants[chosen_of[fold_of(r.item)]][i] for i, r in enumerate(b)]
+    if args.cv_out is not None:  # each sequence's outputs from the variant its fold chose
+        for r in b:
+            src = Path(chosen_of[fold_of(r.item)]) / r.item.bench
+            dst = args.cv_out / r.item.bench
+            dst.mkdir(parents=True, exist_ok=True)
+            for f in src.glob(f"{r.item.seq}.*"):
+                shutil.copyfile(f, dst / f.name)
     print("fold -> chosen variant:")
     for fold in folds:
         print(f"  {fold:<14} {Path(chosen_of[fold]).name}")
@@ -635,6 +655,9 @@ def main(argv: list[str] | None = None) -> None:
     t.add_argument("--list", action="store_true")
     c = sub.add_parser("select", help="leave one video out over variants; the first is the base")
     c.add_argument("out", type=Path, nargs="+")
+    c.add_argument(
+        "--cv-out", type=Path, help="write the cross-validated outputs here (for other tools)"
+    )
     args = ap.parse_args(argv)
     {"run": run, "measure": measure, "taxonomy": taxonomy, "select": select}[args.cmd](args)
 

@@ -4,7 +4,8 @@ On the shared KITTI pedestrian sequences (0000-0010, RRC and PointRCNN detection
 ground-truth pedestrian box is classified by whether a *usable* detection covers it (IoU >= 0.5
 with the box, any score) and whether our output and SORT's (roboflow ``trackers``, its defaults,
 ``frame_rate`` from the sequence; the ``benchmark`` extra) have a track on it (IoU >= 0.5). A
-usable detection that we do not track is put down to the preset's thresholds: below
+usable detection that we do not track is put down to the preset's thresholds (the
+pedestrian class's own where ``class_confidence`` sets them): below
 ``min_confidence`` (it can neither start nor continue a track), between ``min_confidence`` and
 ``start_confidence`` (it continues a track, never starts one), or strong enough to start one:
 then *confirmation* when fewer than ``min_hits`` of the object's frames up to this one had a
@@ -73,6 +74,8 @@ def classify(item: Item, out: Path, data: Path, config: TrackerConfig) -> Counte
     dets = _dets(item, data)
     ours = _boxes_by_frame(_res(item, out), cls)
     sort = _sort_tracks(item, data)
+    # the class's own thresholds (class_confidence), else the global ones
+    low, start = (float(np.max(g)) for g in config.class_gates(np.array([cls])))
     c: Counter[str] = Counter()
     for frames in objs.values():
         strong = 0  # frames of this object so far with a detection strong enough to start
@@ -80,7 +83,7 @@ def classify(item: Item, out: Path, data: Path, config: TrackerConfig) -> Counte
             box = frames[f]
             v, conf = _best_det(dets.get(f, []), box)
             usable = v >= 0.5
-            strong += usable and conf >= config.start_confidence
+            strong += usable and conf >= start
             c["boxes"] += 1
             if not usable:
                 c["no usable detection"] += 1
@@ -91,9 +94,9 @@ def classify(item: Item, out: Path, data: Path, config: TrackerConfig) -> Counte
             c["usable, SORT"] += they
             if we:
                 continue
-            if conf < config.min_confidence:
+            if conf < low:
                 why = "below min_confidence"
-            elif conf < config.start_confidence:
+            elif conf < start:
                 why = "continues, cannot start"
             elif strong < config.min_hits:
                 why = "confirmation (min_hits)"

@@ -58,6 +58,10 @@ __all__ = [
     "validate",
     "params_of",
     "parameters_table",
+    "CLASS_KEY",
+    "CLASS_THRESHOLDS",
+    "is_class_key",
+    "split_class_key",
 ]
 
 log = logging.getLogger(__name__)
@@ -114,6 +118,11 @@ class Param:
     def range_text(self) -> str:
         if self.kind == "bool":
             return "true / false"
+        if self.kind == "classes":
+            return (
+                "class name -> {start_confidence, min_confidence} (either or both, each any "
+                "finite number); {} (none)"
+            )
         if self.kind == "size":
             return f"two integers in [{_num(self.low)}, {_num(self.high)}]"
         low = "(" if self.low_open else "["
@@ -138,6 +147,8 @@ class Param:
             if self.optional:
                 return None
             raise ParameterError(f"{key} must not be null ({self.expect()})")
+        if self.kind == "classes":
+            return _check_classes(key, value)
         if self.kind == "bool":
             if not isinstance(value, (bool, np.bool_)):
                 raise ParameterError(f"{key} must be true or false, got {value!r}")
@@ -186,6 +197,74 @@ def _is_real(value: Any) -> bool:
     return isinstance(value, numbers.Real) and not isinstance(value, bool)
 
 
+#: the thresholds a class may override (``class_confidence``), each a TrackerConfig field
+CLASS_THRESHOLDS: tuple[str, ...] = ("start_confidence", "min_confidence")
+#: the parameter holding the per-class overrides, and the head of its dotted keys
+CLASS_KEY = "class_confidence"
+
+
+def _class_name(key: str, name: Any) -> str:
+    """The canonical name of a class named in ``key`` (ParameterError if unknown)."""
+    from sensemaking.classes import CLASS_IDS, class_id, class_name
+
+    try:
+        return class_name(class_id(str(name)))
+    except (KeyError, AttributeError):
+        raise ParameterError(
+            f"{key}: unknown class {name!r} (one of {', '.join(CLASS_IDS)})"
+        ) from None
+
+
+def _check_classes(key: str, value: Any) -> dict[str, dict[str, float]]:
+    """``class_confidence``: canonical class name -> {threshold: score}, sorted; ParameterError
+    naming the class and threshold otherwise."""
+    if not isinstance(value, Mapping):
+        raise ParameterError(
+            f"{key} must be a table of class name -> {{start_confidence, min_confidence}}, "
+            f"got {value!r}"
+        )
+    out: dict[str, dict[str, float]] = {}
+    for name, table in value.items():
+        cls = _class_name(key, name)
+        if not isinstance(table, Mapping) or not table:
+            raise ParameterError(
+                f"{key}.{cls} must be a table naming start_confidence and/or min_confidence, "
+                f"got {table!r}"
+            )
+        if cls in out:
+            raise ParameterError(f"{key}: class {cls!r} named twice")
+        out[cls] = {t: check_class_value(f"{key}.{cls}.{t}", v) for t, v in table.items()}
+    return {k: dict(sorted(v.items())) for k, v in sorted(out.items())}
+
+
+def is_class_key(key: str) -> bool:
+    """Whether ``key`` is a dotted per-class threshold, ``class_confidence.CLASS.THRESHOLD``."""
+    return key.startswith(CLASS_KEY + ".")
+
+
+def split_class_key(key: str) -> tuple[str, str]:
+    """(canonical class name, threshold) of ``class_confidence.CLASS.THRESHOLD``."""
+    parts = key.split(".")
+    if len(parts) != 3:
+        raise ParameterError(
+            f"unknown parameter {key!r} ({CLASS_KEY}.CLASS.THRESHOLD, e.g. "
+            f"{CLASS_KEY}.pedestrian.min_confidence)"
+        )
+    return _class_name(key, parts[1]), parts[2]
+
+
+def check_class_value(key: str, value: Any) -> float:
+    """A per-class threshold ``class_confidence.CLASS.THRESHOLD``: a finite score."""
+    threshold = key.rsplit(".", 1)[-1]
+    if threshold not in CLASS_THRESHOLDS:
+        raise ParameterError(
+            f"unknown parameter {key!r} (a class may set {' or '.join(CLASS_THRESHOLDS)})"
+        )
+    if not _is_real(value) or not math.isfinite(float(value)):
+        raise ParameterError(f"{key} must be a finite number ({_SCORE}), got {value!r}")
+    return float(value)
+
+
 def param(
     default: Any,
     kind: str,
@@ -199,6 +278,8 @@ def param(
     """A dataclass field with its :class:`Param` (kind, unit, range) in its metadata; the key
     is the field's dotted name, filled in by :data:`PARAMETERS`."""
     spec = Param("", kind, unit, low, high, low_open, optional)
+    if isinstance(default, dict):  # a table: a fresh one per instance
+        return field(default_factory=lambda: dict(default), metadata={_PARAM: spec})
     return field(default=default, metadata={_PARAM: spec})
 
 
@@ -343,6 +424,14 @@ class TrackerConfig:
         min_confidence: minimum detection score to continue or resume a track (score units of
             the detector). Low-score detections can then keep tracks alive without starting any.
         start_confidence: minimum detection score to start a track. Higher: fewer false tracks.
+        class_confidence: per-class ``start_confidence`` and ``min_confidence`` (detector score
+            units), e.g. ``{"pedestrian": {"min_confidence": 0.5, "start_confidence": 0.5}}``:
+            a detection of a class named here is gated by that class's values, every other
+            detection by the two above; a threshold the class does not name is the global one.
+            Class names as in ``sensemaking.classes`` (KITTI and MOT spellings). Set one with
+            ``--set class_confidence.pedestrian.min_confidence=0.5``, clear them with ``--set
+            class_confidence={}``. Detectors score classes differently (a pedestrian is smaller
+            and scores lower than a car at the same precision). Empty: one threshold for all.
         max_hidden_s: how long a track hidden behind a known occluder is kept (seconds).
         max_missing_s: how long a track with missing detections (no occluder) is kept (seconds).
         min_hits: detections needed before a new track is reported (1 = at once). During the
@@ -508,6 +597,7 @@ class TrackerConfig:
     new_track_growth: float = param(1.5, "float", "factor", 1.0, 10.0)
     min_confidence: float = param(0.0, "float", _SCORE)
     start_confidence: float = param(0.5, "float", _SCORE)
+    class_confidence: dict[str, dict[str, float]] = param({}, "classes", _SCORE)
     max_hidden_s: float = param(3.0, "float", "s", 0.0, 3600.0)
     max_missing_s: float = param(1.0, "float", "s", 0.0, 3600.0)
     min_hits: int = param(1, "int", "detections", 1, 1000)
@@ -563,6 +653,26 @@ class TrackerConfig:
 
     def __post_init__(self) -> None:
         validate(self)  # every field's type, unit and range: its metadata
+        # one spelling per class, a copy of the caller's table (the config is frozen)
+        object.__setattr__(self, CLASS_KEY, _check_classes(CLASS_KEY, getattr(self, CLASS_KEY)))
+
+    def class_gates(self, class_id: np.ndarray) -> tuple[Any, Any]:
+        """(continue, start) score thresholds of detections of classes ``class_id`` (N,):
+        ``min_confidence`` and ``start_confidence``, or their ``class_confidence`` overrides.
+        Floats when no class overrides them (the common case), else (N,) arrays."""
+        low: Any = self.min_confidence
+        start: Any = self.start_confidence
+        if not self.class_confidence:
+            return low, start
+        from sensemaking.classes import class_id as id_of
+
+        low = np.full(len(class_id), low, dtype=np.float64)
+        start = np.full(len(class_id), start, dtype=np.float64)
+        for name, table in self.class_confidence.items():
+            rows = class_id == id_of(name)
+            low[rows] = table.get("min_confidence", self.min_confidence)
+            start[rows] = table.get("start_confidence", self.start_confidence)
+        return low, start
 
     @property
     def max_hidden_frames(self) -> int:
@@ -719,7 +829,7 @@ def document_params(doc: Any, where: str) -> dict[str, Any]:
             raise ParameterError(
                 f"{key}: expected a table of {key}.NAME values, got {value!r}", where
             )
-        if key not in PARAMETERS:
+        if key not in PARAMETERS and not is_class_key(key):
             raise ParameterError(f"params: unknown parameter {key!r}{suggest(key)}", where)
         if isinstance(value, list) and key in PARAMETERS and PARAMETERS[key].kind == "size":
             value = tuple(value)
@@ -737,9 +847,14 @@ def apply_settings(
     settings), validated as a whole."""
     top: dict[str, Any] = {}
     nested: dict[str, dict[str, Any]] = {}
+    per_class: dict[str, dict[str, float]] = {}
     for key, value in params.items():
         try:
             value = check_value(key, value)
+            if is_class_key(key):  # one threshold of one class, over the table so far
+                cls, threshold = split_class_key(key)
+                per_class.setdefault(cls, {})[threshold] = value
+                continue
         except ParameterError as exc:
             raise ParameterError(exc.problem, where) from None
         head, _, tail = key.partition(".")
@@ -749,6 +864,11 @@ def apply_settings(
             top[key] = value
     for head, changes in nested.items():
         top[head] = dataclasses.replace(getattr(config, head), **changes)
+    if per_class:
+        table = {k: dict(v) for k, v in top.get(CLASS_KEY, getattr(config, CLASS_KEY)).items()}
+        for cls, changes in per_class.items():
+            table.setdefault(cls, {}).update(changes)
+        top[CLASS_KEY] = table
     try:
         return dataclasses.replace(config, **top)
     except ParameterError as exc:
@@ -781,6 +901,9 @@ def check_value(key: str, value: Any) -> Any:
     :class:`ParameterError` saying what is expected."""
     p = PARAMETERS.get(key)
     if p is None:
+        if is_class_key(key):  # class_confidence.CLASS.THRESHOLD
+            cls, threshold = split_class_key(key)
+            return check_class_value(f"{CLASS_KEY}.{cls}.{threshold}", value)
         raise ParameterError(f"unknown parameter {key!r}{suggest(key)}")
     return p.check(value)
 

@@ -43,6 +43,7 @@ from pathlib import Path
 from typing import Any
 
 from sensemaking.config import (
+    CLASS_KEY,
     FAMILIES,
     FORMAT,
     PARAMETERS,
@@ -54,12 +55,14 @@ from sensemaking.config import (
     check_value,
     document_params,
     family_name,
+    is_class_key,
     parameters_table,
     params_of,
     preset_config,
     preset_params,
     preset_profile,
     preset_source,
+    split_class_key,
     suggest,
     validate,
 )
@@ -89,6 +92,7 @@ __all__ = [
 ]
 
 log = logging.getLogger(__name__)
+_SCORE_UNIT = "detector score"
 
 
 # -- overrides ------------------------------------------------------------------------------
@@ -97,10 +101,25 @@ def parse_value(key: str, text: str) -> Any:
     ``null``/``none`` for optional values, ``WxH`` or ``[W, H]`` for sizes, numbers otherwise.
     Raises :class:`ParameterError` (unknown key, wrong type, out of range)."""
     p = PARAMETERS.get(key)
+    raw = text.strip()
+    if p is None and is_class_key(key):  # class_confidence.CLASS.THRESHOLD: a score
+        try:
+            number = float(raw)
+        except ValueError:
+            raise ParameterError(f"{key} must be a number ({_SCORE_UNIT}), got {text!r}") from None
+        return check_value(key, number)
     if p is None:
         raise ParameterError(f"unknown parameter {key!r}{suggest(key)}")
-    raw = text.strip()
     low = raw.lower()
+    if p.kind == "classes":  # a whole table, as JSON: {} clears it
+        try:
+            table = json.loads(raw) if low not in ("null", "none") else {}
+        except json.JSONDecodeError:
+            raise ParameterError(
+                f'{key} must be a JSON table such as {{"pedestrian": {{"min_confidence": 0.5}}}}'
+                f", got {text!r}"
+            ) from None
+        return check_value(key, table)
     if low in ("null", "none") and p.optional:
         return None
     if p.kind == "bool":
@@ -226,6 +245,11 @@ def write_params(
         value = check_value(key, value)
         if isinstance(value, tuple):
             value = list(value)
+        if is_class_key(key):  # class_confidence.CLASS.THRESHOLD -> nested two levels
+            cls, threshold = split_class_key(key)
+            classes = nested.setdefault(CLASS_KEY, {})
+            classes[cls] = {**classes.get(cls, {}), threshold: value}
+            continue
         head, _, tail = key.partition(".")
         if tail:
             nested.setdefault(head, {})[tail] = value

@@ -52,10 +52,11 @@ def match_hungarian(
             ans.events.append(("missing_detections", (tid,)))
         else:
             ans.ignore_trk.append(tid)
+    start_ok = dets.confidence >= config.class_gates(dets.class_id)[1]
     for k in range(len(dets)):
         if k in matched_d:
             continue
-        if dets.confidence[k] >= config.start_confidence:
+        if start_ok[k]:
             ans.start.append(k)
             ans.events.append(("starts", (Det(k),)))
         else:

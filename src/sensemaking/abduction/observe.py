@@ -129,12 +129,13 @@ def gate(
     # optimisation): comparing the raw IoU instead dropped pairs that round up to the threshold
     q = quantize(config, lik)
     fits = same & (q >= np.where(unseen, resume, assign)[:, None])
-    ok = fits & (dets.confidence >= c.min_confidence)[None, :]
+    low, _ = c.class_gates(dets.class_id)  # min_confidence, per class where overridden
+    ok = fits & (dets.confidence >= low)[None, :]
     if c.weak_confidence is not None:
         # ByteTrack's second association: a weak detection continues a confirmed track seen
         # last frame (velocity known) that it fits closely and that no detection strong
         # enough to continue tracks could continue (strong evidence first, as its cascade)
-        weak = (dets.confidence >= c.weak_confidence) & (dets.confidence < c.min_confidence)
+        weak = (dets.confidence >= c.weak_confidence) & (dets.confidence < low)
         if weak.any():
             settled = ~unseen & tracks.confirmed & ~ok.any(axis=1)
             ok = ok | (fits & weak[None, :] & settled[:, None] & (lik >= c.weak_iou))
@@ -245,7 +246,7 @@ def frame_problem(
         at_last_seen = int_columns(si, sj)
     at_all, outside_all = borders(boxes[:nb], config, area[:nb])
     at_border, outside, det_border = at_all[:n], outside_all[:n], at_all[n:]
-    start_ok = dets.confidence >= c.start_confidence
+    start_ok = dets.confidence >= c.class_gates(dets.class_id)[1]
     covers = keeps = fits = np.zeros((0, 2), dtype=np.int64)
     covers_exact = covers_margin = np.zeros(0)
     overlapped = np.zeros(n, dtype=bool)
@@ -381,7 +382,7 @@ def revival(
         (t.cls[:, None] == dets.class_id[None, :])
         & (q >= thresholds(config, c.iou_resume)[0])
         & (ratio >= c.revive_height_ratio)
-        & (dets.confidence >= c.start_confidence)[None, :]
+        & (dets.confidence >= c.class_gates(dets.class_id)[1])[None, :]
     )
     gi, dj = np.nonzero(ok)
     rows = np.unique(gi)

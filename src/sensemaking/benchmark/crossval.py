@@ -110,6 +110,8 @@ ORIGINS: dict[str, str] = {
     "new_track_growth": "default, a design choice (velocity unknown after one box), not tuned.",
     "min_confidence": "",
     "start_confidence": "",
+    "class_confidence": "{} (one threshold for every class); lower pedestrian thresholds "
+    "measured leave one video out, not kept (issue 27, docs/DESIGN-NOTES.md).",
     "max_hidden_s": "default 3 s: how long an occluded object is kept (the paper's horizon), "
     "not tuned.",
     "max_missing_s": "default 1 s; calibrate estimates it from the gaps of annotated objects.",

@@ -150,7 +150,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         action="append",
         default=[],
         metavar="KEY=VALUE",
-        help="override a parameter, e.g. --set max_hidden_s=2 or --set costs.resumes=200 "
+        help="override a parameter, e.g. --set max_hidden_s=2 or --set costs.resumes=200; a "
+        "class's own score thresholds: --set class_confidence.pedestrian.min_confidence=0.5 "
         "(repeatable; after --params; units and ranges in docs/PARAMETERS.md)",
     )
     p.add_argument(
