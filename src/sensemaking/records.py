@@ -147,6 +147,8 @@ def start_record(w: WarningLike) -> dict[str, Any]:
         "episode": d.get("episode"),
         "severity": d.get("severity"),
         "lane_position": d.get("lane_position", "unknown"),
+        # how sure the warning is, 0..1, where its situation states it (HIDDEN_ENTITY: the hiding's)
+        **({"confidence": d["confidence"]} if "confidence" in d else {}),
         **warning_record(w),
     }
 

@@ -170,6 +170,7 @@ def test_constants_and_defaults():
         "ss_decel",
         "rv_near_cm",
         "he_path_ms",
+        "he_conf",
     }
     assert situation_constants({"rv_area": 99})["rv_area"] == 99
     with pytest.raises(ValueError, match="unknown situation parameter"):
@@ -211,6 +212,32 @@ def test_hidden_entity_rule():
     ]
     assert sit(prog, "hidden_entity", he_lead_ms=500) == []
     assert sit(prog.replace("anticipated_in_corridor(1,2,18).", ""), "hidden_entity") == []
+
+
+def test_hidden_entity_hiding_confidence():
+    """The latest hiding of T behind O gives the confidence; below he_conf, no warning."""
+    prog = (
+        "person(1). vehicle(2). vehicle(3). hidden_by(1,2,10). anticipated(1,2,18,600,250). "
+        "anticipated_in_corridor(1,2,18). confidence_at(hides_behind(1,2),4,750). "
+        "confidence_at(may_hide_behind(1,2),9,250). confidence_at(hides_behind(1,3),10,1000)."
+    )
+    assert "info(hidden_entity,(1,2),confidence_permille,250)" in sit(prog, "hidden_entity")
+    assert sit(prog, "hidden_entity", he_conf=250) == sit(prog, "hidden_entity")
+    assert sit(prog, "hidden_entity", he_conf=251) == []
+    # the earlier, surer hiding is the latest once the late one is gone
+    sure = prog.replace("confidence_at(may_hide_behind(1,2),9,250).", "")
+    assert "info(hidden_entity,(1,2),confidence_permille,750)" in sit(
+        sure, "hidden_entity", he_conf=500
+    )
+    # no hiding event in the window: no confidence, not ruled out
+    bare = (
+        "person(1). vehicle(2). hidden_by(1,2,10). anticipated(1,2,18,600,250). "
+        "anticipated_in_corridor(1,2,18)."
+    )
+    assert sit(bare, "hidden_entity", he_conf=900) == [
+        "info(hidden_entity,(1,2),reappear_frame,frame(18))",
+        "warn(hidden_entity,(1,2))",
+    ]
 
 
 def test_reduced_visibility_rule():

@@ -52,7 +52,7 @@ from __future__ import annotations
 import logging
 import time
 from collections import deque
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from itertools import compress
 from os import PathLike
@@ -170,6 +170,23 @@ def _kmh(info: dict[str, list[Any]], key: str) -> str:
     """`` (N km/h)`` from a speed detail in cm/s, or nothing."""
     v = info.get(key)
     return f" ({v[0] * 0.036:.0f} km/h)" if v and isinstance(v[0], int) else ""
+
+
+def _confidence_facts(
+    events: list[Event], local: Callable[[int], int], base: int
+) -> list[Fact]:
+    """``confidence_at(E,F,C)``: event E (as in ``occurs_at``) at frame F (relative to
+    ``base``) has confidence C, permille, for the events that carry one (the hidings)."""
+    return [
+        (
+            "confidence_at",
+            (e.name, *(local(a) if isinstance(a, int) else a for a in e.args)),
+            e.frame - base,
+            int(round(1000 * e.confidence)),
+        )
+        for e in events
+        if e.confidence is not None
+    ]
 
 
 class _Frame:
@@ -683,6 +700,7 @@ class SituationMonitor:
                 )
                 for e in fr.events
             ]
+            out += _confidence_facts(fr.events, lambda a: local.get(a, a), n)
             out += [
                 ("on_lane", local[t], term, g) for t, terms in fr.on_lane.items() for term in terms
             ]
@@ -792,6 +810,7 @@ class SituationMonitor:
             )
             for e in fr.events
         ]
+        out += _confidence_facts(fr.events, local, self._base)
         out += [
             ("on_lane", local(t), term, g) for t, terms in fr.on_lane.items() for term in terms
         ]
@@ -892,6 +911,9 @@ class SituationMonitor:
         details: dict[str, Any] = {"classes": [class_name(self._class.get(t, 0)) for t in objs]}
         for k, v in info.items():
             details[k] = v[0] if len(v) == 1 else v
+        level = details.pop("confidence_permille", None)
+        if isinstance(level, int):  # the encoding's permille, reported 0..1
+            details["confidence"] = level / 1000
         if episode is not None:
             details["episode"] = episode
         point: tuple[float, float] | None = None

@@ -405,6 +405,7 @@ FRAME_ARGUMENT: dict[tuple[str, int], int] = {
     ("world_long", 3): 1,
     ("world_lat", 3): 1,
     ("occurs_at", 2): 1,
+    ("confidence_at", 3): 1,
 }
 #: inputs fixed for the life of a monitor: base facts of the stream solver, so that the rules
 #: they decide (the scene profile's ego_vehicle, image) are simplified once, at grounding
