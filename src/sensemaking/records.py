@@ -9,8 +9,9 @@ An **event record** is one line of ``track --events`` and one entry of a scene's
 
 A **warning record** (:func:`warning_record`) is ``{"frame", "situation", "objects", "message",
 "details"}``; the warnings file of ``track --warnings`` is a stream of episodes, two records
-each: a **start record** (:func:`start_record`: ``record``, ``episode``, ``severity`` and
-``lane_position`` before the warning record's keys) when the situation starts to hold, and an
+each: a **start record** (:func:`start_record`: ``record``, ``episode``, ``severity``,
+``lane_position`` and, where the situation states one, ``confidence`` (0..1) before the warning
+record's keys) when the situation starts to hold, and an
 **end record** (:func:`end_record`) once it has stopped holding or the input ended::
 
     {"record": "start", "episode": 3, "severity": 3, "lane_position": "ego", "frame": 120,
@@ -140,14 +141,15 @@ def warning_fields(
 
 def start_record(w: WarningLike) -> dict[str, Any]:
     """The start record of a warning episode: the warning's record with ``record``,
-    ``episode``, ``severity`` and ``lane_position`` (from its details) at its top."""
+    ``episode``, ``severity``, ``lane_position`` and ``confidence`` (only where its details
+    have one) from its details at its top."""
     d = w.details
     return {
         "record": "start",
         "episode": d.get("episode"),
         "severity": d.get("severity"),
         "lane_position": d.get("lane_position", "unknown"),
-        # how sure the warning is, 0..1, where its situation states it (HIDDEN_ENTITY: the hiding's)
+        # how sure the warning is, 0..1, where its situation says (HIDDEN_ENTITY: its hiding)
         **({"confidence": d["confidence"]} if "confidence" in d else {}),
         **warning_record(w),
     }

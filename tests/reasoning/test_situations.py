@@ -3,6 +3,7 @@ for each situation a scene where it occurs and scenes where it must not."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 
@@ -29,6 +30,7 @@ from sensemaking.reasoning.situations import (
     SituationConfig,
     SituationWarning,
 )
+from sensemaking.records import start_record
 
 SIZE = (1242, 375)
 
@@ -442,3 +444,39 @@ def test_a_monitor_pickles_mid_sequence_and_goes_on_with_the_same_warnings(tmp_p
     a = [w.to_json() for r in results[half:] for w in mon.update(r)]
     b = [w.to_json() for r in results[half:] for w in copy.update(r)]
     assert a == b and a
+
+
+def _with_hiding_confidence(results, level: float):
+    """The results with every hides_behind event carrying ``level`` as its confidence."""
+    for r in results:
+        for i, e in enumerate(r.events):
+            if e.name == "hides_behind":
+                r.events[i] = dataclasses.replace(e, confidence=level)
+    return results
+
+
+@pytest.mark.parametrize("stream", [True, False])
+def test_hidden_entity_carries_its_hidings_confidence(stream):
+    results = _with_hiding_confidence(build_results(cyclist_behind_turning_car()), 0.5)
+    assert any(e.name == "hides_behind" for r in results for e in r.events)
+
+    def he(conf: int) -> list[SituationWarning]:
+        config = SituationConfig(constants={"he_conf": conf})
+        mon = SituationMonitor(config, fps=10.0, image_size=SIZE, stream=stream)
+        return [w for w in mon.run(results) if w.situation == "HIDDEN_ENTITY"]
+
+    (w,) = he(0)
+    assert (w.frame, w.objects) == (21, (1, 2))
+    assert w.details["confidence"] == 0.5 and "confidence_permille" not in w.details
+    assert start_record(w)["confidence"] == 0.5
+    assert he(500) == [w]  # at the threshold: kept
+    assert he(501) == []  # a weaker hiding than asked for: no warning
+    # without a confidence on the event: no detail, no record field, not ruled out
+    (plain,) = [
+        w
+        for w in run(
+            cyclist_behind_turning_car(), config=SituationConfig(constants={"he_conf": 900})
+        )
+        if w.situation == "HIDDEN_ENTITY"
+    ]
+    assert "confidence" not in plain.details and "confidence" not in start_record(plain)
