@@ -172,9 +172,7 @@ def _kmh(info: dict[str, list[Any]], key: str) -> str:
     return f" ({v[0] * 0.036:.0f} km/h)" if v and isinstance(v[0], int) else ""
 
 
-def _confidence_facts(
-    events: list[Event], local: Callable[[int], int], base: int
-) -> list[Fact]:
+def _confidence_facts(events: list[Event], local: Callable[[int], int], base: int) -> list[Fact]:
     """``confidence_at(E,F,C)``: event E (as in ``occurs_at``) at frame F (relative to
     ``base``) has confidence C, permille, for the events that carry one (the hidings)."""
     return [
