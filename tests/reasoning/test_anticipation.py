@@ -23,6 +23,7 @@ from sensemaking.reasoning.anticipation import (
 )
 from sensemaking.reasoning.context import Corridor
 from sensemaking.reasoning.online import SituationMonitor
+from sensemaking.reasoning.situations import SituationConfig
 
 
 def test_fit_motion_recovers_linear_motion():
@@ -128,7 +129,8 @@ def test_corridor_decides_in_corridor():
 
 def test_online_monitor_warns_with_the_same_prediction_while_hidden():
     results = build_results(cyclist_behind_turning_car())
-    mon = SituationMonitor(fps=10.0, image_size=(1242, 375))
+    lead = SituationConfig(constants={"he_lead_ms": 5000})  # the 1.3 s lead is warned of
+    mon = SituationMonitor(lead, fps=10.0, image_size=(1242, 375))
     warned = [w for r in results for w in mon.update(r) if w.situation == "HIDDEN_ENTITY"]
     (w,) = warned
     assert w.frame == 21 and w.objects == (1, 2)

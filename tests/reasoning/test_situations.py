@@ -132,9 +132,13 @@ def test_overtaking_not_for_oncoming_traffic():
     assert only(run([Obj(1, CAR, a), Obj(2, CAR, b)]), "OVERTAKING") == []
 
 
+#: a lead long enough for the scripted cyclist's 1.3 s (the default he_lead_ms is 1 s)
+LONG_LEAD = SituationConfig(constants={"he_lead_ms": 5000})
+
+
 def test_hidden_entity_occurs_while_hidden():
-    w = only(run(cyclist_behind_turning_car()), "HIDDEN_ENTITY")
-    assert w == [(21, "HIDDEN_ENTITY", (1, 2))]
+    w = only(run(cyclist_behind_turning_car(), config=LONG_LEAD), "HIDDEN_ENTITY")
+    assert w == [(21, "HIDDEN_ENTITY", (1, 2))]  # hidden from frame 21, back at 34
 
 
 def test_hidden_entity_not_when_reappearing_outside_the_corridor():
@@ -145,11 +149,11 @@ def test_hidden_entity_not_when_reappearing_outside_the_corridor():
 
 def test_hidden_entity_not_when_it_will_not_come_out_soon():
     assert only(run(hidden_behind_a_long_bus()), "HIDDEN_ENTITY") == []
-    # and not with a lead time shorter than the anticipated one
-    config = SituationConfig(constants={"he_lead_ms": 1000})
-    assert only(run(cyclist_behind_turning_car(), config=config), "HIDDEN_ENTITY") == [
+    # and not with a lead time shorter than the anticipated one: by default (1 s) from frame
+    # 24, when the reappearance at 34 is within 1 s
+    assert only(run(cyclist_behind_turning_car()), "HIDDEN_ENTITY") == [
         (24, "HIDDEN_ENTITY", (1, 2))
-    ]  # from frame 24 the reappearance at 34 is within 1 s
+    ]
 
 
 # -- REDUCED_VISIBILITY ---------------------------------------------------------------------------
@@ -283,7 +287,11 @@ def test_warning_once_per_episode_and_active_list():
 
 
 def test_warning_json_round_trip():
-    (w,) = [w for w in run(cyclist_behind_turning_car()) if w.situation == "HIDDEN_ENTITY"]
+    (w,) = [
+        w
+        for w in run(cyclist_behind_turning_car(), config=LONG_LEAD)
+        if w.situation == "HIDDEN_ENTITY"
+    ]
     record = w.to_json()
     assert set(record) == {"frame", "situation", "objects", "message", "details"}
     text = json.dumps(record)
@@ -466,7 +474,7 @@ def test_hidden_entity_carries_its_hidings_confidence(stream):
         return [w for w in mon.run(results) if w.situation == "HIDDEN_ENTITY"]
 
     (w,) = he(0)
-    assert (w.frame, w.objects) == (21, (1, 2))
+    assert (w.frame, w.objects) == (24, (1, 2))  # the hiding (frame 21) is in the window
     assert w.details["confidence"] == 0.5 and "confidence_permille" not in w.details
     assert start_record(w)["confidence"] == 0.5
     assert he(500) == [w]  # at the threshold: kept

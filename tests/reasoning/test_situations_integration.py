@@ -37,7 +37,8 @@ def test_demo_scene_cyclist_behind_turning_car_warns_while_hidden():
         s for s in synthetic.occlusion_suite(0) if s.name == "car_turns_right_hiding_cyclist"
     )
     results = _oracle_results(sc)
-    mon = SituationMonitor(fps=sc.fps, image_size=(sc.width, sc.height))
+    lead = SituationConfig(constants={"he_lead_ms": 5000})  # warned of at the hiding frame
+    mon = SituationMonitor(lead, fps=sc.fps, image_size=(sc.width, sc.height))
     (w,) = [w for w in mon.run(results) if w.situation == "HIDDEN_ENTITY"]
     cyclist = w.objects[0]
     hidden = [r.frame for r in results if r.state_of(cyclist) == TrackState.HIDDEN]
