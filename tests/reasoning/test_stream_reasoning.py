@@ -189,6 +189,24 @@ def test_a_users_rule_dropped_for_an_input_never_given_keeps_the_given_facts(tmp
     assert any(kind == "start" and w["situation"] == "OVERTAKING" for kind, w in records)
 
 
+def test_pruning_drops_only_rules_whose_body_cannot_hold():
+    """A body atom whose constant first argument no rule left gives is dead; a ``#const`` name
+    or an input the monitor gives never is."""
+    from clingo import ast
+
+    from sensemaking.reasoning.situations import _pruned
+
+    stmts: list = []
+    ast.parse_string(
+        "#const k = 3. p(x) :- a. w(k) :- b. q :- p(y). r :- w(3). s :- p(x)."
+        " t :- vehicle(1), c. u :- d. d :- e.",
+        stmts.append,
+    )
+    kept = {str(s).split(" :-")[0] for s in _pruned(stmts, [("e", 0)])}
+    assert {"p(x)", "w(k)", "r", "s", "t"} <= kept
+    assert not {"q", "u", "d"} & kept
+
+
 def test_a_stream_monitor_pickles_mid_sequence():
     import pickle
 

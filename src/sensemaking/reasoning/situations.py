@@ -623,13 +623,45 @@ def _used(stmts: list[Any]) -> list[Any]:
     return [s for s in stmts if id(s) not in drop]
 
 
+def _first(atom: Any, consts: Collection[str]) -> str | None:
+    """The first argument of a symbolic atom when it is a constant (``warn(overtaking,...)``),
+    else None (also for a ``#const`` name, ``consts``: its value is not known here)."""
+    term = atom.symbol
+    if term.ast_type != clingo_ast.ASTType.Function or not term.arguments:
+        return None
+    arg = term.arguments[0]
+    if arg.ast_type == clingo_ast.ASTType.SymbolicTerm:
+        sym = arg.symbol
+        named = sym.type == clingo.SymbolType.Function and not sym.arguments
+        return None if named and sym.name in consts else str(sym)
+    if arg.ast_type == clingo_ast.ASTType.Function and not arg.arguments and not arg.external:
+        return None if arg.name in consts else str(arg.name)
+    return None
+
+
+def _dead(
+    sig: Any, c: str | None, out: set[Any], defined: set[Any], firsts: Mapping[Any, set[Any]]
+) -> bool:
+    """Whether a positive body atom (signature, constant first argument or None) can never
+    hold: its predicate is ``out``, or the rules left for it (``firsts``: the first arguments of
+    their heads, None for any) never give that constant."""
+    if sig in out:
+        return True
+    if c is None or sig not in defined:
+        return False
+    return None not in firsts[sig] and c not in firsts[sig]
+
+
 def _pruned(stmts: list[Any], empty: Collection[tuple[str, int]]) -> list[Any]:
     """``stmts`` without the rules that can never fire: a positive body literal of a predicate
     in ``empty`` (certain to have no atom for this monitor), and then of a predicate whose every
-    rule was so dropped (unless the caller may give it: :data:`INPUTS`; or an ``#external``
-    declares it)."""
+    rule was so dropped, or whose rules left define it for other constants in its first
+    argument only (``warn(hidden_entity,...)`` when no rule for that situation is left); never
+    of an input the caller may give (:data:`INPUTS`) nor of an ``#external``."""
     rules = [s for s in stmts if s.ast_type == clingo_ast.ASTType.Rule]
-    heads = [{_signature(a) for a in _atoms(r.head)} - {None} for r in rules]
+    consts = {s.name for s in stmts if s.ast_type == clingo_ast.ASTType.Definition}
+    consts.add("sm_window")
+    heads = [[(_signature(a), _first(a, consts)) for a in _atoms(r.head)] for r in rules]
     declared = {
         _signature(a)
         for s in stmts
@@ -638,7 +670,7 @@ def _pruned(stmts: list[Any], empty: Collection[tuple[str, int]]) -> list[Any]:
     }
     positive = [
         {
-            _signature(lit.atom)
+            (_signature(lit.atom), _first(lit.atom, consts))
             for lit in r.body
             if lit.ast_type == clingo_ast.ASTType.Literal
             and lit.sign == clingo_ast.Sign.NoSign
@@ -648,14 +680,21 @@ def _pruned(stmts: list[Any], empty: Collection[tuple[str, int]]) -> list[Any]:
     ]
     gone: set[Any] = set(empty) - declared
     # what the caller may give as facts is never emptied by dropped rules
-    defined = set().union(*heads) - INPUTS - declared if heads else set()
+    defined = {sig for hs in heads for sig, _ in hs} - INPUTS - declared - {None}
+    alive = [True] * len(rules)
     while True:
-        alive = [not (pos & gone) for pos in positive]
-        kept = set().union(*(h for h, a in zip(heads, alive, strict=True) if a))
-        new = defined - kept - gone
-        if not new:
+        firsts: dict[Any, set[str | None]] = {}
+        for hs, a in zip(heads, alive, strict=True):
+            for sig, c in hs if a else ():
+                firsts.setdefault(sig, set()).add(c)
+        out = gone | (defined - firsts.keys())
+        now = [
+            a and not any(_dead(sig, c, out, defined, firsts) for sig, c in pos)
+            for a, pos in zip(alive, positive, strict=True)
+        ]
+        if now == alive:
             break
-        gone |= new
+        alive = now
     drop = {id(r) for r, a in zip(rules, alive, strict=True) if not a}
     return [s for s in stmts if id(s) not in drop]
 
