@@ -4,6 +4,7 @@ warnings of the reference (a fresh Control grounding the whole window every fram
 from __future__ import annotations
 
 import json
+import re
 
 import pytest
 from conftest import SHARED_DATA
@@ -125,10 +126,85 @@ def test_profile_fixed_grounds_no_ego_vehicle_rule():
 
 
 def test_rules_about_one_frame_are_grounded_per_frame():
-    layers = StreamSolver().layers
+    static = [("frame_ms", 100), ("profile", "driving"), ("camera",)]
+    layers = StreamSolver(static_facts=static).layers
     assert {("ra", 5), ("touching", 3), ("still", 2), ("nearer_world", 3)} <= layers.frame_preds
     assert {("warn", 2), ("info", 4), ("world", 0)} <= layers.now_preds
     assert {("ego_vehicle", 0), ("inverse", 2)} <= layers.static
+
+
+def _rules(mon: SituationMonitor) -> list[str]:
+    solver = mon._stream
+    assert solver is not None
+    return [str(s) for s in solver._program if ":-" in str(s)]
+
+
+@pytest.mark.parametrize("name", ["overtaking-world", "looming"])
+def test_rules_the_monitor_can_never_fire_are_not_given_to_clingo(name, monkeypatch):
+    """With a camera model no rule needs ``image``; without one (and profile fixed) no rule
+    needs the world motion or ``ego_vehicle``: such rules are left out of the Control, and the
+    warnings stay the reference's."""
+    objs, kw = SCENES[name]
+    profile = "driving" if "camera" in kw else "fixed"
+    results = build_results(objs)
+    mon = SituationMonitor(fps=10.0, image_size=SIZE, profile=profile, stream=True, **kw)
+    rules = _rules(mon)
+    monkeypatch.setattr(SituationMonitor, "_absent", lambda self: set())
+    monkeypatch.setattr(StreamSolver, "_empty_static", lambda self: set())
+    whole = _rules(SituationMonitor(fps=10.0, image_size=SIZE, profile=profile, stream=True, **kw))
+    monkeypatch.undo()
+    assert len(rules) < len(whole)
+    gone = {"image"} if "camera" in kw else {"ego_vehicle", "camera", "world_speed"}
+    assert {name for name, _ in mon._stream.empty} >= gone  # type: ignore[union-attr]
+    needs = [
+        r for r in rules if any(re.search(rf"(?<!not )\b{g}\b", r.split(":-")[1]) for g in gone)
+    ]
+    assert not [r for r in needs if "#" not in r]  # only inside aggregates, which are kept
+    _same(results, fps=10.0, image_size=SIZE, profile=profile, **kw)
+
+
+def test_a_users_rule_for_an_input_never_given_keeps_the_rules_that_read_it(tmp_path):
+    """Without a camera model the monitor gives no ``position/4``; a user's rule that derives
+    it keeps the rules that read it (``in_ego_lane``) and its own situation."""
+    rule = tmp_path / "positions.lp"
+    rule.write_text(
+        "position(T,F,1000,0) :- state(T,F,visible).\n"
+        "warn(in_lane,(T,)) :- now(N), in_ego_lane(T,N), vehicle(T).\n"
+    )
+    mon = SituationMonitor(fps=10.0, image_size=SIZE, extra_encodings=[rule], stream=True)
+    assert mon._stream is not None and ("position", 4) not in mon._stream.empty
+    assert any(r.startswith("in_ego_lane(") for r in _rules(mon))
+    records = _same(build_results(overtaking()), fps=10.0, image_size=SIZE, extra_encodings=[rule])
+    assert any(kind == "start" and w["situation"] == "IN_LANE" for kind, w in records)
+
+
+def test_a_users_rule_dropped_for_an_input_never_given_keeps_the_given_facts(tmp_path):
+    """A user's rule for an input predicate (vehicle/1) that needs the world motion is left out
+    without a camera model; the vehicles the monitor gives still count."""
+    rule = tmp_path / "world_vehicles.lp"
+    rule.write_text("vehicle(T) :- track(T,pedestrian), position(T,_,_,_).\n")
+    mon = SituationMonitor(fps=10.0, image_size=SIZE, extra_encodings=[rule], stream=True)
+    assert not any(r.startswith("vehicle(") for r in _rules(mon))
+    records = _same(build_results(overtaking()), fps=10.0, image_size=SIZE, extra_encodings=[rule])
+    assert any(kind == "start" and w["situation"] == "OVERTAKING" for kind, w in records)
+
+
+def test_pruning_drops_only_rules_whose_body_cannot_hold():
+    """A body atom whose constant first argument no rule left gives is dead; a ``#const`` name
+    or an input the monitor gives never is."""
+    from clingo import ast
+
+    from sensemaking.reasoning.situations import _pruned
+
+    stmts: list = []
+    ast.parse_string(
+        "#const k = 3. p(x) :- a. w(k) :- b. q :- p(y). r :- w(3). s :- p(x)."
+        " t :- vehicle(1), c. u :- d. d :- e.",
+        stmts.append,
+    )
+    kept = {str(s).split(" :-")[0] for s in _pruned(stmts, [("e", 0)])}
+    assert {"p(x)", "w(k)", "r", "s", "t"} <= kept
+    assert not {"q", "u", "d"} & kept
 
 
 def test_a_stream_monitor_pickles_mid_sequence():

@@ -121,6 +121,20 @@ SEVERITY_NAMES: dict[int, str] = {1: "advisory", 2: "caution", 3: "warning"}
 LANE_POSITIONS: tuple[str, ...] = ("ego", "left", "right", "unknown")
 #: the severity of a situation whose encoding states none (situations.lp: severity/2)
 _USER_SEVERITY = 2
+#: the inputs of situations.lp given only with a camera model (egomotion.world_facts and the
+#: hidden tracks' extrapolated motion)
+WORLD_INPUTS: frozenset[tuple[str, int]] = frozenset(
+    {
+        ("ego_speed", 2),
+        ("position", 4),
+        ("position_sd", 3),
+        ("closing", 4),
+        ("world_speed", 4),
+        ("world_long", 3),
+        ("world_lat", 3),
+        ("hidden_motion", 5),
+    }
+)
 #: monitors reason on a long-lived Control (StreamSolver) unless told ``stream=False``
 STREAM = True
 #: answers a StreamSolver gives before it starts a new Control (clasp keeps every atom it was
@@ -367,8 +381,20 @@ class SituationMonitor:
                 static_facts=static,
                 restart_frames=STREAM_RESTART_FRAMES,
                 window=self._window,
+                absent=self._absent(),
             )
             self._calls0 = 0
+
+    def _absent(self) -> set[tuple[str, int]]:
+        """The input predicates of situations.lp this monitor never gives (see _observe)."""
+        out: set[tuple[str, int]] = set()
+        if self._world is None:
+            out |= WORLD_INPUTS
+        if not self.context.lanes:
+            out |= {("lane", 1), ("on_lane", 3)}
+        if self.context.segmentation is None:
+            out.add(("surface", 3))
+        return out
 
     @property
     def skipped(self) -> dict[str, str]:

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import logging
 from collections import OrderedDict
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Collection, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from enum import Enum
 from functools import cache, lru_cache
@@ -624,6 +624,93 @@ def _used(stmts: list[Any]) -> list[Any]:
     return [s for s in stmts if id(s) not in drop]
 
 
+def _first(atom: Any, consts: Collection[str]) -> str | None:
+    """The first argument of a symbolic atom when it is a constant (``warn(overtaking,...)``),
+    else None (also for a ``#const`` name, ``consts``: its value is not known here)."""
+    term = atom.symbol
+    if term.ast_type != clingo_ast.ASTType.Function or not term.arguments:
+        return None
+    arg = term.arguments[0]
+    if arg.ast_type == clingo_ast.ASTType.SymbolicTerm:
+        sym = arg.symbol
+        named = sym.type == clingo.SymbolType.Function and not sym.arguments
+        return None if named and sym.name in consts else str(sym)
+    if arg.ast_type == clingo_ast.ASTType.Function and not arg.arguments and not arg.external:
+        return None if arg.name in consts else str(arg.name)
+    return None
+
+
+def _dead(
+    sig: Any, c: str | None, out: set[Any], defined: set[Any], firsts: Mapping[Any, set[Any]]
+) -> bool:
+    """Whether a positive body atom (signature, constant first argument or None) can never
+    hold: its predicate is ``out``, or the rules left for it (``firsts``: the first arguments of
+    their heads, None for any) never give that constant."""
+    if sig in out:
+        return True
+    if c is None or sig not in defined:
+        return False
+    return None not in firsts[sig] and c not in firsts[sig]
+
+
+def _pruned(stmts: list[Any], empty: Collection[tuple[str, int]]) -> list[Any]:
+    """``stmts`` without the rules that can never fire: a positive body literal of a predicate
+    in ``empty`` (certain to have no atom for this monitor), and then of a predicate whose every
+    rule was so dropped, or whose rules left define it for other constants in its first
+    argument only (``warn(hidden_entity,...)`` when no rule for that situation is left); never
+    of an input the caller may give (:data:`INPUTS`) nor of an ``#external``."""
+    rules = [s for s in stmts if s.ast_type == clingo_ast.ASTType.Rule]
+    consts = {s.name for s in stmts if s.ast_type == clingo_ast.ASTType.Definition}
+    consts.add("sm_window")
+    heads = [[(_signature(a), _first(a, consts)) for a in _atoms(r.head)] for r in rules]
+    declared = {
+        _signature(a)
+        for s in stmts
+        if s.ast_type == clingo_ast.ASTType.External
+        for a in _atoms(s.atom)
+    }
+    positive = [
+        {
+            (_signature(lit.atom), _first(lit.atom, consts))
+            for lit in r.body
+            if lit.ast_type == clingo_ast.ASTType.Literal
+            and lit.sign == clingo_ast.Sign.NoSign
+            and lit.atom.ast_type == clingo_ast.ASTType.SymbolicAtom
+        }
+        for r in rules
+    ]
+    gone: set[Any] = set(empty) - declared
+    # what the caller may give as facts is never emptied by dropped rules
+    defined = {sig for hs in heads for sig, _ in hs} - INPUTS - declared - {None}
+    alive = [True] * len(rules)
+    while True:
+        firsts: dict[Any, set[str | None]] = {}
+        for hs, a in zip(heads, alive, strict=True):
+            for sig, c in hs if a else ():
+                firsts.setdefault(sig, set()).add(c)
+        out = gone | (defined - firsts.keys())
+        now = [
+            a and not any(_dead(sig, c, out, defined, firsts) for sig, c in pos)
+            for a, pos in zip(alive, positive, strict=True)
+        ]
+        if now == alive:
+            break
+        alive = now
+    drop = {id(r) for r, a in zip(rules, alive, strict=True) if not a}
+    return [s for s in stmts if id(s) not in drop]
+
+
+def _heads(stmts: Sequence[Any]) -> set[tuple[str, int]]:
+    """The predicates some rule of ``stmts`` defines (or an ``#external`` declares)."""
+    out: set[Any] = set()
+    for s in stmts:
+        if s.ast_type == clingo_ast.ASTType.Rule:
+            out |= {_signature(a) for a in _atoms(s.head)}
+        elif s.ast_type == clingo_ast.ASTType.External:
+            out |= {_signature(a) for a in _atoms(s.atom)}
+    return out - {None}
+
+
 def _in_window(literals: list[Any], position: Mapping[Any, int]) -> list[Any] | None:
     """Comparisons ``F > n - sm_window`` for the frame argument F of every atom of
     ``literals`` about one frame (``position``), anonymous ones named first: so that facts of
@@ -715,10 +802,14 @@ def _windowed(rule: Any, position: Mapping[Any, int]) -> Any | None:
 
 
 def _stream_program(
-    stmts: Sequence[Any], parts: Sequence[str], inputs: Mapping[tuple[str, int], int]
+    stmts: Sequence[Any],
+    parts: Sequence[str],
+    inputs: Mapping[tuple[str, int], int],
+    empty: Collection[tuple[str, int]] = (),
 ) -> tuple[list[Any], _Layers, bool]:
     """The statements of ``base`` and the ``parts`` asked for, rewritten into the three parts
-    of the stream solver: ``base``, ``frame(f)`` and ``now(n)`` (see :class:`_Layers`)."""
+    of the stream solver: ``base``, ``frame(f)`` and ``now(n)`` (see :class:`_Layers`);
+    without the rules that ``empty`` predicates keep from ever firing (:func:`_pruned`)."""
     keep: list[Any] = []
     part = "base"
     for s in stmts:
@@ -729,7 +820,7 @@ def _stream_program(
             continue
         if part == "base" or part in parts:
             keep.append(s)
-    keep = _used(keep)
+    keep = _used(_pruned(_used(keep), empty) if empty else keep)
     layers = _Layers(keep, inputs)
     loc = clingo_ast.Location(
         clingo_ast.Position("<stream>", 1, 1), clingo_ast.Position("<stream>", 1, 1)
@@ -847,6 +938,11 @@ class StreamSolver:
     the frames it was given (frames as facts stay in the domains, kept out of the answers by
     the window; clasp keeps every atom): after ``restart_frames`` answers :attr:`due` says so,
     and :meth:`restart` starts a new Control that grounds the window in one call.
+
+    ``absent``: input predicates the caller never gives (the world motion without a camera
+    model, lanes without a lanes file). With the static predicates that ``static_facts`` leave
+    empty (:attr:`empty`), they rule out the rules that need them, which are not given to
+    clingo (clingo instantiates every rule of a part on each ground call, fired or not).
     """
 
     def __init__(
@@ -857,6 +953,7 @@ class StreamSolver:
         static_facts: Sequence[Fact] = (),
         restart_frames: int = 40,
         window: int | None = None,
+        absent: Collection[tuple[str, int]] = (),
     ):
         situation_constants(constants)  # validates
         self._init = (
@@ -866,16 +963,31 @@ class StreamSolver:
             tuple(static_facts),
             int(restart_frames),
             window,
+            frozenset(absent),
         )
         self._args = ["--warn=none"] + [f"-c{k}={int(v)}" for k, v in (constants or {}).items()]
         stmts = _shipped()[0] + tuple(s for p in extra_encodings for s in _parse_user_encoding(p))
+        self._args.append(f"-csm_window={int(window) if window is not None else 2**30}")
+        self._static = tuple(static_facts)
         self._program, self.layers, windowed = _stream_program(stmts, tuple(parts), FRAME_ARGUMENT)
+        try:
+            # every rule is instantiated on each ground call, fired or not: those that the
+            # static facts or the inputs never given rule out are not given to clingo at all
+            empty = self._empty_static() | (set(absent) - _heads(stmts))
+            if empty:
+                self._program, self.layers, windowed = _stream_program(
+                    stmts, tuple(parts), FRAME_ARGUMENT, empty
+                )
+        except RuntimeError as exc:
+            raise InputError(
+                f"situation encodings: {' '.join(str(exc).split())}",
+                extra_encodings[0] if len(extra_encodings) == 1 else None,
+            ) from None
+        self.empty = frozenset(empty)
         # frames as facts (the grounder decides the rules about them once, clasp never sees
         # them) when every rule that joins frames keeps them to the window; else externals,
         # released as frames leave
         self.plain = window is not None and windowed
-        self._args.append(f"-csm_window={int(window) if window is not None else 2**30}")
-        self._static = tuple(static_facts)
         self._restart = max(1, int(restart_frames))
         self._frames: OrderedDict[int, tuple[clingo.Symbol, ...]] = OrderedDict()
         self._window: set[clingo.Symbol] = set()  # window facts switched on
@@ -890,6 +1002,24 @@ class StreamSolver:
                 extra_encodings[0] if len(extra_encodings) == 1 else None,
             ) from None
         self.calls = 0
+
+    def _empty_static(self) -> set[tuple[str, int]]:
+        """The static predicates (:class:`_Layers`) without an atom once ``base`` is ground
+        with the static facts (``image`` with a camera model, ``ego_vehicle`` with profile
+        fixed): certain to stay empty for the life of the solver."""
+        base = []
+        for st in self._program:
+            if st.ast_type == clingo_ast.ASTType.Program and st.name != "base":
+                break
+            base.append(st)
+        ctl = asp.control(self._args, base, [symbol(f) for f in self._static])
+        ctl.ground([("base", [])])
+        atoms = ctl.symbolic_atoms
+        return {
+            (name, arity)
+            for name, arity in self.layers.static
+            if not any(True for _ in atoms.by_signature(name, arity))
+        }
 
     def __getstate__(self) -> dict[str, Any]:
         # clingo's Controls, ASTs and symbols do not pickle: the window goes as fact tuples
