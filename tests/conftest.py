@@ -23,18 +23,24 @@ def shared_data() -> Path:
     return SHARED_DATA
 
 
-def load_benchmarks_script(name: str):
-    """A script of ``benchmarks/`` imported as a module (``benchmark_report``, ...)."""
+def load_module(path: Path, name: str):
+    """The Python file ``path`` imported as module ``name`` (once per session)."""
     import importlib.util
     import sys
 
     if name in sys.modules:
         return sys.modules[name]
-    spec = importlib.util.spec_from_file_location(name, REPO / "benchmarks" / f"{name}.py")
+    spec = importlib.util.spec_from_file_location(name, path)
+    assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module  # dataclasses look their module up while the class is made
     spec.loader.exec_module(module)
     return module
+
+
+def load_benchmarks_script(name: str):
+    """A script of ``benchmarks/`` imported as a module (``benchmark_report``, ...)."""
+    return load_module(REPO / "benchmarks" / f"{name}.py", name)
 
 
 @pytest.fixture()

@@ -1,7 +1,10 @@
 """Helpers that tests in several folders import: bit-exact Detections comparison (IO tests) and
-the cost of an answer under tracking.lp (encoding and tracker tests)."""
+the cost of an answer under tracking.lp and plain frame problems (encoding and tracker tests)."""
 
 from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
 
 import clingo
 import numpy as np
@@ -86,3 +89,23 @@ def cost_of(problem: FrameProblem, answer) -> int:
         f":- not occurs({n}({','.join(term(a) for a in args)}))." for n, args in answer.events
     ]
     return cost(facts_text(problem) + "\n".join(forced))
+
+
+def problem(track_id: Sequence[int], n_dets: int, **columns: Any) -> FrameProblem:
+    """A frame problem of plain tracks (active, class 1, none tentative, expired, outside, at the
+    border or overlapped) and ``n_dets`` plain detections (confidence 900, class 1); ``columns``
+    set any field (lists become arrays)."""
+    n = len(track_id)
+    fields: dict[str, Any] = {
+        "track_id": np.array(track_id),
+        "active": np.ones(n, dtype=bool),
+        "track_class": np.ones(n, dtype=np.int64),
+        "det_conf": np.full(n_dets, 900, dtype=np.int64),
+        "det_class": np.ones(n_dets, dtype=np.int64),
+        "det_border": np.zeros(n_dets, dtype=bool),
+        "det_overlapped": np.zeros(n_dets, dtype=bool),
+    }
+    for name in ("tentative", "expired", "outside", "at_border", "overlapped"):
+        fields[name] = np.zeros(n, dtype=bool)
+    fields.update({k: v if v is None else np.asarray(v) for k, v in columns.items()})
+    return FrameProblem(**fields)

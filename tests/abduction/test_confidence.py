@@ -5,6 +5,7 @@ from __future__ import annotations
 import clingo
 import numpy as np
 import pytest
+from helpers import problem
 
 from sensemaking.abduction.components import SolverCache
 from sensemaking.abduction.confidence import HideConfidence
@@ -63,30 +64,17 @@ def test_no_hiding_no_confidence():
 
 
 # ---- after the frame's optimum ------------------------------------------------------------
-def b(x):
-    return np.array(x)
-
-
 def _problem(share: float, clear: float, halted: bool = False) -> FrameProblem:
     """Track 5 unobserved now (``halted``: already last frame); track 6 takes detection 0,
     which covers ``share`` of 5's predicted box and stands in front (``clear``: 1 or 0)."""
-    return FrameProblem(
-        track_id=b([5, 6]),
-        active=b([not halted, True]),
-        tentative=b([False, False]),
-        expired=b([False, False]),
-        outside=b([False, False]),
-        at_border=b([False, False]),
-        overlapped=b([False, False]),
-        track_class=b([1, 1]),
-        det_conf=b([900]),
-        det_class=b([1]),
-        det_border=b([False]),
-        det_overlapped=b([False]),
-        cand=b([[1, 0, 900]]),
-        covers=b([[0, 0]]),
-        covers_exact=b([share]),
-        covers_margin=b([clear]),
+    return problem(
+        [5, 6],
+        1,
+        active=[not halted, True],
+        cand=[[1, 0, 900]],
+        covers=[[0, 0]],
+        covers_exact=[share],
+        covers_margin=[clear],
     )
 
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import optimal
+from helpers import optimal, problem
 
 from sensemaking.abduction.observe import headings, size_gaps
 from sensemaking.abduction.problem import FrameProblem
@@ -156,24 +156,13 @@ def test_a_hidden_track_is_measured_from_its_last_observation():
 
 # ---- facts, components, slots ------------------------------------------------------------
 def _problem(moving: bool = True) -> FrameProblem:
-    b = np.array
-    return FrameProblem(
-        track_id=b([4, 7]),
-        active=b([True, True]),
-        tentative=b([False, False]),
-        expired=b([False, False]),
-        outside=b([False, False]),
-        at_border=b([False, False]),
-        overlapped=b([False, False]),
-        track_class=b([1, 1]),
-        det_conf=b([900, 900]),
-        det_class=b([1, 1]),
-        det_border=b([False, False]),
-        det_overlapped=b([False, False]),
-        cand=b([[0, 0, 600], [0, 1, 650], [1, 0, 650], [1, 1, 600]]),
-        visibility=b([0, 0]),
-        moving=b([True, True]) if moving else None,
-        heading=b([[0, 1, 4], [1, 0, 4]]) if moving else np.zeros((0, 3), dtype=np.int64),
+    return problem(
+        [4, 7],
+        2,
+        cand=[[0, 0, 600], [0, 1, 650], [1, 0, 650], [1, 1, 600]],
+        visibility=[0, 0],
+        moving=[True, True] if moving else None,
+        heading=[[0, 1, 4], [1, 0, 4]] if moving else np.zeros((0, 3), dtype=np.int64),
     )
 
 

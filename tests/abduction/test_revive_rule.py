@@ -3,9 +3,8 @@ on tiny programs, the facts the problem writes, and components with ended tracks
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
-from helpers import optimal
+from helpers import optimal, problem
 
 from sensemaking.abduction.components import ComponentSolver, SolverCache
 from sensemaking.abduction.problem import FrameProblem
@@ -93,26 +92,16 @@ def test_a_live_track_keeps_its_detection():
 def _problem() -> FrameProblem:
     """Two independent parts: live track 1 with d(0); ended tracks 7 (left) and 9 (lost) that
     d(1) and d(2) may revive."""
-    b = np.array
-    return FrameProblem(
-        track_id=b([1]),
-        active=b([True]),
-        tentative=b([False]),
-        expired=b([False]),
-        outside=b([False]),
-        at_border=b([False]),
-        overlapped=b([False]),
-        track_class=b([1]),
-        det_conf=b([900, 900, 900]),
-        det_class=b([1, 1, 1]),
-        det_border=b([False, True, False]),
-        det_overlapped=b([False, False, False]),
-        cand=b([[0, 0, 800]]),
-        visibility=b([0]),
-        gone_id=b([7, 9]),
-        gone_how=b([0, 1]),
-        gone_class=b([1, 1]),
-        back=b([[0, 1, 700], [1, 2, 600]]),
+    return problem(
+        [1],
+        3,
+        det_border=[False, True, False],
+        cand=[[0, 0, 800]],
+        visibility=[0],
+        gone_id=[7, 9],
+        gone_how=[0, 1],
+        gone_class=[1, 1],
+        back=[[0, 1, 700], [1, 2, 600]],
     )
 
 

@@ -4,13 +4,12 @@ sequence: where they agree on a warning, and where they cannot (different defini
 
 from __future__ import annotations
 
-import importlib.util
 import json
 from collections import Counter
 from pathlib import Path
 
 import pytest
-from conftest import SHARED_DATA
+from conftest import SHARED_DATA, load_module
 
 from sensemaking.cli import main
 from sensemaking.evaluation.explanations import evaluate_explanations, load_ground_truth
@@ -23,11 +22,7 @@ DETECTIONS = SHARED_DATA / "kitti" / "detections" / "rrc" / "car" / f"{SEQ}.txt"
 
 
 def _checker():
-    spec = importlib.util.spec_from_file_location("kitti_situations", CHECKER)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_module(CHECKER, "shared_kitti_situations")
 
 
 def _decided(verdict: str) -> bool:

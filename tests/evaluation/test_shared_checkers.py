@@ -14,14 +14,13 @@ and calls a person who stays between 0.5 and 0.8 visible undecidable.
 
 from __future__ import annotations
 
-import importlib.util
 import json
 from collections import Counter
 from pathlib import Path
 from types import ModuleType
 
 import pytest
-from conftest import REPO, SHARED_DATA
+from conftest import REPO, SHARED_DATA, load_module
 
 from sensemaking.cli import main
 from sensemaking.evaluation.explanations import evaluate_explanations, load_ground_truth
@@ -35,11 +34,7 @@ def _checker(name: str) -> ModuleType:
     path = VERIFY / f"{name}.py"
     if not path.is_file() or not SHARED_DATA.is_dir():
         pytest.skip(f"{path} or {SHARED_DATA} not available (../shared)")
-    spec = importlib.util.spec_from_file_location(f"shared_{name}", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_module(path, f"shared_{name}")
 
 
 def _side_by_side(checker: list[str], events_path: Path, ours) -> Counter[tuple[str, str]]:

@@ -18,9 +18,7 @@ from clingo import Function, Number, Symbol, SymbolType
 
 from sensemaking import asp
 from sensemaking.abduction.problem import FrameProblem
-from sensemaking.abduction.solver import Answer, Det, Ref, load_encoding
-from sensemaking.errors import InputError
-from sensemaking.sandbox import check_atoms
+from sensemaking.abduction.solver import Answer, Det, Ref, grounded, load_encoding
 
 __all__ = ["HideConfidence", "HIDE_EVENTS", "CONFIDENCE_CONSTANTS"]
 
@@ -105,14 +103,7 @@ class HideConfidence:
         for share, depth in covers:
             facts.append(Function("occluder_share", [_T, _O, Number(share)]))
             facts.append(Function("occluder_depth", [_T, _O, Number(depth)]))
-        ctl = asp.control(self.options, asp.parsed(self.program), facts)
-        try:
-            ctl.ground([("base", [])])
-        except RuntimeError as exc:  # only a user's rules fail to ground on some facts
-            msg = " ".join(str(exc).split())
-            raise InputError(f"the confidence rules failed to ground: {msg}") from None
-        if self.max_atoms is not None:
-            check_atoms(len(ctl.symbolic_atoms), self.max_atoms, "the confidence rules")
+        ctl = grounded(self.options, self.program, facts, "the confidence rules", self.max_atoms)
         found, _ = asp.models(ctl, first=True)
         self.calls += 1
         for atom in found[0] if found else ():

@@ -10,11 +10,12 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import NamedTuple
 
+import clingo
 from clingo import Function, Number, Symbol, SymbolType
 
 from sensemaking import asp
@@ -169,6 +170,28 @@ class Answer:
         self.timed_out |= part.timed_out
 
 
+def grounded(
+    options: Sequence[str],
+    program: str,
+    facts: Iterable[Symbol],
+    what: str,
+    max_atoms: int | None = None,
+    scope: str | None = None,
+) -> clingo.Control:
+    """A fresh Control of ``program`` and ``facts``, its base part ground. A program that fails
+    to ground (only a user's rules do, on some facts) is an InputError naming ``what``; more
+    than ``max_atoms`` ground atoms one naming ``scope`` (default ``what``)."""
+    ctl = asp.control(options, asp.parsed(program), facts)
+    try:
+        ctl.ground([("base", [])])
+    except RuntimeError as exc:
+        msg = " ".join(str(exc).split())
+        raise InputError(f"{what} failed to ground: {msg}") from None
+    if max_atoms is not None:
+        check_atoms(len(ctl.symbolic_atoms), max_atoms, scope or what)
+    return ctl
+
+
 class AbductionSolver:
     """Grounds and solves an encoding (default: the packaged ``tracking.lp``) plus facts.
 
@@ -313,14 +336,14 @@ class AbductionSolver:
         """The shown atoms of the optimal model and their :class:`Answer` (see solve_facts)."""
         t0 = time.perf_counter()
         forbid = [list(f) for f in forbid]
-        ctl = asp.control(self.options, asp.parsed(self.program), facts)
-        try:
-            ctl.ground([("base", [])])
-        except RuntimeError as exc:  # only a user's rules fail to ground on some facts
-            msg = " ".join(str(exc).split())
-            raise InputError(f"the encoding failed to ground: {msg}") from None
-        if self.max_atoms is not None:
-            check_atoms(len(ctl.symbolic_atoms), self.max_atoms, "the encoding (one frame)")
+        ctl = grounded(
+            self.options,
+            self.program,
+            facts,
+            "the encoding",
+            self.max_atoms,
+            "the encoding (one frame)",
+        )
         asp.forbid(ctl, forbid)
         try:
             # only a user's encoding or rules can rule out every explanation of a frame

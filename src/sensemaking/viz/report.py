@@ -242,6 +242,28 @@ def _run_tracks(run: Run) -> Detections:
     )
 
 
+def _ground_truth(
+    gt: str | os.PathLike[str] | Detections, gt_format: str | None
+) -> tuple[Detections, str | None, Path | None]:
+    """Ground truth as Detections, its format (guessed from a file when None) and its path
+    (None for Detections given)."""
+    if isinstance(gt, Detections):
+        return gt, gt_format, None
+    path = Path(gt)
+    if not path.is_file():
+        raise InputError("no such ground-truth file", path)
+    gt_format = gt_format or _guess_format(path)
+    if gt_format == "mot":
+        from sensemaking.io.mot import read_mot
+
+        return read_mot(path, "gt"), gt_format, path
+    if gt_format == "kitti":
+        from sensemaking.io.kitti import read_kitti_labels
+
+        return read_kitti_labels(path), gt_format, path
+    raise InputError(f"unknown ground-truth format {gt_format!r} (mot or kitti)", path)
+
+
 def compute_metrics(
     run: Run,
     gt: str | os.PathLike[str] | Detections,
@@ -257,22 +279,7 @@ def compute_metrics(
     """
     from sensemaking.evaluation import evaluate_sequence
 
-    path = None
-    if not isinstance(gt, Detections):
-        path = Path(gt)
-        if not path.is_file():
-            raise InputError("no such ground-truth file", path)
-        gt_format = gt_format or _guess_format(path)
-        if gt_format == "mot":
-            from sensemaking.io.mot import read_mot
-
-            gt = read_mot(path, "gt")
-        elif gt_format == "kitti":
-            from sensemaking.io.kitti import read_kitti_labels
-
-            gt = read_kitti_labels(path)
-        else:
-            raise InputError(f"unknown ground-truth format {gt_format!r} (mot or kitti)", path)
+    gt, gt_format, path = _ground_truth(gt, gt_format)
     if gt_format not in ("mot", "kitti"):
         raise ValueError("gt_format must be 'mot' or 'kitti' for ground truth given as Detections")
     tracks = _run_tracks(run)
@@ -338,19 +345,7 @@ def explanation_curves(
 
     if not any(e.name in ("hides_behind", "may_hide_behind") for e in run.events):
         return ""
-    if not isinstance(gt, Detections):
-        path = Path(gt)
-        if not path.is_file():
-            raise InputError("no such ground-truth file", path)
-        gt_format = gt_format or _guess_format(path)
-        if gt_format == "mot":
-            from sensemaking.io.mot import read_mot
-
-            gt = read_mot(path, "gt")
-        else:
-            from sensemaking.io.kitti import read_kitti_labels
-
-            gt = read_kitti_labels(path)
+    gt, gt_format, _ = _ground_truth(gt, gt_format)
     tracks = _run_tracks(run)
     if gt_format == "mot":
         truth = GroundTruth.from_mot(gt, image_size=run.size(), fps=float(run.fps or 30.0))
