@@ -116,12 +116,20 @@ def test_sigterm_stops_a_long_query(archive: Path) -> None:
     sql = "SELECT sum(a.range * b.range) FROM range(100000000) a, range(100000) b"
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).parents[2] / "src")}
     proc = subprocess.Popen(
-        [sys.executable, "-m", "sensemaking", "query", str(archive), sql],
+        [sys.executable, "-m", "sensemaking", "-v", "query", str(archive), sql],
         env=env,
         stderr=subprocess.PIPE,
         text=True,
     )
-    time.sleep(3.0)
+    assert proc.stderr is not None
+    # the signal is sent once the query runs, not while a loaded machine still imports
+    seen: list[str] = []
+    for line in proc.stderr:
+        seen.append(line)
+        if "query running" in line:
+            break
+    assert seen and "query running" in seen[-1], "".join(seen)
+    time.sleep(1.0)
     t0 = time.monotonic()
     proc.send_signal(signal.SIGTERM)
     proc.wait(timeout=30)

@@ -26,6 +26,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import logging
 import math
 import threading
 from collections.abc import Sequence
@@ -35,6 +36,8 @@ from typing import Any
 
 from sensemaking.errors import InputError, SensemakingError, require
 from sensemaking.fleet.archive import TABLES, schemas
+
+_LOG = logging.getLogger(__name__)
 
 __all__ = [
     "NamedQuery",
@@ -373,6 +376,7 @@ def _fetch(con: Any, sql: str, params: list[str], max_rows: int) -> tuple[list[s
 
     worker = threading.Thread(target=work, name="sensemaking-query", daemon=True)
     worker.start()
+    _LOG.info("query running (Ctrl-C or SIGTERM stops it)")
     try:
         while worker.is_alive():
             worker.join(0.1)
