@@ -148,7 +148,7 @@ def run_track(argv: list[str], out: Path, outputs: tuple[str, ...], reference: b
         args += [f"--{o}", str(out / f"{o}.{'json' if o == 'scene' else 'jsonl'}")]
     tracker = _Timer(Tracker, "update")
     monitor = _Timer(SituationMonitor, "update")
-    step = _Timer(Pipeline, "step")
+    step = _Timer(Pipeline, "advance")  # what `track` calls once per input frame
     quiet = io.StringIO()
     with tracker, monitor, step, _reference_monitor(reference), contextlib.redirect_stdout(quiet):
         t0 = time.perf_counter()
