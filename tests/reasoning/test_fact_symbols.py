@@ -1,0 +1,34 @@
+"""The clingo symbols of Python fact tuples: leaves made once, the same symbols as clingo's."""
+
+from __future__ import annotations
+
+import clingo
+import pytest
+
+from sensemaking.reasoning import facts
+from sensemaking.reasoning.facts import AspString, symbol
+
+
+def test_symbols_are_clingos_own() -> None:
+    fact = ("holds", ("", 3, "car"), AspString("lane 1"), -7, ("f",))
+    assert symbol(fact) == clingo.parse_term('holds((3,car),"lane 1",-7,f)')
+
+
+def test_a_string_and_a_constant_of_the_same_text_stay_apart() -> None:
+    assert symbol("a").type == clingo.SymbolType.Function
+    assert symbol(AspString("a")).type == clingo.SymbolType.String
+    assert symbol("a").type == clingo.SymbolType.Function  # the cache did not mix them
+
+
+@pytest.mark.parametrize("term", [True, 1.5, None, [1]])
+def test_no_symbol_for_other_python_values(term: object) -> None:
+    with pytest.raises(TypeError):
+        symbol(term)
+
+
+def test_the_leaf_cache_is_bounded(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(facts, "_LEAVES_KEPT", 50)
+    monkeypatch.setattr(facts, "_NUMBERS", {})
+    for n in range(1000):
+        assert symbol(n).number == n
+    assert 0 < len(facts._NUMBERS) <= 50
