@@ -1,11 +1,11 @@
-"""The clingo symbols of Python fact tuples: leaves made once, the same symbols as clingo's."""
+"""The clingo symbols of Python fact tuples: made once, the same symbols as clingo's."""
 
 from __future__ import annotations
 
 import clingo
 import pytest
 
-from sensemaking.reasoning import facts
+from sensemaking import asp
 from sensemaking.reasoning.facts import AspString, symbol
 
 
@@ -26,9 +26,12 @@ def test_no_symbol_for_other_python_values(term: object) -> None:
         symbol(term)
 
 
-def test_the_leaf_cache_is_bounded(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(facts, "_LEAVES_KEPT", 50)
-    monkeypatch.setattr(facts, "_NUMBERS", {})
+def test_the_cache_of_made_symbols_is_bounded(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(asp, "_TERMS_KEPT", 50)
+    monkeypatch.setattr(asp, "_TERMS", {})
     for n in range(1000):
         assert symbol(n).number == n
-    assert 0 < len(facts._NUMBERS) <= 50
+        assert asp.term(("p", n, ("d", n))) == clingo.Function(
+            "p", [clingo.Number(n), clingo.Function("d", [clingo.Number(n)])]
+        )
+    assert 0 < len(asp._TERMS) <= 50

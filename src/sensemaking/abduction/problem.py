@@ -18,8 +18,9 @@ from collections.abc import Collection
 from dataclasses import dataclass, field
 
 import numpy as np
-from clingo import Function, Symbol
-from clingo import Number as _number
+from clingo import Symbol
+
+from sensemaking import asp
 
 __all__ = [
     "FrameProblem",
@@ -40,11 +41,6 @@ TRACK_FLAGS = ("tentative", "uncertain", "expired", "outside", "at_border", "ove
 #: 1000): few distinct values keep the answer cache's keys and the slot solver's universe small
 #: (a step of 50 made MOT17-04 track three times slower, docs/DESIGN-NOTES.md)
 SHARE_STEP = 250
-
-_TRUE = Function("true")
-_ZERO = _number(0)
-_VISIBILITY = tuple(Function(v) for v in VISIBILITY_VALUES)
-_GONE = tuple(Function(v) for v in GONE_EVENTS)
 
 
 def _empty_rows(width: int = 2) -> np.ndarray:
@@ -118,72 +114,73 @@ class Component:
         ``t0``, ``d0``: first track and detection number (several components in one program)."""
         out: list[Symbol] = []
         add = out.append
+        fact = asp.term  # facts repeat across components and frames: each made once
         with_speed = "speed" in uses
         with_share, with_depth = "cover_share" in uses, "cover_depth" in uses
 
-        def det(j: int) -> Symbol:
-            return Function("d", [_number(d0 + j)])
+        def det(j: int) -> tuple[str, int]:
+            return ("d", d0 + j)
 
-        def track(i: int) -> Symbol:
-            return _number(t0 + i)
+        def track(i: int) -> int:
+            return t0 + i
 
         for i, (active, *flags, cls, vis, speed) in enumerate(self.tracks):
             ti = track(i)
-            add(Function("track", [ti]))
-            add(Function("ttype", [ti, _number(cls)]))
-            add(Function("active" if active else "halted", [ti]))
+            add(fact(("track", ti)))
+            add(fact(("ttype", ti, cls)))
+            add(fact(("active" if active else "halted", ti)))
             for name, on in zip(TRACK_FLAGS, flags, strict=True):
                 if on:
-                    add(Function(name, [ti]))
-            add(Function("holds", [Function("in_fov", [ti]), _TRUE, _ZERO]))
-            add(Function("holds", [Function("visibility", [ti]), _VISIBILITY[vis], _ZERO]))
+                    add(fact((name, ti)))
+            add(fact(("holds", ("in_fov", ti), "true", 0)))
+            add(fact(("holds", ("visibility", ti), VISIBILITY_VALUES[vis], 0)))
             if with_speed and speed >= 0:
-                add(Function("speed", [ti, _number(speed)]))
+                add(fact(("speed", ti, speed)))
         for j, (conf, cls, border, overlapped) in enumerate(self.dets):
             d = det(j)
-            add(Function("det", [d, _number(conf)]))
-            add(Function("dtype", [d, _number(cls)]))
+            add(fact(("det", d, conf)))
+            add(fact(("dtype", d, cls)))
             if border:
-                add(Function("det_border", [d]))
+                add(fact(("det_border", d)))
             if overlapped:
-                add(Function("det_overlapped", [d]))
+                add(fact(("det_overlapped", d)))
         for t, j, lik, preferred in self.cand:
-            add(Function("cand", [track(t), det(j), _number(lik)]))
+            add(fact(("cand", track(t), det(j), lik)))
             if preferred:
-                add(Function("prefer", [track(t), det(j)]))
+                add(fact(("prefer", track(t), det(j))))
         for j, t, rank, share, margin in self.covers:
-            add(Function("covers", [det(j), track(t)]))
+            add(fact(("covers", det(j), track(t))))
             if with_share:
-                add(Function("cover_share", [det(j), track(t), _number(share)]))
+                add(fact(("cover_share", det(j), track(t), share)))
             if with_depth:
-                add(Function("cover_depth", [det(j), track(t), _number(margin)]))
+                add(fact(("cover_depth", det(j), track(t), margin)))
             if rank >= 0:
-                add(Function("cover_rank", [det(j), track(t), _number(rank)]))
+                add(fact(("cover_rank", det(j), track(t), rank)))
         for t, j in self.fits:
-            add(Function("fits", [track(t), det(j)]))
+            add(fact(("fits", track(t), det(j))))
         for j, t in self.keeps_covering:
-            add(Function("keeps_covering", [det(j), track(t)]))
+            add(fact(("keeps_covering", det(j), track(t))))
         for j, t in self.emerges:
-            add(Function("emerges", [det(j), track(t)]))
+            add(fact(("emerges", det(j), track(t))))
         for t, o in self.hidden_by:
-            add(Function("holds", [Function("hidden_by", [track(t), track(o)]), _TRUE, _ZERO]))
+            add(fact(("holds", ("hidden_by", track(t), track(o)), "true", 0)))
         if self.gone:
             g0 = self.n_live_refs
             for g, (how, cls) in enumerate(self.gone):
-                add(Function("gone", [track(g0 + g), _GONE[how]]))
-                add(Function("ttype", [track(g0 + g), _number(cls)]))
+                add(fact(("gone", track(g0 + g), GONE_EVENTS[how])))
+                add(fact(("ttype", track(g0 + g), cls)))
             for g, j, lik in self.back:
-                add(Function("back", [track(g0 + g), det(j), _number(lik)]))
+                add(fact(("back", track(g0 + g), det(j), lik)))
         for t in self.moving:
-            add(Function("moving", [track(t)]))
+            add(fact(("moving", track(t))))
         for t, j, level in self.heading:
-            add(Function("heading", [track(t), det(j), _number(level)]))
+            add(fact(("heading", track(t), det(j), level)))
         for t, j, level in self.size_gap:
-            add(Function("size_gap", [track(t), det(j), _number(level)]))
+            add(fact(("size_gap", track(t), det(j), level)))
         for t, j in self.at_last_seen:
-            add(Function("at_last_seen", [track(t), det(j)]))
+            add(fact(("at_last_seen", track(t), det(j))))
         if self.first_frame:
-            add(Function("first_frame"))
+            add(fact("first_frame"))
         return out
 
 

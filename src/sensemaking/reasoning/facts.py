@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 import clingo
 import numpy as np
 
+from sensemaking import asp
 from sensemaking.reasoning.context import SceneContext, asp_name
 from sensemaking.reasoning.relations import (
     MotionThresholds,
@@ -41,37 +42,18 @@ class AspString(str):
     __slots__ = ()
 
 
-#: leaf symbols already made, by value: a clingo call costs ~1.5 us, a lookup ~0.05 us, and the
-#: monitor's facts repeat their ids, frames and constants (bounded: cleared when full)
-_NUMBERS: dict[int, clingo.Symbol] = {}
-_CONSTANTS: dict[str, clingo.Symbol] = {}
-_LEAVES_KEPT = 1 << 16
-
-
 def symbol(term: Any) -> clingo.Symbol:
     """The clingo symbol of an int, a constant (str), an :class:`AspString` or a tuple
     ``(name, arg, ...)`` (a function term; ``("", a, b)`` is the tuple ``(a,b)``)."""
     kind = type(term)
+    if kind is int or kind is str:  # numbers and constants repeat: made once (asp.term)
+        return asp.term(term)
     if kind is tuple:
-        return clingo.Function(term[0], [symbol(a) for a in term[1:]])
-    if kind is int:
-        sym = _NUMBERS.get(term)
-        if sym is None:
-            if len(_NUMBERS) >= _LEAVES_KEPT:
-                _NUMBERS.clear()
-            sym = _NUMBERS[term] = clingo.Number(term)
-        return sym
-    if kind is str:
-        sym = _CONSTANTS.get(term)
-        if sym is None:
-            if len(_CONSTANTS) >= _LEAVES_KEPT:
-                _CONSTANTS.clear()
-            sym = _CONSTANTS[term] = clingo.Function(term)
-        return sym
-    if isinstance(term, tuple):
         return clingo.Function(term[0], [symbol(a) for a in term[1:]])
     if isinstance(term, AspString):
         return clingo.String(term)
+    if isinstance(term, tuple):
+        return clingo.Function(term[0], [symbol(a) for a in term[1:]])
     if isinstance(term, str):
         return clingo.Function(term)
     if isinstance(term, int) and not isinstance(term, bool):
