@@ -158,10 +158,12 @@ ORIGINS: dict[str, str] = {
     "30 fps (jitter), a design choice, not tuned.",
     "size_weight": "0 (off); size consistency of a resume, issue 27, measured across folds "
     "(docs/DESIGN-NOTES.md).",
-    "swap_weight": "0 (off); the identity-swap cost of issue 27 (crossings traced), measured "
-    "across folds (docs/DESIGN-NOTES.md).",
-    "swap_margin": "used only with swap_weight; measured with it (docs/DESIGN-NOTES.md).",
-    "swap_behind": "used only with swap_weight; measured both ways (docs/DESIGN-NOTES.md).",
+    "swap_weight": "0 (off; MOT 400): the identity-swap cost of issue 27 (crossings traced), "
+    "kept on MOT17 by the leave-one-video-out rule (docs/DESIGN-NOTES.md).",
+    "swap_margin": "used only with swap_weight (MOT 0.1); measured with it "
+    "(docs/DESIGN-NOTES.md).",
+    "swap_behind": "used only with swap_weight (MOT on); measured both ways "
+    "(docs/DESIGN-NOTES.md).",
     "weak_confidence": "off (None); ByteTrack's 0.1 when on, a technique measured across "
     "folds, not kept (docs/DESIGN-NOTES.md).",
     "weak_iou": "ByteTrack's second-round 0.5, used only with weak_confidence; not tuned.",
