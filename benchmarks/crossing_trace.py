@@ -12,6 +12,9 @@ matches of X onto B's detection and Y onto A's forbidden) with its cost.
 
     python benchmarks/crossing_trace.py TAXONOMY.json [--set K=V ...] [--json OUT]
 
+The MOT preset has the identity-swap cost on since this trace (``swap_weight``): trace the run
+before it with ``--set swap_weight=0``, as the taxonomy was made.
+
 TAXONOMY.json: ``occlusion_errors.py --only mot17 taxonomy RUN --json TAXONOMY.json``.
 """
 
