@@ -582,6 +582,18 @@ class TrackerConfig:
             a tenth: nothing; four tenths or more: all of it): four weights (solver units;
             tracking.lp's ``size_weight``). A person who reappears as a box half as tall is
             more likely someone else. 0: off.
+        swap_weight: identity-swap cost (issue 27, crossings traced): a track that takes a
+            detection which fits the prediction of a hidden or missing (confirmed) track better
+            than its own, while that track stays unseen, costs this much more (solver units;
+            tracking.lp's ``swap_weight``). Where one of two crossing people is detected, the
+            one whose prediction fits is then seen again rather than the other carried onto
+            its box for the price of a resume and a halt. 0: off.
+        swap_margin: with ``swap_weight``, how much better (IoU) the unseen track's fit must
+            be than the taking track's for the cost to apply (0: any better fit on the
+            solver's grid of likelihoods).
+        swap_behind: with ``swap_weight``, only a track hidden behind the taking track counts
+            (the occluder carried onto the detection of the one it hid); off: any hidden or
+            missing track.
         costs: :class:`AbductionCosts`.
         kalman: :class:`~sensemaking.motion.KalmanConfig`.
     """
@@ -648,6 +660,9 @@ class TrackerConfig:
     direction_min_speed: float = param(0.25, "float", "box heights / s", 0.0, 100.0)
     direction_span_s: float = param(0.3, "float", "s", 0.0, 10.0, low_open=True)
     size_weight: int = param(0, "int", _COST, 0, 100_000)
+    swap_weight: int = param(0, "int", _COST, 0, 100_000)
+    swap_margin: float = param(0.0, "float", "IoU", 0.0, 1.0)
+    swap_behind: bool = param(False, "bool", "-")
     costs: AbductionCosts = nested(AbductionCosts)
     kalman: KalmanConfig = nested(KalmanConfig)
 

@@ -144,6 +144,15 @@ class Tracker:
             # only when on: the constants (recorded in scene files) stay as they were
             **({"direction_weight": c.direction_weight} if c.direction_weight else {}),
             **({"size_weight": c.size_weight} if c.size_weight else {}),
+            **(
+                {
+                    "swap_weight": c.swap_weight,
+                    "swap_margin": round(c.swap_margin * 1000),
+                    "swap_behind": int(c.swap_behind),
+                }
+                if c.swap_weight
+                else {}
+            ),
         }
         base = None if encoding is None else read_encoding(encoding)
         rule_texts = [read_encoding(r) for r in extra]

@@ -158,6 +158,12 @@ ORIGINS: dict[str, str] = {
     "30 fps (jitter), a design choice, not tuned.",
     "size_weight": "0 (off); size consistency of a resume, issue 27, measured across folds "
     "(docs/DESIGN-NOTES.md).",
+    "swap_weight": "0 (off): the identity-swap cost of issue 27 (crossings traced); 400 with "
+    "margin 0.1 behind only keeps 2 more MOT17 identities, one video's once every variant "
+    "tried is chosen across folds: not kept (docs/DESIGN-NOTES.md).",
+    "swap_margin": "used only with swap_weight; 0.1 chosen on the shared MOT17 sequences "
+    "(docs/DESIGN-NOTES.md).",
+    "swap_behind": "used only with swap_weight; measured both ways (docs/DESIGN-NOTES.md).",
     "weak_confidence": "off (None); ByteTrack's 0.1 when on, a technique measured across "
     "folds, not kept (docs/DESIGN-NOTES.md).",
     "weak_iou": "ByteTrack's second-round 0.5, used only with weak_confidence; not tuned.",
