@@ -10,11 +10,17 @@ machine may be shared and noisy: compare the ratios of one run.
 Inputs (``../shared/data``): KITTI RRC car 0000-0010 and MOT17 YOLOX half-val 02, 04, 05, 09.
 
     python benchmarks/lookahead_cost.py [--data DIR] [--lookahead 0.2] [--only kitti|mot]
+        [--seq NAME] [--set KEY=VALUE ...]
+
+``--set`` gives the look-ahead run other settings too (e.g. ``lookahead_crowd_budget=true``,
+``lookahead_continuity=300``; values as JSON, else strings); ``--seq`` keeps the inputs whose
+name contains NAME.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 from pathlib import Path
@@ -53,7 +59,11 @@ def inputs(data: Path, only: str | None) -> list[tuple[str, str, Path, dict[str,
 
 
 def timed(
-    family: str, path: Path, facts: dict[str, Any], lookahead: float
+    family: str,
+    path: Path,
+    facts: dict[str, Any],
+    lookahead: float,
+    extra: dict[str, Any] | None = None,
 ) -> tuple[int, float, float, dict[str, Any]]:
     """``(frames, total ms, worst frame ms, look-ahead counters)`` of one run."""
     from sensemaking import settings
@@ -62,7 +72,8 @@ def timed(
     from sensemaking.lookahead import LookaheadTracker
     from sensemaking.tracker import Tracker
 
-    config = settings.load_config(None, family, {**facts, "lookahead_s": lookahead})
+    facts = {**facts, "lookahead_s": lookahead, **(extra or {})}
+    config = settings.load_config(None, family, facts)
     cls = "car" if family == "kitti" else None
     frames = list(iter_detection_frames(path, family, cls))
     online = Tracker(config, solver_cache=SolverCache())
@@ -89,7 +100,21 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--data", type=Path, default=None)
     ap.add_argument("--lookahead", type=float, default=0.2, help="seconds (lookahead_s)")
     ap.add_argument("--only", choices=("kitti", "mot"), default=None)
+    ap.add_argument("--seq", default=None, help="only the inputs whose name contains this")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     args = ap.parse_args(argv)
+    extra: dict[str, Any] = {}
+    for item in args.set:
+        key, sep, value = item.partition("=")
+        if not sep:
+            print(f"lookahead_cost: --set {item!r}: expected KEY=VALUE", file=sys.stderr)
+            return 2
+        try:
+            extra[key] = json.loads(value)
+        except json.JSONDecodeError:
+            extra[key] = value
+    from sensemaking.errors import InputError
+
     data = args.data or next((p for p in _DATA_CANDIDATES if p.is_dir()), None)
     if data is None or not data.is_dir():
         print("lookahead_cost: no ../shared/data", file=sys.stderr)
@@ -98,17 +123,21 @@ def main(argv: list[str] | None = None) -> int:
     print(f"look-ahead {args.lookahead} s against online, ms per frame (mean, worst frame)")
     print(f"{'input':<28} {'online':>14} {'look-ahead':>14} {'ratio':>6}  counters")
     for family, name, path, facts in inputs(data, args.only):
-        if not path.is_file():
+        if not path.is_file() or (args.seq and args.seq not in name):
             continue
-        n, on_ms, on_worst, _ = timed(family, path, facts, 0.0)
-        _, la_ms, la_worst, stats = timed(family, path, facts, args.lookahead)
+        try:
+            n, on_ms, on_worst, _ = timed(family, path, facts, 0.0)
+            _, la_ms, la_worst, stats = timed(family, path, facts, args.lookahead, extra)
+        except InputError as exc:
+            print(f"lookahead_cost: {exc}", file=sys.stderr)
+            return 2
         p = pooled.setdefault(family, [0.0, 0.0, 0.0])
         p[0] += n
         p[1] += on_ms
         p[2] += la_ms
         counters = ", ".join(
             f"{k} {stats[k]}"
-            for k in ("contested", "rollouts", "switched", "over_budget")
+            for k in ("contested", "rollouts", "switched", "by_continuity", "over_budget")
             if k in stats
         )
         print(

@@ -560,6 +560,19 @@ class TrackerConfig:
             rolled forward (more work), more chances to undo a swap.
         lookahead_hypotheses: most hypotheses rolled forward per contested frame, the online
             optimum included (N-best pruning). Bounds the work of a frame.
+        lookahead_continuity: a continuity term in the look-ahead's choice (issue 27): each
+            hypothesis is also charged this much per box height (solver units; 0: off) by which
+            the boxes its tracks take over the window stray from their constant-velocity
+            extrapolation from before the decided frame (per track and frame, capped at one
+            height; summed over the tracks seen in both chains compared). A swap at a crossing
+            sends both tracks off their pre-crossing motion, which the encoding's costs, read
+            against Kalman filters that followed the swap, may not see.
+        lookahead_crowd_budget: the look-ahead's work budget follows the crowd (issue 27):
+            work is counted in candidate pairs rather than frames -- a decided frame earns in
+            proportion to its problem's size, a check to its part's, a rolled frame a share of
+            the frame's (the unchanged parts come from the cache) and the differing parts --
+            so the credit is spent on crowded frames, where the crossings are, and a small
+            contested part in a crowd costs little. Switch (no unit); False: one unit a frame.
         direction_weight: motion-direction consistency (OC-SORT's observation-centric
             momentum, issue 27): a match costs this much more per half turn between the track's
             direction of motion (from its observation ``direction_span_s`` before its last one
@@ -656,6 +669,8 @@ class TrackerConfig:
     lookahead_s: float = param(0.0, "float", "s", 0.0, 10.0)
     lookahead_margin: int = param(300, "int", _COST, 0, 100_000)
     lookahead_hypotheses: int = param(3, "int", "hypotheses", 1, 16)
+    lookahead_continuity: int = param(0, "int", "solver units per box height", 0, 100_000)
+    lookahead_crowd_budget: bool = param(False, "bool", "-")
     direction_weight: int = param(0, "int", _COST, 0, 100_000)
     direction_min_speed: float = param(0.25, "float", "box heights / s", 0.0, 100.0)
     direction_span_s: float = param(0.3, "float", "s", 0.0, 10.0, low_open=True)

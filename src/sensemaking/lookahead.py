@@ -28,6 +28,16 @@ pay for is not done (the frame is decided online, counted in ``stats["over_budge
 look-ahead's extra work averages at most 0.75 units per frame (under twice the online work),
 and the worst frame's is bounded by the
 saved credit, each solve under the solver's ``max_conflicts`` budget.
+
+Two refinements, off by default (settings, docs/DESIGN-NOTES.md "Look-ahead with a continuity
+term"): ``lookahead_continuity`` adds to each chain's score how far the boxes its tracks take
+over the window stray from the constant-velocity extrapolation of their motion before frame t
+(per box height, capped at one; summed over the tracks both chains see), so a swap is judged by
+the motion it breaks as well as by the encoding's costs; ``lookahead_crowd_budget`` counts the
+work in candidate pairs instead of frames (:meth:`LookaheadTracker._work`): a frame earns in
+proportion to its problem's size, a check costs in proportion to its part's, a rolled frame a
+share of its size (:data:`ROLL_SHARE`, the unchanged parts come from the cache) and the parts
+that differ, so the credit follows the crowd.
 """
 
 from __future__ import annotations
@@ -38,13 +48,14 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
+import numpy as np
 from clingo import Function, Number, Symbol
 
 from sensemaking import asp
 from sensemaking.abduction.problem import Component, FrameProblem
 from sensemaking.abduction.solver import Answer, Det, Ref, answer_of
 from sensemaking.config import TrackerConfig
-from sensemaking.results import FrameResult
+from sensemaking.results import FrameResult, TrackState
 from sensemaking.tracker import Tracker, TrackerState, frozen_problem
 
 __all__ = ["LookaheadTracker", "make_tracker"]
@@ -57,6 +68,19 @@ CHECK_UNITS = 1.0
 #: work units each decided frame earns: below one, so that the look-ahead stays under twice the
 #: online work where its frames cost more than an online one (fresh parts, not in the cache)
 CREDIT_PER_FRAME = 0.75
+
+#: crowd budget: work of a rolled frame, per candidate pair of the frame. A cached update costs
+#: a tenth of an uncached one, but a changed identity changes the facts of the crowd's large
+#: parts downstream: on MOT17-02 a rolled frame cost about an online frame (0.25 here: 2.3x)
+ROLL_SHARE = 1.0
+#: crowd budget: work of finding a part's alternatives (one grounding, a few solves) and of a
+#: differing part of a rolled frame (solved, its cost compared), per candidate pair of the part
+PART_UNITS = 2.0
+#: continuity term: a track's deviation from its extrapolated motion counts at most this many
+#: box heights per frame (a track that jumped to another person deviates by about one)
+CONTINUITY_CAP = 1.0
+#: continuity term: the tracks whose velocity is known (matched at least this many times)
+CONTINUITY_MIN_HITS = 3
 
 #: the actions that say who is who in a part of a frame: an alternative must change one
 _IDENTITY = ("assign", "resume", "start")
@@ -104,20 +128,25 @@ class LookaheadTracker:
         hypotheses: int | None = None,
         margin: int | None = None,
         memo_size: int = 20_000,
+        continuity: int | None = None,
+        crowd_budget: bool | None = None,
     ):
         c = tracker.config
         self.tracker = tracker
         self.lag = c.lookahead_frames if lag is None else int(lag)
         self.hypotheses = c.lookahead_hypotheses if hypotheses is None else int(hypotheses)
         self.margin = c.lookahead_margin if margin is None else int(margin)
-        if self.lag < 0 or self.hypotheses < 1 or self.margin < 0:
-            raise ValueError("lag and margin must be >= 0, hypotheses >= 1")
+        self.continuity = c.lookahead_continuity if continuity is None else int(continuity)
+        self.crowd = c.lookahead_crowd_budget if crowd_budget is None else bool(crowd_budget)
+        if self.lag < 0 or self.hypotheses < 1 or self.margin < 0 or self.continuity < 0:
+            raise ValueError("lag, margin and continuity must be >= 0, hypotheses >= 1")
         self.memo_size = memo_size
         # the work budget, in frame updates: each decided frame earns one (look-ahead at most
         # twice the online updates on average), a roll-forward spends one per frame of the
         # window and hypothesis; saved up to one worst frame's need, twice over
         self._max_credit = 2.0 * ROLL_UNITS * (self.hypotheses - 1) * (self.lag + 1)
         self._credit = self._max_credit
+        self._full = self.crowd  # with the crowd budget, filled at the first decided frame
         self._base = tracker.snapshot()  # the state before the oldest frame of the window
         self._window: deque[_Step] = deque()
         self._alternatives: OrderedDict[tuple[Component, tuple[Symbol, ...]], list[Any]] = (
@@ -130,6 +159,7 @@ class LookaheadTracker:
             "contested": 0,
             "rollouts": 0,
             "switched": 0,
+            "by_continuity": 0,
             "checked": 0,
             "over_budget": 0,
             "timed_out": 0,
@@ -189,30 +219,69 @@ class LookaheadTracker:
     def _decide_oldest(self) -> FrameResult:
         t0 = time.perf_counter()
         frames = len(self._window)  # the roll-forward of one hypothesis updates this many
-        self._credit = min(self._credit + CREDIT_PER_FRAME, self._max_credit)
+        earned = CREDIT_PER_FRAME * self._work(self._window[0])
+        cap = self._max_credit * self._window_work() / frames
+        if self._full:  # the credit starts saved up, in the budget's units
+            self._credit, self._full = cap, False
+        self._credit = min(self._credit + earned, cap)
         if frames > 1:
             hypotheses = self._hypotheses(self._window[0])
             if hypotheses:
                 self.stats["contested"] += 1
-                affordable = int(self._credit // (ROLL_UNITS * frames))
-                if affordable < len(hypotheses):
-                    self.stats["over_budget"] += 1
-                    hypotheses = hypotheses[:affordable]
-                if hypotheses:
-                    self._credit -= ROLL_UNITS * frames * len(hypotheses)
-                    self._roll(hypotheses)
+                paid = []
+                for delta, answer, size in hypotheses:
+                    need = self._roll_units(size)
+                    if self._credit < need:
+                        self.stats["over_budget"] += 1
+                        break
+                    self._credit -= need
+                    paid.append((delta, answer, size))
+                if paid:
+                    self._roll(paid)
         step = self._window.popleft()
         self._base = step.after
         self.stats["decided"] += 1
         self.stats["lookahead_ms"] += (time.perf_counter() - t0) * 1e3
         return step.result
 
-    def _hypotheses(self, step: _Step) -> list[tuple[int, Answer]]:
+    # -- the work budget ----------------------------------------------------------------------
+    def _work(self, step: _Step) -> float:
+        """What an online update of the frame is counted: one unit, or with the crowd budget
+        its problem's size (candidate pairs, tracks and detections, plus one)."""
+        if not self.crowd:
+            return 1.0
+        problem = step.problem
+        if problem is None:
+            return 1.0
+        return float(1 + len(problem.cand) + len(problem.track_id) + len(step.detections))
+
+    def _window_work(self) -> float:
+        """:meth:`_work` summed over the frames of the window."""
+        return sum(self._work(s) for s in self._window)
+
+    def _part_work(self, component: Component) -> float:
+        """What solving a part is counted with the crowd budget (its size, plus one)."""
+        return float(1 + len(component.cand) + len(component.tracks) + len(component.dets))
+
+    def _roll_units(self, size: float) -> float:
+        """The work of rolling one hypothesis forward through the window: ``ROLL_UNITS`` a
+        frame; with the crowd budget a share of each frame (cached parts) and the contested
+        part (``size``, :meth:`_part_work`) solved in each frame."""
+        frames = len(self._window)
+        if not self.crowd:
+            return ROLL_UNITS * frames
+        return ROLL_SHARE * self._window_work() + PART_UNITS * size * frames
+
+    def _check_units(self, component: Component) -> float:
+        return PART_UNITS * self._part_work(component) if self.crowd else CHECK_UNITS
+
+    def _hypotheses(self, step: _Step) -> list[tuple[int, Answer, float]]:
         """The frame's alternatives within the margin, cheapest first, at most
-        ``hypotheses - 1``: ``(cost above the chosen answer, the whole frame's answer)``."""
+        ``hypotheses - 1``: ``(cost above the chosen answer, the whole frame's answer, the
+        work of its part)``."""
         if self.hypotheses < 2 or not _frame_may_be_contested(step, self.margin):
             return []
-        found: list[tuple[int, Answer]] = []
+        found: list[tuple[int, Answer, float]] = []
         for component, track_ids, det_rows in step.parts:
             if not component.cand:
                 continue
@@ -224,7 +293,7 @@ class LookaheadTracker:
                 if delta <= self.margin:
                     whole = _replace_part(step.answer, own, det_rows)
                     whole.merge(local.mapped(track_ids, det_rows))
-                    found.append((delta, whole))
+                    found.append((delta, whole, self._part_work(component)))
         found.sort(key=lambda x: x[0])
         return found[: self.hypotheses - 1]
 
@@ -238,10 +307,13 @@ class LookaheadTracker:
         if hit is not None:
             self._alternatives.move_to_end(key)
             return hit
-        if self._credit < CHECK_UNITS:
+        check = self._check_units(component)
+        # with the crowd budget a check is made only if a roll-forward of its part can follow
+        need = check + (self._roll_units(self._part_work(component)) if self.crowd else 0.0)
+        if self._credit < need:
             self.stats["over_budget"] += 1
             return []
-        self._credit -= CHECK_UNITS
+        self._credit -= check
         self.stats["checked"] += 1
         solver = self.tracker.solver.solver
         # one ground program, solved again after each forbidden explanation
@@ -315,14 +387,17 @@ class LookaheadTracker:
             total += 0 if answer is None or answer.cost is None else answer.cost
         return total
 
-    def _roll(self, hypotheses: list[tuple[int, Answer]]) -> None:
+    def _roll(self, hypotheses: list[tuple[int, Answer, float]]) -> None:
         """Roll each hypothesis of the oldest frame forward through the window; keep the one
         cheapest over the window (the online one on ties) as the window."""
         window = list(self._window)
         parts0 = [_parts(s) for s in window[1:]]
+        motion = _motion(self._base) if self.continuity else None
+        strays0 = _strays(window, motion) if motion is not None else {}
         best: list[_Step] | None = None
-        best_score = 0
-        for delta, answer in hypotheses:
+        best_score = 0.0
+        best_by_continuity = False
+        for delta, answer, size in hypotheses:
             self.stats["rollouts"] += 1
             self.tracker.restore(self._base)
             steps = []
@@ -331,18 +406,30 @@ class LookaheadTracker:
             steps.append(
                 _Step(first.frame, first.detections, result, applied, self._snap(), solved)
             )
-            score = delta
+            score = float(delta)
+            differing = 0.0  # crowd budget: the work of the parts solved beyond the contested
             for s, p0 in zip(window[1:], parts0, strict=True):
                 result, applied, solved = self._decide(s.detections, s.frame)
                 steps.append(_Step(s.frame, s.detections, result, applied, self._snap(), solved))
                 mine = _parts(steps[-1])
                 score += self._cost_sum(mine - p0) - self._cost_sum(p0 - mine)
+                if self.crowd:
+                    differing += sum(self._part_work(c) for c in (mine - p0).elements())
+            if self.crowd:  # charged after the fact: the estimate counted one part a frame
+                self._credit -= max(0.0, PART_UNITS * (differing - size * (len(window) - 1)))
+            encoding_score = score
+            if motion is not None:
+                strays = _strays(steps, motion)
+                both = strays.keys() & strays0.keys()
+                score += self.continuity * sum(strays[key] - strays0[key] for key in both)
             if score < best_score:
                 best, best_score = steps, score
+                best_by_continuity = encoding_score >= 0
         if best is None:
             self.tracker.restore(window[-1].after)
             return
         self.stats["switched"] += 1
+        self.stats["by_continuity"] += int(best_by_continuity)
         self.tracker.restore(best[-1].after)
         self._window = deque(best)
 
@@ -371,6 +458,45 @@ def make_tracker(tracker: Tracker) -> Tracker | LookaheadTracker:
     if tracker.config.lookahead_frames <= 0:
         return tracker
     return LookaheadTracker(tracker)
+
+
+def _motion(state: TrackerState) -> tuple[int, dict[int, np.ndarray]] | None:
+    """The tracks' motion before the decided frame: ``(last frame, track id -> (cx, cy, vx,
+    vy, h))`` (pixels, pixels per frame) of the tracks matched at least
+    :data:`CONTINUITY_MIN_HITS` times; None before the first frame."""
+    if state.last_frame is None:
+        return None
+    table = state.tracks
+    keep = np.flatnonzero(table.hits >= CONTINUITY_MIN_HITS)
+    if not len(keep):
+        return state.last_frame, {}
+    x, v = table.kf.cxcywh()[keep], table.kf.velocity()[keep]
+    rows = np.column_stack([x[:, :2], v[:, :2], x[:, 3]])
+    return state.last_frame, dict(zip(table.id[keep].tolist(), rows, strict=True))
+
+
+def _strays(
+    steps: Sequence[_Step], motion: tuple[int, dict[int, np.ndarray]]
+) -> dict[tuple[int, int], float]:
+    """``(track id, frame) -> deviation`` over a chain: how far each visible track's box
+    centre lies from its constant-velocity extrapolation (:func:`_motion`), in extrapolated
+    box heights, at most :data:`CONTINUITY_CAP`."""
+    last, rows = motion
+    out: dict[tuple[int, int], float] = {}
+    if not rows:
+        return out
+    for step in steps:
+        tracks = step.result.tracks
+        visible = tracks.data["state"] == TrackState.VISIBLE
+        for t, box in zip(tracks.tracker_id[visible].tolist(), tracks.xyxy[visible], strict=True):
+            row = rows.get(t)
+            if row is None:
+                continue
+            ahead = step.frame - last
+            dx = (box[0] + box[2]) / 2 - (row[0] + ahead * row[2])
+            dy = (box[1] + box[3]) / 2 - (row[1] + ahead * row[3])
+            out[(t, step.frame)] = min(float(np.hypot(dx, dy)) / max(row[4], 1.0), CONTINUITY_CAP)
+    return out
 
 
 def _frame_may_be_contested(step: _Step, margin: int) -> bool:

@@ -281,3 +281,114 @@ def test_the_cache_tells_the_cost_of_a_part_it_solved() -> None:
     assert all(tracker.solver.remembered_cost(c) is not None for c, _, _ in parts)
     fresh = Tracker(config(), solver_cache=SolverCache())
     assert all(fresh.solver.remembered_cost(c) is None for c, _, _ in parts)
+
+
+# -- the continuity term and the crowd budget (issue 27, 2026-11-28) ------------------------------
+def side_by_side(n: int = 22) -> list[tuple[int, Any]]:
+    """Two people of one size walking right at 10 px/frame, 20 px apart in height (person A
+    above); at frames 10-12 their boxes are drawn 12 px towards each other's row (so they are
+    crossed in height), then back. Row 0 is person A."""
+    out = []
+    for t in range(n):
+        x = 100.0 + 10 * t
+        ya, yb = 100.0, 120.0
+        if 10 <= t < 13:
+            ya, yb = ya + 12, yb - 12
+        boxes = np.array([[x - 20, ya, x + 20, ya + 100], [x - 20, yb, x + 20, yb + 100]])
+        det = Detections(
+            xyxy=boxes,
+            confidence=np.array([0.9, 0.9]),
+            class_id=np.zeros(2, dtype=np.int64),
+            frame=np.full(2, t),
+        )
+        out.append((t, det))
+    return out
+
+
+def run_lookahead(frames, cfg: TrackerConfig, **kw: Any) -> tuple[list[FrameResult], dict]:
+    la = LookaheadTracker(Tracker(cfg, solver_cache=SolverCache()), **kw)
+    out: list[FrameResult] = []
+    for f, d in frames:
+        out += la.push(d, f)
+    return out + la.flush(), la.stats
+
+
+def test_the_continuity_term_keeps_the_identity_the_encoding_alone_swaps() -> None:
+    """Over frames 10-13 the encoding's costs alone prefer the chain where A and B change ids
+    for good (the Kalman filters follow the crossed boxes); the chain that keeps each box
+    near its motion from before frame 10 is chosen with the continuity term."""
+    frames = side_by_side()
+    plain, _ = run_lookahead(frames, config(), lag=3)
+    ids = ids_of_a(plain, frames)
+    assert ids[-1] != ids[0]  # without the term: A leaves with B's id
+    kept, stats = run_lookahead(frames, config(), lag=3, continuity=300)
+    ids = ids_of_a(kept, frames)
+    assert ids[-1] == ids[0] and ids[:10] == [ids[0]] * 10
+    assert [r.frame for r in kept] == [f for f, _ in frames]
+    assert stats["rollouts"] > 0
+
+
+def test_the_continuity_term_changes_nothing_uncontested() -> None:
+    frames = list(crossing_scene(2, gap=4).frames())
+    base = online(frames, config())
+    mine, _ = run_lookahead(frames, config(), lag=5, continuity=1000)
+    assert all(same(a, b) for a, b in zip(base, mine, strict=True))
+
+
+def crossing_rows(pairs: int = 8) -> list[tuple[int, Any]]:
+    """``pairs`` walker pairs (as :func:`walkers`), one per row 120 px apart, pair i crossing
+    at frame 8 + i: a crowd with one crossing a frame. Rows 2i and 2i + 1 are pair i."""
+    out = []
+    for t in range(30):
+        boxes = []
+        for i in range(pairs):
+            tc = 8 + i
+            a, b = 200.0 + 10 * (t - tc), 200.0 - 10 * (t - tc)
+            if t == tc - 1:
+                a, b = a - 3, b + 3
+            if t == tc:
+                a, b = a + 1, b - 1
+            y = 20.0 + 120 * i
+            boxes += [[a - 20, y, a + 20, y + 100], [b - 20, y, b + 20, y + 100]]
+        det = Detections(
+            xyxy=np.array(boxes),
+            confidence=np.full(len(boxes), 0.9),
+            class_id=np.zeros(len(boxes), dtype=np.int64),
+            frame=np.full(len(boxes), t),
+        )
+        out.append((t, det))
+    return out
+
+
+def swapped_pairs(results: list[FrameResult], frames, pairs: int) -> int:
+    """How many pairs' first person carries more than one id over the frames."""
+    n = 0
+    for i in range(pairs):
+        box = {f: d.xyxy[2 * i] for f, d in frames}
+        ids = set()
+        for r in results:
+            at = np.flatnonzero(np.all(r.tracks.xyxy == box[r.frame], axis=1))
+            ids.update(r.tracks.tracker_id[at].tolist())
+        n += len(ids) > 1
+    return n
+
+
+def test_the_crowd_budget_pays_for_the_crossings_of_a_crowd() -> None:
+    """One crossing a frame among 16 people: one unit a frame runs out of credit after a few
+    crossings; counted in candidate pairs, a small contested part in a large frame is cheap to
+    roll forward: more contested frames are rolled and fewer swaps are left."""
+    frames, cfg = crossing_rows(), TrackerConfig(fps=10.0, image_size=(1000, 1000))
+    swaps = swapped_pairs(online(frames, cfg), frames, 8)
+    even, even_stats = run_lookahead(frames, cfg, lag=3)
+    crowd, crowd_stats = run_lookahead(frames, cfg, lag=3, crowd_budget=True)
+    assert crowd_stats["over_budget"] < even_stats["over_budget"]
+    assert crowd_stats["rollouts"] > even_stats["rollouts"]
+    assert swapped_pairs(crowd, frames, 8) < swapped_pairs(even, frames, 8) <= swaps
+
+
+def test_the_settings_reach_the_lookahead() -> None:
+    cfg = config().replace(lookahead_s=0.3, lookahead_continuity=250, lookahead_crowd_budget=True)
+    la = make_tracker(Tracker(cfg))
+    assert isinstance(la, LookaheadTracker) and la.continuity == 250 and la.crowd
+    with pytest.raises(ValueError):
+        LookaheadTracker(Tracker(config()), lag=2, continuity=-1)

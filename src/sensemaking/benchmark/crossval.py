@@ -151,6 +151,10 @@ ORIGINS: dict[str, str] = {
     "folds (docs/DESIGN-NOTES.md).",
     "lookahead_margin": "used only with lookahead_s; a work bound, not tuned.",
     "lookahead_hypotheses": "used only with lookahead_s; N-best pruning, a work bound, not tuned.",
+    "lookahead_continuity": "0 (off); used only with lookahead_s, measured across folds "
+    "(docs/DESIGN-NOTES.md).",
+    "lookahead_crowd_budget": "switch: off; used only with lookahead_s, a work bound measured "
+    "with it (docs/DESIGN-NOTES.md).",
     "direction_weight": "0 (off); motion-direction consistency of issue 27, measured across "
     "folds (docs/DESIGN-NOTES.md).",
     "direction_min_speed": "used only with direction_weight; a design choice, not tuned.",
