@@ -398,8 +398,8 @@ class SceneSink:
     #: frames buffered before their rows are grouped by track (numpy per batch, not per frame)
     BATCH_FRAMES = 256
     #: rows of a live track kept in memory before they go to the temporary file (at most this
-    #: plus a batch's)
-    SPILL_ROWS = 4096
+    #: plus a batch's; ~100 B a row)
+    SPILL_ROWS = 1024
 
     @property
     def _spill_parts(self) -> int:
