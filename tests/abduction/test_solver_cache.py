@@ -85,7 +85,7 @@ def test_shapes_ground_ahead_give_the_tracks_of_shapes_ground_at_once():
 
 
 def test_cache_keys_are_compact_bytes_equal_exactly_when_the_components_are():
-    # a key is the component's fields as bytes (issue 23: ~400 B where the nested tuples took
+    # a key is the component's fields as bytes (issue 23: ~330 B where the nested tuples took
     # ~1.5 kB, and the cache holds up to 20,000): equal keys exactly for equal components
     import sys
 

@@ -51,7 +51,7 @@ _Key = tuple[str, tuple[str, ...]]  # (program, options)
 #: a component as the bytes of its fields (:func:`_plain`), and an answer as plain tuples
 #: (:func:`_pack`): bytes and tuples of numbers and strings only, which Python's garbage
 #: collector does not walk (measured: 50-60 ms pauses on MOT17 with a few thousand
-#: :class:`Answer` objects and their lists remembered); the bytes take ~400 B where the nested
+#: :class:`Answer` objects and their lists remembered); the bytes take ~330 B where the nested
 #: tuples took ~1.5 kB, and the cache holds up to 20,000 (issue 23)
 Plain = bytes
 Packed = tuple
