@@ -525,18 +525,50 @@ class Scene:
 def track_json(t: Track) -> dict[str, Any]:
     """One entry of the scene JSON's ``"tracks"`` list (boxes rounded to 0.01 px, scores to
     1e-4)."""
+    return track_json_parts(
+        t.id,
+        t.class_id,
+        frames=t.frames.tolist(),
+        boxes=np.round(t.xyxy, 2).tolist(),
+        confidence=np.round(t.confidence, 4).tolist(),
+        state=state_names(t.state),
+        occluder=t.occluder.tolist(),
+        visibility=visibility_names(t.visibility),
+        hidden_frames=t.hidden_frames.tolist(),
+    )
+
+
+def track_json_parts(track_id: int, class_id: int, **columns: Any) -> dict[str, Any]:
+    """:func:`track_json` from its columns as made there (lists, or :class:`JsonArray` of their
+    elements to stream a long track): ``frames``, ``boxes``, ``confidence``, ``state``,
+    ``occluder``, ``visibility``, ``hidden_frames``."""
     return {
-        "id": t.id,
-        "class": t.class_name,
-        "class_id": t.class_id,
-        "frames": t.frames.tolist(),
-        "boxes": np.round(t.xyxy, 2).tolist(),
-        "confidence": np.round(t.confidence, 4).tolist(),
-        "state": [_STATES[s] for s in t.state.tolist()],
-        "occluder": t.occluder.tolist(),
-        "visibility": [_VISIBILITY[v] for v in t.visibility.tolist()],
-        "hidden_frames": t.hidden_frames.tolist(),
+        "id": track_id,
+        "class": class_name(class_id),
+        "class_id": class_id,
+        **{k: columns[k] for k in _TRACK_COLUMNS},
     }
+
+
+_TRACK_COLUMNS = (
+    "frames",
+    "boxes",
+    "confidence",
+    "state",
+    "occluder",
+    "visibility",
+    "hidden_frames",
+)
+
+
+def state_names(state: np.ndarray) -> list[str]:
+    """The names of (K,) :class:`TrackState` values, as a scene file writes them."""
+    return [_STATES[s] for s in state.tolist()]
+
+
+def visibility_names(visibility: np.ndarray) -> list[str]:
+    """The names of (K,) :class:`Visibility` values, as a scene file writes them."""
+    return [_VISIBILITY[v] for v in visibility.tolist()]
 
 
 class RawJson(str):
@@ -621,16 +653,31 @@ def _streamed(value: Any) -> bool:
     )
 
 
+#: elements or characters of a streamed array held before they are written
+_BLOCK_ITEMS, _BLOCK_CHARS = 4096, 1 << 20
+
+
 def _write_value(out: IO[str], value: Any) -> None:
     if isinstance(value, JsonArray):
         out.write("[")
         chunk: list[str] = []
+        size = 0
         sep = ""
         for item in value.items:
+            if _streamed(item):  # an element with streamed parts (a long track): as it comes
+                if chunk:
+                    out.write(sep + ",".join(chunk))
+                    chunk, size, sep = [], 0, ","
+                out.write(sep)
+                _write_value(out, item)
+                sep = ","
+                continue
             chunk.append(_dumps(item))
-            if len(chunk) >= 4096:  # in blocks: a long array is not one huge string
+            size += len(chunk[-1])
+            # in blocks: a long array (or one of long elements) is not one huge string
+            if len(chunk) >= _BLOCK_ITEMS or size >= _BLOCK_CHARS:
                 out.write(sep + ",".join(chunk))
-                chunk, sep = [], ","
+                chunk, size, sep = [], 0, ","
         if chunk:
             out.write(sep + ",".join(chunk))
         out.write("]")

@@ -20,7 +20,7 @@ import json
 import math
 import os
 import tempfile
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import IO, Any, Protocol
 
@@ -42,10 +42,11 @@ from sensemaking.results import Event, FrameResult
 from sensemaking.scene import (
     JsonArray,
     RawJson,
-    Track,
     records_gap,
     scene_parts,
-    track_json,
+    state_names,
+    track_json_parts,
+    visibility_names,
     write_scene,
 )
 
@@ -324,9 +325,10 @@ class WarningsSink:
 class SceneSink:
     """The scene JSON of :class:`~sensemaking.scene.SceneRecorder` + ``Scene.save`` (the same
     bytes: both write with :func:`~sensemaking.scene.write_scene`), written with memory bounded
-    by the live tracks: a track absent from a frame's output has ended and its rows go to an
-    unnamed temporary file; events go to another; at the end the file is assembled track by
-    track in id order.
+    by the live tracks, whatever their length: a track absent from a frame's output has ended
+    and its rows go to an unnamed temporary file, and so do a live track's rows once
+    :attr:`SPILL_ROWS` of them wait; events go to another file; at the end the file is
+    assembled track by track in id order, each track's columns streamed a part at a time.
 
     Args:
         path: the scene file. fps: frames per second. image_size: ``(width, height)`` or None.
@@ -395,6 +397,21 @@ class SceneSink:
 
     #: frames buffered before their rows are grouped by track (numpy per batch, not per frame)
     BATCH_FRAMES = 256
+    #: rows of a live track kept in memory before they go to the temporary file (at most this
+    #: plus a batch's; ~100 B a row)
+    SPILL_ROWS = 1024
+
+    @property
+    def _spill_parts(self) -> int:
+        """Batches of a live track kept before its rows are spilled (a part per batch)."""
+        return max(1, self.SPILL_ROWS // self.BATCH_FRAMES)
+
+    @property
+    def buffered_rows(self) -> int:
+        """Rows held in memory (buffered frames and live tracks' parts), not yet spilled."""
+        return sum(len(b[0]) for b in self._batch) + sum(
+            len(p[0]) for parts in self._live.values() for p in parts
+        )
 
     def frame(self, result: FrameResult, warnings: list[Any]) -> None:
         f = int(result.frame)
@@ -453,6 +470,9 @@ class SceneSink:
                 parts.append([c[chunk] for c in cols])
         for t in [t for t, parts in self._live.items() if int(parts[-1][0][-1]) != last]:
             self._spill(t)
+        # a track live for the whole run would otherwise keep every row it had (issue 23)
+        for t in [t for t, parts in self._live.items() if len(parts) >= self._spill_parts]:
+            self._spill(t)
 
     #: events may be reported some frames after the frame they name (a track's start once it is
     #: confirmed): they wait this many frames to be written in order (if one comes later still,
@@ -478,37 +498,68 @@ class SceneSink:
         if records_gap(self._runs[0][0] if self._runs else first, last):
             self._add_frames(first, last)
 
+    #: the spilled columns and their dtypes (those of :class:`~sensemaking.scene.Track`);
+    #: a part is the columns' bytes one after the other
+    _SPILLED: tuple[tuple[str, Any, int], ...] = (
+        ("frames", np.int64, 1),
+        ("class_id", np.int64, 1),
+        ("xyxy", np.float64, 4),
+        ("confidence", np.float64, 1),
+        ("state", np.int8, 1),
+        ("occluder", np.int64, 1),
+        ("visibility", np.int8, 1),
+        ("hidden_frames", np.int64, 1),
+    )
+
     def _spill(self, track_id: int) -> None:
         parts = self._live.pop(track_id)
-        rows = {
-            k: np.concatenate([p[i] for p in parts]).tolist()
-            for i, k in enumerate(self._ROWS)
-            if k != "track"
-        }
-        data = json.dumps(rows, separators=(",", ":")).encode()
+        cols = {k: np.concatenate([p[i] for p in parts]) for i, k in enumerate(self._ROWS)}
+        n = len(cols["frames"])
+        data = b"".join(
+            np.ascontiguousarray(cols[k], dtype=dt).reshape(n * w).tobytes()
+            for k, dt, w in self._SPILLED
+        )
         self._tracks.seek(0, os.SEEK_END)
-        self._index.setdefault(track_id, []).append((self._tracks.tell(), len(data)))
+        self._index.setdefault(track_id, []).append((self._tracks.tell(), n))
         self._tracks.write(data)
 
-    def _track(self, track_id: int) -> Any:
-        parts = []
-        for offset, length in self._index[track_id]:
-            self._tracks.seek(offset)
-            parts.append(json.loads(self._tracks.read(length)))
-        rows = {k: [v for p in parts for v in p[k]] for k in self._ROWS if k != "track"}
-        classes, counts = np.unique(
-            np.asarray(rows["class_id"], dtype=np.int64), return_counts=True
-        )
-        return Track(
-            id=track_id,
-            class_id=int(classes[np.argmax(counts)]),
-            frames=np.asarray(rows["frames"], dtype=np.int64),
-            xyxy=np.asarray(rows["xyxy"], dtype=np.float64).reshape(-1, 4),
-            confidence=np.asarray(rows["confidence"], dtype=np.float64),
-            state=np.asarray(rows["state"], dtype=np.int8),
-            occluder=np.asarray(rows["occluder"], dtype=np.int64),
-            visibility=np.asarray(rows["visibility"], dtype=np.int8),
-            hidden_frames=np.asarray(rows["hidden_frames"], dtype=np.int64),
+    def _column(self, track_id: int, name: str) -> Iterator[np.ndarray]:
+        """One column of a spilled track, a part at a time (``xyxy`` as (n, 4))."""
+        for offset, n in self._index[track_id]:
+            skip = 0
+            for k, dt, w in self._SPILLED:
+                size = n * w * np.dtype(dt).itemsize
+                if k == name:
+                    self._tracks.seek(offset + skip)
+                    a = np.frombuffer(self._tracks.read(size), dtype=dt)
+                    yield a.reshape(n, 4) if w == 4 else a
+                    break
+                skip += size
+
+    def _track_entry(self, track_id: int) -> dict[str, Any]:
+        """:func:`~sensemaking.scene.track_json` of a spilled track, its columns streamed."""
+        counts: dict[int, int] = {}
+        for part in self._column(track_id, "class_id"):
+            classes, n = np.unique(part, return_counts=True)
+            for c, k in zip(classes.tolist(), n.tolist(), strict=True):
+                counts[c] = counts.get(c, 0) + k
+        # the most frequent class, the lowest id on a tie (np.argmax over sorted classes)
+        top = max(counts.values())
+        class_id = min(c for c, k in counts.items() if k == top)
+
+        def column(name: str, convert: Callable[[np.ndarray], list[Any]]) -> JsonArray:
+            return JsonArray(v for a in self._column(track_id, name) for v in convert(a))
+
+        return track_json_parts(
+            track_id,
+            class_id,
+            frames=column("frames", np.ndarray.tolist),
+            boxes=column("xyxy", lambda a: np.round(a, 2).tolist()),
+            confidence=column("confidence", lambda a: np.round(a, 4).tolist()),
+            state=column("state", state_names),
+            occluder=column("occluder", np.ndarray.tolist),
+            visibility=column("visibility", visibility_names),
+            hidden_frames=column("hidden_frames", np.ndarray.tolist),
         )
 
     def finish(self) -> None:
@@ -528,7 +579,7 @@ class SceneSink:
             image_size=self.image_size,
             runs=[(a, b) for a, b in self._runs],
             metadata=self.metadata,
-            tracks=JsonArray(track_json(self._track(t)) for t in sorted(self._index)),
+            tracks=JsonArray(self._track_entry(t) for t in sorted(self._index)),
             events=JsonArray(RawJson(line.decode().rstrip("\n")) for line in lines),
             abduction=None if self._solver is None else self._abduction(),
         )

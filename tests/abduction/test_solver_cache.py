@@ -82,3 +82,37 @@ def test_shapes_ground_ahead_give_the_tracks_of_shapes_ground_at_once():
     assert slots_ahead.stats["ahead"] > 0 and slots_now.stats["ahead"] == 0
     assert slots_ahead.stats["grounded"] == slots_now.stats["grounded"]
     assert slots_ahead.stats["answered"] == slots_now.stats["answered"]
+
+
+def test_cache_keys_are_compact_bytes_equal_exactly_when_the_components_are():
+    # a key is the component's fields as bytes (issue 23: ~330 B where the nested tuples took
+    # ~1.5 kB, and the cache holds up to 20,000): equal keys exactly for equal components
+    import sys
+
+    from sensemaking.abduction import components
+
+    seen: dict[bytes, tuple] = {}
+    fields_seen: dict[tuple, bytes] = {}
+    plain = components._plain
+
+    def record(c, levels=True):  # type: ignore[no-untyped-def]
+        key = plain(c, levels)
+        fields = components._FIELDS(c)
+        if not levels:  # the covers rows without their share and depth
+            at = components._COVERS
+            fields = (*fields[:at], tuple(r[:3] for r in fields[at]), *fields[at + 1 :])
+        assert seen.setdefault(key, fields) == fields
+        assert fields_seen.setdefault(fields, key) == key
+        return key
+
+    components._plain = record
+    try:
+        _run(Tracker(CONFIG, solver_cache=SolverCache()))
+    finally:
+        components._plain = plain
+    assert len(seen) > 5 and all(isinstance(k, bytes) for k in seen)
+
+    def deep(x: object) -> int:
+        return sys.getsizeof(x) + (sum(map(deep, x)) if isinstance(x, tuple) else 0)
+
+    assert sum(map(sys.getsizeof, seen)) < sum(map(deep, seen.values())) / 2

@@ -32,6 +32,7 @@ and whether its shape's Control was ground yet.
 
 from __future__ import annotations
 
+import marshal
 import threading
 import time
 from bisect import bisect_right
@@ -47,11 +48,12 @@ from sensemaking.abduction.solver import AbductionSolver, Answer, Det, Ref
 __all__ = ["ComponentSolver", "SolverCache", "SHARED"]
 
 _Key = tuple[str, tuple[str, ...]]  # (program, options)
-#: a component as a plain tuple of its fields (:func:`_plain`), and an answer as plain tuples
-#: (:func:`_pack`): tuples of numbers and strings only, which Python's garbage collector stops
-#: tracking, so a full collection does not walk the cache (measured: 50-60 ms pauses on MOT17
-#: with a few thousand :class:`Answer` objects and their lists remembered)
-Plain = tuple
+#: a component as the bytes of its fields (:func:`_plain`), and an answer as plain tuples
+#: (:func:`_pack`): bytes and tuples of numbers and strings only, which Python's garbage
+#: collector does not walk (measured: 50-60 ms pauses on MOT17 with a few thousand
+#: :class:`Answer` objects and their lists remembered); the bytes take ~330 B where the nested
+#: tuples took ~1.5 kB, and the cache holds up to 20,000 (issue 23)
+Plain = bytes
 Packed = tuple
 
 
@@ -241,13 +243,15 @@ _COVERS = [f.name for f in fields(Component)].index("covers")
 
 
 def _plain(c: Component, levels: bool = True) -> Plain:
-    """The component's fields as a plain tuple (equal exactly when the components are); without
-    ``levels``, the ``covers`` rows lose their share and depth (facts that do not state them)."""
+    """The component's fields as bytes, equal exactly when the components are (marshal's format
+    2 writes no back-references, so equal values of the same types give the same bytes; each
+    field holds ints or bools, never both at one place); without ``levels``, the ``covers``
+    rows lose their share and depth (facts that do not state them)."""
     plain = _FIELDS(c)
-    if levels or not c.covers:
-        return tuple(plain)
-    covers = tuple(row[:3] for row in c.covers)
-    return (*plain[:_COVERS], covers, *plain[_COVERS + 1 :])
+    if not levels and c.covers:
+        covers = tuple(row[:3] for row in c.covers)
+        plain = (*plain[:_COVERS], covers, *plain[_COVERS + 1 :])
+    return marshal.dumps(plain, 2)
 
 
 def _pack_ref(x: Ref) -> int | str | tuple[int]:
