@@ -12,8 +12,8 @@ matches of X onto B's detection and Y onto A's forbidden) with its cost.
 
     python benchmarks/crossing_trace.py TAXONOMY.json [--set K=V ...] [--json OUT]
 
-The MOT preset has the identity-swap cost on since this trace (``swap_weight``): trace the run
-before it with ``--set swap_weight=0``, as the taxonomy was made.
+``--set`` traces a run made with other settings (e.g. the identity-swap cost, ``swap_weight``,
+which is off in the preset); give the settings the taxonomy's run was made with.
 
 TAXONOMY.json: ``occlusion_errors.py --only mot17 taxonomy RUN --json TAXONOMY.json``.
 """
@@ -27,9 +27,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
-import clingo
 import numpy as np
 
+from sensemaking import asp
 from sensemaking.abduction.solver import load_encoding
 from sensemaking.io.mot import read_seqinfo
 from sensemaking.io.stream import iter_detection_frames
@@ -42,14 +42,6 @@ import occlusion_errors as occ  # noqa: E402
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 
 
-def iou(a: np.ndarray, b: np.ndarray) -> float:
-    ix = max(0.0, min(a[2], b[2]) - max(a[0], b[0]))
-    iy = max(0.0, min(a[3], b[3]) - max(a[1], b[1]))
-    inter = ix * iy
-    u = (a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - inter
-    return float(inter / u) if u > 0 else 0.0
-
-
 def gt_objects(seq: str) -> dict[int, dict[int, np.ndarray]]:
     """object id -> frame -> box (x1, y1, x2, y2), as the occlusion measure reads them."""
     item = occ.Item("mot17", seq)
@@ -60,7 +52,7 @@ def on_object(box: np.ndarray, objs: dict[int, dict[int, np.ndarray]], f: int) -
     best, who = 0.5, None
     for o, fr in objs.items():
         if f in fr:
-            v = iou(box, fr[f])
+            v = occ._iou(box, fr[f])
             if v >= best:
                 best, who = v, o
     return who
@@ -71,9 +63,9 @@ def solve(
 ) -> tuple[list[int], list[str]] | None:
     """Optimal cost vector and shown atoms of a component's facts with ``extra`` rules."""
     args = [f"-c {k}={v}" for k, v in consts.items()] + ["--opt-mode=opt"]
-    ctl = clingo.Control(args, logger=lambda c, m: None)
     show = "#show m/2. #show hide/2. #show halt/1. #show ignore_trk/1. #show unseen/1."
-    ctl.add("base", [], load_encoding() + "\n" + ". ".join(facts) + ".\n" + extra + show)
+    text = load_encoding() + "\n" + ". ".join(facts) + ".\n" + extra + show
+    ctl = asp.control(args, asp.parsed(text))
     ctl.ground([("base", [])])
     best: tuple[list[int], list[str]] | None = None
     with ctl.solve(yield_=True) as h:

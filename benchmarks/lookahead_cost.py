@@ -12,17 +12,17 @@ Inputs (``../shared/data``): KITTI RRC car 0000-0010 and MOT17 YOLOX half-val 02
     python benchmarks/lookahead_cost.py [--data DIR] [--lookahead 0.2] [--only kitti|mot]
         [--seq NAME] [--set KEY=VALUE ...]
 
-``--set`` gives the look-ahead run other settings too (e.g. ``lookahead_crowd_budget=true``,
-``lookahead_continuity=300``; values as JSON, else strings); ``--seq`` keeps the inputs whose
-name contains NAME.
+``--set`` gives the look-ahead run other settings too, as ``sensemaking track --set`` does
+(e.g. ``lookahead_crowd_budget=true``, ``lookahead_continuity=300``); ``--seq`` keeps the
+inputs whose name contains NAME.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -63,7 +63,7 @@ def timed(
     path: Path,
     facts: dict[str, Any],
     lookahead: float,
-    extra: dict[str, Any] | None = None,
+    sets: Sequence[str] = (),
 ) -> tuple[int, float, float, dict[str, Any]]:
     """``(frames, total ms, worst frame ms, look-ahead counters)`` of one run."""
     from sensemaking import settings
@@ -72,8 +72,7 @@ def timed(
     from sensemaking.lookahead import LookaheadTracker
     from sensemaking.tracker import Tracker
 
-    facts = {**facts, "lookahead_s": lookahead, **(extra or {})}
-    config = settings.load_config(None, family, facts)
+    config = settings.load_config(None, family, {**facts, "lookahead_s": lookahead}, sets)
     cls = "car" if family == "kitti" else None
     frames = list(iter_detection_frames(path, family, cls))
     online = Tracker(config, solver_cache=SolverCache())
@@ -103,16 +102,6 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seq", default=None, help="only the inputs whose name contains this")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     args = ap.parse_args(argv)
-    extra: dict[str, Any] = {}
-    for item in args.set:
-        key, sep, value = item.partition("=")
-        if not sep:
-            print(f"lookahead_cost: --set {item!r}: expected KEY=VALUE", file=sys.stderr)
-            return 2
-        try:
-            extra[key] = json.loads(value)
-        except json.JSONDecodeError:
-            extra[key] = value
     from sensemaking.errors import InputError
 
     data = args.data or next((p for p in _DATA_CANDIDATES if p.is_dir()), None)
@@ -127,7 +116,7 @@ def main(argv: list[str] | None = None) -> int:
             continue
         try:
             n, on_ms, on_worst, _ = timed(family, path, facts, 0.0)
-            _, la_ms, la_worst, stats = timed(family, path, facts, args.lookahead, extra)
+            _, la_ms, la_worst, stats = timed(family, path, facts, args.lookahead, args.set)
         except InputError as exc:
             print(f"lookahead_cost: {exc}", file=sys.stderr)
             return 2

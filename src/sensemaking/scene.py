@@ -40,7 +40,7 @@ from __future__ import annotations
 import json
 import math
 import re
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 from itertools import chain
@@ -525,50 +525,36 @@ class Scene:
 def track_json(t: Track) -> dict[str, Any]:
     """One entry of the scene JSON's ``"tracks"`` list (boxes rounded to 0.01 px, scores to
     1e-4)."""
-    return track_json_parts(
-        t.id,
-        t.class_id,
-        frames=t.frames.tolist(),
-        boxes=np.round(t.xyxy, 2).tolist(),
-        confidence=np.round(t.confidence, 4).tolist(),
-        state=state_names(t.state),
-        occluder=t.occluder.tolist(),
-        visibility=visibility_names(t.visibility),
-        hidden_frames=t.hidden_frames.tolist(),
-    )
+    columns = {key: convert(getattr(t, attr)) for key, attr, convert in TRACK_COLUMNS}
+    return track_json_parts(t.id, t.class_id, columns)
 
 
-def track_json_parts(track_id: int, class_id: int, **columns: Any) -> dict[str, Any]:
-    """:func:`track_json` from its columns as made there (lists, or :class:`JsonArray` of their
-    elements to stream a long track): ``frames``, ``boxes``, ``confidence``, ``state``,
-    ``occluder``, ``visibility``, ``hidden_frames``."""
+def track_json_parts(track_id: int, class_id: int, columns: Mapping[str, Any]) -> dict[str, Any]:
+    """:func:`track_json` from its columns converted by :data:`TRACK_COLUMNS` (lists, or
+    :class:`JsonArray` of their elements to stream a long track), by JSON key."""
     return {
         "id": track_id,
         "class": class_name(class_id),
         "class_id": class_id,
-        **{k: columns[k] for k in _TRACK_COLUMNS},
+        **{key: columns[key] for key, _, _ in TRACK_COLUMNS},
     }
 
 
-_TRACK_COLUMNS = (
-    "frames",
-    "boxes",
-    "confidence",
-    "state",
-    "occluder",
-    "visibility",
-    "hidden_frames",
+def _names(names: Sequence[str]) -> Callable[[np.ndarray], list[str]]:
+    return lambda values: [names[v] for v in values.tolist()]
+
+
+#: the scene file's track columns: JSON key, :class:`Track` attribute, and how a (K,) array of
+#: it (``xyxy``: (K, 4)) becomes JSON values; a long track can be converted a part at a time
+TRACK_COLUMNS: tuple[tuple[str, str, Callable[[np.ndarray], list[Any]]], ...] = (
+    ("frames", "frames", np.ndarray.tolist),
+    ("boxes", "xyxy", lambda a: np.round(a, 2).tolist()),
+    ("confidence", "confidence", lambda a: np.round(a, 4).tolist()),
+    ("state", "state", _names(_STATES)),
+    ("occluder", "occluder", np.ndarray.tolist),
+    ("visibility", "visibility", _names(_VISIBILITY)),
+    ("hidden_frames", "hidden_frames", np.ndarray.tolist),
 )
-
-
-def state_names(state: np.ndarray) -> list[str]:
-    """The names of (K,) :class:`TrackState` values, as a scene file writes them."""
-    return [_STATES[s] for s in state.tolist()]
-
-
-def visibility_names(visibility: np.ndarray) -> list[str]:
-    """The names of (K,) :class:`Visibility` values, as a scene file writes them."""
-    return [_VISIBILITY[v] for v in visibility.tolist()]
 
 
 class RawJson(str):

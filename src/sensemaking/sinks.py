@@ -40,13 +40,12 @@ from sensemaking.records import (
 )
 from sensemaking.results import Event, FrameResult
 from sensemaking.scene import (
+    TRACK_COLUMNS,
     JsonArray,
     RawJson,
     records_gap,
     scene_parts,
-    state_names,
     track_json_parts,
-    visibility_names,
     write_scene,
 )
 
@@ -550,17 +549,8 @@ class SceneSink:
         def column(name: str, convert: Callable[[np.ndarray], list[Any]]) -> JsonArray:
             return JsonArray(v for a in self._column(track_id, name) for v in convert(a))
 
-        return track_json_parts(
-            track_id,
-            class_id,
-            frames=column("frames", np.ndarray.tolist),
-            boxes=column("xyxy", lambda a: np.round(a, 2).tolist()),
-            confidence=column("confidence", lambda a: np.round(a, 4).tolist()),
-            state=column("state", state_names),
-            occluder=column("occluder", np.ndarray.tolist),
-            visibility=column("visibility", visibility_names),
-            hidden_frames=column("hidden_frames", np.ndarray.tolist),
-        )
+        columns = {key: column(attr, convert) for key, attr, convert in TRACK_COLUMNS}
+        return track_json_parts(track_id, class_id, columns)
 
     def finish(self) -> None:
         self._group()
