@@ -65,10 +65,15 @@ SCENES = {
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("restart", [1, 40])
+@pytest.mark.parametrize(("restart", "stage"), [(1, 10), (40, 10), (12, 4), (9, 1)])
 @pytest.mark.parametrize("name", sorted(SCENES))
-def test_stream_gives_the_references_warnings_on_each_scripted_scene(name, restart, monkeypatch):
+def test_stream_gives_the_references_warnings_on_each_scripted_scene(
+    name, restart, stage, monkeypatch
+):
+    """Restarting every answer and every 40, the next Control fed ahead over 4 answers of 12,
+    or given the window at the restart frame (stage 1)."""
     monkeypatch.setattr(online, "STREAM_RESTART_FRAMES", restart)
+    monkeypatch.setattr(online, "STREAM_STAGE_FRAMES", stage)
     objs, kw = SCENES[name]
     for profile in ("driving", "fixed"):
         _same(build_results(objs), fps=10.0, image_size=SIZE, profile=profile, **kw)
@@ -82,6 +87,38 @@ def test_the_scripted_scenes_raise_warnings_at_all():
         mon = SituationMonitor(fps=10.0, image_size=SIZE, **kw)
         kinds |= {w.situation for w in mon.run(build_results(objs))}
     assert {"OVERTAKING", "HIDDEN_ENTITY", "SUDDEN_STOP", "EXITING_VEHICLE"} <= kinds
+
+
+def _frames_per_ground(monkeypatch, stage: int, results) -> list[int]:
+    """The number of ``frame(f)`` parts of each of clingo's ground calls over a run."""
+    import clingo
+
+    monkeypatch.setattr(online, "STREAM_RESTART_FRAMES", 12)
+    monkeypatch.setattr(online, "STREAM_STAGE_FRAMES", stage)
+    counts: list[int] = []
+    ground = clingo.Control.ground
+
+    def counted(self, parts=(("base", ()),), context=None):
+        counts.append(sum(1 for name, _ in parts if name == "frame"))
+        return ground(self, parts, context)
+
+    monkeypatch.setattr(clingo.Control, "ground", counted)
+    mon = SituationMonitor(fps=10.0, image_size=SIZE, stream=True)
+    counts.clear()  # the solver's own start
+    mon.run(results)
+    monkeypatch.undo()
+    assert mon._stream is not None and mon._stream.restarts >= 3
+    return counts
+
+
+def test_a_restart_hands_no_whole_window_to_clingo(monkeypatch):
+    """Fed ahead over 4 answers, the Control that takes over at a restart never grounds more
+    than a share of the window at once; given the window at the restart frame it does."""
+    results = build_results(hidden_behind_a_long_bus())  # 60 frames, a 16-frame window
+    ahead = _frames_per_ground(monkeypatch, 4, results)
+    at_once = _frames_per_ground(monkeypatch, 1, results)
+    assert max(at_once) == 16
+    assert max(ahead) <= 16 // 4 + 2
 
 
 def test_a_users_situation_is_warned_in_the_stream_as_in_the_reference(tmp_path):

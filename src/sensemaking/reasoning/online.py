@@ -140,6 +140,9 @@ STREAM = True
 #: answers a StreamSolver gives before it starts a new Control (clasp keeps every atom it was
 #: given, and each solve costs more as they add up; a restart grounds the window once)
 STREAM_RESTART_FRAMES = 40
+#: answers before a restart at which the next Control starts to be fed the window, a share
+#: each frame, so that no single frame hands a whole window to clingo
+STREAM_STAGE_FRAMES = 10
 
 
 @dataclass(frozen=True)
@@ -238,6 +241,39 @@ class _Frame:
         self.surface: dict[int, str] = {}
         self.ego: EgoState | None = None  # the ego's motion (with a camera model)
         self.world: dict[int, TrackMotion] = {}  # visible tracks in metres and m/s
+
+
+class _Numbering:
+    """Frames and tracks as one stream solver's facts name them: frames relative to ``base``,
+    tracks by slot (the given tracks in the order of their ids, then new ones in turn), so that
+    a long run makes a bounded set of clingo symbols."""
+
+    __slots__ = ("base", "slot", "slots")
+
+    def __init__(self, base: int, tracks: Iterable[int]) -> None:
+        self.base = base
+        self.slot: dict[int, int] = {}  # track id -> slot
+        self.slots: list[int] = []  # slot -> track id
+        for t in sorted(tracks):
+            self(t)
+
+    def __call__(self, t: int) -> int:
+        """The slot of track ``t`` (a new one if it has none)."""
+        k = self.slot.get(t)
+        if k is None:
+            k = self.slot[t] = len(self.slots)
+            self.slots.append(t)
+        return k
+
+
+class _Standby:
+    """The stream solver that takes over at the next restart, with its numbering and the
+    frames of the window not yet given to it (oldest first)."""
+
+    __slots__ = ("solver", "num", "queue")
+
+    def __init__(self, solver: StreamSolver, num: _Numbering, frames: Iterable[_Frame]) -> None:
+        self.solver, self.num, self.queue = solver, num, deque(frames)
 
 
 class SituationMonitor:
@@ -367,9 +403,8 @@ class SituationMonitor:
         if self._world is not None:
             self._world.reset()
         self._calls0, self._hits0 = self._solver.calls, self._solver.hits
-        self._base = 0  # the stream solver's frame 0
-        self._slot: dict[int, int] = {}  # track id -> slot in the stream solver's facts
-        self._slots: list[int] | None = None  # slot -> track id; None: not started
+        self._num: _Numbering | None = None  # the stream solver's numbering; None: not started
+        self._next: _Standby | None = None  # the Control fed ahead of the next restart
         if self.stream:
             static: list[Fact] = [("frame_ms", self._frame_ms), ("profile", self.profile)]
             if self._world is not None:
@@ -384,6 +419,12 @@ class SituationMonitor:
                 absent=self._absent(),
             )
             self._calls0 = 0
+
+    def __getstate__(self) -> dict[str, Any]:
+        # a standby Control is not worth pickling: after a copy the next restart is a plain one
+        state = dict(self.__dict__)
+        state["_next"] = None
+        return state
 
     def _absent(self) -> set[tuple[str, int]]:
         """The input predicates of situations.lp this monitor never gives (see _observe)."""
@@ -746,37 +787,44 @@ class SituationMonitor:
 
     def _stream_answer(self) -> list[SituationMatch]:
         """The matches of the current frame from the stream solver: the new frame's facts go
-        in, the frame that left the window goes out. Frames are given relative to the frame of
-        the solver's last restart and tracks by a slot (the window's tracks in the order of
-        their ids at a restart, then new tracks in turn): clingo keeps every symbol it made for
-        good, and so the symbols of a long run stay a bounded set."""
+        in, the frame that left the window goes out. Frames and tracks are numbered as of the
+        solver's last restart (:class:`_Numbering`). The Control that takes over at a restart
+        is fed the window a share at a time over the frames before (:class:`_Standby`)."""
         solver = self._stream
         assert solver is not None
         frames = self._frames
         fr = frames[-1]
         n = fr.frame
         first = frames[0].frame
-        if self._slots is None or solver.due:
-            if self._slots is not None:
-                solver.restart(keep=False)
-            self._base, self._slot, self._slots = n, {}, []
-            for t in sorted(self._mentioned()):
-                self._local(t)
-            for x in frames:
-                solver.add_frame(x.frame - n, self._frame_facts(x))
+        if self._next is not None:
+            self._feed(self._next, first, fr, solver.restart_frames - solver.age)
+        num = self._num
+        if num is None or solver.due:
+            if self._next is not None:
+                nxt, self._next = self._next, None
+                self._feed(nxt, first, None, 1)
+                solver.adopt(nxt.solver)
+                num = nxt.num
+            else:
+                if num is not None:
+                    solver.restart(keep=False)
+                num = _Numbering(n, self._mentioned())
+                for x in frames:
+                    solver.add_frame(x.frame - n, self._frame_facts(x, num))
+            self._num = num
         else:
             for g in solver.frames:
-                if g + self._base < first:
+                if g + num.base < first:
                     solver.drop_frame(g)
-            solver.add_frame(n - self._base, self._frame_facts(fr))
-        base, local = self._base, self._local
+            solver.add_frame(n - num.base, self._frame_facts(fr, num))
+        base = num.base
         seen = {t for x in frames for t in x.ids}
         window: list[Fact] = []
         if self._seq_start is not None and self._seq_start >= first:
             window.append(("seq_start", self._seq_start - base))
         for t in seen:
             c = self._class.get(t, 0)
-            k = local(t)
+            k = num(t)
             window.append(("track", k, asp_name(class_name(c))))
             if c in VEHICLES:
                 window.append(("vehicle", k))
@@ -784,17 +832,37 @@ class SituationMonitor:
                 window.append(("person", k))
         window += [("lane", term) for term in fr.lanes]
         for a in self._anticip.values():
-            t, o, r = local(a.track), local(a.occluder), a.reappear_frame - base
+            t, o, r = num(a.track), num(a.occluder), a.reappear_frame - base
             px, py = int(round(a.position[0])), int(round(a.position[1]))
             window.append(("anticipated", t, o, r, px, py))
             if a.in_corridor:
                 window.append(("anticipated_in_corridor", t, o, r))
-        window += [("hidden_motion", local(t), *v) for t, v in self._hidden_motion.items()]
+        window += [("hidden_motion", num(t), *v) for t, v in self._hidden_motion.items()]
         solver.set_window(window)
         g = n - base
         current: list[Fact] = [("now", g)]
-        current += [("area", local(t), g, a) for t, a in fr.area.items()]
-        return self._read(solver.answer(g, current), self._slots, base)
+        current += [("area", num(t), g, a) for t, a in fr.area.items()]
+        found = self._read(solver.answer(g, current), num.slots, base)
+        if self._next is None and solver.age > solver.restart_frames - STREAM_STAGE_FRAMES:
+            self._next = _Standby(solver.standby(), _Numbering(n, self._mentioned()), frames)
+        return found
+
+    def _feed(self, nxt: _Standby, first: int, fr: _Frame | None, left: int) -> None:
+        """Give the standby solver the new frame ``fr`` (queued) and its share of the queue:
+        all of it over the ``left`` frames before it takes over; frames that left the window
+        are dropped."""
+        solver, num, queue = nxt.solver, nxt.num, nxt.queue
+        if fr is not None:
+            queue.append(fr)
+        while queue and queue[0].frame < first:
+            queue.popleft()
+        for g in solver.frames:
+            if g + num.base < first:
+                solver.drop_frame(g)
+        for _ in range(-(-len(queue) // max(1, left))):
+            x = queue.popleft()
+            solver.add_frame(x.frame - num.base, self._frame_facts(x, num))
+        solver.prepare()
 
     def _mentioned(self) -> set[int]:
         """The tracks the window's facts name: seen, occluders, events' arguments."""
@@ -806,19 +874,10 @@ class SituationMonitor:
                 out.update(a for a in e.args if isinstance(a, int))
         return out
 
-    def _local(self, t: int) -> int:
-        """The slot of track ``t`` in the stream solver's facts (a new one if it has none)."""
-        k = self._slot.get(t)
-        if k is None:
-            assert self._slots is not None
-            k = self._slot[t] = len(self._slots)
-            self._slots.append(t)
-        return k
-
-    def _frame_facts(self, fr: _Frame) -> list[Fact]:
+    def _frame_facts(self, fr: _Frame, num: _Numbering) -> list[Fact]:
         """The facts of one frame of the window (frame relative to the solver's base, tracks
         by slot)."""
-        g, local = fr.frame - self._base, self._local
+        g, local = fr.frame - num.base, num
         out: list[Fact] = [("state", local(t), g, s) for t, s in fr.state.items()]
         out += [("hidden_by", local(t), local(o), g) for t, o in fr.hidden_by.items()]
         out += [("in_corridor", local(t), g) for t in fr.in_corr]
@@ -830,11 +889,11 @@ class SituationMonitor:
             (
                 "occurs_at",
                 (e.name, *(local(a) if isinstance(a, int) else a for a in e.args)),
-                e.frame - self._base,
+                e.frame - num.base,
             )
             for e in fr.events
         ]
-        out += _confidence_facts(fr.events, local, self._base)
+        out += _confidence_facts(fr.events, local, num.base)
         out += [
             ("on_lane", local(t), term, g) for t, terms in fr.on_lane.items() for term in terms
         ]

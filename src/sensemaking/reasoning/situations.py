@@ -1097,16 +1097,7 @@ class StreamSolver:
         true_ = clingo.TruthValue.True_
         with ctl.backend() as backend:
             atom = backend.add_atom
-            for s in release:
-                backend.add_external(atom(s), clingo.TruthValue.Release)
-            for s in self._add[: self._facts]:
-                backend.add_rule([atom(s)])
-            if self.plain:
-                for s in self._frame_adds:
-                    backend.add_rule([atom(s)])
-            else:
-                for s in self._frame_adds:
-                    backend.add_external(atom(s), true_)
+            self._give(backend, release)
             for s in self._current:
                 backend.add_external(atom(s), true_)
             for s in new:
@@ -1134,6 +1125,64 @@ class StreamSolver:
         ctl.solve(on_model=first)
         self._age += 1
         return tuple(found)
+
+    def _give(self, backend: clingo.Backend, release: Sequence[clingo.Symbol]) -> None:
+        """Hand clingo what was added since the last ground call: ``release`` released, the
+        static facts, the new frames' facts (facts or externals switched on)."""
+        atom = backend.add_atom
+        for s in release:
+            backend.add_external(atom(s), clingo.TruthValue.Release)
+        for s in self._add[: self._facts]:
+            backend.add_rule([atom(s)])
+        if self.plain:
+            for s in self._frame_adds:
+                backend.add_rule([atom(s)])
+        else:
+            true_ = clingo.TruthValue.True_
+            for s in self._frame_adds:
+                backend.add_external(atom(s), true_)
+
+    def prepare(self) -> None:
+        """Give clingo the frames added (and dropped) since the last call and ground their rules
+        now, without answering: a standby solver fed a few frames at a time before it takes
+        over (:meth:`standby`), so that no single frame grounds a whole window."""
+        if not (self._parts or self._frame_adds or self._release):
+            return
+        release = self._release
+        with self._ctl.backend() as backend:
+            self._give(backend, release)
+        if release:
+            self._ctl.cleanup()
+        self._ctl.ground(self._parts)
+        self._add, self._facts, self._release, self._parts = [], 0, [], []
+        self._frame_adds = []
+
+    def standby(self) -> StreamSolver:
+        """A solver with this one's program on a new Control and an empty window, to be fed
+        (:meth:`add_frame`, :meth:`prepare`) while this one answers, then :meth:`adopt`-ed."""
+        other = object.__new__(StreamSolver)  # not copy.copy: that would go through pickling
+        other.__dict__.update(self.__dict__)
+        other._frames = OrderedDict()
+        other._window = set()
+        other._start()
+        return other
+
+    def adopt(self, standby: StreamSolver) -> None:
+        """Continue on ``standby``'s Control and window (fed by the caller): a restart whose
+        window was given ahead. ``standby`` is not to be used afterwards."""
+        calls, restarts = self.calls, self.restarts + 1
+        self.__dict__.update(standby.__dict__)
+        self.calls, self.restarts = calls, restarts
+
+    @property
+    def age(self) -> int:
+        """Answers given on the current Control."""
+        return self._age
+
+    @property
+    def restart_frames(self) -> int:
+        """Answers after which the Control is replaced (:attr:`due`)."""
+        return self._restart
 
     @property
     def due(self) -> bool:
