@@ -142,7 +142,7 @@ STREAM = True
 STREAM_RESTART_FRAMES = 40
 #: answers before a restart at which the next Control starts to be fed the window, a share
 #: each frame, so that no single frame hands a whole window to clingo
-STREAM_STAGE_FRAMES = 10
+STREAM_STAGE_FRAMES = 4
 
 
 @dataclass(frozen=True)
