@@ -4,7 +4,7 @@ Runs ``sensemaking track`` in this process on each input with no output but the 
 with ``--events``, ``--warnings``, ``--scene`` and all three, and prints the wall-clock time of
 each run as a ratio to the plain ``track`` run of the same input (the machine may be shared and
 noisy: compare ratios within one run). From the run with every output it prints milliseconds
-per frame (median, 95th percentile, worst) of the tracker (``Tracker.update``), of the
+per frame (median, 95th and 99th percentile, worst) of the tracker (``Tracker.update``), of the
 situation monitor (``SituationMonitor.update``) and of the whole pipeline step (tracker,
 monitor, scene recorder and writers), and the monitor's time as a ratio to the tracker's.
 
@@ -161,9 +161,10 @@ def run_track(argv: list[str], out: Path, outputs: tuple[str, ...], reference: b
 
 def _stats(ms: list[float]) -> str:
     if not ms:
-        return f"{'-':>7} {'-':>7} {'-':>7}"
+        return f"{'-':>7} {'-':>7} {'-':>7} {'-':>7}"
     a = np.asarray(ms)
-    return f"{statistics.median(ms):7.2f} {np.percentile(a, 95):7.2f} {a.max():7.2f}"
+    p95, p99 = np.percentile(a, [95, 99])
+    return f"{statistics.median(ms):7.2f} {p95:7.2f} {p99:7.2f} {a.max():7.2f}"
 
 
 def bench(name: str, argv: list[str], folder: Path, reference: bool) -> None:
@@ -186,7 +187,7 @@ def bench(name: str, argv: list[str], folder: Path, reference: bool) -> None:
             f"{1000 * r['wall'] / frames:9.2f}"
         )
         last = r
-    print(f"\nwith every output, ms per frame: {'median':>7} {'p95':>7} {'worst':>7}")
+    print(f"\nwith every output, ms per frame: {'median':>7} {'p95':>7} {'p99':>7} {'worst':>7}")
     for part in ("tracker", "monitor", "step"):
         label = {"step": "whole pipeline step"}.get(part, part)
         print(f"  {label:<29}  {_stats(last[part])}")
