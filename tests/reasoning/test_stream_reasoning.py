@@ -89,6 +89,18 @@ def test_the_scripted_scenes_raise_warnings_at_all():
     assert {"OVERTAKING", "HIDDEN_ENTITY", "SUDDEN_STOP", "EXITING_VEHICLE"} <= kinds
 
 
+@pytest.mark.parametrize("name", ["hidden", "bus", "overtaking-world"])
+def test_a_restart_fed_ahead_over_frames_with_gaps(name, monkeypatch):
+    """Frames missing from the input (every third): the standby's frames leave the window as
+    the active Control's do, and the warnings stay the reference's."""
+    monkeypatch.setattr(online, "STREAM_RESTART_FRAMES", 7)
+    monkeypatch.setattr(online, "STREAM_STAGE_FRAMES", 4)
+    objs, kw = SCENES[name]
+    results = [r for r in build_results(objs) if r.frame % 3 != 1]
+    records = _same(results, fps=10.0, image_size=SIZE, **kw)
+    assert any(kind == "start" for kind, _ in records)
+
+
 def _frames_per_ground(monkeypatch, stage: int, results) -> list[int]:
     """The number of ``frame(f)`` parts of each of clingo's ground calls over a run."""
     import clingo
