@@ -269,6 +269,25 @@ def test_a_stream_monitor_pickles_mid_sequence():
     assert got == whole and whole
 
 
+def test_a_stream_monitor_pickles_while_the_next_control_is_fed(monkeypatch):
+    """A copy taken while the standby is fed drops it (its next restart is a plain one) and
+    warns as the original does."""
+    import pickle
+
+    monkeypatch.setattr(online, "STREAM_RESTART_FRAMES", 10)
+    monkeypatch.setattr(online, "STREAM_STAGE_FRAMES", 5)
+    results = build_results(cyclist_behind_turning_car() + overtaking(ids=(3, 4)))
+    mon = SituationMonitor(fps=10.0, image_size=SIZE)
+    got = [w.to_json() for r in results[:8] for w in mon.update(r)]
+    assert mon._next is not None  # fed ahead of the restart at the 10th answer
+    copy = pickle.loads(pickle.dumps(mon))
+    assert copy._next is None
+    rest = [w.to_json() for r in results[8:] for w in mon.update(r)]
+    assert [w.to_json() for r in results[8:] for w in copy.update(r)] == rest
+    whole = [w.to_json() for w in SituationMonitor(fps=10.0, image_size=SIZE).run(results)]
+    assert got + rest == whole and whole
+
+
 # -- shared sequences, as a user runs them -------------------------------------------------------
 def _track_warnings(argv: list[str], out, stream: bool, monkeypatch) -> list[dict]:
     from sensemaking.cli import main
