@@ -321,9 +321,7 @@ def _unpack_mapped(p: Packed, track_ids: list[int], det_rows: list[int]) -> Answ
     )
 
 
-def _unpack_into(
-    answer: Answer, p: Packed, track_ids: list[int], det_rows: list[int]
-) -> None:
+def _unpack_into(answer: Answer, p: Packed, track_ids: list[int], det_rows: list[int]) -> None:
     """``answer.merge(_unpack_mapped(p, track_ids, det_rows))`` without the Answer between."""
     assign, resume, start, end, halt, ignore_trk, ignore_det, events, fluents = p[:9]
     tid, row = track_ids.__getitem__, det_rows.__getitem__
