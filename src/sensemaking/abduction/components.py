@@ -33,11 +33,13 @@ and whether its shape's Control was ground yet.
 from __future__ import annotations
 
 import marshal
+import os
 import threading
 import time
 from bisect import bisect_right
 from collections import OrderedDict
 from collections.abc import Iterable
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import fields
 from operator import attrgetter
 
@@ -71,13 +73,17 @@ class SolverCache:
     answers may depend on what another solved before; a cache of its own makes a tracker's
     output depend on its input only. Thread-safe."""
 
-    def __init__(self, lead: float = GROUND_LEAD) -> None:
+    def __init__(self, lead: float = GROUND_LEAD, overlap: bool = True) -> None:
         #: the slot Controls' ``lead`` (0: every shape ground on the caller's thread, no worker
         #: thread, e.g. before forking a process)
         self.lead = lead
+        #: a frame's fresh program is solved in a worker thread while the caller's thread runs
+        #: the frame's slot solves (only with ``lead`` > 0: no thread otherwise)
+        self.overlap = overlap and lead > 0
         self._answers: dict[_Key, OrderedDict[Plain, Packed]] = {}
         self._slots: dict[_Key, SlotSolver] = {}
         self.lock = threading.Lock()
+        self._fresh: tuple[int, ThreadPoolExecutor] | None = None  # (process id, worker)
 
     def answers(self, solver: AbductionSolver) -> OrderedDict[Plain, Packed]:
         """The answers remembered for ``solver``'s program and options, keyed by
@@ -93,6 +99,15 @@ class SolverCache:
             if found is None:
                 found = self._slots[key] = SlotSolver(solver, lead=self.lead)
             return found
+
+    def fresh_worker(self) -> ThreadPoolExecutor:
+        """The thread that solves frames' fresh programs beside their slot solves (one per
+        process: a forked child starts its own)."""
+        with self.lock:
+            if self._fresh is None or self._fresh[0] != os.getpid():
+                worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="fresh")
+                self._fresh = (os.getpid(), worker)
+            return self._fresh[1]
 
     def __len__(self) -> int:
         """Answers remembered, over every program."""
@@ -178,22 +193,32 @@ class ComponentSolver:
             hits += 1
             _unpack_into(answer, packed, track_ids, det_rows)
         self.stats["cache_hits"] += hits
+        comps = {f: Component(*f) for f in missed}
+        #: the frame's fresh program, solved in the worker beside the slot solves, and the
+        #: components it was given
+        ahead: tuple[Future, list[ComponentFields]] | None = None
         if missed and self._slots is not None:
-            for fields_ in list(missed):
-                remaining = (
-                    None if budget_ms is None else budget_ms - (time.perf_counter() - t0) * 1e3
-                )
-                local = self._slots.solve(Component(*fields_), remaining)
-                if local is None:
-                    continue  # not a shape the slots take (yet): solved with the rest below
-                self.stats["slot_calls"] += 1
-                key, uses = missed.pop(fields_)
-                self._remember(key, local)
-                for track_ids, det_rows in uses:
-                    answer.merge(local.mapped(track_ids, det_rows))
+            if budget_ms is None:
+                # plan every component first (the same state changes, in the same order), so
+                # that the fresh program's components are known before the slot solves run
+                tickets = [(f, self._slots.plan(c)) for f, c in comps.items()]
+                rest = [f for f, ticket in tickets if ticket is None]
+                if rest and len(rest) < len(tickets) and self.cache.overlap:
+                    job = self.cache.fresh_worker().submit(
+                        self._solve_together, [comps[f] for f in rest], None
+                    )
+                    ahead = (job, rest)
+                for fields_, ticket in tickets:
+                    if ticket is not None:
+                        self._take_slot(answer, missed, fields_, self._slots.run(ticket))
+            else:
+                for fields_, component in comps.items():
+                    left = budget_ms - (time.perf_counter() - t0) * 1e3
+                    self._take_slot(answer, missed, fields_, self._slots.solve(component, left))
         if missed:
             remaining = None if budget_ms is None else budget_ms - (time.perf_counter() - t0) * 1e3
-            solved = self._solve_together([Component(*f) for f in missed], remaining)
+            solved = self._fresh_answers(ahead, list(missed), comps, remaining)
+            self.stats["solver_calls"] += 1
             if solved is None:
                 return None
             for (key, uses), local in zip(missed.values(), solved, strict=True):
@@ -203,6 +228,42 @@ class ComponentSolver:
         self.stats["components"] += len(parts)
         answer.solve_ms = (time.perf_counter() - t0) * 1e3
         return answer
+
+    def _take_slot(
+        self,
+        answer: Answer,
+        missed: dict[ComponentFields, tuple[Plain, list[tuple[list[int], list[int]]]]],
+        fields_: ComponentFields,
+        local: Answer | None,
+    ) -> None:
+        """A slot solve's answer into the frame's (None: the component stays in ``missed``,
+        for the fresh program)."""
+        if local is None:
+            return
+        self.stats["slot_calls"] += 1
+        key, uses = missed.pop(fields_)
+        self._remember(key, local)
+        for track_ids, det_rows in uses:
+            answer.merge(local.mapped(track_ids, det_rows))
+
+    def _fresh_answers(
+        self,
+        ahead: tuple[Future, list[ComponentFields]] | None,
+        rest: list[ComponentFields],
+        comps: dict[ComponentFields, Component],
+        budget_ms: float | None,
+    ) -> list[Answer] | None:
+        """The answers of the fresh program of ``rest``: the worker's, if it was given these
+        components (in this order), else solved here."""
+        if ahead is not None:
+            job, given = ahead
+            if given == rest:
+                return job.result()
+            try:  # a slot solve came short (conflict budget): the program was not this one
+                job.result()
+            except Exception:  # noqa: BLE001 - solved again below, where it raises if it must
+                pass
+        return self._solve_together([comps[f] for f in rest], budget_ms)
 
     def remembered_cost(self, component: Component) -> int | None:
         """The cost of the cache's answer to ``component``, None if not remembered or solved
@@ -222,8 +283,8 @@ class ComponentSolver:
     def _solve_together(
         self, components: list[Component], budget_ms: float | None
     ) -> list[Answer] | None:
-        """Each component's answer (in its own numbering), from one program for all of them."""
-        self.stats["solver_calls"] += 1
+        """Each component's answer (in its own numbering), from one program for all of them
+        (may run in the fresh worker: reads nothing that changes)."""
         uses = self.solver.uses
         if len(components) == 1:
             one = self.solver.solve_facts(components[0].facts(uses), budget_ms)

@@ -481,9 +481,9 @@ class FrameProblem:
         index = {t: i for i, t in enumerate(ids)}
         hidden_of: dict[int, list[tuple[int, int]]] = {}
         for tid, oid in self.hidden_by.tolist() if len(self.hidden_by) else ():
-            t = index.get(tid)
-            if t is not None:
-                hidden_of.setdefault(grp_t[t], []).append((t, oid))
+            at = index.get(tid)
+            if at is not None:
+                hidden_of.setdefault(grp_t[at], []).append((at, oid))
         gone_groups = gone_groups or [[] for _ in groups]
         first = bool(self.first_frame)
         # per group, the tuple of each sparse relation (most groups have none)
