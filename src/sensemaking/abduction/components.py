@@ -169,7 +169,14 @@ class ComponentSolver:
         if slots:
             self._slots = self.cache.slots(solver)
             self._slots.expect(numbers)
-        self.stats = {"components": 0, "cache_hits": 0, "solver_calls": 0, "slot_calls": 0}
+        #: ``overlapped``: fresh programs solved in the worker beside the slot solves
+        self.stats = {
+            "components": 0,
+            "cache_hits": 0,
+            "solver_calls": 0,
+            "slot_calls": 0,
+            "overlapped": 0,
+        }
 
     def solve(self, problem: FrameProblem, budget_ms: float | None = None) -> Answer | None:
         """The frame's answer in its terms (track ids, detection rows); None if no model was
@@ -208,6 +215,7 @@ class ComponentSolver:
                         self._solve_together, [comps[f] for f in rest], None
                     )
                     ahead = (job, rest)
+                    self.stats["overlapped"] += 1
                 for fields_, ticket in tickets:
                     if ticket is not None:
                         self._take_slot(answer, missed, fields_, self._slots.run(ticket))
