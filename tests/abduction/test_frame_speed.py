@@ -1,6 +1,6 @@
 """The tracker's frame made cheaper without changing its answers (issue 23): a frame's
-components as plain field tuples, the fresh program solved beside the slot solves, the last
-model read once."""
+components as plain field tuples, the last model read once, and (off by default) the fresh
+program ground and solved in a worker beside the slot solves."""
 
 from __future__ import annotations
 
@@ -89,9 +89,10 @@ def test_component_fields_map_back_to_the_frame_and_are_the_components() -> None
 
 
 def test_the_fresh_program_beside_the_slot_solves_gives_the_same_tracks() -> None:
-    beside = Tracker(CONFIG, solver_cache=SolverCache())
-    after = Tracker(CONFIG, solver_cache=SolverCache(overlap=False))
-    threads = Tracker(CONFIG, solver_cache=SolverCache(lead=0))  # no worker thread at all
+    beside = Tracker(CONFIG, solver_cache=SolverCache(overlap=True))
+    after = Tracker(CONFIG, solver_cache=SolverCache())  # the default: no overlap
+    # no worker thread at all
+    threads = Tracker(CONFIG, solver_cache=SolverCache(lead=0, overlap=True))
     assert not threads.solver.cache.overlap
     mine = _run(beside)
     assert mine == _run(after) == _run(threads)
@@ -122,7 +123,7 @@ def test_a_slot_solve_that_comes_short_joins_the_fresh_program(
 
     monkeypatch.setattr(ComponentSolver, "_fresh_answers", counted)
     calls["n"] = 0
-    beside = Tracker(CONFIG, solver_cache=SolverCache())
+    beside = Tracker(CONFIG, solver_cache=SolverCache(overlap=True))
     mine = _run(beside)
     assert redone["n"] > 0  # the program solved ahead was not the frame's
     calls["n"] = 0

@@ -43,6 +43,8 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import fields
 from operator import attrgetter
 
+import clingo
+
 from sensemaking.abduction.problem import Component, ComponentFields, FrameProblem
 from sensemaking.abduction.slots import SlotSolver
 from sensemaking.abduction.solver import AbductionSolver, Answer, Det, Ref
@@ -50,6 +52,9 @@ from sensemaking.abduction.solver import AbductionSolver, Answer, Det, Ref
 __all__ = ["ComponentSolver", "SolverCache", "SHARED"]
 
 _Key = tuple[str, tuple[str, ...]]  # (program, options)
+#: a fresh program not ground yet: its Control, where each component's tracks and detections
+#: start
+_Fresh = tuple[clingo.Control, list[int], list[int]]
 #: a component as the bytes of its fields (:func:`_plain`), and an answer as plain tuples
 #: (:func:`_pack`): bytes and tuples of numbers and strings only, which Python's garbage
 #: collector does not walk (measured: 50-60 ms pauses on MOT17 with a few thousand
@@ -73,12 +78,15 @@ class SolverCache:
     answers may depend on what another solved before; a cache of its own makes a tracker's
     output depend on its input only. Thread-safe."""
 
-    def __init__(self, lead: float = GROUND_LEAD, overlap: bool = True) -> None:
+    def __init__(self, lead: float = GROUND_LEAD, overlap: bool = False) -> None:
         #: the slot Controls' ``lead`` (0: every shape ground on the caller's thread, no worker
         #: thread, e.g. before forking a process)
         self.lead = lead
-        #: a frame's fresh program is solved in a worker thread while the caller's thread runs
-        #: the frame's slot solves (only with ``lead`` > 0: no thread otherwise)
+        #: a frame's fresh program is ground and solved in a worker thread while the caller's
+        #: thread runs the frame's slot solves (only with ``lead`` > 0: no thread otherwise).
+        #: Off by default: the same answers, but on a loaded machine no faster (the second core
+        #: is busy) and the caller's thread time no longer counts the frame's work
+        #: (docs/DESIGN-NOTES.md, "The tracker's frame, profiled")
         self.overlap = overlap and lead > 0
         self._answers: dict[_Key, OrderedDict[Plain, Packed]] = {}
         self._slots: dict[_Key, SlotSolver] = {}
@@ -211,8 +219,14 @@ class ComponentSolver:
                 tickets = [(f, self._slots.plan(c)) for f, c in comps.items()]
                 rest = [f for f, ticket in tickets if ticket is None]
                 if rest and len(rest) < len(tickets) and self.cache.overlap:
+                    # its facts and Control made here (Python's work), ground and solved in
+                    # the worker (clingo's), which also drops the Control
+                    started = time.perf_counter()
                     job = self.cache.fresh_worker().submit(
-                        self._solve_together, [comps[f] for f in rest], None
+                        self._fresh_solved,
+                        self._fresh_program([comps[f] for f in rest]),
+                        None,
+                        started,
                     )
                     ahead = (job, rest)
                     self.stats["overlapped"] += 1
@@ -291,12 +305,14 @@ class ComponentSolver:
     def _solve_together(
         self, components: list[Component], budget_ms: float | None
     ) -> list[Answer] | None:
-        """Each component's answer (in its own numbering), from one program for all of them
-        (may run in the fresh worker: reads nothing that changes)."""
+        """Each component's answer (in its own numbering), from one program for all of them."""
+        started = time.perf_counter()
+        return self._fresh_solved(self._fresh_program(components), budget_ms, started)
+
+    def _fresh_program(self, components: list[Component]) -> _Fresh:
+        """The fresh program of ``components``, not ground yet: a Control with their facts
+        (each component numbered apart), and where each one's tracks and detections start."""
         uses = self.solver.uses
-        if len(components) == 1:
-            one = self.solver.solve_facts(components[0].facts(uses), budget_ms)
-            return None if one is None else [one]
         t_starts, d_starts, facts = [], [], []
         t0 = d0 = 0
         for c in components:
@@ -305,10 +321,19 @@ class ComponentSolver:
             facts += c.facts(uses, t0, d0)
             t0 += c.n_refs
             d0 += len(c.dets)
-        whole = self.solver.solve_facts(facts, budget_ms)
-        if whole is None:
+        return self.solver.program_of(facts), t_starts, d_starts
+
+    def _fresh_solved(
+        self, fresh: _Fresh, budget_ms: float | None, started: float
+    ) -> list[Answer] | None:
+        """The answers of a :meth:`_fresh_program`: ground and solved (clingo's work, which
+        lets go of Python's lock: it may run in the fresh worker)."""
+        ctl, t_starts, d_starts = fresh
+        found = self.solver.ground_and_solve(ctl, budget_ms, started)
+        if found is None:
             return None
-        return _split(whole, t_starts, d_starts)
+        whole = found[1]
+        return [whole] if len(t_starts) == 1 else _split(whole, t_starts, d_starts)
 
 
 #: every field of a component, in order: a new field is part of the cache key by itself
