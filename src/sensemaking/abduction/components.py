@@ -20,7 +20,10 @@ Four shortcuts, each forced by the structure of the problem rather than by any r
   ``Control``: the grounder's fixed cost (~1.6 ms per ``Control``, whatever the facts) is paid
   once a frame. Their atoms are told apart by their numbers (each component gets its own range).
   An optimal answer of that program is optimal for each component at every priority, since each
-  level is a sum over components.
+  level is a sum over components. With ``SolverCache(overlap=True)`` (off by default) a worker
+  thread grounds and solves it while the caller's thread runs the frame's slot solves: the
+  components are planned first (:meth:`SlotSolver.plan`), so which ones it holds is known before
+  any slot solve runs, and the answers are the same.
 
 The cache and the slot Controls live in a :class:`SolverCache`, per program and options; the
 trackers of a process share :data:`SHARED` unless given their own. Nothing here depends on
