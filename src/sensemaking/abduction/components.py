@@ -20,10 +20,7 @@ Four shortcuts, each forced by the structure of the problem rather than by any r
   ``Control``: the grounder's fixed cost (~1.6 ms per ``Control``, whatever the facts) is paid
   once a frame. Their atoms are told apart by their numbers (each component gets its own range).
   An optimal answer of that program is optimal for each component at every priority, since each
-  level is a sum over components. With ``SolverCache(overlap=True)`` (off by default) a worker
-  thread grounds and solves it while the caller's thread runs the frame's slot solves: the
-  components are planned first (:meth:`SlotSolver.plan`), so which ones it holds is known before
-  any slot solve runs, and the answers are the same.
+  level is a sum over components.
 
 The cache and the slot Controls live in a :class:`SolverCache`, per program and options; the
 trackers of a process share :data:`SHARED` unless given their own. Nothing here depends on
@@ -36,13 +33,11 @@ and whether its shape's Control was ground yet.
 from __future__ import annotations
 
 import marshal
-import os
 import threading
 import time
 from bisect import bisect_right
 from collections import OrderedDict
 from collections.abc import Iterable
-from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import fields
 from operator import attrgetter
 
@@ -81,20 +76,13 @@ class SolverCache:
     answers may depend on what another solved before; a cache of its own makes a tracker's
     output depend on its input only. Thread-safe."""
 
-    def __init__(self, lead: float = GROUND_LEAD, overlap: bool = False) -> None:
+    def __init__(self, lead: float = GROUND_LEAD) -> None:
         #: the slot Controls' ``lead`` (0: every shape ground on the caller's thread, no worker
         #: thread, e.g. before forking a process)
         self.lead = lead
-        #: a frame's fresh program is ground and solved in a worker thread while the caller's
-        #: thread runs the frame's slot solves (only with ``lead`` > 0: no thread otherwise).
-        #: Off by default: the same answers, but on a loaded machine no faster (the second core
-        #: is busy) and the caller's thread time no longer counts the frame's work
-        #: (docs/DESIGN-NOTES.md, "The tracker's frame, profiled")
-        self.overlap = overlap and lead > 0
         self._answers: dict[_Key, OrderedDict[Plain, Packed]] = {}
         self._slots: dict[_Key, SlotSolver] = {}
         self.lock = threading.Lock()
-        self._fresh: tuple[int, ThreadPoolExecutor] | None = None  # (process id, worker)
 
     def answers(self, solver: AbductionSolver) -> OrderedDict[Plain, Packed]:
         """The answers remembered for ``solver``'s program and options, keyed by
@@ -110,15 +98,6 @@ class SolverCache:
             if found is None:
                 found = self._slots[key] = SlotSolver(solver, lead=self.lead)
             return found
-
-    def fresh_worker(self) -> ThreadPoolExecutor:
-        """The thread that solves frames' fresh programs beside their slot solves (one per
-        process: a forked child starts its own)."""
-        with self.lock:
-            if self._fresh is None or self._fresh[0] != os.getpid():
-                worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="fresh")
-                self._fresh = (os.getpid(), worker)
-            return self._fresh[1]
 
     def __len__(self) -> int:
         """Answers remembered, over every program."""
@@ -180,14 +159,7 @@ class ComponentSolver:
         if slots:
             self._slots = self.cache.slots(solver)
             self._slots.expect(numbers)
-        #: ``overlapped``: fresh programs solved in the worker beside the slot solves
-        self.stats = {
-            "components": 0,
-            "cache_hits": 0,
-            "solver_calls": 0,
-            "slot_calls": 0,
-            "overlapped": 0,
-        }
+        self.stats = {"components": 0, "cache_hits": 0, "solver_calls": 0, "slot_calls": 0}
 
     def solve(self, problem: FrameProblem, budget_ms: float | None = None) -> Answer | None:
         """The frame's answer in its terms (track ids, detection rows); None if no model was
@@ -212,37 +184,13 @@ class ComponentSolver:
             _unpack_into(answer, packed, track_ids, det_rows)
         self.stats["cache_hits"] += hits
         comps = {f: Component(*f) for f in missed}
-        #: the frame's fresh program, solved in the worker beside the slot solves, and the
-        #: components it was given
-        ahead: tuple[Future, list[ComponentFields]] | None = None
         if missed and self._slots is not None:
-            if budget_ms is None:
-                # plan every component first (the same state changes, in the same order), so
-                # that the fresh program's components are known before the slot solves run
-                tickets = [(f, self._slots.plan(c)) for f, c in comps.items()]
-                rest = [f for f, ticket in tickets if ticket is None]
-                if rest and len(rest) < len(tickets) and self.cache.overlap:
-                    # its facts and Control made here (Python's work), ground and solved in
-                    # the worker (clingo's), which also drops the Control
-                    started = time.perf_counter()
-                    job = self.cache.fresh_worker().submit(
-                        self._fresh_solved,
-                        self._fresh_program([comps[f] for f in rest]),
-                        None,
-                        started,
-                    )
-                    ahead = (job, rest)
-                    self.stats["overlapped"] += 1
-                for fields_, ticket in tickets:
-                    if ticket is not None:
-                        self._take_slot(answer, missed, fields_, self._slots.run(ticket))
-            else:
-                for fields_, component in comps.items():
-                    left = budget_ms - (time.perf_counter() - t0) * 1e3
-                    self._take_slot(answer, missed, fields_, self._slots.solve(component, left))
+            for fields_, component in comps.items():
+                left = None if budget_ms is None else budget_ms - (time.perf_counter() - t0) * 1e3
+                self._take_slot(answer, missed, fields_, self._slots.solve(component, left))
         if missed:
             remaining = None if budget_ms is None else budget_ms - (time.perf_counter() - t0) * 1e3
-            solved = self._fresh_answers(ahead, list(missed), comps, remaining)
+            solved = self._solve_together([comps[f] for f in missed], remaining)
             self.stats["solver_calls"] += 1
             if solved is None:
                 return None
@@ -270,25 +218,6 @@ class ComponentSolver:
         self._remember(key, local)
         for track_ids, det_rows in uses:
             answer.merge(local.mapped(track_ids, det_rows))
-
-    def _fresh_answers(
-        self,
-        ahead: tuple[Future, list[ComponentFields]] | None,
-        rest: list[ComponentFields],
-        comps: dict[ComponentFields, Component],
-        budget_ms: float | None,
-    ) -> list[Answer] | None:
-        """The answers of the fresh program of ``rest``: the worker's, if it was given these
-        components (in this order), else solved here."""
-        if ahead is not None:
-            job, given = ahead
-            if given == rest:
-                return job.result()
-            try:  # a slot solve came short (conflict budget): the program was not this one
-                job.result()
-            except Exception:  # noqa: BLE001 - solved again below, where it raises if it must
-                pass
-        return self._solve_together([comps[f] for f in rest], budget_ms)
 
     def remembered_cost(self, component: Component) -> int | None:
         """The cost of the cache's answer to ``component``, None if not remembered or solved
