@@ -4,7 +4,9 @@ For each benchmark of ``../shared/data`` the two versions run ``same_answers.py`
 turn (this one, the other, this one, the other, ...), each in a fresh process, so a slow spell
 of a shared machine hits both alike; the script prints each version's median mean-ms-per-frame
 over ``--repeat`` turns, their ratio, the worst frame, and whether their tracks and events are
-identical. With ``--cpu`` the times are the tracker thread's CPU time (a loaded machine).
+identical. With ``--cpu`` the times are the tracker thread's CPU time (a loaded machine), with
+``--process`` the process's (the tracker's worker threads included: work moved off the tracker's
+thread still counts); ``--gc-freeze`` times the frames as ``sensemaking track`` runs them.
 
     git worktree add /tmp/old <commit>
     python benchmarks/compare_versions.py --other /tmp/old/src [--only kitti-rrc-car] [--repeat 3]
@@ -25,9 +27,11 @@ HERE = Path(__file__).resolve().parent
 LINE = re.compile(
     r"^(\S+)\s+frames\s+(\d+)\s+mean\s+([\d.]+) ms\s+p95\s+([\d.]+) ms\s+worst\s+([\d.]+) ms"
     r"(?:\s+cpu mean\s+([\d.]+) ms\s+cpu p95\s+([\d.]+) ms\s+cpu worst\s+([\d.]+) ms)?"
+    r"(?:\s+proc mean\s+([\d.]+) ms\s+proc worst\s+([\d.]+) ms)?"
 )
-#: the mean and worst figures of LINE: wall clock, or CPU time of the tracker's thread
-GROUPS = {False: (3, 5), True: (6, 8)}
+#: the mean and worst figures of LINE: wall clock, CPU time of the tracker's thread, CPU time of
+#: the process (every thread's: the tracker's and its workers')
+GROUPS = {"wall": (3, 5), "cpu": (6, 8), "process": (9, 10)}
 BENCHMARKS = (
     "kitti-rrc-car",
     "kitti-rrc-pedestrian",
@@ -40,7 +44,12 @@ BENCHMARKS = (
 
 
 def _run(
-    src: Path | None, bench: str, out: Path, compare: Path | None, cpu: bool = False
+    src: Path | None,
+    bench: str,
+    out: Path,
+    compare: Path | None,
+    clock: str = "wall",
+    freeze: bool = False,
 ) -> tuple[float, float, bool]:
     env = dict(os.environ)
     if src is not None:
@@ -48,13 +57,15 @@ def _run(
     cmd = [sys.executable, str(HERE / "same_answers.py"), str(out), "--only", bench]
     if compare is not None:
         cmd += ["--compare", str(compare)]
+    if freeze:
+        cmd.append("--gc-freeze")
     proc = subprocess.run(cmd, env=env, capture_output=True, text=True)
     match = next((m for m in map(LINE.match, proc.stdout.splitlines()) if m), None)
     if match is None:
         raise SystemExit(f"{bench}: no timing line from {' '.join(cmd)}\n{proc.stderr[-2000:]}")
-    mean, worst = GROUPS[cpu]
+    mean, worst = GROUPS[clock]
     if match.group(mean) is None:
-        raise SystemExit(f"{bench}: no CPU times from {' '.join(cmd)}")
+        raise SystemExit(f"{bench}: no {clock} times from {' '.join(cmd)}")
     same = compare is None or proc.returncode == 0
     return float(match.group(mean)), float(match.group(worst)), same
 
@@ -65,7 +76,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only", nargs="*", default=list(BENCHMARKS))
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--cpu", action="store_true", help="the tracker thread's CPU time")
+    ap.add_argument(
+        "--process", action="store_true", help="the process's CPU time (the workers' too)"
+    )
+    ap.add_argument(
+        "--gc-freeze", action="store_true", help="gc.freeze() per sequence, as the CLI does"
+    )
     args = ap.parse_args(argv)
+    clock = "process" if args.process else "cpu" if args.cpu else "wall"
     print(
         f"{'benchmark':28s} {'this ms':>8} {'other ms':>9} {'ratio':>6} {'worst this':>10} "
         f"{'worst other':>11} {'same answers':>12}"
@@ -74,8 +92,10 @@ def main(argv: list[str] | None = None) -> int:
         for bench in args.only:
             this, other, worst_this, worst_other, same = [], [], [], [], True
             for _r in range(args.repeat):
-                o = _run(args.other, bench, Path(tmp) / "other", None, args.cpu)
-                t = _run(None, bench, Path(tmp) / "this", Path(tmp) / "other", args.cpu)
+                o = _run(args.other, bench, Path(tmp) / "other", None, clock, args.gc_freeze)
+                t = _run(
+                    None, bench, Path(tmp) / "this", Path(tmp) / "other", clock, args.gc_freeze
+                )
                 other.append(o[0])
                 worst_other.append(o[1])
                 this.append(t[0])

@@ -244,7 +244,9 @@ def solve(
 
     timed_out = False
     if budget_ms is None:
-        result = ctl.solve(assumptions=list(assumptions), on_model=on_model)
+        # the last model only: an optimisation reports ~2 models a solve, and reading a
+        # model's symbols into Python costs more than clasp's search on small programs
+        result = ctl.solve(assumptions=list(assumptions), on_last=on_model)
     else:
         remaining = budget_ms / 1000.0 - (time.perf_counter() - t0)
         with ctl.solve(assumptions=list(assumptions), on_model=on_model, async_=True) as handle:

@@ -93,11 +93,10 @@ def test_cache_keys_are_compact_bytes_equal_exactly_when_the_components_are():
 
     seen: dict[bytes, tuple] = {}
     fields_seen: dict[tuple, bytes] = {}
-    plain = components._plain
+    plain = components._plain_fields
 
-    def record(c, levels=True):  # type: ignore[no-untyped-def]
-        key = plain(c, levels)
-        fields = components._FIELDS(c)
+    def record(fields, levels=True):  # type: ignore[no-untyped-def]
+        key = plain(fields, levels)
         if not levels:  # the covers rows without their share and depth
             at = components._COVERS
             fields = (*fields[:at], tuple(r[:3] for r in fields[at]), *fields[at + 1 :])
@@ -105,11 +104,11 @@ def test_cache_keys_are_compact_bytes_equal_exactly_when_the_components_are():
         assert fields_seen.setdefault(fields, key) == key
         return key
 
-    components._plain = record
+    components._plain_fields = record
     try:
         _run(Tracker(CONFIG, solver_cache=SolverCache()))
     finally:
-        components._plain = plain
+        components._plain_fields = plain
     assert len(seen) > 5 and all(isinstance(k, bytes) for k in seen)
 
     def deep(x: object) -> int:

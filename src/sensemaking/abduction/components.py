@@ -41,13 +41,18 @@ from collections.abc import Iterable
 from dataclasses import fields
 from operator import attrgetter
 
-from sensemaking.abduction.problem import Component, FrameProblem
+import clingo
+
+from sensemaking.abduction.problem import Component, ComponentFields, FrameProblem
 from sensemaking.abduction.slots import SlotSolver
 from sensemaking.abduction.solver import AbductionSolver, Answer, Det, Ref
 
 __all__ = ["ComponentSolver", "SolverCache", "SHARED"]
 
 _Key = tuple[str, tuple[str, ...]]  # (program, options)
+#: a fresh program not ground yet: its Control, where each component's tracks and detections
+#: start
+_Fresh = tuple[clingo.Control, list[int], list[int]]
 #: a component as the bytes of its fields (:func:`_plain`), and an answer as plain tuples
 #: (:func:`_pack`): bytes and tuples of numbers and strings only, which Python's garbage
 #: collector does not walk (measured: 50-60 ms pauses on MOT17 with a few thousand
@@ -160,44 +165,59 @@ class ComponentSolver:
         """The frame's answer in its terms (track ids, detection rows); None if no model was
         found within the budgets (the caller falls back for the whole frame)."""
         t0 = time.perf_counter()
-        parts = problem.components() if self.decompose else [problem.whole()]
+        parts = problem.component_fields() if self.decompose else [problem.whole_fields()]
         answer = Answer()
-        missed: dict[Component, list[tuple[list[int], list[int]]]] = {}
-        for component, track_ids, det_rows in parts:
-            key = _plain(component, self._levels)
+        #: the components not remembered, by their fields (first met first), each with its
+        #: cache key and where it occurs in the frame
+        missed: dict[ComponentFields, tuple[Plain, list[tuple[list[int], list[int]]]]] = {}
+        levels, cache, hits = self._levels, self._cache, 0
+        for fields_, track_ids, det_rows in parts:
+            key = _plain_fields(fields_, levels)
             with self._lock:
-                packed = self._cache.get(key)
+                packed = cache.get(key)
                 if packed is not None:
-                    self._cache.move_to_end(key)
+                    cache.move_to_end(key)
             if packed is None:
-                missed.setdefault(component, []).append((track_ids, det_rows))
+                missed.setdefault(fields_, (key, []))[1].append((track_ids, det_rows))
                 continue
-            self.stats["cache_hits"] += 1
-            answer.merge(_unpack_mapped(packed, track_ids, det_rows))
+            hits += 1
+            _unpack_into(answer, packed, track_ids, det_rows)
+        self.stats["cache_hits"] += hits
+        comps = {f: Component(*f) for f in missed}
         if missed and self._slots is not None:
-            for component in list(missed):
-                remaining = (
-                    None if budget_ms is None else budget_ms - (time.perf_counter() - t0) * 1e3
-                )
-                local = self._slots.solve(component, remaining)
-                if local is None:
-                    continue  # not a shape the slots take (yet): solved with the rest below
-                self.stats["slot_calls"] += 1
-                self._remember(component, local)
-                for track_ids, det_rows in missed.pop(component):
-                    answer.merge(local.mapped(track_ids, det_rows))
+            for fields_, component in comps.items():
+                left = None if budget_ms is None else budget_ms - (time.perf_counter() - t0) * 1e3
+                self._take_slot(answer, missed, fields_, self._slots.solve(component, left))
         if missed:
             remaining = None if budget_ms is None else budget_ms - (time.perf_counter() - t0) * 1e3
-            solved = self._solve_together(list(missed), remaining)
+            solved = self._solve_together([comps[f] for f in missed], remaining)
+            self.stats["solver_calls"] += 1
             if solved is None:
                 return None
-            for (component, uses), local in zip(missed.items(), solved, strict=True):
-                self._remember(component, local)
+            for (key, uses), local in zip(missed.values(), solved, strict=True):
+                self._remember(key, local)
                 for track_ids, det_rows in uses:
                     answer.merge(local.mapped(track_ids, det_rows))
         self.stats["components"] += len(parts)
         answer.solve_ms = (time.perf_counter() - t0) * 1e3
         return answer
+
+    def _take_slot(
+        self,
+        answer: Answer,
+        missed: dict[ComponentFields, tuple[Plain, list[tuple[list[int], list[int]]]]],
+        fields_: ComponentFields,
+        local: Answer | None,
+    ) -> None:
+        """A slot solve's answer into the frame's (None: the component stays in ``missed``,
+        for the fresh program)."""
+        if local is None:
+            return
+        self.stats["slot_calls"] += 1
+        key, uses = missed.pop(fields_)
+        self._remember(key, local)
+        for track_ids, det_rows in uses:
+            answer.merge(local.mapped(track_ids, det_rows))
 
     def remembered_cost(self, component: Component) -> int | None:
         """The cost of the cache's answer to ``component``, None if not remembered or solved
@@ -206,11 +226,11 @@ class ComponentSolver:
             packed = self._cache.get(_plain(component, self._levels))
         return None if packed is None else packed[9]
 
-    def _remember(self, component: Component, local: Answer) -> None:
+    def _remember(self, key: Plain, local: Answer) -> None:
         if not local.timed_out and self.cache_size > 0:
             packed = _pack(local)
             with self._lock:
-                self._cache[_plain(component, self._levels)] = packed
+                self._cache[key] = packed
                 while len(self._cache) > self.cache_size:
                     self._cache.popitem(last=False)
 
@@ -218,11 +238,13 @@ class ComponentSolver:
         self, components: list[Component], budget_ms: float | None
     ) -> list[Answer] | None:
         """Each component's answer (in its own numbering), from one program for all of them."""
-        self.stats["solver_calls"] += 1
+        started = time.perf_counter()
+        return self._fresh_solved(self._fresh_program(components), budget_ms, started)
+
+    def _fresh_program(self, components: list[Component]) -> _Fresh:
+        """The fresh program of ``components``, not ground yet: a Control with their facts
+        (each component numbered apart), and where each one's tracks and detections start."""
         uses = self.solver.uses
-        if len(components) == 1:
-            one = self.solver.solve_facts(components[0].facts(uses), budget_ms)
-            return None if one is None else [one]
         t_starts, d_starts, facts = [], [], []
         t0 = d0 = 0
         for c in components:
@@ -231,10 +253,19 @@ class ComponentSolver:
             facts += c.facts(uses, t0, d0)
             t0 += c.n_refs
             d0 += len(c.dets)
-        whole = self.solver.solve_facts(facts, budget_ms)
-        if whole is None:
+        return self.solver.program_of(facts), t_starts, d_starts
+
+    def _fresh_solved(
+        self, fresh: _Fresh, budget_ms: float | None, started: float
+    ) -> list[Answer] | None:
+        """The answers of a :meth:`_fresh_program`: ground and solved (clingo's work, which
+        lets go of Python's lock: it may run in the fresh worker)."""
+        ctl, t_starts, d_starts = fresh
+        found = self.solver.ground_and_solve(ctl, budget_ms, started)
+        if found is None:
             return None
-        return _split(whole, t_starts, d_starts)
+        whole = found[1]
+        return [whole] if len(t_starts) == 1 else _split(whole, t_starts, d_starts)
 
 
 #: every field of a component, in order: a new field is part of the cache key by itself
@@ -243,13 +274,17 @@ _COVERS = [f.name for f in fields(Component)].index("covers")
 
 
 def _plain(c: Component, levels: bool = True) -> Plain:
-    """The component's fields as bytes, equal exactly when the components are (marshal's format
+    """The component's fields as bytes (:func:`_plain_fields`)."""
+    return _plain_fields(_FIELDS(c), levels)
+
+
+def _plain_fields(plain: ComponentFields, levels: bool = True) -> Plain:
+    """A component's fields as bytes, equal exactly when the components are (marshal's format
     2 writes no back-references, so equal values of the same types give the same bytes; each
     field holds ints or bools, never both at one place); without ``levels``, the ``covers``
     rows lose their share and depth (facts that do not state them)."""
-    plain = _FIELDS(c)
-    if not levels and c.covers:
-        covers = tuple(row[:3] for row in c.covers)
+    if not levels and plain[_COVERS]:
+        covers = tuple(row[:3] for row in plain[_COVERS])
         plain = (*plain[:_COVERS], covers, *plain[_COVERS + 1 :])
     return marshal.dumps(plain, 2)
 
@@ -310,6 +345,44 @@ def _unpack_mapped(p: Packed, track_ids: list[int], det_rows: list[int]) -> Answ
         solve_ms=p[13],
         confidence=[(n, tuple(ref(a) for a in args), c) for n, args, c in p[14]],
     )
+
+
+def _unpack_into(answer: Answer, p: Packed, track_ids: list[int], det_rows: list[int]) -> None:
+    """``answer.merge(_unpack_mapped(p, track_ids, det_rows))`` without the Answer between."""
+    assign, resume, start, end, halt, ignore_trk, ignore_det, events, fluents = p[:9]
+    tid, row = track_ids.__getitem__, det_rows.__getitem__
+    if assign:
+        answer.assign.update({tid(t): row(d) for t, d in assign})
+    if resume:
+        answer.resume.update({tid(t): row(d) for t, d in resume})
+    if start:
+        answer.start += [row(d) for d in start]
+    if end:
+        answer.end += [tid(t) for t in end]
+    if halt:
+        answer.halt += [tid(t) for t in halt]
+    if ignore_trk:
+        answer.ignore_trk += [tid(t) for t in ignore_trk]
+    if ignore_det:
+        answer.ignore_det += [row(d) for d in ignore_det]
+    if events or fluents or p[14]:
+        n_tracks = len(track_ids)
+
+        def ref(x: int | str | tuple[int]) -> Ref:
+            if isinstance(x, tuple):
+                return Det(row(x[0]))
+            if isinstance(x, int) and 0 <= x < n_tracks:
+                return tid(x)
+            return x
+
+        answer.events += [(n, tuple([ref(a) for a in args])) for n, args in events]
+        answer.fluents += [(n, tuple([ref(a) for a in args]), v) for n, args, v in fluents]
+        answer.confidence += [(n, tuple([ref(a) for a in args]), c) for n, args, c in p[14]]
+    cost = p[9]
+    answer.cost = None if answer.cost is None or cost is None else answer.cost + cost
+    answer.optimal &= p[10]
+    answer.budget_hit |= p[11]
+    answer.timed_out |= p[12]
 
 
 def _split(answer: Answer, t_starts: list[int], d_starts: list[int]) -> list[Answer]:

@@ -25,6 +25,7 @@ from sensemaking import asp
 __all__ = [
     "FrameProblem",
     "Component",
+    "ComponentFields",
     "VISIBILITY_VALUES",
     "TRACK_FLAGS",
     "GONE_EVENTS",
@@ -184,6 +185,11 @@ class Component:
         return out
 
 
+#: a :class:`Component`'s field values in field order (``Component(*fields)`` is the component):
+#: plain tuples of ints and bools, what the answer cache keys are made of
+ComponentFields = tuple
+
+
 @dataclass
 class FrameProblem:
     """Arrays over T tracks and D detections (indices, not ids, unless named ``*_id``).
@@ -331,6 +337,11 @@ class FrameProblem:
 
     def whole(self) -> tuple[Component, list[int], list[int]]:
         """The whole frame as one component (for checks, and encodings not known to be local)."""
+        fields_, track_ids, det_rows = self.whole_fields()
+        return Component(*fields_), track_ids, det_rows
+
+    def whole_fields(self) -> tuple[ComponentFields, list[int], list[int]]:
+        """:meth:`whole` with the component as its :data:`ComponentFields`."""
         everything = (list(range(self.n_tracks)), list(range(self.n_dets)))
         return self._describe([everything], [list(range(len(self.gone_id)))])[0]
 
@@ -345,6 +356,12 @@ class FrameProblem:
         over objects. So an optimal answer of the frame is an
         optimal answer of each part, side by side.
         """
+        return [(Component(*f), ids, rows) for f, ids, rows in self.component_fields()]
+
+    def component_fields(self) -> list[tuple[ComponentFields, list[int], list[int]]]:
+        """:meth:`components` with each component as its :data:`ComponentFields` (the
+        :class:`Component` is built only where it is needed: a frame's components are mostly
+        answered from the cache, by these fields)."""
         nt, nd, ng = self.n_tracks, self.n_dets, len(self.gone_id)
         parent = list(range(nt + nd + ng))
 
@@ -379,7 +396,10 @@ class FrameProblem:
         self,
         groups: list[tuple[list[int], list[int]]],
         gone_groups: list[list[int]] | None = None,
-    ) -> list[tuple[Component, list[int], list[int]]]:
+    ) -> list[tuple[ComponentFields, list[int], list[int]]]:
+        """Each group of tracks and detections (frame indices, ascending) as the fields of its
+        :class:`Component`, with its track ids and detection rows. Every relation is read once
+        and its rows go straight to their group in its local numbering."""
         nt = self.n_tracks
         flags = [
             self.active,
@@ -411,112 +431,132 @@ class FrameProblem:
                 strict=True,
             )
         )
-        preferred = {(t, d) for t, d in self.preferred_pairs().tolist()}
+        n = len(groups)
+        # each track's and detection's group and local index
+        grp_t, loc_t = [0] * nt, [0] * nt
+        grp_d, loc_d = [0] * self.n_dets, [0] * self.n_dets
+        for g, (ts, ds) in enumerate(groups):
+            for i, t in enumerate(ts):
+                grp_t[t], loc_t[t] = g, i
+            for j, d in enumerate(ds):
+                grp_d[d], loc_d[d] = g, j
+        cand: list[list[tuple[int, int, int, bool]]] = [[] for _ in range(n)]
+        if len(self.cand):
+            preferred = {(t, d) for t, d in self.preferred_pairs().tolist()}
+            for t, d, lik in self.cand.tolist():
+                cand[grp_t[t]].append((loc_t[t], loc_d[d], lik, (t, d) in preferred))
+        # the sparse relations: a group's rows only where it has some
+        covers: dict[int, list[tuple[int, ...]]] = {}
+        if len(self.covers):
+            rows = zip(
+                self.covers.tolist(),
+                self.cover_ranks().tolist(),
+                self.cover_shares().tolist(),
+                self.cover_depths().tolist(),
+                strict=True,
+            )
+            for (d, t), r, share, margin in rows:
+                covers.setdefault(grp_t[t], []).append((loc_d[d], loc_t[t], r, share, margin))
+        pairs: dict[str, dict[int, list[tuple[int, ...]]]] = {}
+        for name, rel in (
+            ("keeps_covering", self.keeps_covering),
+            ("emerges", self.emerges),
+        ):  # (detection, track) rows
+            found = pairs[name] = {}
+            for d, t in rel.tolist() if len(rel) else ():
+                found.setdefault(grp_t[t], []).append((loc_d[d], loc_t[t]))
+        for name, rel in (("fits", self.fits), ("at_last_seen", self.at_last_seen)):
+            found = pairs[name] = {}  # (track, detection) rows
+            for t, d in rel.tolist() if len(rel) else ():
+                found.setdefault(grp_t[t], []).append((loc_t[t], loc_d[d]))
+        for name, rel in (("heading", self.heading), ("size_gap", self.size_gap)):
+            found = pairs[name] = {}  # (track, detection, level) rows
+            for t, d, level in rel.tolist() if len(rel) else ():
+                found.setdefault(grp_t[t], []).append((loc_t[t], loc_d[d], level))
+        moving: dict[int, list[int]] = {}
+        if self.moving is not None:
+            for t in np.flatnonzero(self.moving).tolist():
+                moving.setdefault(grp_t[t], []).append(loc_t[t])
         ids = self.track_id.tolist()
         index = {t: i for i, t in enumerate(ids)}
-        where_t: dict[int, int] = {}
-        where_d: dict[int, int] = {}
-        for g, (ts, ds) in enumerate(groups):
-            where_t.update(dict.fromkeys(ts, g))
-            where_d.update(dict.fromkeys(ds, g))
-        parts: list[dict[str, list]] = [
-            {
-                "cand": [],
-                "covers": [],
-                "fits": [],
-                "keeps": [],
-                "emerges": [],
-                "hidden": [],
-                "heading": [],
-                "size_gap": [],
-                "seen": [],
-            }
-            for _ in groups
-        ]
-        for name, rel in (("heading", self.heading), ("size_gap", self.size_gap)):
-            if len(rel):  # only with direction_weight / size_weight
-                for t, d, level in rel.tolist():
-                    parts[where_t[t]][name].append((t, d, level))
-        moving = set() if self.moving is None else set(np.flatnonzero(self.moving).tolist())
-        for t, d, lik in self.cand.tolist():
-            parts[where_t[t]]["cand"].append((t, d, lik, (t, d) in preferred))
-        rows = zip(
-            self.covers.tolist(),
-            self.cover_ranks().tolist(),
-            self.cover_shares().tolist(),
-            self.cover_depths().tolist(),
-            strict=True,
-        )
-        for (d, t), r, share, margin in rows:
-            parts[where_t[t]]["covers"].append((d, t, r, share, margin))
-        for t, d in self.fits.tolist():
-            parts[where_t[t]]["fits"].append((t, d))
-        for t, d in self.at_last_seen.tolist():  # cand pairs: in the track's component
-            parts[where_t[t]]["seen"].append((t, d))
-        for name, rel in (("keeps", self.keeps_covering), ("emerges", self.emerges)):
-            for d, t in rel.tolist():
-                parts[where_t[t]][name].append((d, t))
-        for tid, oid in self.hidden_by.tolist():
-            t = index.get(tid)
-            if t is not None and t in where_t:
-                parts[where_t[t]]["hidden"].append((t, oid))
+        hidden_of: dict[int, list[tuple[int, int]]] = {}
+        for tid, oid in self.hidden_by.tolist() if len(self.hidden_by) else ():
+            at = index.get(tid)
+            if at is not None:
+                hidden_of.setdefault(grp_t[at], []).append((at, oid))
         gone_groups = gone_groups or [[] for _ in groups]
-        out = []
-        for (ts, ds), gs, found in zip(groups, gone_groups, parts, strict=True):
-            lt = {t: i for i, t in enumerate(ts)}
-            ld = {d: j for j, d in enumerate(ds)}
+        first = bool(self.first_frame)
+        # per group, the tuple of each sparse relation (most groups have none)
+        sparse = [
+            _by_group(rows, n)
+            for rows in (
+                covers,
+                pairs["keeps_covering"],
+                pairs["emerges"],
+                pairs["fits"],
+                moving,
+                pairs["heading"],
+                pairs["size_gap"],
+                pairs["at_last_seen"],
+            )
+        ]
+        cov, keeps, emerges, fits, mov, heading, size_gap, seen = sparse
+        out: list[tuple[ComponentFields, list[int], list[int]]] = []
+        for g, (ts, ds) in enumerate(groups):
             local_ids = [ids[t] for t in ts]
-            hidden = []
-            for t, oid in found["hidden"]:
+            hidden: list[tuple[int, int]] = []
+            for t, oid in hidden_of.get(g, ()):
                 o = index.get(oid)
-                if o is not None and o in lt:
-                    hidden.append((lt[t], lt[o]))
+                if o is not None and grp_t[o] == g:
+                    hidden.append((loc_t[t], loc_t[o]))
                     continue
                 if oid not in local_ids[len(ts) :]:
                     local_ids.append(oid)  # an occluder outside the component: named, no facts
-                hidden.append((lt[t], len(ts) + local_ids[len(ts) :].index(oid)))
-            gone, back = self._gone_part(gs, ld)
-            local_ids += [int(self.gone_id[g]) for g in gs]  # numbered after the occluders
-            component = Component(
-                first_frame=bool(self.first_frame),
-                tracks=tuple(track_rows[t] for t in ts),
-                dets=tuple(det_rows[d] for d in ds),
-                cand=tuple((lt[t], ld[d], lik, p) for t, d, lik, p in found["cand"]),
-                covers=tuple((ld[d], lt[t], r, sh, mg) for d, t, r, sh, mg in found["covers"]),
-                keeps_covering=tuple((ld[d], lt[t]) for d, t in found["keeps"]),
-                emerges=tuple((ld[d], lt[t]) for d, t in found["emerges"]),
-                hidden_by=tuple(hidden),
-                fits=tuple((lt[t], ld[d]) for t, d in found["fits"]),
-                gone=gone,
-                back=back,
-                moving=tuple(lt[t] for t in ts if t in moving) if moving else (),
-                heading=_local3(found["heading"], lt, ld),
-                size_gap=_local3(found["size_gap"], lt, ld),
-                at_last_seen=tuple((lt[t], ld[d]) for t, d in found["seen"]),
+                hidden.append((loc_t[t], len(ts) + local_ids[len(ts) :].index(oid)))
+            gs = gone_groups[g]
+            gone, back = self._gone_part(gs, loc_d) if gs else ((), ())
+            if gs:
+                local_ids += [int(self.gone_id[k]) for k in gs]  # numbered after the occluders
+            fields_: ComponentFields = (
+                first,
+                tuple([track_rows[t] for t in ts]),
+                tuple([det_rows[d] for d in ds]),
+                tuple(cand[g]),
+                cov[g],
+                keeps[g],
+                emerges[g],
+                tuple(hidden),
+                fits[g],
+                gone,
+                back,
+                mov[g],
+                heading[g],
+                size_gap[g],
+                seen[g],
             )
-            out.append((component, local_ids, list(ds)))
+            out.append((fields_, local_ids, list(ds)))
         return out
 
     def _gone_part(
-        self, gs: list[int], ld: dict[int, int]
+        self, gs: list[int], loc_d: list[int]
     ) -> tuple[tuple[tuple[int, int], ...], tuple[tuple[int, int, int], ...]]:
         """The ``gone`` and ``back`` rows of a component's ended tracks ``gs`` (frame indices),
-        in its terms (``ld``: frame detection index -> local)."""
+        in its terms (``loc_d``: frame detection index -> local; a back row's detection is
+        in the ended track's component)."""
         if not gs:
             return (), ()
         lg = {g: k for k, g in enumerate(gs)}
         gone = tuple((int(self.gone_how[g]), int(self.gone_class[g])) for g in gs)
-        back = tuple(
-            (lg[g], ld[d], lik) for g, d, lik in self.back.tolist() if g in lg and d in ld
-        )
+        back = tuple((lg[g], loc_d[d], lik) for g, d, lik in self.back.tolist() if g in lg)
         return gone, back
 
 
-def _local3(
-    rows: list[tuple[int, int, int]], lt: dict[int, int], ld: dict[int, int]
-) -> tuple[tuple[int, int, int], ...]:
-    """``(track, detection, level)`` rows in a component's local numbering (``lt``, ``ld``)."""
-    return tuple((lt[t], ld[d], a) for t, d, a in rows) if rows else ()
+def _by_group(rows: dict[int, list], n: int) -> list[tuple]:
+    """``rows`` (group -> its rows) as a tuple of rows per group of ``n`` (empty where none)."""
+    out: list[tuple] = [()] * n
+    for g, found in rows.items():
+        out[g] = tuple(found)
+    return out
 
 
 def _steps(values: np.ndarray | None, n: int) -> np.ndarray:
