@@ -59,3 +59,43 @@ def test_program_facts_helpers():
     assert asp.parse_messages(CHOICE) is None and asp.parse_messages("a :-") is not None
     assert asp.limits(max_conflicts=5, max_models=0) == ["--models=0", "--solve-limit=5"]
     assert "#show" in asp.encoding("sensemaking.abduction", "tracking.lp")
+
+
+_THREADS = """
+import sys, threading
+from sensemaking import asp
+from sensemaking.abduction.solver import AbductionSolver
+
+solver = AbductionSolver()
+errors = []
+
+def build():
+    for _ in range(600):
+        try:
+            asp.control(list(solver.options), asp.parsed(solver.program))
+        except RuntimeError as exc:
+            errors.append(str(exc))
+            return
+
+threads = [threading.Thread(target=build) for _ in range(4)]
+for t in threads:
+    t.start()
+for t in threads:
+    t.join()
+print(len(errors), errors[:1])
+sys.exit(1 if errors else 0)
+"""
+
+
+def test_threads_build_controls_of_one_program_at_once() -> None:
+    """The slot shapes' worker and the tracker's thread build Controls of the same program at
+    once: each thread adds its own parsed statements (shared ones were corrupted: "invalid ast",
+    or a crash). In a child process, so that a crash is a failure, not a lost test worker."""
+    import subprocess
+    import sys
+
+    done = subprocess.run(
+        [sys.executable, "-c", _THREADS], capture_output=True, text=True, timeout=600
+    )
+    assert done.returncode == 0, done.stdout + done.stderr[-500:]
+    assert asp.parsed(CHOICE) is asp.parsed(CHOICE)  # still parsed once per thread

@@ -17,6 +17,7 @@ program text once per process (re-adding its statements is ~3x cheaper than pars
 from __future__ import annotations
 
 import logging
+import threading
 import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
@@ -61,10 +62,16 @@ def encoding(package: str, name: str) -> str:
     return resources.files(package).joinpath("encodings", name).read_text(encoding="utf-8")
 
 
-@lru_cache(maxsize=16)
 def parsed(program: str) -> tuple[AST, ...]:
     """The program text parsed once into AST statements (re-adding them: ~3x cheaper than
-    parsing)."""
+    parsing), once per thread: clingo counts the references to an AST node without a lock, so
+    two threads adding the same statements to their Controls at once corrupt them (an "invalid
+    ast" error, or a crash)."""
+    return _parsed(program, threading.get_ident())
+
+
+@lru_cache(maxsize=16)
+def _parsed(program: str, thread: int) -> tuple[AST, ...]:
     statements: list[AST] = []
     parse_string(program, statements.append)
     return tuple(statements)
