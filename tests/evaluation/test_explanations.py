@@ -13,8 +13,11 @@ from sensemaking.classes import CLASS_IDS
 from sensemaking.cli import main
 from sensemaking.detections import Detections
 from sensemaking.evaluation.explanations import (
+    IMPLAUSIBLE,
+    PLAUSIBLE,
     ExplanationResult,
     GroundTruth,
+    WarningVerdict,
     confidence_text,
     evaluate_explanations,
     explanation_table,
@@ -725,3 +728,52 @@ def test_cli_html_curve_equals_the_printed_confidence_table(mot_run, capsys):
         assert printed[thr] == (f"{100 * precision:.1f}", f"{100 * recall:.1f}")
     with pytest.raises(SystemExit):  # the page is about explanations only
         main(["evaluate", "--gt", str(tmp / "gt"), "--results", str(res), "--html", "x.html"])
+
+
+# -- warnings with a confidence (HIDDEN_ENTITY, issue 22 item 2) ----------------------------------
+def _warned(verdict: str, confidence: float | None) -> WarningVerdict:
+    return WarningVerdict(10, "HIDDEN_ENTITY", (1, 2), verdict, "test", confidence=confidence)
+
+
+def test_warnings_are_kept_at_or_above_each_confidence():
+    """Two right warnings (0.9, 0.5) and a wrong one (0.6): at 0.6 precision is 1 of 2 and one
+    of the two right warnings is kept; at 1.0 none is kept. Warnings without any confidence
+    get no table."""
+    res = ExplanationResult(
+        "s",
+        warnings=[_warned(PLAUSIBLE, 0.9), _warned(PLAUSIBLE, 0.5), _warned(IMPLAUSIBLE, 0.6)],
+    )
+    row = res.summary()["warnings"]["HIDDEN_ENTITY"]
+    by = {r["threshold"]: r for r in row["by_confidence"]}
+    assert (by[0.0]["n"], by[0.0]["precision"], by[0.0]["recall"]) == (3, 2 / 3, 1.0)
+    assert (by[0.6]["n"], by[0.6]["precision"], by[0.6]["recall"]) == (2, 0.5, 0.5)
+    assert (by[0.9]["n"], by[0.9]["precision"], by[0.9]["recall"]) == (1, 1.0, 0.5)
+    assert (by[1.0]["n"], by[1.0]["precision"], by[1.0]["recall"]) == (0, None, 0.0)
+    text = confidence_text({"bench": [res]})
+    assert "| bench | HIDDEN_ENTITY | 0.6 | 2 | 1 | 1 | 50.0 | 50.0 |" in text
+    bare = ExplanationResult("s", warnings=[_warned(PLAUSIBLE, None)])
+    assert "by_confidence" not in bare.summary()["warnings"]["HIDDEN_ENTITY"]
+    assert confidence_text({"bench": [bare]}) == ""
+
+
+def test_a_warnings_confidence_is_read_from_its_record_and_drawn(mot_run):
+    """The judge reads the record's confidence (a number in 0..1, else none), and the HTML page
+    draws the warning's curve from the same rows as the table."""
+    from sensemaking.evaluation.curves import explanations_html
+    from sensemaking.evaluation.explanations import _stated_confidence
+
+    assert _stated_confidence({"confidence": 0.75}) == 0.75
+    assert _stated_confidence({"details": {"confidence": 0.25}}) == 0.25
+    for bad in (True, "0.5", 1.5, float("nan"), None):
+        assert _stated_confidence({"confidence": bad}) is None
+    res = ExplanationResult("s", warnings=[_warned(PLAUSIBLE, 0.9), _warned(IMPLAUSIBLE, 0.6)])
+    page = explanations_html({"bench": [res]})
+    rows = res.summary()["warnings"]["HIDDEN_ENTITY"]["by_confidence"]
+    points = [
+        (r["threshold"], r["recall"], r["precision"])
+        for r in rows
+        if r["recall"] is not None and r["precision"] is not None
+    ]
+    drawn = _svg_points(page, "HIDDEN_ENTITY")
+    assert len(drawn) == len(points) == 6
+    assert all(d == pytest.approx(p, abs=1e-3) for d, p in zip(drawn, points, strict=True))

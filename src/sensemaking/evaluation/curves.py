@@ -131,14 +131,17 @@ def explanations_html(
     results: Mapping[str, Sequence[ExplanationResult]], title: str = "Explanation quality"
 ) -> str:
     """One self-contained HTML page: per benchmark, a precision-recall curve and its table for
-    each event kind with ``by_confidence`` rows (the hidings), then the explanation table and
+    each event or warning kind with ``by_confidence`` rows (the hidings, HIDDEN_ENTITY; for a
+    warning, recall is the share of the right warnings kept), then the explanation table and
     the per-sequence spread (markdown, as printed)."""
     sections = []
     for bench, seqs in results.items():
-        events = ExplanationResult.combine(seqs).summary()["events"]
+        summary = ExplanationResult.combine(seqs).summary()
         blocks = []
-        for kind in EVENT_KINDS:
-            row = events.get(kind, {})
+        for kind, row in [
+            *((k, summary["events"].get(k, {})) for k in EVENT_KINDS),
+            *summary["warnings"].items(),
+        ]:
             rows = row.get("by_confidence")
             if not rows or not row.get("total"):
                 continue
@@ -148,7 +151,7 @@ def explanations_html(
                 f"<figcaption>{confidence_rows_html(rows)}</figcaption></figure>"
             )
         if not blocks:
-            blocks.append("<p>No event with a confidence.</p>")
+            blocks.append("<p>No event or warning with a confidence.</p>")
         sections.append(
             f'<section data-benchmark="{html.escape(bench)}"><h2>{html.escape(bench)}</h2>'
             + "".join(blocks)
@@ -166,7 +169,8 @@ def explanations_html(
         f"<title>{html.escape(title)}</title><style>{style}</style></head><body>"
         f"<h1>{html.escape(title)}</h1>"
         "<p>Precision (plausible of the decidable) and recall of the events kept at or above "
-        "each confidence threshold (docs/EXPLANATIONS.md).</p>"
+        "each confidence threshold; for a warning, recall is the share of its plausible "
+        "warnings kept (docs/EXPLANATIONS.md).</p>"
         + "".join(sections)
         + f"<h2>All events and warnings</h2><pre>{html.escape(tables)}</pre>"
         "</body></html>\n"

@@ -413,6 +413,7 @@ class WarningVerdict:
         SUDDEN_STOP: ``ttc_s`` (ground-truth time to contact, inf when not closing), ``lateral_m``
         (|X|), ``warned_ttc_s`` (the warning's own estimate, if any).
         OVERTAKING: ``lateral_m`` (|X_A - X_B| now).
+        confidence: the warning's own (0..1), None where it states none.
     """
 
     frame: int
@@ -429,6 +430,7 @@ class WarningVerdict:
     ttc_s: float | None = None
     lateral_m: float | None = None
     warned_ttc_s: float | None = None
+    confidence: float | None = None
 
     @property
     def on_target(self) -> bool:
@@ -535,6 +537,10 @@ class ExplanationResult:
                 )
                 lanes = [w.in_lane for w in back if w.in_lane is not None]
                 row["in_lane"] = sum(lanes) if lanes else None
+            if any(w.confidence is not None for w in ws):
+                # recall: of the right warnings (plausible, every confidence), those kept
+                right = [_confidence(w) for w in ws if w.verdict == PLAUSIBLE]
+                row["by_confidence"] = confidence_table(ws, right, len(right))
             out["warnings"][kind] = row
         out["late_starts"] = self.late_starts
         out["starts_total"] = self.starts_total
@@ -545,23 +551,26 @@ class ExplanationResult:
 CONFIDENCE_THRESHOLDS = (0.0, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0)
 
 
-def _confidence(v: Verdict) -> float:
-    """An event's confidence; 1.0 where it states none (a log without confidences)."""
-    return 1.0 if v.event.confidence is None else float(v.event.confidence)
+def _confidence(v: Verdict | WarningVerdict) -> float:
+    """An event's or a warning's confidence; 1.0 where it states none."""
+    level = v.confidence if isinstance(v, WarningVerdict) else v.event.confidence
+    return 1.0 if level is None else float(level)
 
 
 def confidence_table(
-    verdicts: Sequence[Verdict],
+    verdicts: Sequence[Verdict] | Sequence[WarningVerdict],
     hit_confidence: Sequence[float],
     occasions: int,
     thresholds: Sequence[float] = CONFIDENCE_THRESHOLDS,
 ) -> list[dict[str, Any]]:
-    """Precision and recall of the events whose confidence is at least each threshold.
+    """Precision and recall of the events (or warnings) whose confidence is at least each
+    threshold.
 
-    Per threshold: ``n`` events kept, their ``plausible`` / ``implausible`` counts, ``precision``
-    (plausible of the decidable, None without any) and ``recall`` (recall occasions explained by
-    a kept event, of ``occasions``; None without occasions). A user who keeps only the events at
-    or above a threshold gets these figures."""
+    Per threshold: ``n`` kept, their ``plausible`` / ``implausible`` counts, ``precision``
+    (plausible of the decidable, None without any) and ``recall`` (of ``occasions``, those whose
+    ``hit_confidence`` reaches the threshold; None without occasions: for events the recall
+    occasions explained by a kept event, for warnings the plausible warnings kept). A user who
+    keeps only what is at or above a threshold gets these figures."""
     out = []
     eps = 1e-9  # confidences are written with 3 decimals
     for thr in thresholds:
@@ -811,13 +820,24 @@ class _BorderJudge(_Evidence):
         return Verdict(ev, PLAUSIBLE, "lost_inside", (g,))
 
 
+def _stated_confidence(w: Mapping[str, Any]) -> float | None:
+    """A warning record's confidence (0..1: the record's, else its details'), None if it
+    states none or not a number in that range."""
+    level = w.get("confidence", (w.get("details") or {}).get("confidence"))
+    if isinstance(level, bool) or not isinstance(level, (int, float)):
+        return None
+    return float(level) if 0.0 <= level <= 1.0 else None
+
+
 class _WarningJudge(_Evidence):
     """HIDDEN_ENTITY, OVERTAKING and SUDDEN_STOP warnings."""
 
     def hidden_entity(self, w: Mapping[str, Any]) -> WarningVerdict:
         f, objs = int(w["frame"]), tuple(int(o) for o in w["objects"])
         details = w.get("details") or {}
-        judged = partial(WarningVerdict, f, "HIDDEN_ENTITY", objs)
+        judged = partial(
+            WarningVerdict, f, "HIDDEN_ENTITY", objs, confidence=_stated_confidence(w)
+        )
         g, _ = self.gt_before(objs[0], f)
         ant = details.get("anticipation") or {}
         pred_frame = details.get("reappear_frame", ant.get("reappear_frame"))
@@ -860,7 +880,7 @@ class _WarningJudge(_Evidence):
         """A overtakes B: in 3D, A was nearer than B at ``details.nearer_until`` (else one window
         before) and is farther now, the two side by side (``|X_A - X_B|`` >= ``min_side_m``)."""
         f, objs = int(w["frame"]), tuple(int(o) for o in w["objects"])
-        judged = partial(WarningVerdict, f, "OVERTAKING", objs)
+        judged = partial(WarningVerdict, f, "OVERTAKING", objs, confidence=_stated_confidence(w))
         if len(objs) != 2:
             return judged(verdict=UNDECIDABLE, reason="unmatched")
         g_a, _ = self.gt_before(objs[0], f, inclusive=True)
@@ -897,6 +917,7 @@ class _WarningJudge(_Evidence):
             "SUDDEN_STOP",
             objs,
             warned_ttc_s=None if warned is None else float(warned),
+            confidence=_stated_confidence(w),
         )
         g, _ = self.gt_before(objs[0], f, inclusive=True)
         tr = self.t
@@ -1212,22 +1233,37 @@ def confidence_text(
     results: Mapping[str, Sequence[ExplanationResult] | ExplanationResult | Mapping[str, Any]],
 ) -> str:
     """The ``hides_behind`` precision-recall table (markdown) against the events' confidence:
-    one row per benchmark and threshold (events at or above it kept); empty without events."""
+    one row per benchmark and threshold (events at or above it kept); then, for the warnings
+    that state a confidence (HIDDEN_ENTITY), their precision and the share of the right
+    (plausible) warnings kept at each threshold; empty without either."""
     lines = [
         "| benchmark | hides_behind confidence >= | n | plausible | implausible | precision % "
         "| recall % |",
         "|---|---:|---:|---:|---:|---:|---:|",
     ]
+    warned = [
+        "| benchmark | warning | confidence >= | n | plausible | implausible | precision % "
+        "| right warnings kept % |",
+        "|---|---|---:|---:|---:|---:|---:|---:|",
+    ]
     for bench, res in results.items():
-        row = _summary_of(res)["events"]["hides_behind"]
-        if not row["total"]:
-            continue
-        for r in row.get("by_confidence", []):
+        summary = _summary_of(res)
+        row = summary["events"]["hides_behind"]
+        for r in row.get("by_confidence", []) if row["total"] else []:
             lines.append(
                 f"| {bench} | {r['threshold']:.1f} | {r['n']} | {r[PLAUSIBLE]} "
                 f"| {r[IMPLAUSIBLE]} | {_pct(r['precision'])} | {_pct(r['recall'])} |"
             )
-    return "\n".join(lines) + "\n" if len(lines) > 2 else ""
+        for kind, wrow in summary["warnings"].items():
+            for r in wrow.get("by_confidence", []) if wrow["total"] else []:
+                warned.append(
+                    f"| {bench} | {kind} | {r['threshold']:.1f} | {r['n']} | {r[PLAUSIBLE]} "
+                    f"| {r[IMPLAUSIBLE]} | {_pct(r['precision'])} | {_pct(r['recall'])} |"
+                )
+    out = "\n".join(lines) + "\n" if len(lines) > 2 else ""
+    if len(warned) > 2:
+        out += ("\n" if out else "") + "\n".join(warned) + "\n"
+    return out
 
 
 def spread_table(
