@@ -92,17 +92,17 @@ def test_a_slot_solve_that_comes_short_joins_the_fresh_program(
     """A slot search cut by the conflict budget leaves its component to the frame's fresh
     program: every component is still answered, and the tracks are those of a run whose slot
     searches all complete (on this scene; where optima tie the two paths may differ)."""
-    run = slots_module.SlotSolver.run
+    run = slots_module._Grounded.solve
     calls = {"n": 0, "short": 0}
 
-    def short(self, ticket, budget_ms=None):  # type: ignore[no-untyped-def]
+    def short(self, true, budget_ms):  # type: ignore[no-untyped-def]
         calls["n"] += 1
         if calls["n"] % 3 == 0:
             calls["short"] += 1
             return None
-        return run(self, ticket, budget_ms)
+        return run(self, true, budget_ms)
 
-    monkeypatch.setattr(slots_module.SlotSolver, "run", short)
+    monkeypatch.setattr(slots_module._Grounded, "solve", short)
     cut = Tracker(CONFIG, solver_cache=SolverCache())
     mine = _run(cut)
     assert calls["short"] > 0 and cut.solver.stats["slot_calls"] > 0

@@ -41,8 +41,6 @@ from collections.abc import Iterable
 from dataclasses import fields
 from operator import attrgetter
 
-import clingo
-
 from sensemaking.abduction.problem import Component, ComponentFields, FrameProblem
 from sensemaking.abduction.slots import SlotSolver
 from sensemaking.abduction.solver import AbductionSolver, Answer, Det, Ref
@@ -50,9 +48,6 @@ from sensemaking.abduction.solver import AbductionSolver, Answer, Det, Ref
 __all__ = ["ComponentSolver", "SolverCache", "SHARED"]
 
 _Key = tuple[str, tuple[str, ...]]  # (program, options)
-#: a fresh program not ground yet: its Control, where each component's tracks and detections
-#: start
-_Fresh = tuple[clingo.Control, list[int], list[int]]
 #: a component as the bytes of its fields (:func:`_plain`), and an answer as plain tuples
 #: (:func:`_pack`): bytes and tuples of numbers and strings only, which Python's garbage
 #: collector does not walk (measured: 50-60 ms pauses on MOT17 with a few thousand
@@ -191,7 +186,6 @@ class ComponentSolver:
         if missed:
             remaining = None if budget_ms is None else budget_ms - (time.perf_counter() - t0) * 1e3
             solved = self._solve_together([comps[f] for f in missed], remaining)
-            self.stats["solver_calls"] += 1
             if solved is None:
                 return None
             for (key, uses), local in zip(missed.values(), solved, strict=True):
@@ -238,13 +232,11 @@ class ComponentSolver:
         self, components: list[Component], budget_ms: float | None
     ) -> list[Answer] | None:
         """Each component's answer (in its own numbering), from one program for all of them."""
-        started = time.perf_counter()
-        return self._fresh_solved(self._fresh_program(components), budget_ms, started)
-
-    def _fresh_program(self, components: list[Component]) -> _Fresh:
-        """The fresh program of ``components``, not ground yet: a Control with their facts
-        (each component numbered apart), and where each one's tracks and detections start."""
+        self.stats["solver_calls"] += 1
         uses = self.solver.uses
+        if len(components) == 1:
+            one = self.solver.solve_facts(components[0].facts(uses), budget_ms)
+            return None if one is None else [one]
         t_starts, d_starts, facts = [], [], []
         t0 = d0 = 0
         for c in components:
@@ -253,19 +245,10 @@ class ComponentSolver:
             facts += c.facts(uses, t0, d0)
             t0 += c.n_refs
             d0 += len(c.dets)
-        return self.solver.program_of(facts), t_starts, d_starts
-
-    def _fresh_solved(
-        self, fresh: _Fresh, budget_ms: float | None, started: float
-    ) -> list[Answer] | None:
-        """The answers of a :meth:`_fresh_program`: ground and solved (clingo's work, which
-        lets go of Python's lock: it may run in the fresh worker)."""
-        ctl, t_starts, d_starts = fresh
-        found = self.solver.ground_and_solve(ctl, budget_ms, started)
-        if found is None:
+        whole = self.solver.solve_facts(facts, budget_ms)
+        if whole is None:
             return None
-        whole = found[1]
-        return [whole] if len(t_starts) == 1 else _split(whole, t_starts, d_starts)
+        return _split(whole, t_starts, d_starts)
 
 
 #: every field of a component, in order: a new field is part of the cache key by itself
@@ -295,7 +278,7 @@ def _pack_ref(x: Ref) -> int | str | tuple[int]:
 
 def _pack(a: Answer) -> Packed:
     """The answer as nested plain tuples (a detection ``Det(j)`` as ``(j,)``); see
-    :func:`_unpack_mapped`."""
+    :func:`_unpack_into`."""
     return (
         tuple(a.assign.items()),
         tuple(a.resume.items()),
@@ -315,40 +298,10 @@ def _pack(a: Answer) -> Packed:
     )
 
 
-def _unpack_mapped(p: Packed, track_ids: list[int], det_rows: list[int]) -> Answer:
-    """``Answer.mapped(track_ids, det_rows)`` of the answer :func:`_pack` made ``p`` of."""
-    assign, resume, start, end, halt, ignore_trk, ignore_det, events, fluents = p[:9]
-    tid, row = track_ids.__getitem__, det_rows.__getitem__
-    n_tracks = len(track_ids)
-
-    def ref(x: int | str | tuple[int]) -> Ref:
-        if isinstance(x, tuple):
-            return Det(row(x[0]))
-        if isinstance(x, int) and 0 <= x < n_tracks:
-            return tid(x)
-        return x
-
-    return Answer(
-        assign={tid(t): row(d) for t, d in assign},
-        resume={tid(t): row(d) for t, d in resume},
-        start=[row(d) for d in start],
-        end=[tid(t) for t in end],
-        halt=[tid(t) for t in halt],
-        ignore_trk=[tid(t) for t in ignore_trk],
-        ignore_det=[row(d) for d in ignore_det],
-        events=[(n, tuple(ref(a) for a in args)) for n, args in events],
-        fluents=[(n, tuple(ref(a) for a in args), v) for n, args, v in fluents],
-        cost=p[9],
-        optimal=p[10],
-        budget_hit=p[11],
-        timed_out=p[12],
-        solve_ms=p[13],
-        confidence=[(n, tuple(ref(a) for a in args), c) for n, args, c in p[14]],
-    )
-
-
 def _unpack_into(answer: Answer, p: Packed, track_ids: list[int], det_rows: list[int]) -> None:
-    """``answer.merge(_unpack_mapped(p, track_ids, det_rows))`` without the Answer between."""
+    """Merge the answer :func:`_pack` made ``p`` of into ``answer`` (as :meth:`Answer.merge`),
+    its tracks as ``track_ids`` and detections as ``det_rows`` name them (in the frame's
+    terms), without building the Answer between."""
     assign, resume, start, end, halt, ignore_trk, ignore_det, events, fluents = p[:9]
     tid, row = track_ids.__getitem__, det_rows.__getitem__
     if assign:

@@ -44,7 +44,7 @@ from sensemaking import asp
 from sensemaking.abduction.problem import SHARE_STEP, TRACK_FLAGS, VISIBILITY_VALUES, Component
 from sensemaking.abduction.solver import AbductionSolver, Answer, answer_of
 
-__all__ = ["SlotSolver", "Ticket", "Shape", "shape_of", "vocabulary", "pieces", "piece_facts"]
+__all__ = ["SlotSolver", "Shape", "shape_of", "vocabulary", "pieces", "piece_facts"]
 
 log = logging.getLogger(__name__)
 
@@ -271,15 +271,6 @@ class _Grounded:
         return None if solved is None else answer_of(solved)
 
 
-@dataclass(frozen=True)
-class Ticket:
-    """A component planned for a slot solve (:meth:`SlotSolver.plan`): its shape's ground
-    Control and the literals of its facts."""
-
-    grounded: _Grounded
-    true: set[int]
-
-
 class SlotSolver:
     """Answers components up to a small shape from Controls ground once per shape.
 
@@ -360,16 +351,6 @@ class SlotSolver:
     def solve(self, component: Component, budget_ms: float | None = None) -> Answer | None:
         """The component's answer (local indices), or None when it lies outside the slots or
         got no complete answer here (the caller then solves it on a fresh Control)."""
-        ticket = self.plan(component)
-        return None if ticket is None else self.run(ticket, budget_ms)
-
-    def plan(self, component: Component) -> Ticket | None:
-        """The first half of :meth:`solve`: the ground shape and the assumptions that answer
-        the component (grounding the shape if it is due), or None when it lies outside the
-        slots. Planning the components of a frame in turn before running them changes nothing:
-        running a ticket changes no state of the solver but its counts (clasp forgets between
-        solves), and a ticket keeps its Control even if a later plan drops it from the kept
-        shapes."""
         shape = shape_of(component)
         if not self.fits(shape):
             self.stats["outside"] += 1
@@ -389,16 +370,10 @@ class SlotSolver:
             if true is None and grounded is not None and self._brings_values(component, grounded):
                 grounded = self._ground(shape, component)
                 true = grounded.literals_of(component)
-        if true is None or grounded is None:  # grounded is None only with true None
-            self.stats["outside"] += 1
-            return None
-        return Ticket(grounded, true)
-
-    def run(self, ticket: Ticket, budget_ms: float | None = None) -> Answer | None:
-        """The second half of :meth:`solve`: the planned component's answer, or None when the
-        search got no complete answer (the caller then solves it on a fresh Control)."""
-        with self._lock:
-            answer = ticket.grounded.solve(ticket.true, budget_ms)
+            if true is None or grounded is None:  # grounded is None only with true None
+                self.stats["outside"] += 1
+                return None
+            answer = grounded.solve(true, budget_ms)
         if answer is None or answer.budget_hit:
             # a search cut short by the conflict budget may stop elsewhere than the fresh one's
             self.stats["outside"] += 1

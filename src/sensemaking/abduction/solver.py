@@ -182,14 +182,6 @@ def grounded(
     to ground (only a user's rules do, on some facts) is an InputError naming ``what``; more
     than ``max_atoms`` ground atoms one naming ``scope`` (default ``what``)."""
     ctl = asp.control(options, asp.parsed(program), facts)
-    _ground(ctl, what, max_atoms, scope)
-    return ctl
-
-
-def _ground(
-    ctl: clingo.Control, what: str, max_atoms: int | None = None, scope: str | None = None
-) -> None:
-    """Ground the base part of ``ctl`` (see :func:`grounded`)."""
     try:
         ctl.ground([("base", [])])
     except RuntimeError as exc:
@@ -197,6 +189,7 @@ def _ground(
         raise InputError(f"{what} failed to ground: {msg}") from None
     if max_atoms is not None:
         check_atoms(len(ctl.symbolic_atoms), max_atoms, scope or what)
+    return ctl
 
 
 class AbductionSolver:
@@ -342,27 +335,15 @@ class AbductionSolver:
     ) -> tuple[list[Symbol], Answer] | None:
         """The shown atoms of the optimal model and their :class:`Answer` (see solve_facts)."""
         t0 = time.perf_counter()
-        return self.ground_and_solve(self.program_of(facts), budget_ms, t0, forbid)
-
-    def program_of(self, facts: Iterable[Symbol]) -> clingo.Control:
-        """A fresh Control of the program and ``facts``, not ground yet: the first half of
-        :meth:`solve_facts` (Python's work; the second, :meth:`ground_and_solve`, is mostly
-        clingo's, which lets go of Python's lock)."""
-        return asp.control(self.options, asp.parsed(self.program), facts)
-
-    def ground_and_solve(
-        self,
-        ctl: clingo.Control,
-        budget_ms: float | None = None,
-        started: float | None = None,
-        forbid: Iterable[Iterable[Symbol]] = (),
-    ) -> tuple[list[Symbol], Answer] | None:
-        """The second half of :meth:`solve_facts` on a :meth:`program_of` Control: ground it,
-        solve it (``budget_ms`` counted from ``started``, a ``time.perf_counter()`` value), and
-        read the optimal model."""
-        t0 = time.perf_counter() if started is None else started
         forbid = [list(f) for f in forbid]
-        _ground(ctl, "the encoding", self.max_atoms, "the encoding (one frame)")
+        ctl = grounded(
+            self.options,
+            self.program,
+            facts,
+            "the encoding",
+            self.max_atoms,
+            "the encoding (one frame)",
+        )
         asp.forbid(ctl, forbid)
         try:
             # only a user's encoding or rules can rule out every explanation of a frame
