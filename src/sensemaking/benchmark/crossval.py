@@ -94,7 +94,10 @@ GRID: dict[str, dict[str, tuple[Any, ...]]] = {
 }
 #: how a fold chooses its parameters: the headline rule first; ``calibrate`` estimates them
 RULES = ("minimax", "mean", "calibrate")
-_HAND = "hand-chosen on the shared sequences (in-sample), not cross-validated"
+_HAND = (
+    "hand-chosen on the shared sequences, then checked leave one video out against other "
+    "values: the folds keep it (docs/DESIGN-NOTES.md)"
+)
 _DEEPSORT = "DeepSORT's value (KalmanConfig), not tuned"
 #: where the value of each parameter comes from, when it is neither on the grid nor estimated by
 #: calibrate for the presets (one line each; read by docs/PARAMETERS.md)
