@@ -341,3 +341,44 @@ def test_single_step_predict_clamps_like_general_formula():
     for _ in range(3):
         np.testing.assert_array_equal(fast.predict(1), general.predict(np.ones(2, dtype=np.int64)))
     _assert_same(_state(fast), _state(general))
+
+
+def _run_adaptive(rate: float, jitter: float, seed: int = 0) -> tuple[KalmanBank, np.ndarray]:
+    """A 40x100 box walking 3 px/frame for 60 frames, measured with ``jitter`` px of noise;
+    returns the bank and the prediction 10 frames after the last measurement."""
+    rng = np.random.default_rng(seed)
+    bank = KalmanBank(KalmanConfig(velocity_std=0.1, velocity_adapt=rate))
+    bank.add(np.array([[100.0, 100.0, 140.0, 200.0]]))
+    for k in range(1, 60):
+        bank.predict()
+        box = np.array([[100.0 + 3 * k, 100.0, 140.0 + 3 * k, 200.0]])
+        bank.update(np.array([0]), box + rng.normal(0.0, jitter, (1, 4)))
+    return bank, bank.peek(10)
+
+
+def test_velocity_noise_follows_the_innovations_when_adapting() -> None:
+    smooth, _ = _run_adaptive(0.2, jitter=0.5)
+    erratic, _ = _run_adaptive(0.2, jitter=12.0)
+    off, _ = _run_adaptive(0.0, jitter=0.5)
+    # steady motion measured closely: the velocity noise shrinks, the velocity settles
+    assert smooth.covariance()[0, 4, 4] < 0.5 * off.covariance()[0, 4, 4]
+    # detections far from every prediction: it does not shrink
+    assert erratic.covariance()[0, 4, 4] > smooth.covariance()[0, 4, 4]
+
+
+def test_velocity_adapt_off_is_the_fixed_filter() -> None:
+    bank, ahead = _run_adaptive(0.0, jitter=2.0)
+    fixed = KalmanBank(KalmanConfig(velocity_std=0.1))
+    rng = np.random.default_rng(0)
+    fixed.add(np.array([[100.0, 100.0, 140.0, 200.0]]))
+    for k in range(1, 60):
+        fixed.predict()
+        box = np.array([[100.0 + 3 * k, 100.0, 140.0 + 3 * k, 200.0]])
+        fixed.update(np.array([0]), box + rng.normal(0.0, 2.0, (1, 4)))
+    assert np.array_equal(fixed.peek(10), ahead)
+    assert np.array_equal(fixed.covariance(), bank.covariance())
+
+
+def test_velocity_adapt_out_of_range_is_refused() -> None:
+    with pytest.raises(ValueError, match="velocity_adapt"):
+        KalmanConfig(velocity_adapt=1.5)

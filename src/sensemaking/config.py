@@ -376,6 +376,11 @@ class KalmanConfig:
             the first velocity carries about sqrt(2) x the detector noise.
             The tracker sets it from ``TrackerConfig.velocity_prior`` (box sizes per second,
             divided by the frame rate) unless that is None.
+        velocity_adapt: rate, per correction, at which each track's velocity noise follows
+            its own innovations (covariance matching: it grows while the detections land
+            farther from the predictions than the filter expects, shrinks while nearer), from
+            ``velocity_std`` within a factor of 16 either way. 0: off, ``velocity_std`` for
+            every track. For a camera that sometimes moves and sometimes stands still.
     """
 
     position_std: float = param(1 / 20, "float", _BOX + " per frame", 0.0, 100.0, low_open=True)
@@ -386,6 +391,7 @@ class KalmanConfig:
     )
     init_velocity_std: float = param(1.0, "float", _BOX + " per frame", 0.0, 100.0, low_open=True)
     min_size: float = param(1.0, "float", "pixels", 0.0, 10_000.0, low_open=True)
+    velocity_adapt: float = param(0.0, "float", "fraction per correction", 0.0, 1.0)
 
     def __post_init__(self) -> None:
         # its own, weaker check (a TrackerConfig checks the ranges): a bank is made on its own
@@ -400,6 +406,10 @@ class KalmanConfig:
             value = getattr(self, name)
             if not np.isfinite(value) or value <= 0:
                 raise ValueError(f"KalmanConfig.{name} must be finite and > 0, got {value!r}")
+        if not 0.0 <= self.velocity_adapt <= 1.0:
+            raise ValueError(
+                f"KalmanConfig.velocity_adapt must be in [0, 1], got {self.velocity_adapt!r}"
+            )
 
 
 @dataclass(frozen=True)

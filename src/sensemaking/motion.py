@@ -31,12 +31,19 @@ from sensemaking.config import KalmanConfig  # declared with the other parameter
 __all__ = ["KalmanConfig", "KalmanBank"]
 
 
-# columns of the (T, 44) state array (one array: a row gather, scatter, append or delete is one
+# columns of the (T, 45) state array (one array: a row gather, scatter, append or delete is one
 # numpy call for all quantities): the filter (20), its copy after the last correction (20) and
 # the last measurement (4), which :meth:`KalmanBank.reupdate` starts from
 _X, _PV, _V, _VV, _PP = slice(0, 4), slice(4, 8), slice(8, 12), slice(12, 16), slice(16, 20)
 _FILTER, _FROZEN, _OBS = slice(0, 20), slice(20, 40), slice(40, 44)
-_COLUMNS = 44
+# and the factor on the velocity noise's variance that ``velocity_adapt`` moves (1 when off)
+_ADAPT = slice(44, 45)
+_COLUMNS = 45
+# the factor's bounds: velocity_std within 16x either way (DeepSORT's 1/160 to 0.1 and back)
+_ADAPT_LOW, _ADAPT_HIGH = 1.0 / 256.0, 256.0
+# geometric mean of chi-square(4) / 4, the normalised innovation of a consistent filter: the
+# factor stands still on average where the filter's expectation is right
+_NIS_GEOMEAN = float(np.exp(0.42278433509846713 - np.log(2.0)))
 # the noise scale of cx, cy, w, h is w, h, w, h (:meth:`KalmanBank._scale`)
 _WHWH = np.array([2, 3, 2, 3], dtype=np.intp)
 
@@ -73,7 +80,7 @@ class KalmanBank:
         self._bind(np.zeros((0, _COLUMNS)))
 
     def _bind(self, state: np.ndarray) -> None:
-        """Hold the (T, 44) state array and its column views: one array, so that a row
+        """Hold the (T, 45) state array and its column views: one array, so that a row
         gather, scatter, append or delete is one numpy call for all its quantities."""
         self._s = state
         self._x = state[:, _X]  # (T, 4) cx, cy, w, h
@@ -161,6 +168,7 @@ class KalmanBank:
         new[:, _VV] = (cfg.init_velocity_std * s) ** 2
         new[:, _FROZEN] = new[:, _FILTER]
         new[:, _OBS] = z
+        new[:, _ADAPT] = 1.0
         self._bind(np.concatenate([self._s, new]))
         return np.arange(start, start + z.shape[0], dtype=np.intp)
 
@@ -177,6 +185,8 @@ class KalmanBank:
         s2 = self._scale(self._x) ** 2
         qp = cfg.position_std**2 * s2
         qv = cfg.velocity_std**2 * s2
+        if cfg.velocity_adapt > 0.0:
+            qv = qv * self._s[:, _ADAPT]
         if isinstance(n, int) and n == 1:
             self._predict_one(qp, qv)
             return _to_xyxy(self._x)
@@ -234,6 +244,12 @@ class KalmanBank:
         r = (self.config.measurement_std * self._scale(x)) ** 2
         inv = 1.0 / (pp + r)
         innovation = z - x
+        rate = self.config.velocity_adapt
+        if rate > 0.0:
+            # covariance matching: the innovations against what the filter expected of them
+            nis = np.mean(innovation * innovation * inv, axis=1) / _NIS_GEOMEAN
+            factor = rows[:, _ADAPT] * np.power(np.maximum(nis, 1e-12), rate)[:, None]
+            rows[:, _ADAPT] = np.clip(factor, _ADAPT_LOW, _ADAPT_HIGH)
         x[...] = x + (pp * inv) * innovation
         v[...] = v + (pv * inv) * innovation
         self._clamp_size(x, v)
@@ -268,7 +284,7 @@ class KalmanBank:
             raise ValueError("reupdate: gaps must be non-negative integers (frames)")
         steps = n.astype(np.int64) + 1
         work = KalmanBank(self.config)
-        state = self._s[idx]  # (K, 44) copy
+        state = self._s[idx]  # (K, 45) copy
         last = state[:, _OBS].copy()
         gapped = steps > 1
         state[gapped, _FILTER] = state[gapped, _FROZEN]

@@ -201,6 +201,8 @@ ORIGINS: dict[str, str] = {
     "kalman.init_position_std": _DEEPSORT + ".",
     "kalman.init_velocity_std": "set from velocity_prior / fps.",
     "kalman.min_size": "a floor against collapsing boxes, not tuned.",
+    "kalman.velocity_adapt": "0 (off); adaptive velocity noise of issue 27, measured across "
+    "folds, not kept (docs/DESIGN-NOTES.md).",
 }
 
 
