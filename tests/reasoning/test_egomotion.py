@@ -191,6 +191,21 @@ def test_a_parked_car_passed_by_the_ego_car_is_stopped_not_approaching():
     assert m.speed < 0.5 and m.closing == pytest.approx(8.0, abs=0.5)
 
 
+def test_a_sudden_stop_in_the_world_states_its_confidence():
+    """A car 14 m ahead keeping the ego's 9 m/s brakes at 8 m/s^2: the warning's record says
+    how sure it is (the rule's quarters, 0..1); no other detail depends on it."""
+    z, v, boxes = 14.0, 9.0, {}
+    for f in range(30):
+        boxes[f] = car_box(z, 0.2)
+        v = max(0.0, v - 8.0 / FPS) if f >= 12 else v
+        z += (v - 9.0) / FPS
+    mon = monitor(9.0, ("SUDDEN_STOP",))
+    got = [w for r in build_results([Obj(1, CAR, boxes)]) for w in mon.update(r)]
+    assert [w.situation for w in got] == ["SUDDEN_STOP"]
+    assert got[0].details["confidence"] in (0.25, 0.5, 0.75, 1.0)
+    assert "confidence_permille" not in got[0].details
+
+
 # -- the rules on facts ---------------------------------------------------------------------------
 HEAD = (
     "camera. now(0). frame_ms(100). vehicle(1). vehicle(2). "
@@ -252,6 +267,48 @@ def test_sudden_stop_in_the_world():
     )
     # a parked car the ego drives towards: stopped all along, never moved
     assert sit(braking_car([10, 20, 10, 0, 10, 20], 1200, 1000), "sudden_stop") == []
+
+
+def _confidence(answer: list[str], situation: str) -> int | None:
+    """The confidence_permille of the one warning of ``answer``, None if it states none."""
+    found = [a for a in answer if a.startswith(f"info({situation},") and "confidence" in a]
+    assert len(found) <= 1
+    return int(found[0].rsplit(",", 1)[1].rstrip(")")) if found else None
+
+
+def test_sudden_stop_confidence_grows_with_its_margins():
+    hard = [900, 800, 650, 500, 350, 200]  # 7 m/s lost against errors of 0.6 m/s: braking 4/4
+    # 12 m at 5 - 2 * 0.4 m/s: contact in 2.9 s at worst, within 3/4 of ss_ttc (4 s): 2 of 4
+    assert _confidence(sit(braking_car(hard, 1200, 500), "sudden_stop"), "sudden_stop") == 500
+    # the same braking 4 m ahead: 0.95 s at worst, within a quarter of ss_ttc: 4 of 4
+    assert _confidence(sit(braking_car(hard, 400, 500), "sudden_stop"), "sudden_stop") == 1000
+    # 16 m ahead: 3.8 s at worst, just within ss_ttc: 1 of 4
+    assert _confidence(sit(braking_car(hard, 1600, 500), "sudden_stop"), "sudden_stop") == 250
+    # braking by 2.5 times the speeds' errors (1.5 m/s in 0.5 s), near: the braking decides, 2
+    near_mild = braking_car([900, 900, 900, 900, 750, 750], 400, 500)
+    assert _confidence(sit(near_mild, "sudden_stop"), "sudden_stop") == 500
+    # the warnings themselves do not change: the one far ahead still has none
+    assert sit(braking_car(hard, 12000, 500), "sudden_stop") == []
+
+
+def test_overtaking_confidence_grows_with_the_depth_margins():
+    def pair(sd: int, now_a: int = 1900) -> str:
+        rows = []
+        for g, za in zip(range(-5, 1), [800, 1000, 1200, 1500, 1700, now_a], strict=True):
+            rows.append(
+                f"position(1,{g},{za},-300). position(2,{g},1500,200). "
+                f"position_sd(1,{g},{sd}). position_sd(2,{g},{sd}). "
+                f"world_speed(1,{g},1300,20). world_long(1,{g},1300). "
+                f"world_speed(2,{g},900,20). world_long(2,{g},900)."
+            )
+        return " ".join(rows)
+
+    # 3 m apart now beyond the 1 m gap, errors 2 x 0.3 m: 4 of 4 (and 6 m before)
+    assert _confidence(sit(pair(30), "overtaking"), "overtaking") == 1000
+    # errors 2 x 0.6 m: 2.5 error sums now, 5 before: the weaker, 2 of 4
+    assert _confidence(sit(pair(60), "overtaking"), "overtaking") == 500
+    # just past now (1.7 m beyond the gap against errors of 1.2 m): 1 of 4
+    assert _confidence(sit(pair(60, now_a=1770), "overtaking"), "overtaking") == 250
 
 
 def test_overtaking_in_the_world_needs_a_moving_overtaken_vehicle():
@@ -323,6 +380,7 @@ def test_with_a_camera_and_no_ego_speed_image_motion_claims_nothing():
         "vehicle(1). in_corridor(1,0). area(1,0,50). motion(1,0,stopping). "
         "track(1,car). now(0). frame_ms(100). "
     )
+    # (the image rule states no confidence: no standard errors to weigh its evidence against)
     assert sit(stopping, "sudden_stop", head="") == [
         "info(sudden_stop,(1,),cause,stopping)",
         "warn(sudden_stop,(1,))",

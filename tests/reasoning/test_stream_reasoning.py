@@ -162,7 +162,7 @@ def test_profile_fixed_grounds_no_ego_vehicle_rule():
     """With no ego vehicle the helpers of SUDDEN_STOP are not grounded at all (they are with
     one, on the same frames)."""
     results = build_results(looming_car(True))
-    ego = {"kept_distance", "moved", "braked", "contact_soon"}
+    ego = {"kept_distance", "moved", "braked", "braked_at", "contact_soon"}
     counts = {}
     for profile in ("driving", "fixed"):
         mon = SituationMonitor(fps=10.0, image_size=SIZE, profile=profile, stream=True)
