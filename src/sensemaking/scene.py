@@ -236,6 +236,49 @@ class Scene:
         """Events that involve ``track_id`` (as any argument), in order."""
         return [e for e in self.events if track_id in e.args]
 
+    def only(self, track_ids: Iterable[int]) -> Scene:
+        """The scene of just these tracks (those in it) and the events that name one of them:
+        same frames, fps, image size and metadata, no abduction record. Facts about one track
+        (``ask why-ended T``) built from it follow the track's length, not the scene's."""
+        keep = {int(t) for t in track_ids} & self.tracks.keys()
+        return Scene(
+            {k: t for k, t in self.tracks.items() if k in keep},
+            [e for e in self.events if any(a in keep for a in e.args)],
+            self.frame_numbers,
+            fps=self.fps,
+            image_size=self.image_size,
+            metadata=self.metadata,
+        )
+
+    def window(self, first: int, last: int) -> Scene:
+        """The scene of frames ``first..last`` only: each track's rows then (views, not
+        copies), the events then; same fps, image size and metadata, no abduction record.
+        Facts about one frame (``ask in-front F``) built from it follow that frame's rows."""
+        tracks: dict[int, Track] = {}
+        for k, t in self.tracks.items():
+            a, b = np.searchsorted(t.frames, [first, last + 1]).tolist()
+            if a < b:
+                tracks[k] = Track(
+                    id=t.id,
+                    class_id=t.class_id,
+                    frames=t.frames[a:b],
+                    xyxy=t.xyxy[a:b],
+                    confidence=t.confidence[a:b],
+                    state=t.state[a:b],
+                    occluder=t.occluder[a:b],
+                    visibility=t.visibility[a:b],
+                    hidden_frames=t.hidden_frames[a:b],
+                )
+        fr = self.frame_numbers
+        return Scene(
+            tracks,
+            [e for e in self.events if first <= e.frame <= last],
+            fr[(fr >= first) & (fr <= last)],
+            fps=self.fps,
+            image_size=self.image_size,
+            metadata=self.metadata,
+        )
+
     def seconds(self, frames: float) -> float:
         """A frame count in seconds."""
         return float(frames) / self.fps
@@ -418,7 +461,9 @@ class Scene:
         if not isinstance(raw_tracks, list) or not isinstance(raw_events, list):
             raise bad("'tracks' and 'events' must be lists")
         content = len(raw_events) + sum(
-            len(r.get("frames", ())) if isinstance(r, Mapping) else 1 for r in raw_tracks
+            len(r) if isinstance(r, Track) else len(r.get("frames", ())) if isinstance(r, Mapping)
+            else 1
+            for r in raw_tracks
         )
         span_limit = min(MAX_FRAME, max(SCENE_SPAN_FRAMES, 100 * content))
         frames_given = None
@@ -448,9 +493,12 @@ class Scene:
             frames = np.zeros(0, dtype=np.int64)
         tracks: dict[int, Track] = {}
         for i, r in enumerate(raw_tracks):
-            if not isinstance(r, Mapping):
+            if isinstance(r, Track):  # built while the file was read (_decode_scene)
+                t = r
+            elif not isinstance(r, Mapping):
                 raise bad(f"tracks[{i}] must be an object")
-            t = _track_from_json(r, i, where)
+            else:
+                t = _track_from_json(r, i, where)
             if t.id in tracks:
                 raise bad(f"tracks[{i}]: id {t.id} appears twice")
             if frames.size and (t.first < frames[0] or t.last > frames[-1]):
@@ -516,9 +564,10 @@ class Scene:
         except (IsADirectoryError, UnicodeDecodeError) as exc:
             raise InputError(f"cannot read scene file: {exc}", p) from None
         try:
-            record = json.loads(text)
+            record = _decode_scene(text, str(p))
         except json.JSONDecodeError as exc:
             raise InputError(f"not valid JSON: {exc.msg}", p, exc.lineno) from None
+        del text  # the tracks are arrays now: the text need not outlive the parse
         return cls.from_json(record, p)
 
 
@@ -696,6 +745,89 @@ def _materialize(value: Any) -> Any:
     if isinstance(value, Mapping) and _streamed(value):
         return {k: _materialize(v) for k, v in value.items()}
     return value
+
+
+_WS = re.compile(r"[ \t\n\r]*")
+
+
+class _Irregular(Exception):
+    """Text the streaming reader leaves to ``json.loads`` (which then says what is wrong)."""
+
+
+def _decode_scene(text: str, where: str | None) -> Any:
+    """``json.loads(text)``, except that each entry of a top-level object's ``"tracks"`` list
+    that :func:`_track_from_json` accepts is a :class:`Track` as soon as it is parsed: one
+    track's Python floats live at a time instead of the whole file's (a 55 MB scene: 470 ->
+    ~170 MB peak). An entry it refuses stays as parsed, so :meth:`Scene.from_json` raises the
+    same error in the same order. Any text this reader does not take apart is parsed by
+    ``json.loads``, so invalid JSON gets its message and line."""
+    try:
+        return _decode_object(text, where)
+    except (json.JSONDecodeError, _Irregular):
+        pass
+    return json.loads(text)
+
+
+def _decode_object(text: str, where: str | None) -> Any:
+    ws = _WS.match
+    decode = json.JSONDecoder().raw_decode
+    i = ws(text, 0).end()
+    if text[i : i + 1] != "{":
+        raise _Irregular
+    record: dict[str, Any] = {}
+    i = ws(text, i + 1).end()
+    if text[i : i + 1] == "}":
+        i += 1
+    else:
+        while True:
+            if text[i : i + 1] != '"':
+                raise _Irregular
+            key, i = json.decoder.scanstring(text, i + 1)  # type: ignore[attr-defined]
+            i = ws(text, i).end()
+            if text[i : i + 1] != ":":
+                raise _Irregular
+            i = ws(text, i + 1).end()
+            if key == "tracks" and text[i : i + 1] == "[":
+                value, i = _decode_tracks(text, i, where)
+            else:
+                value, i = decode(text, i)
+            record[key] = value  # a repeated key keeps its last value, as json.loads does
+            i = ws(text, i).end()
+            mark, i = text[i : i + 1], i + 1
+            if mark == "}":
+                break
+            if mark != ",":
+                raise _Irregular
+            i = ws(text, i).end()
+    if ws(text, i).end() != len(text):
+        raise _Irregular
+    return record
+
+
+def _decode_tracks(text: str, i: int, where: str | None) -> tuple[list[Any], int]:
+    """The ``"tracks"`` list starting at ``text[i] == "["``, entries built into :class:`Track`
+    where they can be, and the index after it."""
+    ws = _WS.match
+    decode = json.JSONDecoder().raw_decode
+    out: list[Any] = []
+    i = ws(text, i + 1).end()
+    if text[i : i + 1] == "]":
+        return out, i + 1
+    while True:
+        item, i = decode(text, i)
+        if isinstance(item, dict):
+            try:
+                item = _track_from_json(item, len(out), where)
+            except Exception:  # noqa: BLE001 -- kept as parsed: from_json raises it in order
+                pass
+        out.append(item)
+        i = ws(text, i).end()
+        mark, i = text[i : i + 1], i + 1
+        if mark == "]":
+            return out, i
+        if mark != ",":
+            raise _Irregular
+        i = ws(text, i).end()
 
 
 def _is_int(v: Any) -> bool:
