@@ -461,7 +461,10 @@ class Scene:
         if not isinstance(raw_tracks, list) or not isinstance(raw_events, list):
             raise bad("'tracks' and 'events' must be lists")
         content = len(raw_events) + sum(
-            len(r) if isinstance(r, Track) else len(r.get("frames", ())) if isinstance(r, Mapping)
+            len(r)
+            if isinstance(r, Track)
+            else len(r.get("frames", ()))
+            if isinstance(r, Mapping)
             else 1
             for r in raw_tracks
         )
@@ -748,6 +751,10 @@ def _materialize(value: Any) -> Any:
 
 
 _WS = re.compile(r"[ \t\n\r]*")
+#: builds one entry of a list as it is parsed: (position in the list, parsed value) -> entry
+_Build = Callable[[int, Any], Any]
+#: reads the value of one key of an object: (text, index of the value) -> (value, index after)
+_Read = Callable[[str, int], tuple[Any, int]]
 
 
 class _Irregular(Exception):
@@ -755,79 +762,98 @@ class _Irregular(Exception):
 
 
 def _decode_scene(text: str, where: str | None) -> Any:
-    """``json.loads(text)``, except that each entry of a top-level object's ``"tracks"`` list
-    that :func:`_track_from_json` accepts is a :class:`Track` as soon as it is parsed: one
-    track's Python floats live at a time instead of the whole file's (a 55 MB scene: 470 ->
-    ~170 MB peak). An entry it refuses stays as parsed, so :meth:`Scene.from_json` raises the
-    same error in the same order. Any text this reader does not take apart is parsed by
-    ``json.loads``, so invalid JSON gets its message and line."""
+    """``json.loads(text)``, except that each entry of the ``"tracks"`` list that
+    :func:`_track_from_json` accepts is a :class:`Track` as soon as it is parsed, and each of
+    ``"abduction"``'s ``"problems"`` a checked
+    :class:`~sensemaking.abduction.record.ProblemRecord`: one entry's Python objects live at a
+    time instead of the whole file's. An entry refused stays as parsed, so that
+    :meth:`Scene.from_json` raises the same error in the same order. Text this reader does not
+    take apart (invalid JSON, a top level that is no object) is parsed by ``json.loads``, so
+    invalid JSON gets its message and line."""
+
+    def track(i: int, item: Any) -> Any:
+        return _track_from_json(item, i, where)
+
+    def problem(i: int, item: Any) -> Any:
+        from sensemaking.abduction.record import problem_from_json
+
+        return problem_from_json(item, i, where)
+
+    def abduction(s: str, i: int) -> tuple[Any, int]:
+        if s[i : i + 1] != "{":
+            return _raw_decode(s, i)
+        return _read_object(s, i, {"problems": lambda s, i: _read_array(s, i, problem)})
+
+    top = {"tracks": lambda s, i: _read_array(s, i, track), "abduction": abduction}
     try:
-        return _decode_object(text, where)
+        record, i = _read_object(text, _skip(text, 0), top)
+        if _skip(text, i) == len(text):
+            return record
     except (json.JSONDecodeError, _Irregular):
         pass
     return json.loads(text)
 
 
-def _decode_object(text: str, where: str | None) -> Any:
-    ws = _WS.match
-    decode = json.JSONDecoder().raw_decode
-    i = ws(text, 0).end()
+_raw_decode = json.JSONDecoder().raw_decode
+
+
+def _skip(text: str, i: int) -> int:
+    return _WS.match(text, i).end()  # type: ignore[union-attr]
+
+
+def _read_object(text: str, i: int, fields: Mapping[str, _Read]) -> tuple[dict[str, Any], int]:
+    """The JSON object at ``text[i]``, the values of ``fields`` read by their reader (else as
+    JSON), and the index after it."""
     if text[i : i + 1] != "{":
         raise _Irregular
-    record: dict[str, Any] = {}
-    i = ws(text, i + 1).end()
+    out: dict[str, Any] = {}
+    i = _skip(text, i + 1)
     if text[i : i + 1] == "}":
-        i += 1
-    else:
-        while True:
-            if text[i : i + 1] != '"':
-                raise _Irregular
-            key, i = json.decoder.scanstring(text, i + 1)  # type: ignore[attr-defined]
-            i = ws(text, i).end()
-            if text[i : i + 1] != ":":
-                raise _Irregular
-            i = ws(text, i + 1).end()
-            if key == "tracks" and text[i : i + 1] == "[":
-                value, i = _decode_tracks(text, i, where)
-            else:
-                value, i = decode(text, i)
-            record[key] = value  # a repeated key keeps its last value, as json.loads does
-            i = ws(text, i).end()
-            mark, i = text[i : i + 1], i + 1
-            if mark == "}":
-                break
-            if mark != ",":
-                raise _Irregular
-            i = ws(text, i).end()
-    if ws(text, i).end() != len(text):
-        raise _Irregular
-    return record
+        return out, i + 1
+    while True:
+        if text[i : i + 1] != '"':
+            raise _Irregular
+        key, i = json.decoder.scanstring(text, i + 1)  # type: ignore[attr-defined]
+        i = _skip(text, i)
+        if text[i : i + 1] != ":":
+            raise _Irregular
+        i = _skip(text, i + 1)
+        value, i = fields.get(key, _raw_decode)(text, i)
+        out[key] = value  # a repeated key keeps its last value, as json.loads does
+        i = _skip(text, i)
+        mark, i = text[i : i + 1], i + 1
+        if mark == "}":
+            return out, i
+        if mark != ",":
+            raise _Irregular
+        i = _skip(text, i)
 
 
-def _decode_tracks(text: str, i: int, where: str | None) -> tuple[list[Any], int]:
-    """The ``"tracks"`` list starting at ``text[i] == "["``, entries built into :class:`Track`
-    where they can be, and the index after it."""
-    ws = _WS.match
-    decode = json.JSONDecoder().raw_decode
+def _read_array(text: str, i: int, build: _Build) -> tuple[Any, int]:
+    """The JSON array at ``text[i]`` (else the value there, as JSON), each object in it passed
+    to ``build`` as soon as it is parsed (kept as parsed when ``build`` refuses it), and the
+    index after it."""
+    if text[i : i + 1] != "[":
+        return _raw_decode(text, i)
     out: list[Any] = []
-    i = ws(text, i + 1).end()
+    i = _skip(text, i + 1)
     if text[i : i + 1] == "]":
         return out, i + 1
     while True:
-        item, i = decode(text, i)
+        item, i = _raw_decode(text, i)
         if isinstance(item, dict):
             try:
-                item = _track_from_json(item, len(out), where)
+                item = build(len(out), item)
             except Exception:  # noqa: BLE001 -- kept as parsed: from_json raises it in order
                 pass
         out.append(item)
-        i = ws(text, i).end()
+        i = _skip(text, i)
         mark, i = text[i : i + 1], i + 1
         if mark == "]":
             return out, i
         if mark != ",":
             raise _Irregular
-        i = ws(text, i).end()
+        i = _skip(text, i)
 
 
 def _is_int(v: Any) -> bool:
