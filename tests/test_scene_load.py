@@ -1,4 +1,4 @@
-"""Scene.load reads a scene file a track at a time (sensemaking.scene._decode_scene): the same
+"""Scene.load reads a scene file a track at a time (sensemaking.scene._read_scene): the same
 scene and the same errors as ``Scene.from_json(json.loads(text))``; and the parts of a scene
 that a question about one track or one frame builds its facts from."""
 
@@ -52,6 +52,14 @@ def assert_same(a: Scene, b: Scene) -> None:
         assert a.abduction.problems == b.abduction.problems
 
 
+@pytest.fixture(params=[None, 1, 7, 64], ids=["window default", "1", "7", "64"])
+def window(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The file read a few characters at a time: values, keys, numbers and whitespace cut by
+    the window's end, long values read again in a wider window."""
+    if request.param is not None:
+        monkeypatch.setattr(scene_module, "_WINDOW_CHARS", request.param)
+
+
 @pytest.fixture(scope="module")
 def tracked() -> Scene:
     """A tracker's scene of synthetic objects, with missing detections and the abduction
@@ -91,7 +99,7 @@ def _no_json_loads(monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 def test_saved_scenes_load_back_equal_without_json_loads(
-    tracked, hand_built, tmp_path, monkeypatch
+    tracked, hand_built, tmp_path, monkeypatch, window
 ):
     gappy = SceneRecorder(fps=5.0, metadata={"note": 'é\u2028"quoted"\\'})
     empty = Scene({}, [], np.arange(3, 9), fps=2.5, metadata={"ünï": "cödé"})
@@ -114,7 +122,7 @@ def test_saved_scenes_load_back_equal_without_json_loads(
     assert Scene.load(tmp_path / "tracked.json").metadata["name"] == "sÿnthétique ✓ 日本"
 
 
-def test_any_json_layout_loads_the_same(tracked, tmp_path, monkeypatch):
+def test_any_json_layout_loads_the_same(tracked, tmp_path, monkeypatch, window):
     # indented, spaced and reordered: the reader walks whitespace and keys as JSON does
     record = tracked.to_json()
     keys = list(record)[::-1]
@@ -177,7 +185,7 @@ def _mutations(record: dict) -> dict[str, object]:
 _DELETE = object()
 
 
-def test_malformed_files_give_the_same_one_line_errors(tracked, tmp_path):
+def test_malformed_files_give_the_same_one_line_errors(tracked, tmp_path, window):
     record = tracked.to_json()
     assert len(record["tracks"]) >= 3 and len(record["abduction"]["problems"]) >= 2
     text = json.dumps(record)

@@ -496,7 +496,7 @@ class Scene:
             frames = np.zeros(0, dtype=np.int64)
         tracks: dict[int, Track] = {}
         for i, r in enumerate(raw_tracks):
-            if isinstance(r, Track):  # built while the file was read (_decode_scene)
+            if isinstance(r, Track):  # built while the file was read (_read_scene)
                 t = r
             elif not isinstance(r, Mapping):
                 raise bad(f"tracks[{i}] must be an object")
@@ -558,8 +558,19 @@ class Scene:
 
     @classmethod
     def load(cls, path: str | PathLike[str]) -> Scene:
-        """Read a scene JSON file. Raises InputError naming the file (and line, for bad JSON)."""
+        """Read a scene JSON file. Raises InputError naming the file (and line, for bad JSON).
+
+        A well-formed file is read a part at a time (:func:`_read_scene`): its memory follows
+        the scene's arrays, not the file's text and one Python object per number in it."""
         p = Path(path)
+        record: Any = None
+        try:
+            with p.open(encoding="utf-8") as fh:  # newlines as read_text reads them
+                record = _read_scene(fh, str(p))
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError, _Irregular):
+            pass  # read again as a whole below: the same error, with its message and line
+        if record is not None:
+            return cls.from_json(record, p)
         try:
             text = p.read_text(encoding="utf-8")
         except FileNotFoundError:
@@ -567,10 +578,9 @@ class Scene:
         except (IsADirectoryError, UnicodeDecodeError) as exc:
             raise InputError(f"cannot read scene file: {exc}", p) from None
         try:
-            record = _decode_scene(text, str(p))
+            record = json.loads(text)
         except json.JSONDecodeError as exc:
             raise InputError(f"not valid JSON: {exc.msg}", p, exc.lineno) from None
-        del text  # the tracks are arrays now: the text need not outlive the parse
         return cls.from_json(record, p)
 
 
@@ -751,25 +761,85 @@ def _materialize(value: Any) -> Any:
 
 
 _WS = re.compile(r"[ \t\n\r]*")
+_raw_decode = json.JSONDecoder().raw_decode
+#: what follows a JSON value (outside a string), other than whitespace
+_AFTER_VALUE = frozenset(",]}:")
+#: characters read at a time into the :class:`_Window`
+_WINDOW_CHARS = 1 << 20
 #: builds one entry of a list as it is parsed: (position in the list, parsed value) -> entry
 _Build = Callable[[int, Any], Any]
-#: reads the value of one key of an object: (text, index of the value) -> (value, index after)
-_Read = Callable[[str, int], tuple[Any, int]]
 
 
 class _Irregular(Exception):
     """Text the streaming reader leaves to ``json.loads`` (which then says what is wrong)."""
 
 
-def _decode_scene(text: str, where: str | None) -> Any:
-    """``json.loads(text)``, except that each entry of the ``"tracks"`` list that
-    :func:`_track_from_json` accepts is a :class:`Track` as soon as it is parsed, and each of
-    ``"abduction"``'s ``"problems"`` a checked
-    :class:`~sensemaking.abduction.record.ProblemRecord`: one entry's Python objects live at a
-    time instead of the whole file's. An entry refused stays as parsed, so that
-    :meth:`Scene.from_json` raises the same error in the same order. Text this reader does not
-    take apart (invalid JSON, a top level that is no object) is parsed by ``json.loads``, so
-    invalid JSON gets its message and line."""
+class _Window:
+    """A window on a text file that :func:`_read_scene` walks: refilled as it runs dry, the
+    part already read dropped, so that it holds about one entry of a list (a track) at a time.
+
+    Attributes:
+        text: the text held. pos: the reader's position in it. eof: the file is all read.
+    """
+
+    def __init__(self, fh: IO[str], chunk: int | None = None):
+        self.fh, self.chunk = fh, chunk or _WINDOW_CHARS
+        self.text, self.pos, self.eof = "", 0, False
+
+    def more(self) -> bool:
+        """Read on, at least as much as is held (a value longer than the window doubles it);
+        False at the end of the file."""
+        if self.eof:
+            return False
+        self.text, self.pos = self.text[self.pos :], 0
+        piece = self.fh.read(max(self.chunk, len(self.text)))
+        self.eof = not piece
+        self.text += piece
+        return not self.eof
+
+    def peek(self) -> str:
+        """The next character that is not JSON whitespace ('' at the end of the file)."""
+        while True:
+            self.pos = _WS.match(self.text, self.pos).end()  # type: ignore[union-attr]
+            if self.pos < len(self.text) or not self.more():
+                return self.text[self.pos : self.pos + 1]
+
+    def take(self) -> str:
+        """:meth:`peek`, and past it."""
+        c = self.peek()
+        self.pos += len(c)
+        return c
+
+    def value(self) -> Any:
+        """The JSON value at the position; raises JSONDecodeError once the whole file is read
+        (a value cut off by the window's end is read again in a wider one)."""
+        self.peek()
+        while True:
+            try:
+                value, end = _raw_decode(self.text, self.pos)
+                # complete when what follows is seen ("10." may be 10.5 in a wider window)
+                after = _WS.match(self.text, end).end()  # type: ignore[union-attr]
+                if self.eof or self.text[after : after + 1] in _AFTER_VALUE:
+                    self.pos = end
+                    return value
+            except json.JSONDecodeError:
+                if self.eof:
+                    raise
+            self.more()
+
+
+def _read_scene(fh: IO[str], where: str | None) -> Any:
+    """``json.load(fh)`` of a scene file, except that each entry of the ``"tracks"`` list
+    that :func:`_track_from_json` accepts is a :class:`Track` as soon as it is parsed, and each
+    of ``"abduction"``'s ``"problems"`` a checked
+    :class:`~sensemaking.abduction.record.ProblemRecord`: the text and Python objects of one
+    entry live at a time, not the whole file's. An entry refused stays as parsed, so that
+    :meth:`Scene.from_json` raises the same error in the same order.
+
+    Raises:
+        _Irregular, json.JSONDecodeError: text this reader does not take apart (invalid JSON,
+            a top level that is no object): read it with ``json.loads`` for its error.
+    """
 
     def track(i: int, item: Any) -> Any:
         return _track_from_json(item, i, where)
@@ -779,81 +849,64 @@ def _decode_scene(text: str, where: str | None) -> Any:
 
         return problem_from_json(item, i, where)
 
-    def abduction(s: str, i: int) -> tuple[Any, int]:
-        if s[i : i + 1] != "{":
-            return _raw_decode(s, i)
-        return _read_object(s, i, {"problems": lambda s, i: _read_array(s, i, problem)})
+    def abduction(w: _Window) -> Any:
+        if w.peek() != "{":
+            return w.value()
+        return _read_object(w, {"problems": lambda w: _read_array(w, problem)})
 
-    top = {"tracks": lambda s, i: _read_array(s, i, track), "abduction": abduction}
-    try:
-        record, i = _read_object(text, _skip(text, 0), top)
-        if _skip(text, i) == len(text):
-            return record
-    except (json.JSONDecodeError, _Irregular):
-        pass
-    return json.loads(text)
+    w = _Window(fh)
+    record = _read_object(w, {"tracks": lambda w: _read_array(w, track), "abduction": abduction})
+    if w.peek():
+        raise _Irregular
+    return record
 
 
-_raw_decode = json.JSONDecoder().raw_decode
-
-
-def _skip(text: str, i: int) -> int:
-    return _WS.match(text, i).end()  # type: ignore[union-attr]
-
-
-def _read_object(text: str, i: int, fields: Mapping[str, _Read]) -> tuple[dict[str, Any], int]:
-    """The JSON object at ``text[i]``, the values of ``fields`` read by their reader (else as
-    JSON), and the index after it."""
-    if text[i : i + 1] != "{":
+def _read_object(w: _Window, fields: Mapping[str, Callable[[_Window], Any]]) -> dict[str, Any]:
+    """The JSON object at the window's position, the values of ``fields`` read by their reader
+    (the others as JSON)."""
+    if w.take() != "{":
         raise _Irregular
     out: dict[str, Any] = {}
-    i = _skip(text, i + 1)
-    if text[i : i + 1] == "}":
-        return out, i + 1
+    if w.peek() == "}":
+        w.pos += 1
+        return out
     while True:
-        if text[i : i + 1] != '"':
+        if w.peek() != '"':
             raise _Irregular
-        key, i = json.decoder.scanstring(text, i + 1)  # type: ignore[attr-defined]
-        i = _skip(text, i)
-        if text[i : i + 1] != ":":
+        key = w.value()
+        if w.take() != ":":
             raise _Irregular
-        i = _skip(text, i + 1)
-        value, i = fields.get(key, _raw_decode)(text, i)
-        out[key] = value  # a repeated key keeps its last value, as json.loads does
-        i = _skip(text, i)
-        mark, i = text[i : i + 1], i + 1
+        out[key] = fields.get(key, _Window.value)(w)  # a repeated key: the last, as json.loads
+        mark = w.take()
         if mark == "}":
-            return out, i
+            return out
         if mark != ",":
             raise _Irregular
-        i = _skip(text, i)
 
 
-def _read_array(text: str, i: int, build: _Build) -> tuple[Any, int]:
-    """The JSON array at ``text[i]`` (else the value there, as JSON), each object in it passed
-    to ``build`` as soon as it is parsed (kept as parsed when ``build`` refuses it), and the
-    index after it."""
-    if text[i : i + 1] != "[":
-        return _raw_decode(text, i)
+def _read_array(w: _Window, build: _Build) -> Any:
+    """The JSON array at the window's position (else the value there), each object in it
+    passed to ``build`` as soon as it is parsed (kept as parsed when ``build`` refuses it)."""
+    if w.peek() != "[":
+        return w.value()
+    w.pos += 1
     out: list[Any] = []
-    i = _skip(text, i + 1)
-    if text[i : i + 1] == "]":
-        return out, i + 1
+    if w.peek() == "]":
+        w.pos += 1
+        return out
     while True:
-        item, i = _raw_decode(text, i)
+        item = w.value()
         if isinstance(item, dict):
             try:
                 item = build(len(out), item)
             except Exception:  # noqa: BLE001 -- kept as parsed: from_json raises it in order
                 pass
         out.append(item)
-        i = _skip(text, i)
-        mark, i = text[i : i + 1], i + 1
+        mark = w.take()
         if mark == "]":
-            return out, i
+            return out
         if mark != ",":
             raise _Irregular
-        i = _skip(text, i)
 
 
 def _is_int(v: Any) -> bool:
