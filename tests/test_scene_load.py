@@ -5,6 +5,8 @@ that a question about one track or one frame builds its facts from."""
 from __future__ import annotations
 
 import json
+import os
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -262,3 +264,23 @@ def test_questions_about_one_track_or_frame_answer_as_from_the_whole_scene(which
     assert any(a.atoms for q, a in answers.items() if q.startswith("in-front"))
     assert any(a.atoms for q, a in answers.items() if q.startswith("reappeared"))
     assert any("ended" in " ".join(a.atoms) for a in answers.values())
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no named pipes")
+@pytest.mark.parametrize("body", ['{"format": "sensemaking.scene",\n "tracks": [1,]}', "x"])
+def test_a_pipe_is_read_once_for_its_error(tmp_path, body):
+    # a pipe cannot be read again for the error's message: it is read as a whole at once
+    text = tmp_path / "bad.json"
+    text.write_text(body, encoding="utf-8")
+    with pytest.raises(InputError) as want:
+        reference_load(text)
+    fifo = tmp_path / "pipe.json"
+    os.mkfifo(fifo)
+    writer = threading.Thread(target=fifo.write_text, args=(body,), kwargs={"encoding": "utf-8"})
+    writer.start()
+    try:
+        with pytest.raises(InputError) as got:
+            Scene.load(fifo)
+    finally:
+        writer.join(timeout=10)
+    assert str(got.value) == str(want.value).replace(str(text), str(fifo))

@@ -565,8 +565,9 @@ class Scene:
         p = Path(path)
         record: Any = None
         try:
-            with p.open(encoding="utf-8") as fh:  # newlines as read_text reads them
-                record = _read_scene(fh, str(p))
+            if p.is_file():  # a file that can be read again (not a pipe) on an error
+                with p.open(encoding="utf-8") as fh:  # newlines as read_text reads them
+                    record = _read_scene(fh, str(p))
         except (OSError, UnicodeDecodeError, json.JSONDecodeError, _Irregular):
             pass  # read again as a whole below: the same error, with its message and line
         if record is not None:
