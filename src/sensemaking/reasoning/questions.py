@@ -191,7 +191,7 @@ def _q_reappeared(scene: Scene, args: list[int], context: SceneContext | None) -
     if tid not in scene:
         return QueryAnswer(q, (missing_track(scene, tid),))
     facts = program_facts(
-        scene.only([tid]), context, boxes=False, relations=False, motion=False, corridor=False
+        _about(scene, [tid]), context, boxes=False, relations=False, motion=False, corridor=False
     )
     models, _, _, _ = solve(facts + encodings("questions.lp") + "\n#show reappeared/4.")
     atoms = [s for s in (models[0] if models else []) if s.arguments[0].number == tid]
@@ -279,7 +279,7 @@ def _q_why_ended(scene: Scene, args: list[int], context: SceneContext | None) ->
     if tid not in scene:
         return QueryAnswer(q, (missing_track(scene, tid),))
     facts = program_facts(
-        scene.only([tid]), context, boxes=False, relations=False, motion=False, corridor=False
+        _about(scene, [tid]), context, boxes=False, relations=False, motion=False, corridor=False
     )
     models, _, _, _ = solve(
         facts
