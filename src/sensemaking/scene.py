@@ -236,6 +236,49 @@ class Scene:
         """Events that involve ``track_id`` (as any argument), in order."""
         return [e for e in self.events if track_id in e.args]
 
+    def only(self, track_ids: Iterable[int]) -> Scene:
+        """The scene of just these tracks (those in it) and the events that name one of them:
+        same frames, fps, image size and metadata, no abduction record. Facts about one track
+        (``ask why-ended T``) built from it follow the track's length, not the scene's."""
+        keep = {int(t) for t in track_ids} & self.tracks.keys()
+        return Scene(
+            {k: t for k, t in self.tracks.items() if k in keep},
+            [e for e in self.events if any(a in keep for a in e.args)],
+            self.frame_numbers,
+            fps=self.fps,
+            image_size=self.image_size,
+            metadata=self.metadata,
+        )
+
+    def window(self, first: int, last: int) -> Scene:
+        """The scene of frames ``first..last`` only: each track's rows then (views, not
+        copies), the events then; same fps, image size and metadata, no abduction record.
+        Facts about one frame (``ask in-front F``) built from it follow that frame's rows."""
+        tracks: dict[int, Track] = {}
+        for k, t in self.tracks.items():
+            a, b = np.searchsorted(t.frames, [first, last + 1]).tolist()
+            if a < b:
+                tracks[k] = Track(
+                    id=t.id,
+                    class_id=t.class_id,
+                    frames=t.frames[a:b],
+                    xyxy=t.xyxy[a:b],
+                    confidence=t.confidence[a:b],
+                    state=t.state[a:b],
+                    occluder=t.occluder[a:b],
+                    visibility=t.visibility[a:b],
+                    hidden_frames=t.hidden_frames[a:b],
+                )
+        fr = self.frame_numbers
+        return Scene(
+            tracks,
+            [e for e in self.events if first <= e.frame <= last],
+            fr[(fr >= first) & (fr <= last)],
+            fps=self.fps,
+            image_size=self.image_size,
+            metadata=self.metadata,
+        )
+
     def seconds(self, frames: float) -> float:
         """A frame count in seconds."""
         return float(frames) / self.fps
@@ -418,7 +461,12 @@ class Scene:
         if not isinstance(raw_tracks, list) or not isinstance(raw_events, list):
             raise bad("'tracks' and 'events' must be lists")
         content = len(raw_events) + sum(
-            len(r.get("frames", ())) if isinstance(r, Mapping) else 1 for r in raw_tracks
+            len(r)
+            if isinstance(r, Track)
+            else len(r.get("frames", ()))
+            if isinstance(r, Mapping)
+            else 1
+            for r in raw_tracks
         )
         span_limit = min(MAX_FRAME, max(SCENE_SPAN_FRAMES, 100 * content))
         frames_given = None
@@ -448,9 +496,12 @@ class Scene:
             frames = np.zeros(0, dtype=np.int64)
         tracks: dict[int, Track] = {}
         for i, r in enumerate(raw_tracks):
-            if not isinstance(r, Mapping):
+            if isinstance(r, Track):  # built while the file was read (_read_scene)
+                t = r
+            elif not isinstance(r, Mapping):
                 raise bad(f"tracks[{i}] must be an object")
-            t = _track_from_json(r, i, where)
+            else:
+                t = _track_from_json(r, i, where)
             if t.id in tracks:
                 raise bad(f"tracks[{i}]: id {t.id} appears twice")
             if frames.size and (t.first < frames[0] or t.last > frames[-1]):
@@ -507,8 +558,20 @@ class Scene:
 
     @classmethod
     def load(cls, path: str | PathLike[str]) -> Scene:
-        """Read a scene JSON file. Raises InputError naming the file (and line, for bad JSON)."""
+        """Read a scene JSON file. Raises InputError naming the file (and line, for bad JSON).
+
+        A well-formed file is read a part at a time (:func:`_read_scene`): its memory follows
+        the scene's arrays, not the file's text and one Python object per number in it."""
         p = Path(path)
+        record: Any = None
+        try:
+            if p.is_file():  # a file that can be read again (not a pipe) on an error
+                with p.open(encoding="utf-8") as fh:  # newlines as read_text reads them
+                    record = _read_scene(fh, str(p))
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError, _Irregular):
+            pass  # read again as a whole below: the same error, with its message and line
+        if record is not None:
+            return cls.from_json(record, p)
         try:
             text = p.read_text(encoding="utf-8")
         except FileNotFoundError:
@@ -696,6 +759,155 @@ def _materialize(value: Any) -> Any:
     if isinstance(value, Mapping) and _streamed(value):
         return {k: _materialize(v) for k, v in value.items()}
     return value
+
+
+_WS = re.compile(r"[ \t\n\r]*")
+_raw_decode = json.JSONDecoder().raw_decode
+#: what follows a JSON value (outside a string), other than whitespace
+_AFTER_VALUE = frozenset(",]}:")
+#: characters read at a time into the :class:`_Window`
+_WINDOW_CHARS = 1 << 20
+#: builds one entry of a list as it is parsed: (position in the list, parsed value) -> entry
+_Build = Callable[[int, Any], Any]
+
+
+class _Irregular(Exception):
+    """Text the streaming reader leaves to ``json.loads`` (which then says what is wrong)."""
+
+
+class _Window:
+    """A window on a text file that :func:`_read_scene` walks: refilled as it runs dry, the
+    part already read dropped, so that it holds about one entry of a list (a track) at a time.
+
+    Attributes:
+        text: the text held. pos: the reader's position in it. eof: the file is all read.
+    """
+
+    def __init__(self, fh: IO[str], chunk: int | None = None):
+        self.fh, self.chunk = fh, chunk or _WINDOW_CHARS
+        self.text, self.pos, self.eof = "", 0, False
+
+    def more(self) -> bool:
+        """Read on, at least as much as is held (a value longer than the window doubles it);
+        False at the end of the file."""
+        if self.eof:
+            return False
+        self.text, self.pos = self.text[self.pos :], 0
+        piece = self.fh.read(max(self.chunk, len(self.text)))
+        self.eof = not piece
+        self.text += piece
+        return not self.eof
+
+    def peek(self) -> str:
+        """The next character that is not JSON whitespace ('' at the end of the file)."""
+        while True:
+            self.pos = _WS.match(self.text, self.pos).end()  # type: ignore[union-attr]
+            if self.pos < len(self.text) or not self.more():
+                return self.text[self.pos : self.pos + 1]
+
+    def take(self) -> str:
+        """:meth:`peek`, and past it."""
+        c = self.peek()
+        self.pos += len(c)
+        return c
+
+    def value(self) -> Any:
+        """The JSON value at the position; raises JSONDecodeError once the whole file is read
+        (a value cut off by the window's end is read again in a wider one)."""
+        self.peek()
+        while True:
+            try:
+                value, end = _raw_decode(self.text, self.pos)
+                # complete when what follows is seen ("10." may be 10.5 in a wider window)
+                after = _WS.match(self.text, end).end()  # type: ignore[union-attr]
+                if self.eof or self.text[after : after + 1] in _AFTER_VALUE:
+                    self.pos = end
+                    return value
+            except json.JSONDecodeError:
+                if self.eof:
+                    raise
+            self.more()
+
+
+def _read_scene(fh: IO[str], where: str | None) -> Any:
+    """``json.load(fh)`` of a scene file, except that each entry of the ``"tracks"`` list
+    that :func:`_track_from_json` accepts is a :class:`Track` as soon as it is parsed, and each
+    of ``"abduction"``'s ``"problems"`` a checked
+    :class:`~sensemaking.abduction.record.ProblemRecord`: the text and Python objects of one
+    entry live at a time, not the whole file's. An entry refused stays as parsed, so that
+    :meth:`Scene.from_json` raises the same error in the same order.
+
+    Raises:
+        _Irregular, json.JSONDecodeError: text this reader does not take apart (invalid JSON,
+            a top level that is no object): read it with ``json.loads`` for its error.
+    """
+
+    def track(i: int, item: Any) -> Any:
+        return _track_from_json(item, i, where)
+
+    def problem(i: int, item: Any) -> Any:
+        from sensemaking.abduction.record import problem_from_json
+
+        return problem_from_json(item, i, where)
+
+    def abduction(w: _Window) -> Any:
+        if w.peek() != "{":
+            return w.value()
+        return _read_object(w, {"problems": lambda w: _read_array(w, problem)})
+
+    w = _Window(fh)
+    record = _read_object(w, {"tracks": lambda w: _read_array(w, track), "abduction": abduction})
+    if w.peek():
+        raise _Irregular
+    return record
+
+
+def _read_object(w: _Window, fields: Mapping[str, Callable[[_Window], Any]]) -> dict[str, Any]:
+    """The JSON object at the window's position, the values of ``fields`` read by their reader
+    (the others as JSON)."""
+    if w.take() != "{":
+        raise _Irregular
+    out: dict[str, Any] = {}
+    if w.peek() == "}":
+        w.pos += 1
+        return out
+    while True:
+        if w.peek() != '"':
+            raise _Irregular
+        key = w.value()
+        if w.take() != ":":
+            raise _Irregular
+        out[key] = fields.get(key, _Window.value)(w)  # a repeated key: the last, as json.loads
+        mark = w.take()
+        if mark == "}":
+            return out
+        if mark != ",":
+            raise _Irregular
+
+
+def _read_array(w: _Window, build: _Build) -> Any:
+    """The JSON array at the window's position (else the value there), each object in it
+    passed to ``build`` as soon as it is parsed (kept as parsed when ``build`` refuses it)."""
+    if w.peek() != "[":
+        return w.value()
+    w.pos += 1
+    out: list[Any] = []
+    if w.peek() == "]":
+        w.pos += 1
+        return out
+    while True:
+        item = w.value()
+        if isinstance(item, dict):
+            try:
+                item = build(len(out), item)
+            except Exception:  # noqa: BLE001 -- kept as parsed: from_json raises it in order
+                pass
+        out.append(item)
+        mark = w.take()
+        if mark == "]":
+            return out
+        if mark != ",":
+            raise _Irregular
 
 
 def _is_int(v: Any) -> bool:

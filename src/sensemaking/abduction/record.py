@@ -44,6 +44,7 @@ __all__ = [
     "ProblemRecord",
     "AbductionRecord",
     "problems_of_frame",
+    "problem_from_json",
     "recorded_constants",
     "keep_named",
     "named_here",
@@ -210,29 +211,41 @@ class AbductionRecord:
         raw = record.get("problems", [])
         if not isinstance(raw, list):
             raise bad("'problems' must be a list")
-        problems = []
-        for i, p in enumerate(raw):
-            if not isinstance(p, Mapping):
-                raise bad(f"problems[{i}] must be an object")
-            tracks, dets, facts = p.get("tracks"), p.get("dets"), p.get("facts")
-            frame, own = p.get("frame"), p.get("own")
-            if not (
-                isinstance(frame, int)
-                and _is_int(frame)
-                and _int_list(tracks)
-                and _int_list(dets)
-                and isinstance(own, int)
-                and isinstance(tracks, list)
-                and isinstance(dets, list)
-                and 0 <= own <= len(tracks)
-                and isinstance(facts, list)
-                and all(isinstance(x, str) for x in facts)
-            ):
-                raise bad(f"problems[{i}] must have frame, tracks, own, dets and facts")
-            problem = ProblemRecord(int(frame), tuple(tracks), int(own), tuple(dets), tuple(facts))
-            problem.symbols(where)  # every fact a ground atom, checked while the file is known
-            problems.append(problem)
+        problems = [
+            # a ProblemRecord: read and checked already, as the scene file was parsed
+            p if isinstance(p, ProblemRecord) else problem_from_json(p, i, where)
+            for i, p in enumerate(raw)
+        ]
         return cls({str(k): int(v) for k, v in constants.items()}, budget, problems)
+
+
+def problem_from_json(p: Any, i: int, where: str | None = None) -> ProblemRecord:
+    """Entry ``i`` of the ``"problems"`` list, checked: every fact must parse as a ground atom.
+    Raises InputError naming ``where``."""
+
+    def bad(problem: str) -> InputError:
+        return InputError(f"malformed scene: abduction: {problem}", where)
+
+    if not isinstance(p, Mapping):
+        raise bad(f"problems[{i}] must be an object")
+    tracks, dets, facts = p.get("tracks"), p.get("dets"), p.get("facts")
+    frame, own = p.get("frame"), p.get("own")
+    if not (
+        isinstance(frame, int)
+        and _is_int(frame)
+        and _int_list(tracks)
+        and _int_list(dets)
+        and isinstance(own, int)
+        and isinstance(tracks, list)
+        and isinstance(dets, list)
+        and 0 <= own <= len(tracks)
+        and isinstance(facts, list)
+        and all(isinstance(x, str) for x in facts)
+    ):
+        raise bad(f"problems[{i}] must have frame, tracks, own, dets and facts")
+    problem = ProblemRecord(int(frame), tuple(tracks), int(own), tuple(dets), tuple(facts))
+    problem.symbols(where)  # every fact a ground atom, checked while the file is known
+    return problem
 
 
 def problems_of_frame(

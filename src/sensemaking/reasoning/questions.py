@@ -103,6 +103,12 @@ _ALIASES = {
 
 
 # -- named questions ------------------------------------------------------------------------------
+def _about(scene: Scene, tracks: list[int]) -> Scene:
+    """The part of ``scene`` a question about ``tracks`` needs (all of it when none are named):
+    questions.lp relates a track only to its own facts, so the others are left out."""
+    return scene.only(tracks) if tracks else scene
+
+
 def _q_tracks(scene: Scene, args: list[int], context: SceneContext | None) -> QueryAnswer:
     lines = []
     for t in scene.tracks.values():
@@ -133,7 +139,13 @@ def _q_hidden(scene: Scene, args: list[int], context: SceneContext | None) -> Qu
     if args and args[0] not in scene:
         return QueryAnswer(q, (missing_track(scene, args[0]),))
     facts = program_facts(
-        scene, context, boxes=False, states=False, relations=False, motion=False, corridor=False
+        _about(scene, args),
+        context,
+        boxes=False,
+        states=False,
+        relations=False,
+        motion=False,
+        corridor=False,
     )
     models, _, _, _ = solve(facts + encodings("questions.lp") + "\n#show hidden_episode/4.")
     atoms = [
@@ -179,7 +191,7 @@ def _q_reappeared(scene: Scene, args: list[int], context: SceneContext | None) -
     if tid not in scene:
         return QueryAnswer(q, (missing_track(scene, tid),))
     facts = program_facts(
-        scene, context, boxes=False, relations=False, motion=False, corridor=False
+        _about(scene, [tid]), context, boxes=False, relations=False, motion=False, corridor=False
     )
     models, _, _, _ = solve(facts + encodings("questions.lp") + "\n#show reappeared/4.")
     atoms = [s for s in (models[0] if models else []) if s.arguments[0].number == tid]
@@ -224,8 +236,14 @@ def _q_in_front(scene: Scene, args: list[int], context: SceneContext | None) -> 
         return QueryAnswer(q, (f"frame {f} is not in this scene ({span})",))
     if scene.image_size is None:
         return QueryAnswer(q, ("this scene has no image size, so the ego corridor is unknown",))
-    facts = program_facts(
-        scene, context, boxes=True, states=False, relations=False, motion=False, corridor=True
+    facts = program_facts(  # in_front relates a frame only to its own facts: that frame's rows
+        scene.window(f, f),
+        context,
+        boxes=True,
+        states=False,
+        relations=False,
+        motion=False,
+        corridor=True,
     )
     models, _, _, _ = solve(
         facts
@@ -261,7 +279,7 @@ def _q_why_ended(scene: Scene, args: list[int], context: SceneContext | None) ->
     if tid not in scene:
         return QueryAnswer(q, (missing_track(scene, tid),))
     facts = program_facts(
-        scene, context, boxes=False, relations=False, motion=False, corridor=False
+        _about(scene, [tid]), context, boxes=False, relations=False, motion=False, corridor=False
     )
     models, _, _, _ = solve(
         facts
