@@ -53,6 +53,13 @@ __all__ = [
 
 PACKAGED = "tracking.lp"
 _NAME = re.compile(r"[a-z_][A-Za-z0-9_]*")
+# the facts the tracker writes, nested once (``cand(2,d(2),600)``): a strict subset of what
+# clingo parses as a ground atom named by _NAME, checked in one regex call; anything else is
+# left to clingo's parser
+_ID = r"(?!not(?![A-Za-z0-9_]))[a-z][A-Za-z0-9_]*"
+_ATOMIC = rf"(?:{_ID}|0|-?[1-9][0-9]{{0,8}})"
+_ARG = rf"(?:{_ID}\({_ATOMIC}(?:,{_ATOMIC})*\)|{_ATOMIC})"
+_PLAIN_FACT = re.compile(rf"{_ID}(?:\({_ARG}(?:,{_ARG})*\))?")
 
 
 @dataclass(frozen=True)
@@ -123,6 +130,12 @@ class ProblemRecord:
                 )
             out.append(sym)
         return out
+
+    def check(self, where: str | None = None) -> None:
+        """Raise :meth:`symbols`' InputError if a fact is not a ground atom, without making the
+        symbols (the facts the tracker writes pass a regular expression; others are parsed)."""
+        if not all(_PLAIN_FACT.fullmatch(text) for text in self.facts):
+            self.symbols(where)
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -244,7 +257,7 @@ def problem_from_json(p: Any, i: int, where: str | None = None) -> ProblemRecord
     ):
         raise bad(f"problems[{i}] must have frame, tracks, own, dets and facts")
     problem = ProblemRecord(int(frame), tuple(tracks), int(own), tuple(dets), tuple(facts))
-    problem.symbols(where)  # every fact a ground atom, checked while the file is known
+    problem.check(where)  # every fact a ground atom, checked while the file is known
     return problem
 
 
