@@ -284,3 +284,20 @@ def test_a_pipe_is_read_once_for_its_error(tmp_path, body):
     finally:
         writer.join(timeout=10)
     assert str(got.value) == str(want.value).replace(str(text), str(fifo))
+
+
+@pytest.mark.parametrize("inside", [True, False])
+def test_json_nested_too_deeply_is_a_one_line_error_naming_the_file(tmp_path, inside):
+    deep = "[" * 100_000 + "]" * 100_000
+    body = (
+        '{"format": "sensemaking.scene", "version": 1, "fps": 10, "tracks": [{"id": 1, "x": '
+        + deep
+        + "}]}"
+        if inside
+        else deep
+    )
+    path = tmp_path / "deep.json"
+    path.write_text(body)
+    with pytest.raises(InputError, match="nested too deeply") as err:
+        Scene.load(path)
+    assert str(path) in str(err.value)

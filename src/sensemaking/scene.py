@@ -570,6 +570,8 @@ class Scene:
                     record = _read_scene(fh, str(p))
         except (OSError, UnicodeDecodeError, json.JSONDecodeError, _Irregular):
             pass  # read again as a whole below: the same error, with its message and line
+        except RecursionError:  # deeper than Python's JSON reader goes
+            raise InputError("not readable JSON: nested too deeply", p) from None
         if record is not None:
             return cls.from_json(record, p)
         try:
@@ -582,6 +584,8 @@ class Scene:
             record = json.loads(text)
         except json.JSONDecodeError as exc:
             raise InputError(f"not valid JSON: {exc.msg}", p, exc.lineno) from None
+        except RecursionError:
+            raise InputError("not readable JSON: nested too deeply", p) from None
         return cls.from_json(record, p)
 
 
