@@ -4,6 +4,9 @@ from __future__ import annotations
 
 from os import PathLike
 
+#: the problem of a JSON input nested deeper than Python's reader goes (RecursionError)
+TOO_DEEP = "not readable JSON: nested too deeply"
+
 
 class SensemakingError(Exception):
     """Base class of every error this package raises on purpose."""

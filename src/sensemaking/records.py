@@ -32,7 +32,7 @@ from os import PathLike
 from pathlib import Path
 from typing import Any, Protocol
 
-from sensemaking.errors import InputError
+from sensemaking.errors import TOO_DEEP, InputError
 from sensemaking.results import Event
 from sensemaking.vocabulary import EVENT_NAMES
 
@@ -194,6 +194,8 @@ def read_json_lines(path: str | PathLike[str]) -> list[dict[str, Any]]:
             record = json.loads(line)
         except json.JSONDecodeError as exc:
             raise InputError(f"not JSON: {exc.msg}", p, lineno) from None
+        except RecursionError:
+            raise InputError(TOO_DEEP, p, lineno) from None
         if not isinstance(record, dict):
             raise InputError("expected a JSON object per line", p, lineno)
         out.append({**record, "_line": lineno})

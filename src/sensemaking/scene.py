@@ -52,7 +52,7 @@ import numpy as np
 
 from sensemaking.classes import class_name
 from sensemaking.detections import Detections
-from sensemaking.errors import InputError
+from sensemaking.errors import TOO_DEEP, InputError
 from sensemaking.io.atomic import atomic_write
 from sensemaking.records import event_from_record, event_record
 from sensemaking.results import STATE_NAMES, VISIBILITY_VALUES, Event, FrameResult, TrackState
@@ -571,7 +571,7 @@ class Scene:
         except (OSError, UnicodeDecodeError, json.JSONDecodeError, _Irregular):
             pass  # read again as a whole below: the same error, with its message and line
         except RecursionError:  # deeper than Python's JSON reader goes
-            raise InputError("not readable JSON: nested too deeply", p) from None
+            raise InputError(TOO_DEEP, p) from None
         if record is not None:
             return cls.from_json(record, p)
         try:
@@ -585,7 +585,7 @@ class Scene:
         except json.JSONDecodeError as exc:
             raise InputError(f"not valid JSON: {exc.msg}", p, exc.lineno) from None
         except RecursionError:
-            raise InputError("not readable JSON: nested too deeply", p) from None
+            raise InputError(TOO_DEEP, p) from None
         return cls.from_json(record, p)
 
 

@@ -66,6 +66,7 @@ from sensemaking.config import (
     suggest,
     validate,
 )
+from sensemaking.errors import TOO_DEEP
 
 __all__ = [
     "FAMILIES",
@@ -165,6 +166,8 @@ def read_params_file(path: str | PathLike[str]) -> tuple[dict[str, Any], str | N
             doc = json.loads(text)
         except json.JSONDecodeError as exc:
             raise ParameterError(f"not valid JSON: {exc.msg}", p, exc.lineno) from None
+        except RecursionError:
+            raise ParameterError(TOO_DEEP, p) from None
     params = document_params(doc, str(p))
     base = doc.get("base")
     if base is not None:

@@ -707,3 +707,36 @@ def test_report_and_render_do_not_overwrite_their_inputs(
     assert "would write over the input --images" in one_line_error(capsys)
     assert scene_file.read_bytes() == before
     assert (frames / "000000.png").read_bytes() == b"not really a png"
+
+
+# JSON nested deeper than Python's reader goes: every reader names its file -------------------
+@pytest.mark.parametrize("reader", ["params", "lanes", "scene"])
+def test_json_nested_too_deeply_is_one_line_naming_the_file(
+    tmp_path: Path, capsys, reader: str
+) -> None:
+    deep = tmp_path / "deep.json"
+    deep.write_text("[" * 100_000 + "]" * 100_000 + "\n")
+    det = write_det(tmp_path / "d" / "det.txt")
+    track = ["track", "--detections", str(det), "--format", "mot"]
+    out = ["--output", str(tmp_path / "o.txt")]
+    argv = {
+        "params": [*track, "--params", str(deep), *out],
+        "lanes": [*track, "--warnings", str(tmp_path / "w.jsonl"), "--lanes", str(deep), *out],
+        "scene": ["ask", str(deep), "tracks"],
+    }[reader]
+    assert main(argv) == 2
+    line = one_line_error(capsys)
+    assert str(deep) in line and "nested too deeply" in line, line
+    assert not (tmp_path / "o.txt").exists()
+
+
+def test_event_logs_and_class_tables_nested_too_deeply_name_their_file(tmp_path: Path) -> None:
+    from sensemaking.records import read_events
+    from sensemaking.ros.reader import ClassTable
+
+    deep = tmp_path / "deep.json"
+    deep.write_text("[" * 100_000 + "]" * 100_000 + "\n")
+    for read in (read_events, ClassTable.parse):
+        with pytest.raises(InputError, match="nested too deeply") as err:
+            read(str(deep))
+        assert str(deep) in str(err.value)

@@ -48,7 +48,7 @@ from typing import Any
 
 import numpy as np
 
-from sensemaking.errors import InputError
+from sensemaking.errors import TOO_DEEP, InputError
 
 __all__ = [
     "Corridor",
@@ -362,6 +362,8 @@ def load_lanes(path: str | PathLike[str]) -> LaneMap:
         raise InputError("lanes file not found", p) from None
     except json.JSONDecodeError as exc:
         raise InputError(f"not valid JSON: {exc.msg}", p, exc.lineno) from None
+    except RecursionError:
+        raise InputError(TOO_DEEP, p) from None
     except UnicodeDecodeError as exc:
         raise InputError(f"not UTF-8 text ({exc.reason} at byte {exc.start})", p) from None
     except OSError as exc:  # a directory, no permission, ...
@@ -450,6 +452,8 @@ def _read_labels(path: Path) -> dict[int, str]:
         return {int(k): str(v) for k, v in record.items()}
     except (json.JSONDecodeError, ValueError, AttributeError) as exc:
         raise InputError(f"labels must be a JSON object of id -> name ({exc})", path) from None
+    except RecursionError:
+        raise InputError(TOO_DEEP, path) from None
 
 
 def _read_label_map(path: Path) -> np.ndarray:

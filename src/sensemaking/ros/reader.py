@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from sensemaking.detections import MAX_FRAME, Detections, validate_detections
-from sensemaking.errors import InputError
+from sensemaking.errors import TOO_DEEP, InputError
 from sensemaking.ros import require_ros
 from sensemaking.ros.msgs import CAMERA_INFO, DETECTION_TYPES, typestore
 
@@ -82,6 +82,8 @@ class ClassTable:
                 raise InputError(f"cannot read the class table: {exc.strerror}", path) from None
             except ValueError as exc:
                 raise InputError(f"the class table is not JSON: {exc}", path) from None
+            except RecursionError:
+                raise InputError(TOO_DEEP, path) from None
             if not isinstance(data, dict) or not all(isinstance(v, str) for v in data.values()):
                 raise InputError('the class table must be a JSON object {"ID": "name"}', path)
             return cls({str(k): v for k, v in data.items()}, default)
