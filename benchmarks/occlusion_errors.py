@@ -113,12 +113,25 @@ class Item:
         return data / "mot17" / self.seq / "gt" / "gt.txt"
 
 
-def items(only: list[str] | None = None) -> Iterator[Item]:
+_SKIPPED: set[Item] = set()
+
+
+def items(only: list[str] | None = None, data: Path | None = None) -> Iterator[Item]:
+    """The sequences of the benchmarks asked for; with ``data``, those whose detections and
+    ground truth are there (a data folder holding part of them, e.g.
+    ``benchmarks/subsampled_mot.py``'s): the others are skipped with a notice, once each."""
     for bench in BENCHMARKS:
         if only and bench not in only:
             continue
         for seq in KITTI_SEQS if BENCHMARKS[bench][0] == "kitti" else MOT_SEQS:
-            yield Item(bench, seq)
+            item = Item(bench, seq)
+            paths = () if data is None else (item.det_path(data), item.gt_path(data))
+            if not all(path.is_file() for path in paths):
+                if item not in _SKIPPED:
+                    _SKIPPED.add(item)
+                    print(f"skipped {bench} {seq}: not in {data}", file=sys.stderr)
+                continue
+            yield item
 
 
 # -- run --------------------------------------------------------------------------------------
@@ -143,7 +156,7 @@ def run(args: argparse.Namespace) -> None:
         if p.wait() != 0:
             raise SystemExit(f"track failed: {p.args!r}")
 
-    for item in items(args.only):
+    for item in items(args.only, args.data):
         (args.out / item.bench).mkdir(parents=True, exist_ok=True)
         while len(running) >= args.jobs:
             finish(running.pop(0))
@@ -194,7 +207,7 @@ def score(item: Item, out: Path, data: Path) -> Scored:
 
 
 def measure_dir(out: Path, data: Path, only: list[str] | None = None) -> list[Scored]:
-    return [score(it, out, data) for it in items(only)]
+    return [score(it, out, data) for it in items(only, data)]
 
 
 def _pct(c: OcclusionCounts) -> str:
@@ -493,7 +506,7 @@ def _preset(fmt: str) -> dict[str, Any]:
 
 def taxonomy(args: argparse.Namespace) -> None:
     rows: list[dict[str, Any]] = []
-    for item in items(args.only):
+    for item in items(args.only, args.data):
         rows += classify(item, args.out, args.data, _preset(item.fmt))
     fams = {
         "kitti": [r for r in rows if r["bench"].startswith("kitti")],
