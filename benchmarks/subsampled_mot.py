@@ -21,6 +21,8 @@ import configparser
 import sys
 from pathlib import Path
 
+from sensemaking.io.mot import read_seqinfo
+
 
 def subsample_rows(lines: list[str], step: int, offset: int) -> list[str]:
     """MOT rows (``frame,...``) of frames ``offset, offset + step, ...``, renumbered from 1."""
@@ -35,12 +37,12 @@ def subsample_rows(lines: list[str], step: int, offset: int) -> list[str]:
     return out
 
 
-def write_sequence(src: Path, dst: Path, step: int, offset: int, fps: float) -> None:
-    """One sequence's detections, ground truth and seqinfo at every ``step``-th frame."""
+def write_sequence(src: Path, dst: Path, step: int, offset: int, fps: float, length: int) -> None:
+    """One sequence's detections, ground truth and seqinfo (``length`` frames) at every
+    ``step``-th frame."""
     ini = configparser.ConfigParser()
     ini.optionxform = str  # type: ignore[assignment,method-assign]  # keep seqinfo's key case
     ini.read(src / "seqinfo.ini")
-    length = int(ini["Sequence"]["seqLength"])
     ini["Sequence"]["frameRate"] = f"{fps:g}"
     ini["Sequence"]["seqLength"] = str((length - offset) // step + 1)
     for sub in ("det/det.txt", "gt/gt.txt"):
@@ -64,16 +66,15 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     written = 0
     for src in sorted(p for p in root.iterdir() if args.name in p.name):
-        ini = configparser.ConfigParser()
-        ini.read(src / "seqinfo.ini")
-        rate = float(ini["Sequence"].get("frameRate", "30"))
+        info = read_seqinfo(src)
+        rate = info.fps
         step = round(rate / args.fps)
         if step < 2 or abs(rate / step - args.fps) > 1e-6:
             print(f"skipped {src.name}: {rate:g} fps is not a multiple of {args.fps:g}")
             continue
         for offset in range(1, step + 1):
             dst = args.out / f"o{offset}" / "mot17" / src.name
-            write_sequence(src, dst, step, offset, args.fps)
+            write_sequence(src, dst, step, offset, args.fps, info.length)
         written += 1
         print(f"{src.name}: {rate:g} fps -> {args.fps:g} fps, offsets 1..{step}")
     return 0 if written else 2

@@ -43,7 +43,7 @@ _COLUMNS = 45
 _ADAPT_LOW, _ADAPT_HIGH = 1.0 / 256.0, 256.0
 # geometric mean of chi-square(4) / 4, the normalised innovation of a consistent filter: the
 # factor stands still on average where the filter's expectation is right
-_NIS_GEOMEAN = float(np.exp(0.42278433509846713 - np.log(2.0)))
+_NIS_GEOMEAN = float(np.exp(1.0 - np.euler_gamma - np.log(2.0)))  # exp(digamma(2)) / 2
 # the noise scale of cx, cy, w, h is w, h, w, h (:meth:`KalmanBank._scale`)
 _WHWH = np.array([2, 3, 2, 3], dtype=np.intp)
 

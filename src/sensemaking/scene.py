@@ -258,17 +258,8 @@ class Scene:
         for k, t in self.tracks.items():
             a, b = np.searchsorted(t.frames, [first, last + 1]).tolist()
             if a < b:
-                tracks[k] = Track(
-                    id=t.id,
-                    class_id=t.class_id,
-                    frames=t.frames[a:b],
-                    xyxy=t.xyxy[a:b],
-                    confidence=t.confidence[a:b],
-                    state=t.state[a:b],
-                    occluder=t.occluder[a:b],
-                    visibility=t.visibility[a:b],
-                    hidden_frames=t.hidden_frames[a:b],
-                )
+                rows = {attr: getattr(t, attr)[a:b] for _, attr, _ in TRACK_COLUMNS}
+                tracks[k] = Track(id=t.id, class_id=t.class_id, **rows)
         fr = self.frame_numbers
         return Scene(
             tracks,

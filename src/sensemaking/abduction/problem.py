@@ -514,8 +514,10 @@ class FrameProblem:
                     local_ids.append(oid)  # an occluder outside the component: named, no facts
                 hidden.append((loc_t[t], len(ts) + local_ids[len(ts) :].index(oid)))
             gs = gone_groups[g]
-            gone, back = self._gone_part(gs, loc_d) if gs else ((), ())
+            gone: tuple[tuple[int, int], ...] = ()
+            back: tuple[tuple[int, int, int], ...] = ()
             if gs:
+                gone, back = self._gone_part(gs, loc_d)
                 local_ids += [int(self.gone_id[k]) for k in gs]  # numbered after the occluders
             fields_: ComponentFields = (
                 first,
@@ -540,11 +542,9 @@ class FrameProblem:
     def _gone_part(
         self, gs: list[int], loc_d: list[int]
     ) -> tuple[tuple[tuple[int, int], ...], tuple[tuple[int, int, int], ...]]:
-        """The ``gone`` and ``back`` rows of a component's ended tracks ``gs`` (frame indices),
-        in its terms (``loc_d``: frame detection index -> local; a back row's detection is
-        in the ended track's component)."""
-        if not gs:
-            return (), ()
+        """The ``gone`` and ``back`` rows of a component's ended tracks ``gs`` (frame indices,
+        at least one), in its terms (``loc_d``: frame detection index -> local; a back row's
+        detection is in the ended track's component)."""
         lg = {g: k for k, g in enumerate(gs)}
         gone = tuple((int(self.gone_how[g]), int(self.gone_class[g])) for g in gs)
         back = tuple((lg[g], loc_d[d], lik) for g, d, lik in self.back.tolist() if g in lg)

@@ -131,7 +131,7 @@ def explanations_html(
     results: Mapping[str, Sequence[ExplanationResult]], title: str = "Explanation quality"
 ) -> str:
     """One self-contained HTML page: per benchmark, a precision-recall curve and its table for
-    each event or warning kind with ``by_confidence`` rows (the hidings, HIDDEN_ENTITY; for a
+    each event or warning kind with ``by_confidence`` rows (those that state a confidence; for a
     warning, recall is the share of the right warnings kept), then the explanation table and
     the per-sequence spread (markdown, as printed)."""
     sections = []

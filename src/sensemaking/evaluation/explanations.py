@@ -24,7 +24,7 @@ import bisect
 import logging
 import math
 from collections import Counter, defaultdict
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from functools import partial
 from typing import Any
@@ -832,12 +832,19 @@ def _stated_confidence(w: Mapping[str, Any]) -> float | None:
 class _WarningJudge(_Evidence):
     """HIDDEN_ENTITY, OVERTAKING and SUDDEN_STOP warnings."""
 
-    def hidden_entity(self, w: Mapping[str, Any]) -> WarningVerdict:
+    @staticmethod
+    def _opened(
+        w: Mapping[str, Any], kind: str, **known: Any
+    ) -> tuple[int, tuple[int, ...], Callable[..., WarningVerdict]]:
+        """A warning record's frame and objects, and its verdict with them, its stated
+        confidence and ``known`` filled in."""
         f, objs = int(w["frame"]), tuple(int(o) for o in w["objects"])
+        judged = partial(WarningVerdict, f, kind, objs, confidence=_stated_confidence(w), **known)
+        return f, objs, judged
+
+    def hidden_entity(self, w: Mapping[str, Any]) -> WarningVerdict:
+        f, objs, judged = self._opened(w, "HIDDEN_ENTITY")
         details = w.get("details") or {}
-        judged = partial(
-            WarningVerdict, f, "HIDDEN_ENTITY", objs, confidence=_stated_confidence(w)
-        )
         g, _ = self.gt_before(objs[0], f)
         ant = details.get("anticipation") or {}
         pred_frame = details.get("reappear_frame", ant.get("reappear_frame"))
@@ -879,8 +886,7 @@ class _WarningJudge(_Evidence):
     def overtaking(self, w: Mapping[str, Any]) -> WarningVerdict:
         """A overtakes B: in 3D, A was nearer than B at ``details.nearer_until`` (else one window
         before) and is farther now, the two side by side (``|X_A - X_B|`` >= ``min_side_m``)."""
-        f, objs = int(w["frame"]), tuple(int(o) for o in w["objects"])
-        judged = partial(WarningVerdict, f, "OVERTAKING", objs, confidence=_stated_confidence(w))
+        f, objs, judged = self._opened(w, "OVERTAKING")
         if len(objs) != 2:
             return judged(verdict=UNDECIDABLE, reason="unmatched")
         g_a, _ = self.gt_before(objs[0], f, inclusive=True)
@@ -908,16 +914,9 @@ class _WarningJudge(_Evidence):
         return judged_pair(verdict=PLAUSIBLE, reason="passed_in_depth")
 
     def sudden_stop(self, w: Mapping[str, Any]) -> WarningVerdict:
-        f, objs = int(w["frame"]), tuple(int(o) for o in w["objects"])
-        details = w.get("details") or {}
-        warned = details.get("ttc_s")
-        judged = partial(
-            WarningVerdict,
-            f,
-            "SUDDEN_STOP",
-            objs,
-            warned_ttc_s=None if warned is None else float(warned),
-            confidence=_stated_confidence(w),
+        warned = (w.get("details") or {}).get("ttc_s")
+        f, objs, judged = self._opened(
+            w, "SUDDEN_STOP", warned_ttc_s=None if warned is None else float(warned)
         )
         g, _ = self.gt_before(objs[0], f, inclusive=True)
         tr = self.t
@@ -1234,7 +1233,7 @@ def confidence_text(
 ) -> str:
     """The ``hides_behind`` precision-recall table (markdown) against the events' confidence:
     one row per benchmark and threshold (events at or above it kept); then, for the warnings
-    that state a confidence (HIDDEN_ENTITY), their precision and the share of the right
+    that state a confidence, their precision and the share of the right
     (plausible) warnings kept at each threshold; empty without either."""
     lines = [
         "| benchmark | hides_behind confidence >= | n | plausible | implausible | precision % "
