@@ -381,6 +381,18 @@ class KalmanConfig:
             farther from the predictions than the filter expects, shrinks while nearer), from
             ``velocity_std`` within a factor of 16 either way. 0: off, ``velocity_std`` for
             every track. For a camera that sometimes moves and sometimes stands still.
+        perspective: filter each box as seen through a pinhole camera (an extended Kalman
+            filter of ``(cx - x0) / h``, ``(cy - y0) / h``, ``w / h`` and ``1 / h`` at constant
+            velocity, measured in pixels): exact for an object moving at constant velocity
+            relative to the camera whether the camera stands or drives forward, where in
+            pixels a parked car passed by a driving camera accelerates away from the
+            principal point and needs a loose ``velocity_std`` that a standing camera's
+            objects are lost by. False: boxes filtered in pixels.
+        perspective_x: the principal point's column ``x0`` (the image point a forward-moving
+            camera's view expands from), pixels; None: the image's centre (``image_size``).
+            Only with ``perspective``; set with ``perspective_y``.
+        perspective_y: the principal point's row ``y0`` (the horizon's, for a level camera),
+            pixels; None: the image's centre. Only with ``perspective``.
     """
 
     position_std: float = param(1 / 20, "float", _BOX + " per frame", 0.0, 100.0, low_open=True)
@@ -392,6 +404,13 @@ class KalmanConfig:
     init_velocity_std: float = param(1.0, "float", _BOX + " per frame", 0.0, 100.0, low_open=True)
     min_size: float = param(1.0, "float", "pixels", 0.0, 10_000.0, low_open=True)
     velocity_adapt: float = param(0.0, "float", "fraction per correction", 0.0, 1.0)
+    perspective: bool = param(False, "bool", "-")
+    perspective_x: float | None = param(
+        None, "float", "pixels", -MAX_IMAGE_SIDE, MAX_IMAGE_SIDE, optional=True
+    )
+    perspective_y: float | None = param(
+        None, "float", "pixels", -MAX_IMAGE_SIDE, MAX_IMAGE_SIDE, optional=True
+    )
 
     def __post_init__(self) -> None:
         # its own, weaker check (a TrackerConfig checks the ranges): a bank is made on its own
@@ -410,6 +429,11 @@ class KalmanConfig:
             raise ValueError(
                 f"KalmanConfig.velocity_adapt must be in [0, 1], got {self.velocity_adapt!r}"
             )
+        if (self.perspective_x is None) != (self.perspective_y is None):
+            raise ValueError("KalmanConfig.perspective_x and perspective_y are set together")
+        for value in (self.perspective_x, self.perspective_y):
+            if value is not None and not np.isfinite(value):
+                raise ValueError(f"KalmanConfig.perspective_x/_y must be finite, got {value!r}")
 
 
 @dataclass(frozen=True)
@@ -739,10 +763,15 @@ class TrackerConfig:
 
     @property
     def kalman_config(self) -> KalmanConfig:
-        """``kalman`` with ``velocity_prior`` (if set) as its per-frame ``init_velocity_std``."""
+        """``kalman`` with ``velocity_prior`` (if set) as its per-frame ``init_velocity_std``
+        and, with ``perspective``, the principal point at the image's centre unless set."""
+        kalman = self.kalman
+        if kalman.perspective and kalman.perspective_x is None and self.image_size is not None:
+            w, h = self.image_size
+            kalman = replace(kalman, perspective_x=w / 2.0, perspective_y=h / 2.0)
         if self.velocity_prior is None:
-            return self.kalman
-        return replace(self.kalman, init_velocity_std=self.velocity_prior / self.fps)
+            return kalman
+        return replace(kalman, init_velocity_std=self.velocity_prior / self.fps)
 
     def replace(self, **changes: Any) -> TrackerConfig:
         """A copy with some parameters changed."""
@@ -974,6 +1003,14 @@ def validate(config: Any) -> None:
         raise ParameterError(
             f"keep_cover ({config.keep_cover}) must not exceed hide_cover ({config.hide_cover})"
         )
+    k = config.kalman
+    if k.perspective and k.perspective_x is None and config.image_size is None:
+        raise ParameterError(
+            "kalman.perspective needs the principal point: kalman.perspective_x and "
+            "kalman.perspective_y, or image_size (its centre)"
+        )
+    if k.perspective and k.velocity_adapt > 0:
+        raise ParameterError("kalman.velocity_adapt works with the pixel filter only")
 
 
 # -- documentation ------------------------------------------------------------------------------

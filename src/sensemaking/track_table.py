@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from sensemaking.config import MAX_DIRECTION_FRAMES
-from sensemaking.motion import KalmanBank, KalmanConfig
+from sensemaking.motion import KalmanConfig, motion_bank
 from sensemaking.results import TrackState
 
 __all__ = ["TrackTable", "EndedTracks"]
@@ -64,7 +64,7 @@ class TrackTable:
     trail_xy: np.ndarray
 
     def __init__(self, kalman: KalmanConfig | None = None) -> None:
-        self.kf = KalmanBank(kalman)
+        self.kf = motion_bank(kalman)
         for name, dtype in self.COLUMNS.items():
             setattr(self, name, np.zeros((0, *self.SHAPES.get(name, ())), dtype=dtype))
 

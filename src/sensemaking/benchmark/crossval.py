@@ -203,6 +203,10 @@ ORIGINS: dict[str, str] = {
     "kalman.min_size": "a floor against collapsing boxes, not tuned.",
     "kalman.velocity_adapt": "0 (off); adaptive velocity noise of issue 27, measured across "
     "folds, not kept (docs/DESIGN-NOTES.md).",
+    "kalman.perspective": "off; the pinhole filter of issue 27, measured across folds, not "
+    "kept (docs/DESIGN-NOTES.md).",
+    "kalman.perspective_x": "a fact of the camera (null: the image's centre), not tuned.",
+    "kalman.perspective_y": "a fact of the camera (null: the image's centre), not tuned.",
 }
 
 
