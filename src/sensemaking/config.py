@@ -393,6 +393,11 @@ class KalmanConfig:
             Only with ``perspective``; set with ``perspective_y``.
         perspective_y: the principal point's row ``y0`` (the horizon's, for a level camera),
             pixels; None: the image's centre. Only with ``perspective``.
+        depth_noise: with ``perspective``, the process noise of ``1 / h`` (an object's depth)
+            and the first uncertainty of its rate, as a fraction of the other coordinates':
+            a detector's box height jitters more, frame to frame, than the object's depth
+            changes, and the pinhole filter moves a box along its ray as its height changes.
+            1: as the pixel filter's ``h``; smaller: depth follows the heights more slowly.
     """
 
     position_std: float = param(1 / 20, "float", _BOX + " per frame", 0.0, 100.0, low_open=True)
@@ -411,6 +416,7 @@ class KalmanConfig:
     perspective_y: float | None = param(
         None, "float", "pixels", -MAX_IMAGE_SIDE, MAX_IMAGE_SIDE, optional=True
     )
+    depth_noise: float = param(0.1, "float", "fraction", 0.0, 10.0, low_open=True)
 
     def __post_init__(self) -> None:
         # its own, weaker check (a TrackerConfig checks the ranges): a bank is made on its own
@@ -421,6 +427,7 @@ class KalmanConfig:
             "min_size",
             "init_position_std",
             "init_velocity_std",
+            "depth_noise",
         ):
             value = getattr(self, name)
             if not np.isfinite(value) or value <= 0:

@@ -453,8 +453,11 @@ class PerspectiveBank(_Rows):
     linearised projection (the detector's error stays a pixel error: ``u`` and ``r`` are
     measured together, not each with the other's error), so the covariance is a full 8x8.
     Noise levels as :class:`KalmanBank`'s, fractions of the box (process noise of ``u, v, a,
-    r`` by ``a, 1, a, r``: the width, the height, the width, the height in pixels). Same
-    interface as :class:`KalmanBank`; boxes, velocities and motions come out in pixels.
+    r`` by ``a, 1, a, r``: the width, the height, the width, the height in pixels), except that
+    the process noise of ``r`` and the first uncertainty of its rate are ``depth_noise`` times
+    that: a box's height jitters more, frame to frame, than its object's depth changes, and this
+    filter reads height as depth, moving the box along its ray. Same interface as
+    :class:`KalmanBank`; boxes, velocities and motions come out in pixels.
     """
 
     __slots__ = ("config", "_c", "_x", "_p", "_fx", "_fp", "_obs")
@@ -484,10 +487,11 @@ class PerspectiveBank(_Rows):
     def _set(self, parts: tuple[np.ndarray, ...]) -> None:
         self._x, self._p, self._fx, self._fp, self._obs = parts
 
-    @staticmethod
-    def _scale(x: np.ndarray) -> np.ndarray:
-        """(K, 4) noise scale of ``u, v, a, r``: a, 1, a, r."""
-        return np.column_stack([x[:, 2], np.ones(x.shape[0]), x[:, 2], x[:, 3]])
+    def _scale(self, x: np.ndarray) -> np.ndarray:
+        """(K, 4) process noise scale of ``u, v, a, r``: a, 1, a and ``depth_noise`` r."""
+        return np.column_stack(
+            [x[:, 2], np.ones(x.shape[0]), x[:, 2], self.config.depth_noise * x[:, 3]]
+        )
 
     def _boxes(self, x: np.ndarray) -> np.ndarray:
         """(K, 4) ``cx, cy, w, h`` pixels of states ``x`` (K, >=4)."""
@@ -597,7 +601,9 @@ class PerspectiveBank(_Rows):
         z[:, 2:] = np.maximum(z[:, 2:], self.config.min_size)
         cfg = self.config
         s = z[:, [2, 3, 2, 3]]
+        # a depth rate from two boxes' heights is mostly their jitter (``depth_noise``)
         std = np.column_stack([cfg.init_position_std * s, cfg.init_velocity_std * s])
+        std[:, 7] *= cfg.depth_noise
         x, p = self._state_of(z, v0, std)
         start = len(self)
         self._set(
