@@ -170,3 +170,13 @@ def test_a_smaller_depth_noise_keeps_height_jitter_out_of_the_position() -> None
     slow = np.mean([_lateral_error(0.1, seed) for seed in range(20)])
     fast = np.mean([_lateral_error(1.0, seed) for seed in range(20)])
     assert slow < 0.8 * fast
+
+
+def test_steps_are_checked_as_in_the_pixel_bank() -> None:
+    bank = PerspectiveBank(_config(perspective=True, perspective_x=X0, perspective_y=Y0))
+    bank.add(np.concatenate([_box(x, 0.8, 20.0) for x in (-2.0, 2.0)]))
+    for bad in (-1, np.array([1.5, 1.0]), np.array([1, 1, 1])):
+        with pytest.raises(ValueError, match="steps"):
+            bank.predict(bad)
+    ahead = bank.peek(np.array([0, 3]))
+    assert np.allclose(ahead, bank.peek(0))  # no velocity yet: nowhere to go

@@ -91,6 +91,23 @@ class _Rows:
             raise IndexError(f"row index out of range for {name} of {len(self)} tracks")
         return idx
 
+    def _steps(self, steps: int | np.ndarray) -> np.ndarray | int:
+        if isinstance(steps, (int, np.integer)) and not isinstance(steps, bool):
+            if steps < 0:
+                raise ValueError(f"steps must be >= 0, got {steps}")
+            return int(steps)
+        n = np.asarray(steps)
+        if n.ndim == 0:
+            return self._steps(_as_int(n))
+        if n.shape != (len(self),):
+            raise ValueError(f"steps must be a scalar or have shape ({len(self)},), got {n.shape}")
+        if n.dtype.kind not in "iu":
+            if n.dtype.kind != "f" or not np.all(n == np.round(n)):
+                raise ValueError("steps must be whole numbers of frames")
+        if np.any(n < 0):
+            raise ValueError("steps must be >= 0")
+        return n.astype(np.float64)[:, None]
+
     def update(self, index: np.ndarray, xyxy: np.ndarray) -> None:
         """Correct rows ``index`` (K,), distinct, with measured boxes ``xyxy`` (K, 4) pixels."""
         idx = self._rows(index)
@@ -184,23 +201,6 @@ class KalmanBank(_Rows):
     def _scale(x: np.ndarray) -> np.ndarray:
         """(K, 4) noise scale per coordinate of ``cx, cy, w, h`` rows: w, h, w, h (pixels)."""
         return x[:, _WHWH]
-
-    def _steps(self, steps: int | np.ndarray) -> np.ndarray | int:
-        if isinstance(steps, (int, np.integer)) and not isinstance(steps, bool):
-            if steps < 0:
-                raise ValueError(f"steps must be >= 0, got {steps}")
-            return int(steps)
-        n = np.asarray(steps)
-        if n.ndim == 0:
-            return self._steps(_as_int(n))
-        if n.shape != (len(self),):
-            raise ValueError(f"steps must be a scalar or have shape ({len(self)},), got {n.shape}")
-        if n.dtype.kind not in "iu":
-            if n.dtype.kind != "f" or not np.all(n == np.round(n)):
-                raise ValueError("steps must be whole numbers of frames")
-        if np.any(n < 0):
-            raise ValueError("steps must be >= 0")
-        return n.astype(np.float64)[:, None]
 
     def _clamp_size(self, x: np.ndarray, v: np.ndarray | None) -> None:
         """Keep w, h >= min_size in place; a clamped size stops shrinking (velocity >= 0)."""
@@ -568,6 +568,11 @@ class PerspectiveBank(_Rows):
         p[:, i + 4, i + 4] += n * qv
         x[:, :4] += n * x[:, 4:]
 
+    def _frames(self, steps: int | np.ndarray) -> np.ndarray:
+        """(T, 1) frames each row is advanced (:meth:`_steps`' checks)."""
+        n = self._steps(steps)
+        return np.full((len(self), 1), float(n)) if isinstance(n, int) else n
+
     def _noise(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         s2 = self._scale(x) ** 2
         return self.config.position_std**2 * s2, self.config.velocity_std**2 * s2
@@ -619,9 +624,7 @@ class PerspectiveBank(_Rows):
 
     def predict(self, steps: int | np.ndarray = 1) -> np.ndarray:
         """Advance every track ``steps`` frames (scalar or (T,)); returns (T, 4) boxes."""
-        n = np.broadcast_to(np.asarray(steps, dtype=np.float64), (len(self),))[:, None]
-        if np.any(n < 0):
-            raise ValueError("steps must be >= 0")
+        n = self._frames(steps)
         qp, qv = self._noise(self._x)
         self._advance(self._x, self._p, n, qp, qv)
         self._clamp(self._x)
@@ -724,7 +727,7 @@ class PerspectiveBank(_Rows):
 
     def peek(self, steps: int | np.ndarray) -> np.ndarray:
         """(T, 4) boxes extrapolated ``steps`` frames ahead, state unchanged."""
-        n = np.broadcast_to(np.asarray(steps, dtype=np.float64), (len(self),))[:, None]
+        n = self._frames(steps)
         x = self._x.copy()
         x[:, :4] += n * x[:, 4:]
         self._clamp(x)
