@@ -299,3 +299,19 @@ def test_parameters_doc_lists_every_parameter() -> None:
     doc = (REPO / "docs" / "PARAMETERS.md").read_text(encoding="utf-8")
     for key in settings.PARAMETERS:
         assert f"`{key}`" in doc, key
+
+
+def test_a_principal_point_half_set_is_a_one_line_error(
+    tmp_path: Path, det_file: Path, capsys
+) -> None:
+    out = tmp_path / "r.txt"
+    assert _track(det_file, out, "--set", "kalman.perspective_x=600") == 2
+    assert "--set: kalman.perspective_x and kalman.perspective_y are set together" in (
+        capsys.readouterr().err
+    )
+    params = tmp_path / "p.json"
+    params.write_text(json.dumps({"params": {"kalman": {"perspective_y": 170}}}))
+    assert _track(det_file, out, "--params", str(params)) == 2
+    err = capsys.readouterr().err
+    assert f"{params}: kalman.perspective_x and kalman.perspective_y" in err
+    assert not out.exists()

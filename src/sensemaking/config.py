@@ -437,7 +437,10 @@ class KalmanConfig:
                 f"KalmanConfig.velocity_adapt must be in [0, 1], got {self.velocity_adapt!r}"
             )
         if (self.perspective_x is None) != (self.perspective_y is None):
-            raise ValueError("KalmanConfig.perspective_x and perspective_y are set together")
+            # a relation between two parameters: the user's error, named as they wrote it
+            raise ParameterError(
+                "kalman.perspective_x and kalman.perspective_y are set together (one is null)"
+            )
         for value in (self.perspective_x, self.perspective_y):
             if value is not None and not np.isfinite(value):
                 raise ValueError(f"KalmanConfig.perspective_x/_y must be finite, got {value!r}")
@@ -938,14 +941,14 @@ def apply_settings(
             nested.setdefault(head, {})[tail] = value
         else:
             top[key] = value
-    for head, changes in nested.items():
-        top[head] = dataclasses.replace(getattr(config, head), **changes)
     if per_class:
         table = {k: dict(v) for k, v in top.get(CLASS_KEY, getattr(config, CLASS_KEY)).items()}
         for cls, changes in per_class.items():
             table.setdefault(cls, {}).update(changes)
         top[CLASS_KEY] = table
     try:
+        for head, changes in nested.items():  # a group checks the relations of its fields
+            top[head] = dataclasses.replace(getattr(config, head), **changes)
         return dataclasses.replace(config, **top)
     except ParameterError as exc:
         raise ParameterError(exc.problem, where) from None
