@@ -171,7 +171,7 @@ class KalmanBank(_Rows):
     """Kalman filters of T tracks. State per track: cx, cy, w, h and their velocities
     (pixels, pixels/frame); beside it, the filter as it was after its last correction and that
     measurement (for :meth:`reupdate`). Rows are addressed by position 0..T-1; :meth:`remove`
-    compacts them.
+    compacts them. The pixel filter whatever ``perspective`` says: :func:`motion_bank` picks.
     """
 
     __slots__ = ("config", "_s", "_x", "_v", "_pp", "_pv", "_vv")
