@@ -18,16 +18,12 @@ and, after the slash, the share of predictions with IoU >= 0.3.
 from __future__ import annotations
 
 import argparse
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
-from occlusion_errors import BENCHMARKS, DATA, Item, _fps, _gt, _iou, items
+from occlusion_errors import BENCHMARKS, DATA, Item, _dets, _gt, _gt_objects, _iou, _seqinfo, items
 
-from sensemaking.classes import class_id
 from sensemaking.detections import Detections
-from sensemaking.io.kitti import read_kitti_detections, read_kitti_seqinfo
-from sensemaking.io.mot import read_mot, read_seqinfo
 from sensemaking.motion import motion_bank
 from sensemaking.settings import load_config
 
@@ -35,69 +31,49 @@ HORIZONS_S = (0.2, 0.5, 1.0)
 WARM = 3  # detections before a prediction is scored (a confirmed track's)
 
 
-def _image_size(item: Item, data: Path) -> tuple[int, int]:
+def _visible(item: Item, gt: Detections) -> set[tuple[int, int]]:
+    """(object id, frame) of the ground-truth boxes labelled visible (KITTI ``occluded <= 1``,
+    MOT17 visibility >= 0.5)."""
+    assert gt.frame is not None and gt.tracker_id is not None
     if item.fmt == "kitti":
-        info = read_kitti_seqinfo(data / "kitti" / "training" / "seqinfo.csv")[item.seq]
+        seen = gt.data["occluded"] <= 1
     else:
-        info = read_seqinfo(data / "mot17" / item.seq / "seqinfo.ini")
-    return info.width, info.height
+        seen = gt.data["visibility"] >= 0.5
+    return set(zip(gt.tracker_id[seen].tolist(), gt.frame[seen].tolist(), strict=True))
 
 
-def _objects(item: Item, gt: Detections) -> dict[int, dict[int, tuple[np.ndarray, bool]]]:
-    """Object id -> frame -> (box, visible)."""
-    assert gt.frame is not None and gt.tracker_id is not None and gt.class_id is not None
-    if item.fmt == "kitti":
-        keep = gt.class_id == class_id(item.cls)
-        visible = gt.data["occluded"] <= 1
-    else:
-        keep = (gt.class_id == 1) & (gt.data["consider"] == 1)
-        visible = gt.data["visibility"] >= 0.5
-    out: dict[int, dict[int, tuple[np.ndarray, bool]]] = {}
-    for i in np.flatnonzero(keep).tolist():
-        out.setdefault(int(gt.tracker_id[i]), {})[int(gt.frame[i])] = (
-            gt.xyxy[i],
-            bool(visible[i]),
-        )
-    return out
-
-
-def _detections(item: Item, data: Path, floor: float) -> dict[int, np.ndarray]:
-    """Frame -> (K, 4) boxes of the sequence's detections of the class scoring >= ``floor``."""
-    if item.fmt == "kitti":
-        d = read_kitti_detections(item.det_path(data), item.cls)
-        d = d[d.class_id == class_id(item.cls)]
-    else:
-        d = read_mot(item.det_path(data), kind="det")
-    assert d.frame is not None and d.confidence is not None
-    d = d[d.confidence >= floor]
-    assert d.frame is not None
-    return {int(f): d.xyxy[d.frame == f] for f in np.unique(d.frame).tolist()}
-
-
-def _matched(boxes: np.ndarray | None, truth: np.ndarray) -> np.ndarray | None:
-    if boxes is None or not len(boxes):
-        return None
-    scores = [_iou(b, truth) for b in boxes]
-    best = int(np.argmax(scores))
-    return boxes[best] if scores[best] >= 0.5 else None
+def _matched(
+    dets: list[tuple[np.ndarray, float]], truth: np.ndarray, floor: float
+) -> np.ndarray | None:
+    """The detection scoring >= ``floor`` that best overlaps ``truth``, if by IoU >= 0.5."""
+    best, box = 0.0, None
+    for b, c in dets:
+        if c >= floor and (v := _iou(b, truth)) > best:
+            best, box = v, b
+    return box if best >= 0.5 else None
 
 
 def predictions(item: Item, data: Path, sets: list[str]) -> dict[str, list[float]]:
     """IoUs of the boxes predicted for one sequence: horizon name -> values."""
-    fps = _fps(item, data)
-    config = load_config(
-        None, item.family, {"fps": fps, "image_size": _image_size(item, data)}, sets
-    )
+    info = _seqinfo(item, data)
+    facts = {"fps": info.fps, "image_size": (info.width, info.height)}
+    config = load_config(None, item.family, facts, sets)
     kalman = config.kalman_config
-    ahead = {f"{s:g}s": max(1, round(s * fps)) for s in HORIZONS_S}
+    ahead = {f"{s:g}s": max(1, round(s * info.fps)) for s in HORIZONS_S}
     out: dict[str, list[float]] = {name: [] for name in (*ahead, "young")}
-    dets = _detections(item, data, config.min_confidence)
-    for track in _objects(item, _gt(item, data)).values():
+    dets = _dets(item, data)
+    gt = _gt(item, data)
+    visible = _visible(item, gt)
+    for oid, track in _gt_objects(item, gt).items():
         bank = motion_bank(kalman)
         seen = 0
         for f in range(min(track), max(track) + 1):
-            truth, visible = track.get(f, (None, False))
-            m = _matched(dets.get(f), truth) if truth is not None and visible else None
+            truth = track.get(f)
+            m = (
+                _matched(dets.get(f, []), truth, config.min_confidence)
+                if truth is not None and (oid, f) in visible
+                else None
+            )
             if seen == 0:
                 if m is not None:
                     bank.add(m[None])
@@ -115,7 +91,7 @@ def predictions(item: Item, data: Path, sets: list[str]) -> dict[str, list[float
             for name, k in ahead.items():
                 later = track.get(f + k)
                 if later is not None:
-                    out[name].append(_iou(bank.peek(k)[0], later[0]))
+                    out[name].append(_iou(bank.peek(k)[0], later))
     return out
 
 
@@ -124,11 +100,6 @@ def _cell(values: list[float]) -> str:
         return "      -     "
     v = np.asarray(values)
     return f"{v.mean():.3f}/{np.mean(v >= 0.3):.3f}"
-
-
-def _rows(args: argparse.Namespace) -> Iterator[tuple[str, str, dict[str, list[float]]]]:
-    for item in items(args.only, args.data):
-        yield item.bench, item.seq, predictions(item, args.data, args.set)
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -141,7 +112,8 @@ def main(argv: list[str] | None = None) -> None:
     names = [f"{s:g}s" for s in HORIZONS_S] + ["young"]
     print(f"{'benchmark':28}{'sequence':22}" + "".join(f"{n:>13}" for n in names))
     pooled: dict[str, dict[str, list[float]]] = {}
-    for bench, seq, got in _rows(args):
+    for item in items(args.only, args.data):
+        bench, seq, got = item.bench, item.seq, predictions(item, args.data, args.set)
         into = pooled.setdefault(bench, {n: [] for n in names})
         for n in names:
             into[n] += got[n]

@@ -61,7 +61,7 @@ from sensemaking.evaluation.occlusion import (
     mot_episodes,
 )
 from sensemaking.io.kitti import read_kitti_detections, read_kitti_labels, read_kitti_seqinfo
-from sensemaking.io.mot import read_mot, read_seqinfo
+from sensemaking.io.mot import SequenceInfo, read_mot, read_seqinfo
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 KITTI_SEQS = tuple(f"{i:04d}" for i in range(11))
@@ -174,10 +174,15 @@ class Scored:
     episodes: list[Episode]
 
 
-def _fps(item: Item, data: Path) -> float:
+def _seqinfo(item: Item, data: Path) -> SequenceInfo:
+    """The sequence's length, image size and frame rate."""
     if item.fmt == "kitti":
-        return read_kitti_seqinfo(data / "kitti" / "training" / "seqinfo.csv")[item.seq].fps
-    return read_seqinfo(data / "mot17" / item.seq / "seqinfo.ini").fps
+        return read_kitti_seqinfo(data / "kitti" / "training" / "seqinfo.csv")[item.seq]
+    return read_seqinfo(data / "mot17" / item.seq / "seqinfo.ini")
+
+
+def _fps(item: Item, data: Path) -> float:
+    return _seqinfo(item, data).fps
 
 
 def _gt(item: Item, data: Path) -> Detections:

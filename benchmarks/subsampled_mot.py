@@ -37,18 +37,25 @@ def subsample_rows(lines: list[str], step: int, offset: int) -> list[str]:
     return out
 
 
-def write_sequence(src: Path, dst: Path, step: int, offset: int, fps: float, length: int) -> None:
-    """One sequence's detections, ground truth and seqinfo (``length`` frames) at every
-    ``step``-th frame."""
-    ini = configparser.ConfigParser()
-    ini.optionxform = str  # type: ignore[assignment,method-assign]  # keep seqinfo's key case
-    ini.read(src / "seqinfo.ini")
+SOURCES = ("det/det.txt", "gt/gt.txt")
+
+
+def write_sequence(
+    ini: configparser.ConfigParser,
+    rows: dict[str, list[str]],
+    dst: Path,
+    step: int,
+    offset: int,
+    fps: float,
+    length: int,
+) -> None:
+    """One sequence's detections and ground truth (``rows`` of each of :data:`SOURCES`, as
+    read) and its seqinfo (``ini``, ``length`` frames) at every ``step``-th frame."""
     ini["Sequence"]["frameRate"] = f"{fps:g}"
     ini["Sequence"]["seqLength"] = str((length - offset) // step + 1)
-    for sub in ("det/det.txt", "gt/gt.txt"):
-        rows = subsample_rows((src / sub).read_text().splitlines(keepends=True), step, offset)
+    for sub in SOURCES:
         (dst / sub).parent.mkdir(parents=True, exist_ok=True)
-        (dst / sub).write_text("".join(rows))
+        (dst / sub).write_text("".join(subsample_rows(rows[sub], step, offset)))
     with open(dst / "seqinfo.ini", "w") as fh:
         ini.write(fh, space_around_delimiters=False)
 
@@ -72,9 +79,13 @@ def main(argv: list[str] | None = None) -> int:
         if step < 2 or abs(rate / step - args.fps) > 1e-6:
             print(f"skipped {src.name}: {rate:g} fps is not a multiple of {args.fps:g}")
             continue
-        for offset in range(1, step + 1):
+        ini = configparser.ConfigParser()
+        ini.optionxform = str  # type: ignore[assignment,method-assign]  # keep seqinfo's key case
+        ini.read(src / "seqinfo.ini")
+        rows = {sub: (src / sub).read_text().splitlines(keepends=True) for sub in SOURCES}
+        for offset in range(1, step + 1):  # each source read once for all the offsets
             dst = args.out / f"o{offset}" / "mot17" / src.name
-            write_sequence(src, dst, step, offset, args.fps, info.length)
+            write_sequence(ini, rows, dst, step, offset, args.fps, info.length)
         written += 1
         print(f"{src.name}: {rate:g} fps -> {args.fps:g} fps, offsets 1..{step}")
     return 0 if written else 2

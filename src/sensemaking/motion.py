@@ -24,6 +24,8 @@ boxes, unchanged; it only sets how large the covariance (for gating) is relative
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from sensemaking.config import KalmanConfig  # declared with the other parameters
@@ -146,25 +148,68 @@ class _Rows:
             raise ValueError(f"{name}.add: velocities must be finite")
         return z, v0
 
-    def _gapped(
-        self, index: np.ndarray, xyxy: np.ndarray, gaps: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``reupdate``'s checked inputs: rows (K,), boxes ``cx, cy, w, h`` (K, 4) pixels and
-        the steps to run, ``gap + 1`` (K,)."""
+    def reupdate(self, index: np.ndarray, xyxy: np.ndarray, gaps: np.ndarray) -> None:
+        """Correct rows ``index`` (K,), distinct, seen again after ``gaps`` (K,) frames without a
+        measurement, by the observation-centric re-update of OC-SORT (Cao et al. 2023): the
+        filter goes back to its state after the last measurement and runs ``gap + 1`` steps of
+        predict and correct along the straight line from that measurement to the new box
+        ``xyxy`` (K, 4) pixels, so the velocity is re-estimated from the observations at both
+        ends of the gap instead of being corrected once from the drifted prediction. A row with
+        gap 0 is corrected as by :meth:`update`."""
         idx = self._rows(index)
         z = _to_cxcywh(xyxy)
         n = np.asarray(gaps).reshape(-1)
         if z.shape[0] != idx.size or n.size != idx.size:
             raise ValueError(f"reupdate: {idx.size} rows, {z.shape[0]} boxes, {n.size} gaps")
         if idx.size == 0:
-            return idx, z, np.zeros(0, dtype=np.int64)
+            return
         if len(set(idx.tolist())) != idx.size:
             raise ValueError("reupdate: row indices must be distinct")
         if not np.all(np.isfinite(z)):
             raise ValueError("reupdate: boxes must be finite")
         if n.dtype.kind not in "iu" or np.any(n < 0):
             raise ValueError("reupdate: gaps must be non-negative integers (frames)")
-        return idx, z, n.astype(np.int64) + 1
+        steps = n.astype(np.int64) + 1
+        gapped = steps > 1
+        work, last = self._rewound(idx, gapped)
+        # rows without a gap keep their prediction (steps 0 in the first pass) and take one
+        # correction like the others
+        first = np.where(gapped, 1, 0)
+        for k in range(1, int(steps.max()) + 1):
+            live = steps >= k
+            work.predict(np.where(live, 1, 0) if k > 1 else first)
+            rows = np.flatnonzero(live)
+            virtual = last[rows] + (k / steps[rows])[:, None] * (z[rows] - last[rows])
+            work._correct(rows, virtual)
+        self._put(idx, work)
+
+    def _rewound(self, idx: np.ndarray, gapped: np.ndarray) -> tuple[Any, np.ndarray]:
+        """:meth:`reupdate`'s working bank: rows ``idx`` copied, those ``gapped`` back at their
+        state after their last correction; and those rows' last measurements (K, 4)."""
+        raise NotImplementedError
+
+    def _put(self, idx: np.ndarray, work: Any) -> None:
+        """Rows ``idx`` replaced by the rows of the working bank ``work``, in order."""
+        raise NotImplementedError
+
+    def _shifted(
+        self, index: np.ndarray, dxy: np.ndarray, dv: np.ndarray | None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``shift``'s checked inputs: rows (K,), the offset (2,) pixels and the velocity's
+        (2,) pixels per frame (0 where None)."""
+        idx = self._rows(index)
+        d = np.asarray(dxy, dtype=np.float64).reshape(2)
+        w = np.zeros(2) if dv is None else np.asarray(dv, dtype=np.float64).reshape(2)
+        if not (np.all(np.isfinite(d)) and np.all(np.isfinite(w))):
+            raise ValueError("shift: offsets must be finite")
+        return idx, d, w
+
+    def _damped(self, index: np.ndarray, factor: float) -> np.ndarray:
+        """``damp``'s checked rows (K,): ``factor`` must be in [0, 1]."""
+        idx = self._rows(index)
+        if not 0.0 <= factor <= 1.0:
+            raise ValueError(f"damp: factor must be in [0, 1], got {factor}")
+        return idx
 
 
 class KalmanBank(_Rows):
@@ -305,32 +350,14 @@ class KalmanBank(_Rows):
         rows[:, _OBS] = z
         self._s[idx] = rows
 
-    def reupdate(self, index: np.ndarray, xyxy: np.ndarray, gaps: np.ndarray) -> None:
-        """Correct rows ``index`` (K,), distinct, seen again after ``gaps`` (K,) frames without a
-        measurement, by the observation-centric re-update of OC-SORT (Cao et al. 2023): the
-        filter goes back to its state after the last measurement and runs ``gap + 1`` steps of
-        predict and correct along the straight line from that measurement to the new box
-        ``xyxy`` (K, 4) pixels, so the velocity is re-estimated from the observations at both
-        ends of the gap instead of being corrected once from the drifted prediction. A row with
-        gap 0 is corrected as by :meth:`update`."""
-        idx, z, steps = self._gapped(index, xyxy, gaps)
-        if idx.size == 0:
-            return
+    def _rewound(self, idx: np.ndarray, gapped: np.ndarray) -> tuple[KalmanBank, np.ndarray]:
         work = KalmanBank(self.config)
         state = self._s[idx]  # (K, 45) copy
-        last = state[:, _OBS].copy()
-        gapped = steps > 1
         state[gapped, _FILTER] = state[gapped, _FROZEN]
         work._bind(state)
-        # rows without a gap keep their prediction (steps 0 in the first pass) and take one
-        # correction like the others
-        first = np.where(gapped, 1, 0)
-        for k in range(1, int(steps.max()) + 1):
-            live = steps >= k
-            work.predict(np.where(live, 1, 0) if k > 1 else first)
-            rows = np.flatnonzero(live)
-            virtual = last[rows] + (k / steps[rows])[:, None] * (z[rows] - last[rows])
-            work._correct(rows, virtual)
+        return work, state[:, _OBS].copy()
+
+    def _put(self, idx: np.ndarray, work: KalmanBank) -> None:
         self._s[idx] = work._s
 
     def shift(self, index: np.ndarray, dxy: np.ndarray, dv: np.ndarray | None = None) -> None:
@@ -338,11 +365,7 @@ class KalmanBank(_Rows):
         ``dv`` (2,) pixels/frame (default 0): the image motion of the camera. The copy after the
         last correction moves alike and the last measurement by ``dxy``; covariances are
         unchanged."""
-        idx = self._rows(index)
-        d = np.asarray(dxy, dtype=np.float64).reshape(2)
-        w = np.zeros(2) if dv is None else np.asarray(dv, dtype=np.float64).reshape(2)
-        if not (np.all(np.isfinite(d)) and np.all(np.isfinite(w))):
-            raise ValueError("shift: offsets must be finite")
+        idx, d, w = self._shifted(index, dxy, dv)
         if idx.size == 0:
             return
         frozen = _FROZEN.start
@@ -359,10 +382,7 @@ class KalmanBank(_Rows):
         """Scale the velocities (centre and size) of rows ``index`` (K,) by ``factor`` in
         [0, 1]: an unseen object's image motion is less certain the longer it is unseen
         (issue 27). Covariances are unchanged."""
-        idx = self._rows(index)
-        if not 0.0 <= factor <= 1.0:
-            raise ValueError(f"damp: factor must be in [0, 1], got {factor}")
-        self._v[idx] *= factor
+        self._v[self._damped(index, factor)] *= factor
 
     def remove(self, index: np.ndarray) -> None:
         """Drop rows ``index`` (int array or (T,) bool mask); the others keep their order."""
@@ -630,37 +650,19 @@ class PerspectiveBank(_Rows):
         self._clamp(self._x)
         return self.xyxy()
 
-    def reupdate(self, index: np.ndarray, xyxy: np.ndarray, gaps: np.ndarray) -> None:
-        """OC-SORT's observation-centric re-update (see :meth:`KalmanBank.reupdate`)."""
-        idx, z, steps = self._gapped(index, xyxy, gaps)
-        if idx.size == 0:
-            return
-        last = self._obs[idx].copy()
-        gapped = steps > 1
-        rows_g = idx[gapped]
-        self._x[rows_g], self._p[rows_g] = self._fx[rows_g], self._fp[rows_g]
-        for k in range(1, int(steps.max()) + 1):
-            live = steps >= k
-            if k == 1:
-                move = idx[gapped]
-            else:
-                move = idx[live]
-            if move.size:
-                x, p = self._x[move], self._p[move]
-                qp, qv = self._noise(x)
-                self._advance(x, p, np.ones((move.size, 1)), qp, qv)
-                self._clamp(x)
-                self._x[move], self._p[move] = x, p
-            sel = np.flatnonzero(live)
-            virtual = last[sel] + (k / steps[sel])[:, None] * (z[sel] - last[sel])
-            self._correct(idx[sel], virtual)
+    def _rewound(self, idx: np.ndarray, gapped: np.ndarray) -> tuple[PerspectiveBank, np.ndarray]:
+        work = self.take(idx)
+        work._x[gapped], work._p[gapped] = work._fx[gapped], work._fp[gapped]
+        return work, work._obs.copy()
+
+    def _put(self, idx: np.ndarray, work: PerspectiveBank) -> None:
+        for mine, theirs in zip(self._parts(), work._parts(), strict=True):
+            mine[idx] = theirs
 
     def shift(self, index: np.ndarray, dxy: np.ndarray, dv: np.ndarray | None = None) -> None:
         """Move rows ``index`` by ``dxy`` (2,) pixels and their velocity by ``dv`` (2,)
         pixels/frame (the camera's image motion)."""
-        idx = self._rows(index)
-        d = np.asarray(dxy, dtype=np.float64).reshape(2)
-        w = np.zeros(2) if dv is None else np.asarray(dv, dtype=np.float64).reshape(2)
+        idx, d, w = self._shifted(index, dxy, dv)
         if idx.size == 0:
             return
         for x in (self._x, self._fx):
@@ -671,10 +673,7 @@ class PerspectiveBank(_Rows):
 
     def damp(self, index: np.ndarray, factor: float) -> None:
         """Scale the velocities of rows ``index`` by ``factor`` in [0, 1]."""
-        idx = self._rows(index)
-        if not 0.0 <= factor <= 1.0:
-            raise ValueError(f"damp: factor must be in [0, 1], got {factor}")
-        self._x[idx, 4:] *= factor
+        self._x[self._damped(index, factor), 4:] *= factor
 
     def remove(self, index: np.ndarray) -> None:
         """Drop rows ``index`` (int array or (T,) bool mask)."""

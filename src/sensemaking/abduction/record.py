@@ -24,6 +24,7 @@ from __future__ import annotations
 import re
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Any
 
 import clingo
@@ -204,10 +205,7 @@ class AbductionRecord:
     @classmethod
     def from_json(cls, record: Any, where: str | None = None) -> AbductionRecord:
         """Read and check the ``"abduction"`` entry: every fact must parse as a ground atom."""
-
-        def bad(problem: str) -> InputError:
-            return InputError(f"malformed scene: abduction: {problem}", where)
-
+        bad = partial(_malformed, where=where)
         if not isinstance(record, Mapping):
             raise bad("must be an object")
         if record.get("encoding", PACKAGED) != PACKAGED:
@@ -232,13 +230,15 @@ class AbductionRecord:
         return cls({str(k): int(v) for k, v in constants.items()}, budget, problems)
 
 
+def _malformed(problem: str, where: str | None) -> InputError:
+    """The error of an ``"abduction"`` entry that is not as written by the tracker."""
+    return InputError(f"malformed scene: abduction: {problem}", where)
+
+
 def problem_from_json(p: Any, i: int, where: str | None = None) -> ProblemRecord:
     """Entry ``i`` of the ``"problems"`` list, checked: every fact must parse as a ground atom.
     Raises InputError naming ``where``."""
-
-    def bad(problem: str) -> InputError:
-        return InputError(f"malformed scene: abduction: {problem}", where)
-
+    bad = partial(_malformed, where=where)
     if not isinstance(p, Mapping):
         raise bad(f"problems[{i}] must be an object")
     tracks, dets, facts = p.get("tracks"), p.get("dets"), p.get("facts")
