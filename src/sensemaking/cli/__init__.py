@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import os
 import signal
 import sys
 import threading
@@ -102,10 +103,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     except Terminated:
         print("terminated", file=sys.stderr)
-        return 143
+        return _stopped(args, 143)
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
-        return 130
+        return _stopped(args, 130)
     except BrokenPipeError:
         return 1
     except (OSError, MemoryError) as exc:
@@ -131,6 +132,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     finally:
         if main_thread:
             signal.signal(signal.SIGTERM, previous if previous is not None else signal.SIG_DFL)
+
+
+def _stopped(args: argparse.Namespace, code: int) -> int:
+    """``code`` of an interrupted verb. A verb that leaves native work running when interrupted
+    (``exits_at_once``: DuckDB, which looks for an interrupt only between its tasks) ends the
+    process here: the interpreter's exit would wait for that work (seconds) or tear its threads
+    down mid-task (an abort)."""
+    if getattr(args, "exits_at_once", False):
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+    return code
 
 
 def _one_line(exc: BaseException) -> str:

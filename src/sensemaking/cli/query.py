@@ -48,7 +48,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="MB",
         help=f"memory DuckDB may use for the query, MB (default {DEFAULT_MEMORY_MB})",
     )
-    p.set_defaults(func=run)
+    # an interrupted query's DuckDB tasks run on past the interrupt: the CLI ends at once
+    p.set_defaults(func=run, exits_at_once=True)
 
 
 def run(args: argparse.Namespace) -> int:
