@@ -348,10 +348,26 @@ def test_a_situations_details_are_grounded_only_when_it_is_warned(tmp_path, monk
         assert sorted(map(str, got)) == sorted(map(str, want))
         if f == 3:  # the warning's detail through big/2
             assert any("area_permille" in str(x) for x in got)
-    # (the answer before's now/1 is released but stays in clingo's domain for one more
-    # ground call, so its warnings are possible then: frames 1, 3 and 4 ground both parts)
-    assert "seen" in grounded[0] and "gone" in grounded[1] and "seen" in grounded[3]
-    assert grounded[2] == {"gone"} and grounded[5] == set()
+    # (exactly: the frame before's now/1 is not joined, see the next test)
+    assert grounded == [{"seen"}, {"gone"}, {"gone"}, {"seen"}, set(), set()]
+
+
+def test_an_answer_joins_its_own_frame_only(tmp_path):
+    """now/1 reaches clingo as now(N,n), a fact of the answer's own: the rules of an answer
+    are never instantiated for the frame before (a released external would still be in
+    clingo's domain for the next ground call)."""
+    enc = tmp_path / "seen.lp"
+    enc.write_text("warn(seen,(T,)) :- now(N), state(T,N,visible).\n")
+    solver = StreamSolver(parts=(), extra_encodings=[enc], static_facts=[("frame_ms", 100)])
+    got = []
+    for f, st in enumerate(["visible", "hidden", "visible"]):
+        solver.add_frame(f, [("state", 1, f, st)])
+        got.append(solver.answer(f, [("now", f)]))
+        warn = solver._ctl.symbolic_atoms.by_signature("warn", 3)
+        assert [str(a.symbol) for a in warn if a.symbol.arguments[2].number == f] == (
+            [f"warn(seen,(1,),{f})"] if st == "visible" else []
+        )
+    assert [len(a) for a in got] == [1, 0, 1]
 
 
 def test_a_stream_monitor_pickles_mid_sequence():

@@ -430,6 +430,7 @@ INPUTS: frozenset[tuple[str, int]] = (
     }
 )
 _STEP = "sm_step"  # the external that guards the rules of one frame's answer
+_NOW = ("now", 1)
 _DETAILS = "sm_details_"  # the parts grounded once a warning holds (see _details)
 _ATOM_TYPES = (clingo_ast.ASTType.SymbolicAtom,)
 
@@ -833,13 +834,16 @@ def _stream_program(
         return clingo_ast.Function(loc, name, [], 0)
 
     now_preds = layers.now_preds
+    # now/1 as now(N,n), a fact of the answer's own: a released external stays in clingo's
+    # domain for the next ground call, where every rule would join the frame before too
+    stepped = now_preds | ({_NOW} if _NOW not in layers.derived else set())
 
     class Tag(clingo_ast.Transformer):
         """Adds the answered frame ``n`` to every atom of a now-layer predicate."""
 
         def visit_SymbolicAtom(self, atom: Any) -> Any:  # noqa: N802
             sig = _signature(atom)
-            if sig not in now_preds:
+            if sig not in stepped:
                 return atom
             term = atom.symbol
             args = list(term.arguments) if term.ast_type == clingo_ast.ASTType.Function else []
@@ -1016,11 +1020,12 @@ class StreamSolver:
     frame over what the window holds. Facts are externals: a frame's facts are added when it
     enters (``add_frame``) and released when it leaves (``drop_frame``); facts about the whole
     window (a track's class, the first frame, the anticipations) are switched on and off
-    (``set_window``); facts of one answer (``now``) are released after it. Frames and tracks are
-    numbers the caller chooses, increasing frames (the monitor: frames relative to the last
-    restart, tracks by slot, so that a long run makes a bounded set of clingo symbols). All
-    changes of a frame go to clingo at once, in ``answer``: one backend session, one ground
-    call.
+    (``set_window``); facts of one answer (the areas now) are released after it, and ``now(N)``
+    is given as ``now(N,n)``, the answer's own (a released atom would be joined once more).
+    Frames and tracks are numbers the caller chooses, increasing frames (the monitor: frames
+    relative to the last restart, tracks by slot, so that a long run makes a bounded set of
+    clingo symbols). All changes of a frame go to clingo at once, in ``answer``: one backend
+    session, one ground call (and a second for the details of what is warned).
 
     ``answer(n)`` returns the ``warn/2`` and ``info/4`` atoms of the first answer set, as the
     fresh :class:`SituationSolver` would for the same facts. What a Control holds grows with
@@ -1191,11 +1196,20 @@ class StreamSolver:
         flip += [(s, clingo.TruthValue.False_) for s in self._window - on]
         self._window = set(on)
         release = self._release + self._current
-        self._current = [symbol(f) for f in current]
+        stepped = _NOW not in self.layers.derived  # now/1 is now(N,n) (see _stream_program)
+        self._current = []
+        nows = []
+        for f in current:
+            if stepped and f[0] == "now" and len(f) == 2:
+                nows.append(clingo.Function("now", [symbol(f).arguments[0], n]))
+            else:
+                self._current.append(symbol(f))
         true_ = clingo.TruthValue.True_
         with ctl.backend() as backend:
             atom = backend.add_atom
             self._give(backend, release)
+            for s in nows:
+                backend.add_rule([atom(s)])
             for s in self._current:
                 backend.add_external(atom(s), true_)
             for s in new:
