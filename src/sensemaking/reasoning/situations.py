@@ -430,7 +430,7 @@ INPUTS: frozenset[tuple[str, int]] = (
     }
 )
 _STEP = "sm_step"  # the external that guards the rules of one frame's answer
-_NOW = ("now", 1)
+_NOW = ("now", 1)  # the current frame: given as now(N,n), the answer's own (_stream_program)
 _DETAILS = "sm_details_"  # the parts grounded once a warning holds (see _details)
 _ATOM_TYPES = (clingo_ast.ASTType.SymbolicAtom,)
 
