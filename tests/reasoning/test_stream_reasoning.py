@@ -256,6 +256,120 @@ def test_pruning_drops_only_rules_whose_body_cannot_hold():
     assert not {"q", "u", "d"} & kept
 
 
+# -- a warning's details grounded only when it holds ---------------------------------------------
+_TINY = (
+    "warn(a,(X,)) :- p(X). warn(b,(X,)) :- q(X)."
+    " info(a,(X,),k,1) :- warn(a,(X,))."
+    " g(X,V) :- warn(a,(X,)), r(X,V)."  # a chain: g is derived from the warning
+    " info(a,(X,),v,V) :- warn(a,(X,)), g(X,V)."
+    " info(b,(X,),k,2) :- warn(b,(X,))."
+)
+
+
+def _details_of(text: str) -> list[tuple[set[str], set]]:
+    """The details' groups of a tiny program: the heads of their rules, their triggers."""
+    from clingo import ast
+
+    from sensemaking.reasoning.situations import _atoms, _details, _signature
+
+    rules: list = []
+    ast.parse_string(text, lambda s: rules.append(s) if s.ast_type == ast.ASTType.Rule else None)
+    preds = {_signature(a) for r in rules for a in _atoms(r.head)} - {None}
+    groups = _details(rules, set(), preds, [])
+    return [({str(rules[i].head) for i in ix}, set(trig)) for ix, trig in groups]
+
+
+def test_a_warnings_details_are_split_by_situation():
+    """The rules that read ``warn(a,...)`` (and the chain through g) form one group triggered
+    by a, those of b another; the warn rules stay in the first call."""
+    groups = _details_of(_TINY)
+    assert sorted(groups, key=lambda g: sorted(g[1])) == [
+        ({"info(a,(X,),k,1)", "g(X,V)", "info(a,(X,),v,V)"}, {"a"}),
+        ({"info(b,(X,),k,2)"}, {"b"}),
+    ]
+
+
+def test_a_rule_that_reads_or_defines_the_details_goes_with_them():
+    """A rule reading g without a warn literal, or defining info without one, is grounded in
+    the second call too, and always (trigger None); a detail for any situation is triggered
+    by any warning (``*``); a warn rule that reads a detail leaves no split at all."""
+    reads = _details_of(_TINY + " h :- g(_,_).")
+    assert ({"info(a,(X,),k,1)", "g(X,V)", "info(a,(X,),v,V)", "h"}, {"a", None}) in reads
+    defines = _details_of(_TINY + " info(c,(X,),k,3) :- p(X).")
+    assert ({"info(c,(X,),k,3)"}, {None}) in defines
+    anyone = _details_of("warn(a,(X,)) :- p(X). info(S,O,k,1) :- warn(S,O).")
+    assert anyone == [({"info(S,O,k,1)"}, {"*"})]
+    assert _details_of(_TINY + " warn(c,(X,)) :- info(a,(X,),k,_).") == []
+
+
+_TWO_SITUATIONS = """
+warn(seen,(T,)) :- now(N), state(T,N,visible), vehicle(T).
+warn(gone,(T,)) :- now(N), state(T,N,hidden), vehicle(T).
+big(T,A) :- warn(seen,(T,)), now(N), area(T,N,A), A > 10.
+info(seen,(T,),area_permille,A) :- warn(seen,(T,)), big(T,A).
+info(gone,(T,),since,frame(N)) :- warn(gone,(T,)), now(N).
+"""
+
+
+def test_a_situations_details_are_grounded_only_when_it_is_warned(tmp_path, monkeypatch):
+    """Each frame grounds the details of the situations warned at it and no others; the
+    answers (details through a derived predicate included) are the reference's."""
+    import clingo
+
+    from sensemaking.reasoning.situations import SituationSolver
+
+    enc = tmp_path / "two.lp"
+    enc.write_text(_TWO_SITUATIONS)
+    static = [("frame_ms", 100), ("profile", "driving")]
+    solver = StreamSolver(parts=(), extra_encodings=[enc], static_facts=static, window=4)
+    reference = SituationSolver(parts=(), extra_encodings=[enc], cache_size=0)
+    part = {name: next(iter(trig)) for name, trig in solver._details}
+    assert sorted(part.values()) == ["gone", "seen"]
+    grounded: list[set] = []
+    ground = clingo.Control.ground
+
+    def record(self, parts=(("base", ()),), context=None):
+        grounded[-1] |= {part[name] for name, _ in parts if name in part}
+        return ground(self, parts, context)
+
+    monkeypatch.setattr(clingo.Control, "ground", record)
+    states = ["visible", "hidden", "hidden", "visible", "missing", "missing"]
+    areas = [5, 0, 0, 30, 0, 0]
+    window: list = []
+    for f, (st, a) in enumerate(zip(states, areas, strict=True)):
+        grounded.append(set())
+        facts = [("state", 1, f, st)]
+        solver.add_frame(f, facts)
+        window += facts
+        solver.set_window([("vehicle", 1)])
+        current = [("now", f), ("area", 1, f, a)]
+        got = solver.answer(f, current)
+        want = reference.answer(tuple([*static, ("vehicle", 1), *window, *current]))
+        assert sorted(map(str, got)) == sorted(map(str, want))
+        if f == 3:  # the warning's detail through big/2
+            assert any("area_permille" in str(x) for x in got)
+    # (exactly: the frame before's now/1 is not joined, see the next test)
+    assert grounded == [{"seen"}, {"gone"}, {"gone"}, {"seen"}, set(), set()]
+
+
+def test_an_answer_joins_its_own_frame_only(tmp_path):
+    """now/1 reaches clingo as now(N,n), a fact of the answer's own: the rules of an answer
+    are never instantiated for the frame before (a released external would still be in
+    clingo's domain for the next ground call)."""
+    enc = tmp_path / "seen.lp"
+    enc.write_text("warn(seen,(T,)) :- now(N), state(T,N,visible).\n")
+    solver = StreamSolver(parts=(), extra_encodings=[enc], static_facts=[("frame_ms", 100)])
+    got = []
+    for f, st in enumerate(["visible", "hidden", "visible"]):
+        solver.add_frame(f, [("state", 1, f, st)])
+        got.append(solver.answer(f, [("now", f)]))
+        warn = solver._ctl.symbolic_atoms.by_signature("warn", 3)
+        assert [str(a.symbol) for a in warn if a.symbol.arguments[2].number == f] == (
+            [f"warn(seen,(1,),{f})"] if st == "visible" else []
+        )
+    assert [len(a) for a in got] == [1, 0, 1]
+
+
 def test_a_stream_monitor_pickles_mid_sequence():
     import pickle
 

@@ -430,6 +430,8 @@ INPUTS: frozenset[tuple[str, int]] = (
     }
 )
 _STEP = "sm_step"  # the external that guards the rules of one frame's answer
+_NOW = ("now", 1)  # the current frame: given as now(N,n), the answer's own (_stream_program)
+_DETAILS = "sm_details_"  # the parts grounded once a warning holds (see _details)
 _ATOM_TYPES = (clingo_ast.ASTType.SymbolicAtom,)
 
 
@@ -806,10 +808,12 @@ def _stream_program(
     parts: Sequence[str],
     inputs: Mapping[tuple[str, int], int],
     empty: Collection[tuple[str, int]] = (),
-) -> tuple[list[Any], _Layers, bool]:
+) -> tuple[list[Any], _Layers, bool, list[tuple[str, frozenset[str | None]]]]:
     """The statements of ``base`` and the ``parts`` asked for, rewritten into the three parts
     of the stream solver: ``base``, ``frame(f)`` and ``now(n)`` (see :class:`_Layers`);
-    without the rules that ``empty`` predicates keep from ever firing (:func:`_pruned`)."""
+    without the rules that ``empty`` predicates keep from ever firing (:func:`_pruned`).
+    Also: whether every now-rule keeps its frames to the window, and the details' parts cut
+    out of ``now(n)`` with the situations that trigger each (:func:`_details`)."""
     keep: list[Any] = []
     part = "base"
     for s in stmts:
@@ -830,13 +834,16 @@ def _stream_program(
         return clingo_ast.Function(loc, name, [], 0)
 
     now_preds = layers.now_preds
+    # now/1 as now(N,n), a fact of the answer's own: a released external stays in clingo's
+    # domain for the next ground call, where every rule would join the frame before too
+    stepped = now_preds | ({_NOW} if _NOW not in layers.derived else set())
 
     class Tag(clingo_ast.Transformer):
         """Adds the answered frame ``n`` to every atom of a now-layer predicate."""
 
         def visit_SymbolicAtom(self, atom: Any) -> Any:  # noqa: N802
             sig = _signature(atom)
-            if sig not in now_preds:
+            if sig not in stepped:
                 return atom
             term = atom.symbol
             args = list(term.arguments) if term.ast_type == clingo_ast.ASTType.Function else []
@@ -871,6 +878,8 @@ def _stream_program(
             lambda st: now.append(st) if st.ast_type == clingo_ast.ASTType.Rule else None,
         )
     windowed = True  # every now-rule keeps its frames to the window
+    now_rules: list[tuple[Any, Any]] = []  # (the rule as written, as given to clingo)
+    others: list[Any] = []  # the now statements that are not rules
     for s in keep:
         t = s.ast_type
         if t == clingo_ast.ASTType.Rule:
@@ -889,6 +898,7 @@ def _stream_program(
                     w = s
                 tagged = Tag()(w)
                 now.append(tagged.update(body=[*tagged.body, guard]))
+                now_rules.append((s, now[-1]))
         elif t in (clingo_ast.ASTType.ShowSignature, clingo_ast.ASTType.Defined):
             sig = (s.name, s.arity)
             if sig in now_preds:
@@ -899,7 +909,90 @@ def _stream_program(
             base.append(s)
         else:  # #show terms, #external, #minimize ...: about the answered frame
             now.append(Tag()(s))
-    return base + frame + now, layers, windowed
+            others.append(s)
+    consts = {s.name for s in keep if s.ast_type == clingo_ast.ASTType.Definition}
+    groups = _details([r for r, _ in now_rules], consts | {"sm_window"}, now_preds, others)
+    details: list[tuple[str, frozenset[str | None]]] = []
+    if groups:
+        later = {i for ix, _ in groups for i in ix}
+        moved = {id(now_rules[i][1]) for i in later}
+        now = [x for x in now if id(x) not in moved]
+        for g, (ix, triggers) in enumerate(groups):
+            name = f"{_DETAILS}{g}"
+            now.append(clingo_ast.Program(loc, name, [clingo_ast.Id(loc, "n")]))
+            now += [now_rules[i][1] for i in ix]
+            details.append((name, triggers))
+    return base + frame + now, layers, windowed, details
+
+
+def _details(
+    rules: Sequence[Any],
+    consts: Collection[str],
+    now_preds: Collection[Any],
+    others: Sequence[Any],
+) -> list[tuple[list[int], frozenset[str | None]]]:
+    """The now-rules grounded in a second call, only when ``warn/2`` has an atom for the
+    answered frame (:meth:`StreamSolver.answer`): the rules with a plain positive ``warn``
+    literal (a warning's details and grades), and every rule that reads or defines what they
+    define (so that a predicate is grounded in one call, after what it reads). In groups, by
+    predicate and constant first argument: a rule index list and the situations whose warning
+    triggers the group (``"*"``: any warning; None: always, a rule without a ``warn``
+    literal). Empty when the split cannot be kept sound (``warn/2`` is not a now-predicate or
+    is defined by such a rule; an input's copy or a statement other than a rule reads them)."""
+    if ("warn", 2) not in now_preds:
+        return []
+    heads = [{(_signature(a), _first(a, consts)) for a in _atoms(r.head)} for r in rules]
+    reads = [{(_signature(a), _first(a, consts)) for a in _atoms(r.body)} for r in rules]
+    trigger: list[str | None] = []
+    for r in rules:
+        found: str | None = None
+        for lit in r.body:
+            if (
+                lit.ast_type == clingo_ast.ASTType.Literal
+                and lit.sign == clingo_ast.Sign.NoSign
+                and lit.atom.ast_type == clingo_ast.ASTType.SymbolicAtom
+                and _signature(lit.atom) == ("warn", 2)
+            ):
+                found = _first(lit.atom, consts) or "*"
+        trigger.append(found)
+    later = {i for i, t in enumerate(trigger) if t is not None}
+    while True:  # what reads or also defines a predicate of a later rule is later too
+        defined = {sig for i in later for sig, _ in heads[i]}
+        more = {
+            i
+            for i in range(len(rules))
+            if i not in later and {sig for sig, _ in heads[i] | reads[i]} & defined
+        }
+        if not more:
+            break
+        later |= more
+    defined = {sig for i in later for sig, _ in heads[i]}
+    if not later or ("warn", 2) in defined or defined & INPUTS:
+        return []
+    if any({_signature(a) for a in _atoms(s)} & defined for s in others):
+        return []
+
+    def meet(a: set[Any], b: set[Any]) -> bool:
+        """Some atom of ``a`` may be one of ``b`` (same predicate, first arguments agree)."""
+        return any(s == t and (c is None or d is None or c == d) for s, c in a for t, d in b)
+
+    # one group per set of rules joined by a predicate (and its constant first argument)
+    group = {i: i for i in later}
+
+    def root(i: int) -> int:
+        while group[i] != i:
+            i = group[i]
+        return i
+
+    order = sorted(later)
+    for x, i in enumerate(order):
+        for j in order[x + 1 :]:
+            if meet(heads[i], heads[j] | reads[j]) or meet(heads[j], reads[i]):
+                group[root(j)] = root(i)
+    out: dict[int, list[int]] = {}
+    for i in order:
+        out.setdefault(root(i), []).append(i)
+    return [(ix, frozenset(trigger[i] for i in ix)) for ix in out.values()]
 
 
 def _fact(sym: clingo.Symbol) -> Fact:
@@ -927,11 +1020,12 @@ class StreamSolver:
     frame over what the window holds. Facts are externals: a frame's facts are added when it
     enters (``add_frame``) and released when it leaves (``drop_frame``); facts about the whole
     window (a track's class, the first frame, the anticipations) are switched on and off
-    (``set_window``); facts of one answer (``now``) are released after it. Frames and tracks are
-    numbers the caller chooses, increasing frames (the monitor: frames relative to the last
-    restart, tracks by slot, so that a long run makes a bounded set of clingo symbols). All
-    changes of a frame go to clingo at once, in ``answer``: one backend session, one ground
-    call.
+    (``set_window``); facts of one answer (the areas now) are released after it, and ``now(N)``
+    is given as ``now(N,n)``, the answer's own (a released atom would be joined once more).
+    Frames and tracks are numbers the caller chooses, increasing frames (the monitor: frames
+    relative to the last restart, tracks by slot, so that a long run makes a bounded set of
+    clingo symbols). All changes of a frame go to clingo at once, in ``answer``: one backend
+    session, one ground call (and a second for the details of what is warned).
 
     ``answer(n)`` returns the ``warn/2`` and ``info/4`` atoms of the first answer set, as the
     fresh :class:`SituationSolver` would for the same facts. What a Control holds grows with
@@ -943,6 +1037,9 @@ class StreamSolver:
     model, lanes without a lanes file). With the static predicates that ``static_facts`` leave
     empty (:attr:`empty`), they rule out the rules that need them, which are not given to
     clingo (clingo instantiates every rule of a part on each ground call, fired or not).
+    For the same reason the rules that read a warning (its details and grades, :func:`_details`)
+    are grounded in a second call of the answer, only for the situations that have a ``warn``
+    atom for it after the first: most frames warn of nothing.
     """
 
     def __init__(
@@ -969,13 +1066,14 @@ class StreamSolver:
         stmts = _shipped()[0] + tuple(s for p in extra_encodings for s in _parse_user_encoding(p))
         self._args.append(f"-csm_window={int(window) if window is not None else 2**30}")
         self._static = tuple(static_facts)
-        self._program, self.layers, windowed = _stream_program(stmts, tuple(parts), FRAME_ARGUMENT)
+        program, layers, windowed, details = _stream_program(stmts, tuple(parts), FRAME_ARGUMENT)
+        self._program, self.layers = program, layers  # _empty_static grounds their base
         try:
             # every rule is instantiated on each ground call, fired or not: those that the
             # static facts or the inputs never given rule out are not given to clingo at all
             empty = self._empty_static() | (set(absent) - _heads(stmts))
             if empty:
-                self._program, self.layers, windowed = _stream_program(
+                program, layers, windowed, details = _stream_program(
                     stmts, tuple(parts), FRAME_ARGUMENT, empty
                 )
         except RuntimeError as exc:
@@ -984,6 +1082,9 @@ class StreamSolver:
                 extra_encodings[0] if len(extra_encodings) == 1 else None,
             ) from None
         self.empty = frozenset(empty)
+        self._program, self.layers = program, layers
+        # the details' parts and the situations whose warning triggers them (see _details)
+        self._details = details
         # frames as facts (the grounder decides the rules about them once, clasp never sees
         # them) when every rule that joins frames keeps them to the window; else externals,
         # released as frames leave
@@ -994,7 +1095,9 @@ class StreamSolver:
         self.calls = self.restarts = 0
         try:
             self._start()
+            self._all_details = True  # every part grounded once, whatever holds
             self.answer(0)  # surface the user's grounding errors now
+            self._all_details = False
             self._start()
         except RuntimeError as exc:
             raise InputError(
@@ -1093,11 +1196,20 @@ class StreamSolver:
         flip += [(s, clingo.TruthValue.False_) for s in self._window - on]
         self._window = set(on)
         release = self._release + self._current
-        self._current = [symbol(f) for f in current]
+        stepped = _NOW not in self.layers.derived  # now/1 is now(N,n) (see _stream_program)
+        self._current = []
+        nows = []
+        for f in current:
+            if stepped and f[0] == "now" and len(f) == 2:
+                nows.append(clingo.Function("now", [symbol(f).arguments[0], n]))
+            else:
+                self._current.append(symbol(f))
         true_ = clingo.TruthValue.True_
         with ctl.backend() as backend:
             atom = backend.add_atom
             self._give(backend, release)
+            for s in nows:
+                backend.add_rule([atom(s)])
             for s in self._current:
                 backend.add_external(atom(s), true_)
             for s in new:
@@ -1107,6 +1219,8 @@ class StreamSolver:
         if release:
             ctl.cleanup()  # drops released atoms (and what only they derived) from the domains
         ctl.ground([*self._parts, ("now", [n])])
+        if self._details:
+            self._ground_details(n)
         self._current.append(guard)
         self._add, self._facts, self._release, self._parts = [], 0, [], []
         self._frame_adds = []
@@ -1125,6 +1239,26 @@ class StreamSolver:
         ctl.solve(on_model=first)
         self._age += 1
         return tuple(found)
+
+    def _ground_details(self, n: clingo.Symbol) -> None:
+        """Ground the details' parts (:func:`_details`) of the situations that have a ``warn``
+        atom for ``n`` after the first call: clingo instantiates every rule of a part it is
+        asked for, and most frames warn of nothing."""
+        warned: set[str] = set()
+        for a in self._ctl.symbolic_atoms.by_signature("warn", 3):
+            args = a.symbol.arguments
+            if args[2] == n:
+                warned.add(str(args[0]))
+        parts = [
+            (name, [n])
+            for name, triggers in self._details
+            if self._all_details
+            or None in triggers
+            or (warned and "*" in triggers)
+            or not warned.isdisjoint(triggers)
+        ]
+        if parts:
+            self._ctl.ground(parts)
 
     def _give(self, backend: clingo.Backend, release: Sequence[clingo.Symbol]) -> None:
         """Hand clingo what was added since the last ground call: ``release`` released, the
