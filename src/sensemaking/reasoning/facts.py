@@ -30,7 +30,16 @@ from sensemaking.results import STATE_NAMES
 if TYPE_CHECKING:  # pragma: no cover
     from sensemaking.scene import Scene
 
-__all__ = ["AspString", "Fact", "symbol", "value", "scene_facts", "scene_facts_text", "facts_text"]
+__all__ = [
+    "AspString",
+    "Fact",
+    "symbol",
+    "fact_symbol",
+    "value",
+    "scene_facts",
+    "scene_facts_text",
+    "facts_text",
+]
 
 #: one fact or term: ``(name, arg, ...)``
 Fact = tuple[Any, ...]
@@ -59,6 +68,29 @@ def symbol(term: Any) -> clingo.Symbol:
     if isinstance(term, int) and not isinstance(term, bool):
         return clingo.Number(term)
     raise TypeError(f"no ASP term for {term!r} ({type(term).__name__})")
+
+
+#: the symbols of flat facts made lately, by their tuple: a function symbol costs ~4 us through
+#: clingo's Python API, a lookup ~0.1 us, and a stream's facts recur (relative frames, slots);
+#: bounded, cleared when full
+_FACT_SYMBOLS: dict[Fact, clingo.Symbol] = {}
+_FACT_SYMBOLS_KEPT = 1 << 15
+#: the argument types a cached fact may have: an AspString equals the str of its text, so a
+#: fact holding one must not share a key with the fact of the constant
+_PLAIN = frozenset({int, str})
+
+
+def fact_symbol(fact: Fact) -> clingo.Symbol:
+    """``symbol(fact)``, made once while it stays in a bounded cache when the fact's arguments
+    are ints and constants (others are made each time)."""
+    if not _PLAIN.issuperset(map(type, fact)):
+        return symbol(fact)
+    sym = _FACT_SYMBOLS.get(fact)
+    if sym is None:
+        if len(_FACT_SYMBOLS) >= _FACT_SYMBOLS_KEPT:
+            _FACT_SYMBOLS.clear()
+        sym = _FACT_SYMBOLS[fact] = symbol(fact)
+    return sym
 
 
 def value(sym: clingo.Symbol) -> Any:
