@@ -6,7 +6,6 @@ import clingo
 import pytest
 
 from sensemaking import asp
-from sensemaking.reasoning import facts
 from sensemaking.reasoning.facts import AspString, fact_symbol, symbol
 
 
@@ -39,20 +38,22 @@ def test_the_cache_of_made_symbols_is_bounded(monkeypatch: pytest.MonkeyPatch) -
 
 
 def test_a_facts_symbol_is_its_symbol_and_made_once() -> None:
+    cache: dict = {}
     fact = ("position", 3, 17, 1234, -56)
-    assert fact_symbol(fact) == clingo.parse_term("position(3,17,1234,-56)")
-    assert fact_symbol(("position", 3, 17, 1234, -56)) is fact_symbol(fact)  # from the cache
+    assert fact_symbol(fact, cache) == clingo.parse_term("position(3,17,1234,-56)")
+    assert fact_symbol(("position", 3, 17, 1234, -56), cache) is cache[fact]
 
 
 def test_a_fact_with_a_string_never_takes_the_constants_symbol() -> None:
-    assert str(fact_symbol(("lane", "l1"))) == "lane(l1)"
-    assert str(fact_symbol(("lane", AspString("l1")))) == 'lane("l1")'
-    assert str(fact_symbol(("occurs_at", ("hides", 1, 2), 0))) == "occurs_at(hides(1,2),0)"
+    cache: dict = {}
+    assert str(fact_symbol(("lane", "l1"), cache)) == "lane(l1)"
+    assert str(fact_symbol(("lane", AspString("l1")), cache)) == 'lane("l1")'
+    assert str(fact_symbol(("occurs_at", ("hides", 1, 2), 0), cache)) == "occurs_at(hides(1,2),0)"
+    assert list(cache) == [("lane", "l1")]  # a string or a nested term is made each time
 
 
-def test_the_cache_of_fact_symbols_is_bounded(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(facts, "_FACT_SYMBOLS_KEPT", 50)
-    monkeypatch.setattr(facts, "_FACT_SYMBOLS", {})
+def test_the_cache_of_fact_symbols_is_bounded() -> None:
+    cache: dict = {}
     for n in range(1000):
-        assert fact_symbol(("state", n, 0, "visible")).arguments[0].number == n
-    assert 0 < len(facts._FACT_SYMBOLS) <= 50
+        assert fact_symbol(("state", n, 0, "visible"), cache, kept=50).arguments[0].number == n
+    assert 0 < len(cache) <= 50

@@ -70,26 +70,27 @@ def symbol(term: Any) -> clingo.Symbol:
     raise TypeError(f"no ASP term for {term!r} ({type(term).__name__})")
 
 
-#: the symbols of flat facts made lately, by their tuple: a function symbol costs ~4 us through
-#: clingo's Python API, a lookup ~0.1 us, and a stream's facts recur (relative frames, slots);
-#: bounded, cleared when full
-_FACT_SYMBOLS: dict[Fact, clingo.Symbol] = {}
-_FACT_SYMBOLS_KEPT = 1 << 15
-#: the argument types a cached fact may have: an AspString equals the str of its text, so a
-#: fact holding one must not share a key with the fact of the constant
+#: the argument types of a fact whose symbol may be kept by its tuple: an AspString equals the
+#: str of its text, so a fact holding one must not share a key with the fact of the constant
 _PLAIN = frozenset({int, str})
+#: fact symbols a cache keeps (about 200 bytes each with its tuple) before it starts afresh
+FACT_SYMBOLS_KEPT = 1 << 15
 
 
-def fact_symbol(fact: Fact) -> clingo.Symbol:
-    """``symbol(fact)``, made once while it stays in a bounded cache when the fact's arguments
-    are ints and constants (others are made each time)."""
+def fact_symbol(
+    fact: Fact, cache: dict[Fact, clingo.Symbol], kept: int = FACT_SYMBOLS_KEPT
+) -> clingo.Symbol:
+    """``symbol(fact)``, taken from ``cache`` or made and kept there (cleared when it holds
+    ``kept``) when the fact's arguments are ints and constants: a function symbol costs ~4 us
+    through clingo's Python API, a lookup ~0.1 us, and a stream's facts recur (frames relative
+    to a base, tracks by slot)."""
     if not _PLAIN.issuperset(map(type, fact)):
         return symbol(fact)
-    sym = _FACT_SYMBOLS.get(fact)
+    sym = cache.get(fact)
     if sym is None:
-        if len(_FACT_SYMBOLS) >= _FACT_SYMBOLS_KEPT:
-            _FACT_SYMBOLS.clear()
-        sym = _FACT_SYMBOLS[fact] = symbol(fact)
+        if len(cache) >= kept:
+            cache.clear()
+        sym = cache[fact] = symbol(fact)
     return sym
 
 

@@ -348,16 +348,8 @@ class SituationSolver:
 
     def _solve(self, facts: Iterable[Fact]) -> tuple[clingo.Symbol, ...]:
         ctl = asp.control(self._args, self._stmts)  # parsed once: cheaper than text per call
-        if len(self._symbols) > _SYMBOLS_KEPT:
-            self._symbols.clear()
         memo = self._symbols
-        syms = []
-        for fact in facts:
-            sym = memo.get(fact)
-            if sym is None:
-                sym = memo[fact] = symbol(fact)
-            syms.append(sym)
-        asp.add_facts(ctl, syms)
+        asp.add_facts(ctl, [fact_symbol(f, memo, _SYMBOLS_KEPT) for f in facts])
         ctl.ground(self._parts)
         found: list[clingo.Symbol] = []
 
@@ -1092,6 +1084,8 @@ class StreamSolver:
         self._restart = max(1, int(restart_frames))
         self._frames: OrderedDict[int, tuple[clingo.Symbol, ...]] = OrderedDict()
         self._window: set[clingo.Symbol] = set()  # window facts switched on
+        # the symbols of recent facts (fact_symbol): shared with the standby solvers
+        self._symbols: dict[Fact, clingo.Symbol] = {}
         self.calls = self.restarts = 0
         try:
             self._start()
@@ -1166,7 +1160,8 @@ class StreamSolver:
 
     def add_frame(self, frame: int, facts: Iterable[Fact]) -> None:
         """The facts of a frame entering the window (each holding at ``frame``)."""
-        syms = tuple(map(fact_symbol, facts))
+        memo = self._symbols
+        syms = tuple(fact_symbol(f, memo) for f in facts)
         self._frames[frame] = syms
         self._frame_adds += syms
         self._parts.append(("frame", [clingo.Number(frame)]))
@@ -1185,7 +1180,8 @@ class StreamSolver:
 
     def set_window(self, facts: Iterable[Fact]) -> None:
         """The facts about the whole window (not tied to one of its frames) that hold now."""
-        self._shown = set(map(fact_symbol, facts))
+        memo = self._symbols
+        self._shown = {fact_symbol(f, memo) for f in facts}
 
     def answer(self, now: int, current: Iterable[Fact] = ()) -> tuple[clingo.Symbol, ...]:
         """The ``warn/2`` and ``info/4`` atoms for the window's facts, ``now`` the current frame;
@@ -1208,7 +1204,7 @@ class StreamSolver:
             if stepped and f[0] == "now" and len(f) == 2:
                 nows.append(clingo.Function("now", [symbol(f[1]), n]))
             else:
-                self._current.append(fact_symbol(f))
+                self._current.append(fact_symbol(f, self._symbols))
         true_ = clingo.TruthValue.True_
         with ctl.backend() as backend:
             atom = backend.add_atom
