@@ -6,7 +6,7 @@ import clingo
 import pytest
 
 from sensemaking import asp
-from sensemaking.reasoning.facts import AspString, symbol
+from sensemaking.reasoning.facts import AspString, fact_symbol, symbol
 
 
 def test_symbols_are_clingos_own() -> None:
@@ -35,3 +35,25 @@ def test_the_cache_of_made_symbols_is_bounded(monkeypatch: pytest.MonkeyPatch) -
             "p", [clingo.Number(n), clingo.Function("d", [clingo.Number(n)])]
         )
     assert 0 < len(asp._TERMS) <= 50
+
+
+def test_a_facts_symbol_is_its_symbol_and_made_once() -> None:
+    cache: dict = {}
+    fact = ("position", 3, 17, 1234, -56)
+    assert fact_symbol(fact, cache) == clingo.parse_term("position(3,17,1234,-56)")
+    assert fact_symbol(("position", 3, 17, 1234, -56), cache) is cache[fact]
+
+
+def test_a_fact_with_a_string_never_takes_the_constants_symbol() -> None:
+    cache: dict = {}
+    assert str(fact_symbol(("lane", "l1"), cache)) == "lane(l1)"
+    assert str(fact_symbol(("lane", AspString("l1")), cache)) == 'lane("l1")'
+    assert str(fact_symbol(("occurs_at", ("hides", 1, 2), 0), cache)) == "occurs_at(hides(1,2),0)"
+    assert list(cache) == [("lane", "l1")]  # a string or a nested term is made each time
+
+
+def test_the_cache_of_fact_symbols_is_bounded() -> None:
+    cache: dict = {}
+    for n in range(1000):
+        assert fact_symbol(("state", n, 0, "visible"), cache, kept=50).arguments[0].number == n
+    assert 0 < len(cache) <= 50

@@ -98,6 +98,7 @@ CITYSCAPES_LABELS: dict[int, str] = {
 }
 
 
+@lru_cache(maxsize=1024)  # called per track and frame by the situation monitor
 def asp_name(text: str) -> str:
     """A clingo constant from a label name: lower case, ``[a-z0-9_]``, starting with a letter."""
     s = re.sub(r"[^a-z0-9_]+", "_", str(text).strip().lower()).strip("_")

@@ -343,9 +343,9 @@ def estimate_ego_speed(
     width = np.sqrt(bandwidth**2 + s**2)
     grid = np.arange(0.0, max_speed + 1e-9, bandwidth / 4.0)
     dens = (np.exp(-0.5 * ((grid[:, None] - c[None, :]) / width[None, :]) ** 2) / width).sum(1)
-    peak = np.flatnonzero(
-        (dens >= np.r_[-1.0, dens[:-1]]) & (dens >= np.r_[dens[1:], -1.0]) & (dens > 0)
-    )
+    edge = np.array([-1.0])  # (np.r_ costs ~30 us a call: this runs every frame)
+    before, after = np.concatenate((edge, dens[:-1])), np.concatenate((dens[1:], edge))
+    peak = np.flatnonzero((dens >= before) & (dens >= after) & (dens > 0))
     need = 1 if prior is not None else min_support
     best: tuple[float, float, float, int] | None = None  # density, speed, sd, support
     for k in peak.tolist():
@@ -576,11 +576,6 @@ class _History:
     sd: deque[float] = field(default_factory=deque)
 
 
-def _slope(t: np.ndarray, y: np.ndarray) -> float:
-    tc = t - t.mean()
-    return float((tc * (y - y.mean())).sum() / (tc * tc).sum())
-
-
 class WorldMotion:
     """Each frame's visible tracks in metres and m/s, and the ego state.
 
@@ -655,6 +650,7 @@ class WorldMotion:
             zsd = np.where(has, c.location_sd_m, zsd)
         n = len(ids)
         vz, vx, vsd = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
+        fits: dict[int, list[int]] = {}  # rows to fit, by the length of their history
         for i, t in enumerate(ids):
             if not math.isfinite(z[i]):
                 continue
@@ -668,18 +664,11 @@ class WorldMotion:
             ):
                 for d in (hist.frames, hist.z, hist.x, hist.sd):
                     d.popleft()
-            if len(hist.frames) < 3:
-                continue
-            tt = np.asarray(hist.frames, dtype=np.float64) / self.fps
-            if tt[-1] - tt[0] < c.min_span_s:
-                continue
-            zz, xx = np.asarray(hist.z), np.asarray(hist.x)
-            vz[i], vx[i] = _slope(tt, zz), _slope(tt, xx)
-            spread = math.sqrt(float(((tt - tt.mean()) ** 2).sum()))
-            model = float(np.mean(hist.sd)) / spread
-            resid = zz - (zz.mean() + vz[i] * (tt - tt.mean()))
-            fit = math.sqrt(float((resid**2).sum()) / max(1, len(tt) - 2)) / spread
-            vsd[i] = max(model, fit)
+            f0, f1 = hist.frames[0] / self.fps, hist.frames[-1] / self.fps  # seconds, as fitted
+            if len(hist.frames) >= 3 and not f1 - f0 < c.min_span_s:
+                fits.setdefault(len(hist.frames), []).append(i)
+        for size, rows in fits.items():
+            vz[rows], vx[rows], vsd[rows] = self._fit([self._hist[ids[i]] for i in rows], size)
         ego = self.ego.update(frame, vz, vx, z, x, np.where(np.isfinite(vsd), vsd, np.inf))
         out: dict[int, TrackMotion] = {}
         for i, t in enumerate(ids):
@@ -711,6 +700,25 @@ class WorldMotion:
                 float(sd),
             )
         return ego, out
+
+    def _fit(self, hists: list[_History], size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Least-squares velocities ``dZ/dt``, ``dX/dt`` (m/s) and the standard error of
+        ``dZ/dt`` of histories of ``size`` positions each, one row a history: the arithmetic
+        of one history at a time, row by row (numpy sums a row as it sums a 1-D array)."""
+        tt = np.array([h.frames for h in hists], dtype=np.float64) / self.fps
+        zz = np.array([h.z for h in hists], dtype=np.float64)
+        xx = np.array([h.x for h in hists], dtype=np.float64)
+        sd = np.array([h.sd for h in hists], dtype=np.float64)
+        tc = tt - tt.mean(axis=1, keepdims=True)
+        ss = (tc * tc).sum(axis=1)
+        zc = zz.mean(axis=1, keepdims=True)
+        vz = (tc * (zz - zc)).sum(axis=1) / ss
+        vx = (tc * (xx - xx.mean(axis=1, keepdims=True))).sum(axis=1) / ss
+        spread = np.sqrt((tc**2).sum(axis=1))
+        model = sd.mean(axis=1) / spread
+        resid = zz - (zc + vz[:, None] * tc)
+        fit = np.sqrt((resid**2).sum(axis=1) / max(1, size - 2)) / spread
+        return vz, vx, np.where(fit > model, fit, model)  # max(model, fit), as Python's max
 
 
 def _cm(v: float) -> int:

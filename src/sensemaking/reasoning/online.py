@@ -818,7 +818,7 @@ class SituationMonitor:
                     solver.drop_frame(g)
             solver.add_frame(n - num.base, self._frame_facts(fr, num))
         base = num.base
-        seen = {t for x in frames for t in x.ids}
+        seen = set().union(*(x.ids for x in frames))
         window: list[Fact] = []
         if self._seq_start is not None and self._seq_start >= first:
             window.append(("seq_start", self._seq_start - base))
@@ -878,12 +878,15 @@ class SituationMonitor:
         """The facts of one frame of the window (frame relative to the solver's base, tracks
         by slot)."""
         g, local = fr.frame - num.base, num
-        out: list[Fact] = [("state", local(t), g, s) for t, s in fr.state.items()]
-        out += [("hidden_by", local(t), local(o), g) for t, o in fr.hidden_by.items()]
-        out += [("in_corridor", local(t), g) for t in fr.in_corr]
-        out += [("motion", local(t), g, k) for t, kinds in fr.motion.items() for k in kinds]
-        out += [("ra", local(a), local(b), g, rx, ry) for a, b, rx, ry in fr.ra]
-        out += [("front", local(a), local(b), g) for a, b in fr.front]
+        for t in fr.ids:  # new tracks get their slots in the order of the ids, as ever
+            local(t)
+        slot = num.slot  # the frame's own tracks: a lookup, not a call
+        out: list[Fact] = [("state", slot[t], g, s) for t, s in fr.state.items()]
+        out += [("hidden_by", slot[t], local(o), g) for t, o in fr.hidden_by.items()]
+        out += [("in_corridor", slot[t], g) for t in fr.in_corr]
+        out += [("motion", slot[t], g, k) for t, kinds in fr.motion.items() for k in kinds]
+        out += [("ra", slot[a], slot[b], g, rx, ry) for a, b, rx, ry in fr.ra]
+        out += [("front", slot[a], slot[b], g) for a, b in fr.front]
         out += [
             # constants in the events of a user's encoding stay as they are
             (
@@ -894,13 +897,10 @@ class SituationMonitor:
             for e in fr.events
         ]
         out += _confidence_facts(fr.events, local, num.base)
-        out += [
-            ("on_lane", local(t), term, g) for t, terms in fr.on_lane.items() for term in terms
-        ]
-        out += [("surface", local(t), g, s) for t, s in fr.surface.items()]
+        out += [("on_lane", slot[t], term, g) for t, terms in fr.on_lane.items() for term in terms]
+        out += [("surface", slot[t], g, s) for t, s in fr.surface.items()]
         if self._world is not None:
-            slots = {t: local(t) for t in fr.world}
-            out += [x for x in world_facts(fr.ego, fr.world, slots, g) if x[0] != "camera"]
+            out += [x for x in world_facts(fr.ego, fr.world, slot, g) if x[0] != "camera"]
         return out
 
     @staticmethod

@@ -37,7 +37,7 @@ from clingo import ast as clingo_ast
 from sensemaking import asp
 from sensemaking.errors import InputError
 from sensemaking.reasoning.anticipation import AnticipationConfig
-from sensemaking.reasoning.facts import AspString, Fact, symbol
+from sensemaking.reasoning.facts import AspString, Fact, fact_symbol, symbol
 from sensemaking.reasoning.relations import MotionThresholds, RelationConfig
 from sensemaking.records import warning_fields, warning_record
 from sensemaking.sandbox import Limits
@@ -348,16 +348,8 @@ class SituationSolver:
 
     def _solve(self, facts: Iterable[Fact]) -> tuple[clingo.Symbol, ...]:
         ctl = asp.control(self._args, self._stmts)  # parsed once: cheaper than text per call
-        if len(self._symbols) > _SYMBOLS_KEPT:
-            self._symbols.clear()
         memo = self._symbols
-        syms = []
-        for fact in facts:
-            sym = memo.get(fact)
-            if sym is None:
-                sym = memo[fact] = symbol(fact)
-            syms.append(sym)
-        asp.add_facts(ctl, syms)
+        asp.add_facts(ctl, [fact_symbol(f, memo, _SYMBOLS_KEPT) for f in facts])
         ctl.ground(self._parts)
         found: list[clingo.Symbol] = []
 
@@ -1092,6 +1084,8 @@ class StreamSolver:
         self._restart = max(1, int(restart_frames))
         self._frames: OrderedDict[int, tuple[clingo.Symbol, ...]] = OrderedDict()
         self._window: set[clingo.Symbol] = set()  # window facts switched on
+        # the symbols of recent facts (fact_symbol): shared with the standby solvers
+        self._symbols: dict[Fact, clingo.Symbol] = {}
         self.calls = self.restarts = 0
         try:
             self._start()
@@ -1145,6 +1139,11 @@ class StreamSolver:
         """A new Control with the program and its static facts; the frames of the window and
         the window facts are given to it again with the next answer."""
         self._ctl = asp.control(self._args, self._program)
+        # clingo's cleanup (at the first call after a solve) simplifies every domain and makes
+        # the next ground call slower: 15-20 % of a frame on KITTI and the 25-object scene,
+        # same answers (DESIGN-NOTES); released atoms stay in the domains either way (clingo
+        # cleans only between a solve and the next call), the restarts bound them
+        self._ctl.enable_cleanup = False
         self._age = 0
         self._known: set[clingo.Symbol] = set()  # window facts declared (on or off)
         self._current: list[clingo.Symbol] = []  # released before the next answer
@@ -1161,7 +1160,8 @@ class StreamSolver:
 
     def add_frame(self, frame: int, facts: Iterable[Fact]) -> None:
         """The facts of a frame entering the window (each holding at ``frame``)."""
-        syms = tuple(symbol(f) for f in facts)
+        memo = self._symbols
+        syms = tuple(fact_symbol(f, memo) for f in facts)
         self._frames[frame] = syms
         self._frame_adds += syms
         self._parts.append(("frame", [clingo.Number(frame)]))
@@ -1180,7 +1180,8 @@ class StreamSolver:
 
     def set_window(self, facts: Iterable[Fact]) -> None:
         """The facts about the whole window (not tied to one of its frames) that hold now."""
-        self._shown = {symbol(f) for f in facts}
+        memo = self._symbols
+        self._shown = {fact_symbol(f, memo) for f in facts}
 
     def answer(self, now: int, current: Iterable[Fact] = ()) -> tuple[clingo.Symbol, ...]:
         """The ``warn/2`` and ``info/4`` atoms for the window's facts, ``now`` the current frame;
@@ -1201,9 +1202,9 @@ class StreamSolver:
         nows = []
         for f in current:
             if stepped and f[0] == "now" and len(f) == 2:
-                nows.append(clingo.Function("now", [symbol(f).arguments[0], n]))
+                nows.append(clingo.Function("now", [symbol(f[1]), n]))
             else:
-                self._current.append(symbol(f))
+                self._current.append(fact_symbol(f, self._symbols))
         true_ = clingo.TruthValue.True_
         with ctl.backend() as backend:
             atom = backend.add_atom
@@ -1216,8 +1217,6 @@ class StreamSolver:
                 backend.add_external(atom(s), true_)
             for s, v in flip:
                 backend.add_external(atom(s), v)
-        if release:
-            ctl.cleanup()  # drops released atoms (and what only they derived) from the domains
         ctl.ground([*self._parts, ("now", [n])])
         if self._details:
             self._ground_details(n)
@@ -1285,8 +1284,6 @@ class StreamSolver:
         release = self._release
         with self._ctl.backend() as backend:
             self._give(backend, release)
-        if release:
-            self._ctl.cleanup()
         self._ctl.ground(self._parts)
         self._add, self._facts, self._release, self._parts = [], 0, [], []
         self._frame_adds = []
