@@ -67,6 +67,7 @@ from sensemaking.config import (
     validate,
 )
 from sensemaking.errors import TOO_DEEP
+from sensemaking.io.text import load_json, read_input_text
 
 __all__ = [
     "FAMILIES",
@@ -149,7 +150,7 @@ def read_params_file(path: str | PathLike[str]) -> tuple[dict[str, Any], str | N
     """(validated dotted params, base family or None, source text) of a parameter file."""
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
+        text = read_input_text(p)
     except FileNotFoundError:
         raise ParameterError("parameter file not found", p) from None
     except (OSError, UnicodeDecodeError) as exc:
@@ -161,9 +162,11 @@ def read_params_file(path: str | PathLike[str]) -> tuple[dict[str, Any], str | N
             doc = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
             raise ParameterError(f"not valid TOML: {exc}", p) from None
+        except RecursionError:
+            raise ParameterError(TOO_DEEP, p) from None
     else:
         try:
-            doc = json.loads(text)
+            doc = load_json(text)
         except json.JSONDecodeError as exc:
             raise ParameterError(f"not valid JSON: {exc.msg}", p, exc.lineno) from None
         except RecursionError:

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from sensemaking.errors import InputError
+from sensemaking.io.text import read_input_text
 
 __all__ = [
     "SequenceSpec",
@@ -262,7 +263,7 @@ def read_manifest(path: str | Path) -> list[SequenceSpec]:
     """
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8-sig")
+        text = read_input_text(p, "utf-8-sig")
     except FileNotFoundError:
         raise InputError("manifest not found", p) from None
     except (OSError, UnicodeDecodeError) as exc:
