@@ -115,8 +115,8 @@ def parse_value(key: str, text: str) -> Any:
     low = raw.lower()
     if p.kind == "classes":  # a whole table, as JSON: {} clears it
         try:
-            table = json.loads(raw) if low not in ("null", "none") else {}
-        except json.JSONDecodeError:
+            table = load_json(raw) if low not in ("null", "none") else {}
+        except (json.JSONDecodeError, RecursionError):
             raise ParameterError(
                 f'{key} must be a JSON table such as {{"pedestrian": {{"min_confidence": 0.5}}}}'
                 f", got {text!r}"
@@ -134,16 +134,26 @@ def parse_value(key: str, text: str) -> Any:
         m = re.fullmatch(r"\[?\s*(\d+)\s*[x,]\s*(\d+)\s*\]?", low)
         if not m:
             raise ParameterError(f"{key} must look like 1242x375, got {text!r}")
-        return check_value(key, (int(m.group(1)), int(m.group(2))))
+        return check_value(key, (_integer(key, m.group(1)), _integer(key, m.group(2))))
     if p.kind == "int":
         if not re.fullmatch(r"[+-]?\d+", raw):
             raise ParameterError(f"{key} must be an integer ({p.expect()}), got {text!r}")
-        return check_value(key, int(raw))
+        return check_value(key, _integer(key, raw))
     try:
         value = float(raw)
     except ValueError:
         raise ParameterError(f"{key} must be a number ({p.expect()}), got {text!r}") from None
     return check_value(key, value)
+
+
+def _integer(key: str, digits: str) -> int:
+    """``int(digits)``; past Python's digit limit a ParameterError, not a bare ValueError."""
+    try:
+        return int(digits)
+    except ValueError:
+        raise ParameterError(
+            f"{key} must be in {PARAMETERS[key].range_text()}, got a {len(digits)}-digit number"
+        ) from None
 
 
 def read_params_file(path: str | PathLike[str]) -> tuple[dict[str, Any], str | None, str]:

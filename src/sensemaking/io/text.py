@@ -4,8 +4,8 @@ A regular file is read as :meth:`pathlib.Path.read_text` reads it: its size is i
 pipe or a device (a FIFO, ``/dev/stdin``, ``/dev/zero``, a process substitution) has no size: it
 is read in chunks, refused at its first NUL byte (no text input has one, and ``/dev/zero`` is
 nothing else) and past :data:`MAX_STREAM_TEXT_BYTES`. JSON texts go through :func:`load_json`,
-which turns the one refusal of Python's reader that is not a decode error -- an integer of more
-digits than Python converts (``sys.get_int_max_str_digits``) -- into one, at its line.
+which refuses an integer past the float range (more than 308 digits; past 4300 Python's reader
+fails with a bare ValueError) as a decode error at its line.
 """
 
 from __future__ import annotations
@@ -15,7 +15,6 @@ import json
 import os
 import re
 import stat
-import sys
 from typing import Any, BinaryIO
 
 from sensemaking.errors import InputError
@@ -24,6 +23,9 @@ __all__ = ["MAX_STREAM_TEXT_BYTES", "read_input_text", "refuse_stream", "load_js
 
 #: bytes a text input read whole may have when it is a pipe or a device, not a regular file
 MAX_STREAM_TEXT_BYTES = 2**30
+#: digits of the longest integer a JSON input may hold (every float is below 1e309)
+MAX_INT_DIGITS = 308
+_LONG_INTEGER = re.compile(rf"(?<![\d.eE])\d{{{MAX_INT_DIGITS + 1},}}")
 _CHUNK = 2**20
 
 
@@ -74,19 +76,24 @@ def _read_stream(fh: BinaryIO, path: str | os.PathLike[str]) -> bytes:
     return bytes(out)
 
 
+class _LongInteger(Exception):
+    """An integer literal past :data:`MAX_INT_DIGITS` (raised inside the JSON scanner)."""
+
+
+def _int(literal: str) -> int:
+    if len(literal) - literal.startswith("-") > MAX_INT_DIGITS:
+        raise _LongInteger
+    return int(literal)
+
+
 def load_json(text: str) -> Any:
-    """``json.loads(text)``; an integer past Python's digit limit is a
-    :class:`json.JSONDecodeError` at its position (like every other fault of the text), not a
-    bare ValueError."""
+    """``json.loads(text)``, except that an integer of more than :data:`MAX_INT_DIGITS` digits
+    is a :class:`json.JSONDecodeError` at its position, like every other fault of the text (no
+    float holds it, and past 4300 digits Python refuses to convert it at all)."""
     try:
-        return json.loads(text)
-    except json.JSONDecodeError:
-        raise
-    except ValueError:
-        limit = sys.get_int_max_str_digits()
-        found = re.search(rf"\d{{{limit + 1},}}", text) if limit else None
-        if found is None:
-            raise
+        return json.loads(text, parse_int=_int)
+    except _LongInteger:
+        found = _LONG_INTEGER.search(text)
         raise json.JSONDecodeError(
-            f"a number of more than {limit} digits", text, found.start()
+            f"an integer of more than {MAX_INT_DIGITS} digits", text, found.start() if found else 0
         ) from None
