@@ -46,7 +46,7 @@ def _refused(argv: list[str], tmp: Path, capsys) -> str:
     """Run ``argv``: exit 2, one line, no file written or changed under ``tmp``; the line."""
     (tmp / "out").mkdir(exist_ok=True)
     before = _files(tmp)
-    assert main(argv) == 2
+    assert main(["-q", *argv]) == 2
     line = one_line_error(capsys)
     assert "internal error" not in line
     assert _files(tmp) == before
@@ -291,3 +291,63 @@ def test_running_out_of_memory_says_so(monkeypatch, capsys) -> None:
 def test_set_values_past_the_float_range_are_one_line(tmp_path: Path, capsys, item: str) -> None:
     line = _refused(_track(tmp_path, "--set", item), tmp_path, capsys)
     assert line.startswith(f"sensemaking track: error: --set {item.split('=')[0]} ")
+
+
+# the user's program on a frame's facts --------------------------------------------------------
+@pytest.mark.parametrize(
+    ("rules", "limit", "problem"),
+    [
+        (
+            "{x(1..2)}. :- x(1), track(T). :- not x(1), track(T).",
+            "5000000",
+            "frame 2: the encoding has no answer set for a frame's facts (UNSATISFIABLE)",
+        ),
+        ("ok.", "50", "frame 2: the encoding (one frame) grounds to"),
+    ],
+    ids=["unsatisfiable", "atom-limit"],
+)
+def test_a_frame_the_users_rules_fail_on_names_the_rules_and_the_frame(
+    tmp_path: Path, capsys, rules: str, limit: str, problem: str
+) -> None:
+    lp = tmp_path / "mine.lp"
+    lp.write_text(rules + "\n")
+    argv = _track(tmp_path, "--events", str(tmp_path / "out" / "e.jsonl"), "--rules", str(lp))
+    (tmp_path / "det.txt").write_text(  # two boxes a frame: the solver runs from frame 2 on
+        "".join(
+            f"{f},-1,{100 + 3 * f + 60 * i},{100 + 5 * i},40,80,0.9,-1,-1,-1\n"
+            for f in range(1, 13)
+            for i in range(2)
+        )
+    )
+    line = _refused(argv + ["--max-atoms", limit], tmp_path, capsys)
+    assert f"{lp}: {problem}" in line
+
+
+@needs_dev_zero
+def test_detections_from_a_device_stop_at_the_first_nul_byte(tmp_path: Path, capsys) -> None:
+    argv = _track(tmp_path)
+    argv[argv.index("--detections") + 1] = "/dev/zero"
+    line = _refused(argv, tmp_path, capsys)
+    assert "/dev/zero: a NUL byte at byte 0" in line
+
+
+def test_a_symlink_loop_is_one_line_in_query_and_render(
+    tmp_path: Path, capsys, scene_file: Path
+) -> None:
+    pytest.importorskip("PIL")
+    loop = tmp_path / "loop"
+    loop.symlink_to(loop.name)
+    (tmp_path / "out").mkdir()
+    _refused(
+        ["render", str(scene_file), "-o", str(tmp_path / "out") + "/", "--images", str(loop)]
+        + ["--frames", "0:1"],
+        tmp_path,
+        capsys,
+    )
+    # a PNG folder output that cannot be renamed into place leaves no .part folder behind
+    _refused(["render", str(scene_file), "-o", f"{loop}/", "--frames", "0:1"], tmp_path, capsys)
+    assert not list(tmp_path.glob(".*part*"))
+    if pytest.importorskip("duckdb"):
+        assert "not a sensemaking archive" in _refused(
+            ["query", str(loop), "sequences"], tmp_path, capsys
+        )

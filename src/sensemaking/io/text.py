@@ -19,7 +19,7 @@ from typing import Any, BinaryIO
 
 from sensemaking.errors import InputError
 
-__all__ = ["MAX_STREAM_TEXT_BYTES", "read_input_text", "refuse_stream", "load_json"]
+__all__ = ["MAX_STREAM_TEXT_BYTES", "read_input_text", "refuse_stream", "refuse_nul", "load_json"]
 
 #: bytes a text input read whole may have when it is a pipe or a device, not a regular file
 MAX_STREAM_TEXT_BYTES = 2**30
@@ -57,16 +57,21 @@ def refuse_stream(path: str | os.PathLike[str]) -> None:
         raise InputError("not a regular file (a pipe or a device): give a file", path)
 
 
+def refuse_nul(chunk: bytes, offset: int, path: str | os.PathLike[str]) -> None:
+    """InputError if ``chunk`` (the bytes of a text stream from byte ``offset`` on) has a NUL
+    byte: no text input has one, and ``/dev/zero`` nothing else."""
+    nul = chunk.find(b"\0")
+    if nul >= 0:
+        raise InputError(
+            f"a NUL byte at byte {offset + nul}: not a text file (a device or a binary stream?)",
+            path,
+        )
+
+
 def _read_stream(fh: BinaryIO, path: str | os.PathLike[str]) -> bytes:
     out = bytearray()
     while chunk := fh.read(_CHUNK):
-        nul = chunk.find(b"\0")
-        if nul >= 0:
-            raise InputError(
-                f"a NUL byte at byte {len(out) + nul}: not a text file (a device or a binary "
-                "stream?)",
-                path,
-            )
+        refuse_nul(chunk, len(out), path)
         out += chunk
         if len(out) > MAX_STREAM_TEXT_BYTES:
             raise InputError(
