@@ -351,3 +351,25 @@ def test_a_symlink_loop_is_one_line_in_query_and_render(
         assert "not a sensemaking archive" in _refused(
             ["query", str(loop), "sequences"], tmp_path, capsys
         )
+
+
+# batch manifests: a line's values are checked where the line is known --------------------------
+@pytest.mark.parametrize(
+    ("row", "problem"),
+    [
+        ("a,1,det.txt,mot,1e30,", ":3: column 'fps' must be in [0.01, 1000]"),
+        ("a,1,det.txt,mot,10,,1,200000", ":3: column 'height' must be in [1, 100000]"),
+        ("a,0,det.txt,mot,10,", ":3: dataset 'a' sequence '0' is listed twice (first on line 2)"),
+    ],
+    ids=["fps", "height", "twice"],
+)
+def test_a_manifest_line_past_the_bounds_is_named(
+    tmp_path: Path, capsys, row: str, problem: str
+) -> None:
+    write_det(tmp_path / "det.txt", n_frames=12)
+    manifest = tmp_path / "manifest.csv"
+    manifest.write_text(
+        f"dataset,sequence,path,format,fps,frames,width,height\na,0,det.txt,mot,10,,,\n{row}\n"
+    )
+    argv = ["batch", "--data", str(manifest), "--archive", str(tmp_path / "out" / "arc")]
+    assert f"{manifest}{problem}" in _refused(argv, tmp_path, capsys)
