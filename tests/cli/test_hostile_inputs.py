@@ -78,7 +78,9 @@ def test_track_refuses_a_device_at_its_first_nul_byte(tmp_path: Path, capsys, ex
 
 
 @needs_dev_zero
-@pytest.mark.parametrize("verb", ["explain", "ask", "evaluate-gt", "evaluate-seqmap", "report-gt"])
+@pytest.mark.parametrize(
+    "verb", ["explain", "ask", "evaluate-gt", "evaluate-seqmap", "report-gt", "ask-query-file"]
+)
 def test_other_verbs_refuse_a_device_too(tmp_path: Path, capsys, scene_file: Path, verb) -> None:
     gt = tmp_path / "gt.txt"
     gt.write_text("".join(f"{f},1,100,100,40,80,1,1,1.0\n" for f in range(1, 13)))
@@ -90,9 +92,11 @@ def test_other_verbs_refuse_a_device_too(tmp_path: Path, capsys, scene_file: Pat
         + ["--seqmap", "/dev/zero"],
         "report-gt": ["report", str(scene_file), "-o", str(tmp_path / "out" / "r.html")]
         + ["--gt", "/dev/zero", "--thumbnails", "0", "--no-warnings"],
+        "ask-query-file": ["ask", str(scene_file), str(tmp_path / "q.lp")],
     }[verb]
+    (tmp_path / "q.lp").symlink_to("/dev/zero")  # a query file ends in .lp
     line = _refused(argv, tmp_path, capsys)
-    assert "/dev/zero: " in line
+    assert ("q.lp: " if verb == "ask-query-file" else "/dev/zero: ") in line
 
 
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no named pipes")
