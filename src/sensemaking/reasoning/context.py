@@ -279,10 +279,6 @@ def _sorted_by_y(arr: np.ndarray) -> np.ndarray:
     return arr[np.argsort(arr[:, 1], kind="stable")]
 
 
-def _is_int32(value: Any) -> bool:
-    return isinstance(value, int) and -(2**31) <= value < 2**31
-
-
 def _lane(record: Any, where: str, path: str | None) -> Lane:
     if not isinstance(record, Mapping):
         raise InputError(
@@ -290,7 +286,9 @@ def _lane(record: Any, where: str, path: str | None) -> Lane:
         )
     lid = record.get("id")
     # an integer id is a clingo number: 32 bits
-    if isinstance(lid, bool) or not (isinstance(lid, str) or _is_int32(lid)):
+    if isinstance(lid, bool) or not (
+        isinstance(lid, str) or (isinstance(lid, int) and -(2**31) <= lid < 2**31)
+    ):
         raise InputError(
             f"{where}: lane 'id' must be an integer in -2147483648..2147483647 or a string, "
             f"got {lid!r}",
