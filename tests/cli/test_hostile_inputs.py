@@ -238,7 +238,8 @@ def test_a_lane_id_past_32_bits_is_refused_naming_the_file(tmp_path: Path, capsy
         lanes.write_text(json.dumps({"lanes": [{"id": lane_id, "points": [[1, 2], [3, 400]]}]}))
         argv = _track(tmp_path, "--warnings", str(tmp_path / "out" / "w.jsonl"))
         line = _refused(argv + ["--lanes", str(lanes)], tmp_path, capsys)
-        assert f"{lanes}: lanes[0]: lane 'id' must be an integer in" in line
+        assert f"{lanes}: lanes[0]: lane 'id' must be an integer or a string" in line
+        assert "-2147483648..2147483647" in line
 
 
 def test_an_empty_label_map_names_the_file(tmp_path: Path, capsys) -> None:

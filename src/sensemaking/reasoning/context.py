@@ -290,8 +290,8 @@ def _lane(record: Any, where: str, path: str | None) -> Lane:
         isinstance(lid, str) or (isinstance(lid, int) and -(2**31) <= lid < 2**31)
     ):
         raise InputError(
-            f"{where}: lane 'id' must be an integer in -2147483648..2147483647 or a string, "
-            f"got {lid!r}",
+            f"{where}: lane 'id' must be an integer or a string, got {lid!r} (an integer is a "
+            "clingo number: -2147483648..2147483647)",
             path,
         )
     if "left" in record or "right" in record:
