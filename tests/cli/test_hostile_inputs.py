@@ -378,3 +378,13 @@ def test_a_manifest_line_past_the_bounds_is_named(
     )
     argv = ["batch", "--data", str(manifest), "--archive", str(tmp_path / "out" / "arc")]
     assert f"{manifest}{problem}" in _refused(argv, tmp_path, capsys)
+
+
+def test_an_archive_marker_nested_too_deeply_names_it(tmp_path: Path, capsys) -> None:
+    pytest.importorskip("duckdb")
+    archive = tmp_path / "arc"
+    archive.mkdir()
+    marker = archive / "_fleet.json"
+    marker.write_text("[" * 100_000 + "]" * 100_000)
+    line = _refused(["query", str(archive), "sequences"], tmp_path, capsys)
+    assert f"{marker}: not readable JSON: nested too deeply" in line
