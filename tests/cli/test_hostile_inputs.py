@@ -388,3 +388,12 @@ def test_an_archive_marker_nested_too_deeply_names_it(tmp_path: Path, capsys) ->
     marker.write_text("[" * 100_000 + "]" * 100_000)
     line = _refused(["query", str(archive), "sequences"], tmp_path, capsys)
     assert f"{marker}: not readable JSON: nested too deeply" in line
+
+
+def test_a_memory_limit_past_any_machine_is_no_limit(tmp_path: Path, capsys) -> None:
+    lp = tmp_path / "mine.lp"
+    lp.write_text("ok.\n")
+    (tmp_path / "out").mkdir()
+    argv = _track(tmp_path, "--rules", str(lp), "--max-memory", "9" * 23)
+    assert main(["-q", *argv]) == 0  # was 'OverflowError: Python int too large ...' (exit 2)
+    assert (tmp_path / "out" / "o.txt").read_text()
