@@ -397,3 +397,14 @@ def test_a_memory_limit_past_any_machine_is_no_limit(tmp_path: Path, capsys) -> 
     argv = _track(tmp_path, "--rules", str(lp), "--max-memory", "9" * 23)
     assert main(["-q", *argv]) == 0  # was 'OverflowError: Python int too large ...' (exit 2)
     assert (tmp_path / "out" / "o.txt").read_text()
+
+
+def test_query_with_a_memory_limit_past_any_machine_answers(tmp_path: Path, capsys) -> None:
+    from test_trust_boundary import make_archive
+
+    archive = make_archive(tmp_path / "archive")
+    capsys.readouterr()
+    code = main(["-q", "query", str(archive), "--max-memory", "9" * 23, "sequences"])
+    out = capsys.readouterr()
+    assert code == 0, out.err  # was an internal error (DuckDB: memory value out of range)
+    assert "synthetic" in out.out

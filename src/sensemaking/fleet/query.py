@@ -280,7 +280,8 @@ def connect(root: str | Path, *, memory_mb: int = DEFAULT_MEMORY_MB) -> Any:
             "autoinstall_known_extensions": False,
             "autoload_known_extensions": False,
             "temp_directory": "",  # no spilling: the memory limit is the bound
-            "memory_limit": f"{int(memory_mb)}MB",
+            # past 2**40 MB no machine's memory, and past 2**44 DuckDB refuses the setting
+            "memory_limit": f"{min(int(memory_mb), 2**40)}MB",
         },
     )
     readable: list[Path] = []
