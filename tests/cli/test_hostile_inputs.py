@@ -408,3 +408,20 @@ def test_query_with_a_memory_limit_past_any_machine_answers(tmp_path: Path, caps
     out = capsys.readouterr()
     assert code == 0, out.err  # was an internal error (DuckDB: memory value out of range)
     assert "synthetic" in out.out
+
+
+def test_a_frame_the_users_situations_rule_out_names_them_and_the_frame(
+    tmp_path: Path, capsys
+) -> None:
+    # was a run without warnings, exit 0: a silent fallback
+    from test_track_situations import LANES, parked_car_det
+
+    det, lanes = parked_car_det(tmp_path), tmp_path / "lanes.json"
+    lanes.write_text(json.dumps(LANES))
+    lp = tmp_path / "mine.lp"
+    lp.write_text(":- warn(S, O).\n")
+    argv = ["track", "--detections", str(det), "--format", "mot", "--fps", "10"]
+    argv += ["--image-size", "1242x375", "--output", str(tmp_path / "out" / "o.txt")]
+    argv += ["--warnings", str(tmp_path / "out" / "w.jsonl"), "--lanes", str(lanes)]
+    line = _refused(argv + ["--situations", str(lp)], tmp_path, capsys)
+    assert f"{lp}: frame " in line and "the situations have no answer set" in line
