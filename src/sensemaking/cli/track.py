@@ -395,6 +395,14 @@ def _seqinfo_candidates(args: argparse.Namespace) -> list[Path]:
     ]
 
 
+def _classes_file(text: str | None) -> Path | None:
+    """The file ``--classes`` names, as the class table reads it (a .json name or a file)."""
+    if text is None:
+        return None
+    path = Path(text)
+    return path if path.suffix.lower() == ".json" or path.is_file() else None
+
+
 def _checked_size(info: Any, path: Path) -> tuple[int, int]:
     if not (info.width <= MAX_IMAGE_SIDE and info.height <= MAX_IMAGE_SIDE):
         raise InputError(
@@ -737,6 +745,8 @@ def _run(args: argparse.Namespace) -> int:
         "--labels": args.labels,
         "--ego-motion": args.ego_motion,
         "--params": getattr(args, "params_file", None),
+        # a class table given as a file (else ID=NAME pairs)
+        "--classes": _classes_file(getattr(args, "classes", None)),
     }
     if args.detections is not None:  # the seqinfo found beside the detections is an input too
         inputs.update({f"seqinfo {c}": c for c in _seqinfo_candidates(args) if os.path.isfile(c)})
