@@ -76,7 +76,8 @@ class CalibrationSequence:
     the detector's boxes (``confidence`` = score), its length in frames and first frame number,
     frame rate (frames / s), image size (pixels, or None), a name for messages, and ``ignore``:
     annotated boxes that are neither the class nor background (other classes, DontCare regions,
-    MOT's not-considered boxes); a detection on one of them counts as neither true nor false."""
+    MOT's not-considered boxes); a detection on one of them counts as neither true nor false.
+    ``path``: the detections file, named by the errors of the sequence (else its name)."""
 
     name: str
     gt: Detections
@@ -86,6 +87,13 @@ class CalibrationSequence:
     fps: float
     image_size: tuple[int, int] | None = None
     ignore: Detections | None = None
+    path: str | None = None
+
+    def error(self, problem: str) -> InputError:
+        """An InputError of this sequence, naming its detections file (else its name)."""
+        if self.path is None:
+            return InputError(f"{self.name}: {problem}")
+        return InputError(problem, self.path)
 
 
 def annotated_sequence(
@@ -97,10 +105,12 @@ def annotated_sequence(
     n_frames: int,
     fps: float,
     image_size: tuple[int, int] | None = None,
+    path: str | None = None,
 ) -> CalibrationSequence:
     """A :class:`CalibrationSequence` from a whole ground-truth file as read (every class; MOT's
     ``consider`` flag in ``gt.data``): rows of ``class_id`` with an object id (and considered)
-    are the ground truth, every other annotated box is ``ignore``."""
+    are the ground truth, every other annotated box is ``ignore``; ``path``: the detections
+    file (for messages)."""
     assert gt.class_id is not None and gt.tracker_id is not None  # set by __post_init__
     target = (gt.class_id == class_id) & (gt.tracker_id >= 0)
     if "consider" in gt.data and len(gt):
@@ -114,6 +124,7 @@ def annotated_sequence(
         fps=float(fps),
         image_size=image_size,
         ignore=gt[~target],
+        path=path,
     )
 
 
@@ -210,16 +221,16 @@ def calibrate(
         outside = (seq.detections.frame < seq.first_frame) | (seq.detections.frame > last)
         if outside.any():
             f = int(seq.detections.frame[np.argmax(outside)])
-            raise InputError(
-                f"{seq.name}: detections on frame {f}, outside the sequence's frames "
+            raise seq.error(
+                f"detections on frame {f}, outside the sequence's frames "
                 f"{seq.first_frame}..{last}: are these the same sequence?"
             )
         # a video without the class (or without detections) still says what is false (or missed)
         last_rows = [int(x.frame.max()) for x in (seq.gt, seq.ignore) if x is not None and len(x)]
         annotated = max(last_rows) if last_rows else last
         if len(seq.detections) and int(seq.detections.frame.max()) > annotated:
-            raise InputError(
-                f"{seq.name}: detections reach frame {int(seq.detections.frame.max())}, the "
+            raise seq.error(
+                f"detections reach frame {int(seq.detections.frame.max())}, the "
                 f"ground truth ends at frame {annotated}: are these the same sequence?"
             )
         fps_values.append(float(seq.fps))

@@ -170,13 +170,14 @@ class Param:
                 raise ParameterError(f"{key} must be an integer ({self.expect()}), got {value!r}")
             self._check_range(value)
             return value
-        if not _is_real(value) or not math.isfinite(float(value)):
+        # an int is finite however long (float() of one past 1e308 overflows)
+        if not _is_real(value) or not (isinstance(value, int) or math.isfinite(float(value))):
             raise ParameterError(f"{key} must be a finite number ({self.expect()}), got {value!r}")
         self._check_range(value)
         return value
 
     def _check_range(self, value: float) -> None:
-        v = float(value)
+        v = value if isinstance(value, int) else float(value)  # ints compare exactly, any size
         too_low = self.low is not None and (v <= self.low if self.low_open else v < self.low)
         too_high = self.high is not None and v > self.high
         if too_low or too_high:

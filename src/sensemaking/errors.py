@@ -35,6 +35,12 @@ class FrameLimitError(InputError):
     fault, so a caller that knows the input file names it."""
 
 
+class ProgramError(InputError):
+    """A user's program (``--encoding``, ``--rules``, ``--confidence``) failed on a frame's
+    facts (grounding, no answer set, the atom limit): the caller that knows the program's files
+    names them."""
+
+
 class MissingExtraError(SensemakingError, ImportError):
     """An optional dependency is missing; names the extra that provides it."""
 

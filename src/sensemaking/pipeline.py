@@ -34,7 +34,7 @@ from typing import Any, Protocol, runtime_checkable
 
 from sensemaking.adapters import as_detections
 from sensemaking.detections import Detections, check_frame_number, validate_detections
-from sensemaking.errors import InputError
+from sensemaking.errors import InputError, ProgramError
 from sensemaking.results import FrameResult
 from sensemaking.scene import records_gap
 from sensemaking.sinks import Sink, close_all
@@ -243,11 +243,14 @@ class Pipeline:
             detections = as_detections(detections)
         if self.validate:
             validate_detections(detections, self._image_size)
-        if self._delayed is None:
-            results = [self.tracker.update(detections, frame=frame)]  # type: ignore[union-attr]
-        else:
-            results = self._delayed.push(detections, frame=frame)
-        steps = [self._emit(r) for r in results]
+        try:  # the user's programs (tracking rules, situations) on this frame's facts
+            if self._delayed is None:
+                results = [self.tracker.update(detections, frame=frame)]  # type: ignore[union-attr]
+            else:
+                results = self._delayed.push(detections, frame=frame)
+            steps = [self._emit(r) for r in results]
+        except ProgramError as exc:
+            raise ProgramError(f"frame {frame}: {exc.problem}", exc.path, exc.line) from None
         s = self.summary  # counted once emitted: an interrupt in a sink leaves the frame undone
         s.frames += 1
         s.stepped += 1

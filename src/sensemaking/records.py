@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from sensemaking.errors import TOO_DEEP, InputError
+from sensemaking.io.text import load_json, read_input_text
 from sensemaking.results import Event
 from sensemaking.vocabulary import EVENT_NAMES
 
@@ -181,7 +182,7 @@ def read_json_lines(path: str | PathLike[str]) -> list[dict[str, Any]]:
     skipped). Raises :class:`~sensemaking.errors.InputError` naming the file and line."""
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
+        text = read_input_text(p)
     except FileNotFoundError:
         raise InputError("no such file", p) from None
     except (OSError, UnicodeDecodeError) as exc:
@@ -191,7 +192,7 @@ def read_json_lines(path: str | PathLike[str]) -> list[dict[str, Any]]:
         if not line.strip():
             continue
         try:
-            record = json.loads(line)
+            record = load_json(line)
         except json.JSONDecodeError as exc:
             raise InputError(f"not JSON: {exc.msg}", p, lineno) from None
         except RecursionError:

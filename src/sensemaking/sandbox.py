@@ -218,7 +218,8 @@ def _child(
             with open("/proc/self/statm") as fh:
                 now = int(fh.read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
             cap = now + int(max_memory_mb) * 2**20
-            resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
+            if cap < 2**62:  # past it no machine's memory: no limit (setrlimit overflows)
+                resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
         result = work(lambda item: conn.send(("item", item)))
         conn.send(("done", result))
     except MemoryError:

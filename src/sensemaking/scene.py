@@ -54,6 +54,7 @@ from sensemaking.classes import class_name
 from sensemaking.detections import Detections
 from sensemaking.errors import TOO_DEEP, InputError
 from sensemaking.io.atomic import atomic_write
+from sensemaking.io.text import load_json, read_input_text
 from sensemaking.records import event_from_record, event_record
 from sensemaking.results import STATE_NAMES, VISIBILITY_VALUES, Event, FrameResult, TrackState
 
@@ -559,20 +560,24 @@ class Scene:
             if p.is_file():  # a file that can be read again (not a pipe) on an error
                 with p.open(encoding="utf-8") as fh:  # newlines as read_text reads them
                     record = _read_scene(fh, str(p))
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError, _Irregular):
-            pass  # read again as a whole below: the same error, with its message and line
+        except InputError:
+            raise
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError, ValueError, _Irregular):
+            # read again as a whole below: the same error, with its message and line (a
+            # ValueError: a number past Python's digit limit)
+            pass
         except RecursionError:  # deeper than Python's JSON reader goes
             raise InputError(TOO_DEEP, p) from None
         if record is not None:
             return cls.from_json(record, p)
         try:
-            text = p.read_text(encoding="utf-8")
+            text = read_input_text(p)
         except FileNotFoundError:
             raise InputError("scene file not found", p) from None
         except (IsADirectoryError, UnicodeDecodeError) as exc:
             raise InputError(f"cannot read scene file: {exc}", p) from None
         try:
-            record = json.loads(text)
+            record = load_json(text)
         except json.JSONDecodeError as exc:
             raise InputError(f"not valid JSON: {exc.msg}", p, exc.lineno) from None
         except RecursionError:

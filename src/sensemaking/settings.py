@@ -67,6 +67,7 @@ from sensemaking.config import (
     validate,
 )
 from sensemaking.errors import TOO_DEEP
+from sensemaking.io.text import load_json, read_input_text
 
 __all__ = [
     "FAMILIES",
@@ -114,8 +115,8 @@ def parse_value(key: str, text: str) -> Any:
     low = raw.lower()
     if p.kind == "classes":  # a whole table, as JSON: {} clears it
         try:
-            table = json.loads(raw) if low not in ("null", "none") else {}
-        except json.JSONDecodeError:
+            table = load_json(raw) if low not in ("null", "none") else {}
+        except (json.JSONDecodeError, RecursionError):
             raise ParameterError(
                 f'{key} must be a JSON table such as {{"pedestrian": {{"min_confidence": 0.5}}}}'
                 f", got {text!r}"
@@ -133,11 +134,11 @@ def parse_value(key: str, text: str) -> Any:
         m = re.fullmatch(r"\[?\s*(\d+)\s*[x,]\s*(\d+)\s*\]?", low)
         if not m:
             raise ParameterError(f"{key} must look like 1242x375, got {text!r}")
-        return check_value(key, (int(m.group(1)), int(m.group(2))))
+        return check_value(key, (_integer(key, m.group(1)), _integer(key, m.group(2))))
     if p.kind == "int":
         if not re.fullmatch(r"[+-]?\d+", raw):
             raise ParameterError(f"{key} must be an integer ({p.expect()}), got {text!r}")
-        return check_value(key, int(raw))
+        return check_value(key, _integer(key, raw))
     try:
         value = float(raw)
     except ValueError:
@@ -145,11 +146,21 @@ def parse_value(key: str, text: str) -> Any:
     return check_value(key, value)
 
 
+def _integer(key: str, digits: str) -> int:
+    """``int(digits)``; past Python's digit limit a ParameterError, not a bare ValueError."""
+    try:
+        return int(digits)
+    except ValueError:
+        raise ParameterError(
+            f"{key} must be in {PARAMETERS[key].range_text()}, got a {len(digits)}-digit number"
+        ) from None
+
+
 def read_params_file(path: str | PathLike[str]) -> tuple[dict[str, Any], str | None, str]:
     """(validated dotted params, base family or None, source text) of a parameter file."""
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
+        text = read_input_text(p)
     except FileNotFoundError:
         raise ParameterError("parameter file not found", p) from None
     except (OSError, UnicodeDecodeError) as exc:
@@ -161,9 +172,11 @@ def read_params_file(path: str | PathLike[str]) -> tuple[dict[str, Any], str | N
             doc = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
             raise ParameterError(f"not valid TOML: {exc}", p) from None
+        except RecursionError:
+            raise ParameterError(TOO_DEEP, p) from None
     else:
         try:
-            doc = json.loads(text)
+            doc = load_json(text)
         except json.JSONDecodeError as exc:
             raise ParameterError(f"not valid JSON: {exc.msg}", p, exc.lineno) from None
         except RecursionError:

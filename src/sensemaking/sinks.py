@@ -78,8 +78,9 @@ class Sink(Protocol):
 def check_output_paths(
     outputs: Mapping[str, PathLike | None], inputs: Mapping[str, PathLike | None] = {}
 ) -> None:  # noqa: B006 - read only
-    """Refuse, before any work, an output that is an input, another output, a directory, or
-    whose parent cannot be created (a file on the way, or no write permission).
+    """Refuse, before any work, an output that is an input or an existing file of an input
+    folder, another output, a directory, or whose parent cannot be created (a file on the way,
+    or no write permission).
 
     ``outputs`` and ``inputs`` map an option name (for the message, e.g. ``"--events"``) to a
     path or None (not given).
@@ -114,9 +115,16 @@ def check_output_paths(
                     same = os.path.samefile(path, in_path)
                 except OSError:
                     same = False
-            if same:
+            inside = (
+                not same
+                and path.exists()
+                and in_path.is_dir()
+                and Path(key).is_relative_to(os.path.realpath(in_path))
+            )
+            if same or inside:
+                where = "a file of the input folder" if inside else "the input"
                 raise InputError(
-                    f"{name} would overwrite the input {in_name}: choose another output file", path
+                    f"{name} would overwrite {where} {in_name}: choose another output file", path
                 )
         if path.is_dir() or os.fspath(raw).endswith(("/", os.sep)):
             raise InputError(f"{name} is a directory, expected a file name", path)

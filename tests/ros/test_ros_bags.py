@@ -295,6 +295,16 @@ def test_class_table(tmp_path, capsys) -> None:
         ClassTable.parse("2=spaceship")
 
 
+def test_an_output_over_the_class_table_is_refused(crossing, tmp_path, capsys) -> None:
+    _, bag, _ = crossing
+    table = tmp_path / "classes.json"
+    table.write_text('{"2": "car"}')
+    argv = ["track", "--detections", str(bag), "--classes", str(table), "--output", str(table)]
+    err = one_line_error(capsys, main(argv))
+    assert "would overwrite the input --classes" in err  # it was overwritten by the tracks
+    assert table.read_text() == '{"2": "car"}'
+
+
 def test_numbered_classes_need_the_table(tmp_path, capsys) -> None:
     # a COCO-numbered detector: class_id "2" (car) and "0" (person)
     import sensemaking.ros.convert as convert

@@ -20,8 +20,8 @@ from clingo import Function, Number, Symbol, SymbolType
 
 from sensemaking import asp
 from sensemaking.abduction.problem import FrameProblem
-from sensemaking.errors import InputError
-from sensemaking.sandbox import check_atoms, check_program
+from sensemaking.errors import InputError, ProgramError
+from sensemaking.sandbox import LimitError, check_atoms, check_program
 
 __all__ = [
     "Alternative",
@@ -186,9 +186,12 @@ def grounded(
         ctl.ground([("base", [])])
     except RuntimeError as exc:
         msg = " ".join(str(exc).split())
-        raise InputError(f"{what} failed to ground: {msg}") from None
+        raise ProgramError(f"{what} failed to ground: {msg}") from None
     if max_atoms is not None:
-        check_atoms(len(ctl.symbolic_atoms), max_atoms, scope or what)
+        try:
+            check_atoms(len(ctl.symbolic_atoms), max_atoms, scope or what)
+        except LimitError as exc:
+            raise ProgramError(str(exc)) from None
     return ctl
 
 
@@ -349,7 +352,7 @@ class AbductionSolver:
             # only a user's encoding or rules can rule out every explanation of a frame
             solved = asp.solve(ctl, budget_ms, started=t0, refuse_unsat=not forbid)
         except asp.Unsatisfiable:
-            raise InputError(
+            raise ProgramError(
                 "the encoding has no answer set for a frame's facts (UNSATISFIABLE): a "
                 "constraint of your rules rules out every explanation"
             ) from None

@@ -109,8 +109,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _stopped(args, 130)
     except BrokenPipeError:
         return 1
-    except (OSError, MemoryError) as exc:
+    except OSError as exc:
         print(f"sensemaking {args.verb}: error: {_one_line(exc)}", file=sys.stderr)
+        return 2
+    except MemoryError as exc:  # says nothing of itself
+        print(
+            f"sensemaking {args.verb}: error: out of memory {_one_line(exc)}".rstrip(),
+            file=sys.stderr,
+        )
         return 2
     except RecursionError:  # JSON (parameters, scenes, lanes) nested deeper than Python reads
         print(

@@ -100,9 +100,11 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def _query_text(parts: list[str]) -> str:
     if len(parts) == 1 and parts[0].endswith(".lp"):
+        from sensemaking.io.text import read_input_text
+
         path = Path(parts[0])
         try:
-            return path.read_text(encoding="utf-8")
+            return read_input_text(path)
         except FileNotFoundError:
             raise InputError("query file not found", path) from None
         except IsADirectoryError:

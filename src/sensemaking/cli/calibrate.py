@@ -114,6 +114,7 @@ def _sequence(args: argparse.Namespace, gt_path: Path, det_path: Path):
         n_frames,
         float(fps),
         size,
+        path=str(det_path),
     )
 
 
@@ -127,15 +128,25 @@ def run(args: argparse.Namespace) -> int:
             f"give --gt and --detections once per sequence: got {len(args.gt)} --gt and "
             f"{len(args.detections)} --detections"
         )
-    resolved = {p.resolve() for p in [*args.gt, *args.detections]}
-    if args.output.resolve() in resolved:
-        raise InputError("--output would overwrite an input file", args.output)
-    if args.output.is_dir():
-        raise InputError("--output is a folder", args.output)
+    from sensemaking.cli.track import _seqinfo_candidates
+    from sensemaking.sinks import check_output_paths
+
+    inputs: dict[str, Path | None] = {"--seqinfo": args.seqinfo}
+    for g, d in zip(args.gt, args.detections, strict=True):
+        inputs.update({f"--gt {g}": g, f"--detections {d}": d})
+        # the seqinfo found beside the detections is an input too
+        info = argparse.Namespace(detections=d, format=args.format, seqinfo=args.seqinfo)
+        inputs.update({f"seqinfo {c}": c for c in _seqinfo_candidates(info) if c.is_file()})
+    check_output_paths({"--output": args.output}, inputs)
     sequences = [_sequence(args, g, d) for g, d in zip(args.gt, args.detections, strict=True)]
     if all(len(s.gt) == 0 for s in sequences):  # one video without the class is fine, all is not
         raise InputError(f"no ground truth of class {args.class_name or 'pedestrian'}", args.gt[0])
-    result = calibrate(sequences)
+    try:
+        result = calibrate(sequences)
+    except InputError as exc:
+        if exc.path is None and len(sequences) == 1:  # a fault of the one pair of files
+            raise InputError(exc.problem, args.detections[0]) from None
+        raise
     path = settings.write_params(
         args.output, result.params, source=result.source(), base=settings.family_name(args.format)
     )

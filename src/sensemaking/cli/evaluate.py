@@ -150,13 +150,12 @@ def _sniff_gt(gt: Path) -> tuple[str, str | None]:
         sample = found[0]
     else:
         sample = gt
-    try:
-        with open(sample, encoding="utf-8") as handle:
-            line = next((ln for ln in handle if ln.strip()), "")
-    except FileNotFoundError:
-        raise InputError("no such file or folder", sample) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read: {exc}", sample) from None
+    from sensemaking.io.tables import first_line
+
+    if not sample.exists():
+        raise InputError("no such file or folder", sample)
+    found_line = first_line(sample)
+    line = "" if found_line is None else found_line[1]
     if "," not in line and len(line.split()) in (17, 18):
         return "kitti", None
     n = len(line.split(","))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 from pathlib import Path
 from typing import Any
 
@@ -111,9 +112,9 @@ def run(args: argparse.Namespace) -> int:
     if output_kind(args.output) != "png":  # a folder of PNGs is a directory by design
         check_output_paths({"--output": args.output}, inputs)
     else:
-        out = Path(args.output).resolve()
+        out = os.path.realpath(args.output)  # Path.resolve raises on a symlink loop
         for name, path in inputs.items():  # e.g. PNGs written over the --images folder's
-            if path is not None and out == Path(path).resolve():
+            if path is not None and out == os.path.realpath(path):
                 raise InputError(f"--output would write over the input {name}", args.output)
     scene = as_run(args.scene, warnings=warnings_arg(args))
     frames = parse_frames(args.frames)

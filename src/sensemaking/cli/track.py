@@ -16,7 +16,8 @@ from typing import Any
 from sensemaking.classes import check_kitti_class
 from sensemaking.cli._progress import Progress
 from sensemaking.config import MAX_FPS, MAX_IMAGE_SIDE, MIN_FPS, check_fps, parse_size
-from sensemaking.errors import FrameLimitError, InputError
+from sensemaking.errors import FrameLimitError, InputError, ProgramError
+from sensemaking.io.text import refuse_nul
 
 log = logging.getLogger(__name__)
 
@@ -394,6 +395,14 @@ def _seqinfo_candidates(args: argparse.Namespace) -> list[Path]:
     ]
 
 
+def _classes_file(text: str | None) -> Path | None:
+    """The file ``--classes`` names, as the class table reads it (a .json name or a file)."""
+    if text is None:
+        return None
+    path = Path(text)
+    return path if path.suffix.lower() == ".json" or path.is_file() else None
+
+
 def _checked_size(info: Any, path: Path) -> tuple[int, int]:
     if not (info.width <= MAX_IMAGE_SIDE and info.height <= MAX_IMAGE_SIDE):
         raise InputError(
@@ -634,9 +643,11 @@ def _spool(path: Path, folder: Path) -> Path:
         src = open(path, "rb")  # noqa: SIM115 - closed below
         name = path.name or "stdin.txt"
     out = folder / name
+    from sensemaking.ros import is_bag
+
     try:
         with open(out, "wb") as dst:
-            shutil.copyfileobj(_Bounded(src, MAX_PIPED_BYTES, path), dst)
+            shutil.copyfileobj(_Bounded(src, MAX_PIPED_BYTES, path, text=not is_bag(out)), dst)
     finally:
         if src is not sys.stdin.buffer:
             src.close()
@@ -644,13 +655,18 @@ def _spool(path: Path, folder: Path) -> Path:
 
 
 class _Bounded:
-    """A binary stream that refuses to give more than ``limit`` bytes."""
+    """A binary stream that refuses to give more than ``limit`` bytes, and (``text``) a NUL
+    byte: no detections text has one (``/dev/zero`` is refused at once, not after 4 GiB)."""
 
-    def __init__(self, raw: Any, limit: int, path: Path):
-        self.raw, self.left, self.path = raw, limit, path
+    def __init__(self, raw: Any, limit: int, path: Path, text: bool = False):
+        self.raw, self.left, self.path, self.text = raw, limit, path, text
+        self.given = 0
 
     def read(self, n: int = -1) -> bytes:
         data = self.raw.read(min(n if n >= 0 else self.left + 1, self.left + 1))
+        if self.text:
+            refuse_nul(data, self.given, self.path)
+        self.given += len(data)
         self.left -= len(data)
         if self.left < 0:
             raise InputError(
@@ -729,6 +745,8 @@ def _run(args: argparse.Namespace) -> int:
         "--labels": args.labels,
         "--ego-motion": args.ego_motion,
         "--params": getattr(args, "params_file", None),
+        # a class table given as a file (else ID=NAME pairs)
+        "--classes": _classes_file(getattr(args, "classes", None)),
     }
     if args.detections is not None:  # the seqinfo found beside the detections is an input too
         inputs.update({f"seqinfo {c}": c for c in _seqinfo_candidates(args) if os.path.isfile(c)})
@@ -864,6 +882,12 @@ def _run(args: argparse.Namespace) -> int:
             files = getattr(args, "detection_files", None) or []
             if exc.path is None and len(files) == 1:  # the tracker's limits: name the input
                 raise FrameLimitError(exc.problem, files[0]) from None
+            raise
+        except ProgramError as exc:  # the user's program on a frame's facts: name its files
+            programs = [args.encoding, *args.rules, args.confidence]
+            named = ", ".join(str(p) for p in programs if p is not None)
+            if exc.path is None and named:
+                raise ProgramError(exc.problem, named) from None
             raise
         except KeyboardInterrupt:
             done = pipe.summary.last

@@ -22,6 +22,7 @@ from pathlib import Path
 from sensemaking.detections import Detections
 from sensemaking.errors import InputError
 from sensemaking.evaluation.core import SequenceInput
+from sensemaking.io.text import read_input_text
 
 __all__ = ["read_seqmap", "load_mot_benchmark", "load_kitti_benchmark"]
 
@@ -33,7 +34,7 @@ PathLike = str | os.PathLike[str]
 def _seqmap_entries(path: PathLike) -> list[tuple[str, int]]:
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
+        text = read_input_text(p)
     except FileNotFoundError:
         raise InputError("no such seqmap file", p) from None
     except IsADirectoryError:

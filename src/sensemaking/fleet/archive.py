@@ -36,8 +36,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from sensemaking.errors import InputError, SensemakingError, require
+from sensemaking.errors import TOO_DEEP, InputError, SensemakingError, require
 from sensemaking.fleet.specs import SequenceSpec
+from sensemaking.io.text import load_json, read_input_text
 
 if TYPE_CHECKING:  # pragma: no cover
     from sensemaking.fleet.run import RunParams, SequenceResult
@@ -212,11 +213,15 @@ def check_marker(root: Path) -> None:
     foreign archive would be misread)."""
     marker = root / "_fleet.json"
     try:
-        info = json.loads(marker.read_text(encoding="utf-8"))
+        info = load_json(read_input_text(marker))
+    except InputError:
+        raise
     except (OSError, UnicodeDecodeError, ValueError) as exc:
         raise InputError(
             f"unreadable archive marker: {' '.join(str(exc).split())}", marker
         ) from None
+    except RecursionError:
+        raise InputError(TOO_DEEP, marker) from None
     if not isinstance(info, dict) or info.get("format") != ARCHIVE_FORMAT:
         raise InputError(f"not a sensemaking archive marker (format {ARCHIVE_FORMAT!r})", marker)
     if info.get("version") != ARCHIVE_VERSION:
@@ -229,8 +234,8 @@ def check_marker(root: Path) -> None:
 
 def _done(path: Path) -> dict[str, Any] | None:
     try:
-        return json.loads((path / DONE).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        return load_json(read_input_text(path / DONE))
+    except (OSError, ValueError, RecursionError):  # a damaged marker: the folder is run again
         return None
 
 

@@ -28,6 +28,7 @@ import io
 import json
 import logging
 import math
+import os
 import threading
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -253,7 +254,7 @@ def connect(root: str | Path, *, memory_mb: int = DEFAULT_MEMORY_MB) -> Any:
 
     duckdb = require("duckdb", "fleet")
     pa = require("pyarrow", "fleet")
-    root = Path(root).resolve()
+    root = Path(os.path.realpath(root))  # Path.resolve raises on a symlink loop
     if not (root / "_fleet.json").is_file():
         raise InputError(
             "not a sensemaking archive (no _fleet.json; write one with "
@@ -279,7 +280,8 @@ def connect(root: str | Path, *, memory_mb: int = DEFAULT_MEMORY_MB) -> Any:
             "autoinstall_known_extensions": False,
             "autoload_known_extensions": False,
             "temp_directory": "",  # no spilling: the memory limit is the bound
-            "memory_limit": f"{int(memory_mb)}MB",
+            # past 2**40 MB no machine's memory, and past 2**44 DuckDB refuses the setting
+            "memory_limit": f"{min(int(memory_mb), 2**40)}MB",
         },
     )
     readable: list[Path] = []

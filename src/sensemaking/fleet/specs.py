@@ -28,6 +28,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from sensemaking.errors import InputError
+from sensemaking.io.text import read_input_text
 
 __all__ = [
     "SequenceSpec",
@@ -241,6 +242,8 @@ def _mot_folders(root: Path, known: set[Path]) -> tuple[list[SequenceSpec], list
 
 # -- manifests ----------------------------------------------------------------------------------
 def _opt_number(row: dict[str, str], key: str, conv, where: Path, line: int):
+    from sensemaking.config import MAX_FPS, MAX_IMAGE_SIDE, MIN_FPS
+
     text = (row.get(key) or "").strip()
     if not text:
         return None
@@ -250,6 +253,14 @@ def _opt_number(row: dict[str, str], key: str, conv, where: Path, line: int):
         raise InputError(f"column {key!r}: not a number: {text!r}", where, line) from None
     if not value > 0:
         raise InputError(f"column {key!r} must be positive, got {text!r}", where, line)
+    # the bounds the tracker holds a sequence to, checked here where the line is known (a
+    # length is not bounded: frames past the content make no work)
+    side = (1, MAX_IMAGE_SIDE)
+    low, high = {"fps": (MIN_FPS, int(MAX_FPS)), "width": side, "height": side}.get(
+        key, (0, value)
+    )
+    if not low <= value <= high:
+        raise InputError(f"column {key!r} must be in [{low:g}, {high}], got {text!r}", where, line)
     return value
 
 
@@ -262,7 +273,7 @@ def read_manifest(path: str | Path) -> list[SequenceSpec]:
     """
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8-sig")
+        text = read_input_text(p, "utf-8-sig")
     except FileNotFoundError:
         raise InputError("manifest not found", p) from None
     except (OSError, UnicodeDecodeError) as exc:
@@ -295,6 +306,7 @@ def _manifest_rows(p: Path, reader: csv.DictReader) -> list[SequenceSpec]:
             1,
         )
     specs: list[SequenceSpec] = []
+    lines: dict[tuple[str, str], int] = {}  # (dataset, sequence) -> its line
     base = p.parent
     for raw in reader:
         line = reader.line_num
@@ -348,6 +360,15 @@ def _manifest_rows(p: Path, reader: csv.DictReader) -> list[SequenceSpec]:
                 logit_scores=logit in ("1", "true", "yes"),
             )
         )
+        key = (specs[-1].dataset, specs[-1].sequence)
+        if key in lines:
+            raise InputError(
+                f"dataset {key[0]!r} sequence {key[1]!r} is listed twice (first on line "
+                f"{lines[key]})",
+                p,
+                line,
+            )
+        lines[key] = line
     return specs
 
 

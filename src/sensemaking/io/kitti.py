@@ -95,6 +95,13 @@ def read_kitti_seqinfo(csv_path: PathLike) -> dict[str, SequenceInfo]:
     """
     text = read_text(csv_path)
     reader = csv.DictReader(io.StringIO(text))
+    try:
+        return _kitti_seqinfo_rows(csv_path, reader)
+    except csv.Error as exc:  # a field past the csv module's limit, a NUL ...
+        raise InputError(f"not a valid CSV file: {exc}", csv_path, reader.line_num + 1) from None
+
+
+def _kitti_seqinfo_rows(csv_path: PathLike, reader: csv.DictReader) -> dict[str, SequenceInfo]:
     fields = [f.strip() for f in reader.fieldnames or []]
     missing = [c for c in _SEQINFO_COLUMNS if c not in fields]
     if missing:
@@ -124,6 +131,13 @@ def read_kitti_seqinfo(csv_path: PathLike) -> dict[str, SequenceInfo]:
                 ) from None
             if not (math.isfinite(value) and value > 0):
                 raise InputError(f"{key} must be positive, got {raw!r}", csv_path, line)
+            if key == "num_frames" and value > MAX_FRAME:
+                raise InputError(
+                    f"num_frames {value} is beyond the plausibility bound {MAX_FRAME} "
+                    "(sensemaking.detections.MAX_FRAME)",
+                    csv_path,
+                    line,
+                )
             values[key] = value
         name = (row.get("seq") or "").strip()
         if not name:

@@ -71,6 +71,10 @@ class SequenceInfo:
     fps: float
 
 
+#: the bound of a sequence's length in frames
+_MAX_WHY = f"{MAX_FRAME} (sensemaking.detections.MAX_FRAME)"
+
+
 def read_seqinfo(path: PathLike) -> SequenceInfo:
     """Read a MOTChallenge ``seqinfo.ini`` (``path`` is the file or the sequence folder holding
     it).
@@ -108,6 +112,8 @@ def read_seqinfo(path: PathLike) -> SequenceInfo:
             ) from None
         if not (math.isfinite(value) and value > 0):
             raise InputError(f"{key} must be positive, got {raw!r}", p)
+        if key == "seqLength" and value > MAX_FRAME:
+            raise InputError(f"seqLength {value} is beyond the plausibility bound {_MAX_WHY}", p)
         return value
 
     return SequenceInfo(

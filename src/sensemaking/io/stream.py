@@ -34,6 +34,7 @@ from sensemaking.io.kitti import (
 )
 from sensemaking.io.mot import MOT_LAYOUTS, mot_from_table
 from sensemaking.io.tables import PathLike, class_id_of, parse_lines, reading
+from sensemaking.io.text import refuse_stream
 
 __all__ = [
     "iter_detection_frames",
@@ -134,8 +135,10 @@ def iter_detection_frames(
     :data:`~sensemaking.detections.MAX_FRAME`. An empty file (MOT or KITTI: a sequence where the
     detector found nothing) yields nothing, with a warning.
     Boxes of zero width or height are dropped with one warning for the file. When done, a
-    :class:`DetectionsSummary` is appended to ``summary`` (if given).
+    :class:`DetectionsSummary` is appended to ``summary`` (if given). A regular file only
+    (``track`` reads a pipe into one first).
     """
+    refuse_stream(path)
     kind, names, text_cols = _layout(path, fmt)
     sep = None if kind == "kitti-labels" else ","
     default_class = 1 if class_name is None or fmt != "mot" else class_id_of(class_name, path)

@@ -19,6 +19,7 @@ from typing import NoReturn
 import numpy as np
 
 from sensemaking.errors import InputError
+from sensemaking.io.text import read_input_text, refuse_stream
 
 __all__ = [
     "PathLike",
@@ -66,13 +67,16 @@ def reading(path: PathLike) -> Iterator[Path]:
 
 
 def read_text(path: PathLike) -> str:
-    """Whole file as text (UTF-8, byte-order mark skipped, universal newlines)."""
+    """Whole file as text (UTF-8, byte-order mark skipped, universal newlines; a pipe or a
+    device bounded as :func:`sensemaking.io.text.read_input_text` says)."""
     with reading(path) as p:
-        return p.read_text(encoding="utf-8-sig")
+        return read_input_text(p, "utf-8-sig")
 
 
 def first_line(path: PathLike) -> tuple[int, str] | None:
-    """(1-based number, text) of the first non-blank line, or None for a blank file."""
+    """(1-based number, text) of the first non-blank line, or None for a blank file. A regular
+    file only: its reader reads it again."""
+    refuse_stream(path)
     with reading(path) as p, p.open(encoding="utf-8-sig") as handle:
         for number, line in enumerate(handle, start=1):
             if line.strip():

@@ -49,6 +49,7 @@ from typing import Any
 import numpy as np
 
 from sensemaking.errors import TOO_DEEP, InputError
+from sensemaking.io.text import load_json, read_input_text
 
 __all__ = [
     "Corridor",
@@ -285,8 +286,15 @@ def _lane(record: Any, where: str, path: str | None) -> Lane:
             f"{where}: a lane must be an object with 'id' and 'points' or 'left'/'right'", path
         )
     lid = record.get("id")
-    if isinstance(lid, bool) or not isinstance(lid, (int, str)):
-        raise InputError(f"{where}: lane 'id' must be an integer or a string, got {lid!r}", path)
+    # an integer id is a clingo number: 32 bits
+    if isinstance(lid, bool) or not (
+        isinstance(lid, str) or (isinstance(lid, int) and -(2**31) <= lid < 2**31)
+    ):
+        raise InputError(
+            f"{where}: lane 'id' must be an integer or a string, got {lid!r} (an integer is a "
+            "clingo number: -2147483648..2147483647)",
+            path,
+        )
     if "left" in record or "right" in record:
         left = _sorted_by_y(_polyline(record.get("left"), f"{where} (left)", path))
         right = _sorted_by_y(_polyline(record.get("right"), f"{where} (right)", path))
@@ -358,7 +366,7 @@ def load_lanes(path: str | PathLike[str]) -> LaneMap:
     """Read a lanes JSON file (see the module docstring). Raises InputError naming the file."""
     p = Path(path)
     try:
-        record = json.loads(p.read_text(encoding="utf-8"))
+        record = load_json(read_input_text(p))
     except FileNotFoundError:
         raise InputError("lanes file not found", p) from None
     except json.JSONDecodeError as exc:
@@ -449,8 +457,14 @@ class Segmentation:
 
 def _read_labels(path: Path) -> dict[int, str]:
     try:
-        record = json.loads(path.read_text(encoding="utf-8"))
+        record = load_json(read_input_text(path))
         return {int(k): str(v) for k, v in record.items()}
+    except InputError:
+        raise
+    except UnicodeDecodeError as exc:
+        raise InputError(f"not UTF-8 text ({exc.reason} at byte {exc.start})", path) from None
+    except OSError as exc:  # no such file, a directory, no permission ...
+        raise InputError(f"cannot read labels file: {exc.strerror or exc}", path) from None
     except (json.JSONDecodeError, ValueError, AttributeError) as exc:
         raise InputError(f"labels must be a JSON object of id -> name ({exc})", path) from None
     except RecursionError:
@@ -461,7 +475,7 @@ def _read_label_map(path: Path) -> np.ndarray:
     if path.suffix.lower() == ".npy":
         try:
             arr = np.load(path, allow_pickle=False)
-        except (ValueError, OSError) as exc:
+        except (ValueError, OSError, EOFError) as exc:  # EOFError: an empty file
             raise InputError(f"cannot read label map: {exc}", path) from None
     else:
         try:

@@ -35,7 +35,7 @@ import clingo
 from clingo import ast as clingo_ast
 
 from sensemaking import asp
-from sensemaking.errors import InputError
+from sensemaking.errors import InputError, ProgramError
 from sensemaking.reasoning.anticipation import AnticipationConfig
 from sensemaking.reasoning.facts import AspString, Fact, fact_symbol, symbol
 from sensemaking.reasoning.relations import MotionThresholds, RelationConfig
@@ -247,6 +247,13 @@ _ALL_PARTS: tuple[str, ...] = tuple(s.value for s in Situation)
 _SYMBOLS_KEPT = 100_000
 
 
+#: a frame the user's situations rule out: an error, not a frame without warnings
+_UNSATISFIABLE = (
+    "the situations have no answer set for a frame's facts (UNSATISFIABLE): a constraint of "
+    "your situations rules out every answer"
+)
+
+
 class SituationSolver:
     """situations.lp (with relations.lp and the user's encodings) solved by clingo for the facts
     of one frame, with a cache of clingo's own answers.
@@ -361,7 +368,8 @@ class SituationSolver:
             )
             return False  # the first answer set is the answer
 
-        ctl.solve(on_model=first)
+        if ctl.solve(on_model=first).unsatisfiable and self._extra:
+            raise ProgramError(_UNSATISFIABLE, ", ".join(self._extra))
         return tuple(found)
 
 
@@ -1235,7 +1243,8 @@ class StreamSolver:
                     found.append(clingo.Function("info", args[:4]))
             return False
 
-        ctl.solve(on_model=first)
+        if ctl.solve(on_model=first).unsatisfiable and self._init[2]:
+            raise ProgramError(_UNSATISFIABLE, ", ".join(self._init[2]))
         self._age += 1
         return tuple(found)
 

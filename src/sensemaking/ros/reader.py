@@ -16,7 +16,6 @@ the detection's class is that of its best-scored hypothesis, its score that hypo
 
 from __future__ import annotations
 
-import json
 import logging
 import struct
 from collections.abc import Iterator, Sequence
@@ -28,6 +27,7 @@ import numpy as np
 
 from sensemaking.detections import MAX_FRAME, Detections, validate_detections
 from sensemaking.errors import TOO_DEEP, InputError
+from sensemaking.io.text import load_json, read_input_text
 from sensemaking.ros import require_ros
 from sensemaking.ros.msgs import CAMERA_INFO, DETECTION_TYPES, typestore
 
@@ -77,9 +77,11 @@ class ClassTable:
         path = Path(text)
         if path.suffix.lower() == ".json" or path.is_file():
             try:
-                data = json.loads(path.read_text(encoding="utf-8"))
+                data = load_json(read_input_text(path))
             except OSError as exc:
                 raise InputError(f"cannot read the class table: {exc.strerror}", path) from None
+            except InputError:
+                raise
             except ValueError as exc:
                 raise InputError(f"the class table is not JSON: {exc}", path) from None
             except RecursionError:

@@ -83,7 +83,11 @@ class _Writer:
 
     def __exit__(self, exc_type: Any, *rest: Any) -> None:
         if exc_type is None:
-            self.close()
+            try:
+                self.close()
+            except BaseException:  # e.g. the rename into place failed: no .part is left
+                self.abort()
+                raise
         else:
             self.abort()
 

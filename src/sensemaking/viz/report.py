@@ -217,11 +217,12 @@ def key_frames(run: Run, limit: int = 24) -> list[int]:
 
 # metrics ---------------------------------------------------------------------------------------
 def _guess_format(path: Path) -> str:
-    with open(path, encoding="utf-8", errors="replace") as fh:
-        for line in fh:
-            if line.strip():
-                return "mot" if "," in line else "kitti"
-    raise InputError("empty ground-truth file", path)
+    from sensemaking.io.tables import first_line
+
+    found = first_line(path)
+    if found is None:
+        raise InputError("empty ground-truth file", path)
+    return "mot" if "," in found[1] else "kitti"
 
 
 def _run_tracks(run: Run) -> Detections:
