@@ -6,6 +6,7 @@ the constructor, indexable with an int, slice, index array or boolean mask.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, replace
 from typing import Any
@@ -18,6 +19,7 @@ __all__ = [
     "validate_detections",
     "check_frame_number",
     "MAX_FRAME",
+    "check_sequence_length",
     "MAX_DETECTIONS_PER_FRAME",
     "check_frame_size",
     "MAX_LIVE_TRACKS",
@@ -254,6 +256,22 @@ def check_frame_number(frame: Any, what: str = "frame") -> int:
             "sensemaking.detections.MAX_FRAME)"
         )
     return int(frame)
+
+
+def check_sequence_length(
+    value: float, what: str, path: str | os.PathLike[str], line: int | None = None
+) -> None:
+    """InputError naming ``path`` (and ``line``) when a sequence's stated length ``value``
+    (frames; a seqinfo's ``what`` field) is past :data:`MAX_FRAME`."""
+    from sensemaking.errors import InputError
+
+    if value > MAX_FRAME:
+        raise InputError(
+            f"{what} {value} is beyond the plausibility bound {MAX_FRAME} "
+            "(sensemaking.detections.MAX_FRAME)",
+            path,
+            line,
+        )
 
 
 def check_frame_size(

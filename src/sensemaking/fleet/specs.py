@@ -256,10 +256,9 @@ def _opt_number(row: dict[str, str], key: str, conv, where: Path, line: int):
     # the bounds the tracker holds a sequence to, checked here where the line is known (a
     # length is not bounded: frames past the content make no work)
     side = (1, MAX_IMAGE_SIDE)
-    low, high = {"fps": (MIN_FPS, int(MAX_FPS)), "width": side, "height": side}.get(
-        key, (0, value)
-    )
-    if not low <= value <= high:
+    bounds = {"fps": (MIN_FPS, int(MAX_FPS)), "width": side, "height": side}.get(key)
+    if bounds is not None and not bounds[0] <= value <= bounds[1]:
+        low, high = bounds
         raise InputError(f"column {key!r} must be in [{low:g}, {high}], got {text!r}", where, line)
     return value
 

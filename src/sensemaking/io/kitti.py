@@ -17,7 +17,7 @@ from scipy.special import expit
 
 from sensemaking.classes import CLASS_IDS, KITTI_NAMES, class_id
 from sensemaking.classes import class_name as _class_name
-from sensemaking.detections import MAX_FRAME, Detections
+from sensemaking.detections import MAX_FRAME, Detections, check_sequence_length
 from sensemaking.errors import InputError
 from sensemaking.io.atomic import atomic_write
 from sensemaking.io.mot import SequenceInfo
@@ -131,13 +131,8 @@ def _kitti_seqinfo_rows(csv_path: PathLike, reader: csv.DictReader) -> dict[str,
                 ) from None
             if not (math.isfinite(value) and value > 0):
                 raise InputError(f"{key} must be positive, got {raw!r}", csv_path, line)
-            if key == "num_frames" and value > MAX_FRAME:
-                raise InputError(
-                    f"num_frames {value} is beyond the plausibility bound {MAX_FRAME} "
-                    "(sensemaking.detections.MAX_FRAME)",
-                    csv_path,
-                    line,
-                )
+            if key == "num_frames":
+                check_sequence_length(value, key, csv_path, line)
             values[key] = value
         name = (row.get("seq") or "").strip()
         if not name:

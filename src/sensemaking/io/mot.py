@@ -16,7 +16,7 @@ from typing import Literal
 
 import numpy as np
 
-from sensemaking.detections import MAX_FRAME, Detections
+from sensemaking.detections import MAX_FRAME, Detections, check_sequence_length
 from sensemaking.errors import InputError
 from sensemaking.io.atomic import atomic_write
 from sensemaking.io.tables import PathLike, Table, frame_order, ints, nums, parse_table, read_text
@@ -71,10 +71,6 @@ class SequenceInfo:
     fps: float
 
 
-#: the bound of a sequence's length in frames
-_MAX_WHY = f"{MAX_FRAME} (sensemaking.detections.MAX_FRAME)"
-
-
 def read_seqinfo(path: PathLike) -> SequenceInfo:
     """Read a MOTChallenge ``seqinfo.ini`` (``path`` is the file or the sequence folder holding
     it).
@@ -112,8 +108,8 @@ def read_seqinfo(path: PathLike) -> SequenceInfo:
             ) from None
         if not (math.isfinite(value) and value > 0):
             raise InputError(f"{key} must be positive, got {raw!r}", p)
-        if key == "seqLength" and value > MAX_FRAME:
-            raise InputError(f"seqLength {value} is beyond the plausibility bound {_MAX_WHY}", p)
+        if key == "seqLength":
+            check_sequence_length(value, key, p)
         return value
 
     return SequenceInfo(
